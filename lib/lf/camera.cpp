@@ -1,0 +1,123 @@
+#include "lf/camera.h"
+
+#include <cmath>
+
+namespace lf {
+
+Intrinsics Intrinsics::scaled(double s) const {
+  Intrinsics k = *this;
+  k.fx = fx * s;
+  k.fy = fy * s;
+  k.cx = (cx + 0.5) * s - 0.5;
+  k.cy = (cy + 0.5) * s - 0.5;
+  return k;
+}
+
+Extrinsics Extrinsics::from_center(const cv::Matx33d& R, const cv::Vec3d& C) {
+  Extrinsics e;
+  e.R = R;
+  e.t = -(R * C);
+  return e;
+}
+
+cv::Vec2d distort_normalized(const Intrinsics& K, const cv::Vec2d& xy) {
+  const double r2 = xy[0] * xy[0] + xy[1] * xy[1];
+  const double f = 1.0 + r2 * (K.k1 + K.k2 * r2);
+  return {xy[0] * f, xy[1] * f};
+}
+
+namespace {
+// r_d(r) = r (1 + k1 r^2 + k2 r^4); derivative 1 + 3 k1 r^2 + 5 k2 r^4.
+double radial(double k1, double k2, double r) {
+  const double r2 = r * r;
+  return r * (1.0 + r2 * (k1 + k2 * r2));
+}
+double radial_derivative(double k1, double k2, double r) {
+  const double r2 = r * r;
+  return 1.0 + r2 * (3.0 * k1 + 5.0 * k2 * r2);
+}
+// Smallest r > 0 where r_d'(r) = 0 (the model folds back there), or +inf.
+double fold_radius(double k1, double k2) {
+  // Solve 5 k2 s^2 + 3 k1 s + 1 = 0 for s = r^2 > 0.
+  double best = INFINITY;
+  if (k2 == 0.0) {
+    if (k1 < 0.0) best = -1.0 / (3.0 * k1);
+  } else {
+    const double a = 5.0 * k2, b = 3.0 * k1, disc = b * b - 4.0 * a;
+    if (disc >= 0.0) {
+      const double sq = std::sqrt(disc);
+      for (double s : {(-b - sq) / (2.0 * a), (-b + sq) / (2.0 * a)})
+        if (s > 0.0 && s < best) best = s;
+    }
+  }
+  return std::isfinite(best) ? std::sqrt(best) : INFINITY;
+}
+}  // namespace
+
+double distortion_fold_radius(const Intrinsics& K) {
+  return fold_radius(K.k1, K.k2);
+}
+
+std::optional<cv::Vec2d> undistort_normalized(const Intrinsics& K, const cv::Vec2d& xy_d) {
+  if (!std::isfinite(xy_d[0]) || !std::isfinite(xy_d[1])) return std::nullopt;
+  if (!K.has_distortion()) return xy_d;
+  const double rd = std::hypot(xy_d[0], xy_d[1]);
+  if (rd == 0.0) return cv::Vec2d(0, 0);
+  const double r_fold = fold_radius(K.k1, K.k2);
+  if (std::isfinite(r_fold) && rd >= radial(K.k1, K.k2, r_fold)) return std::nullopt;
+  // Newton on the monotone branch r in [0, r_fold), started at r = rd.
+  double r = std::isfinite(r_fold) ? std::min(rd, 0.999 * r_fold) : rd;
+  for (int it = 0; it < 50; ++it) {
+    const double g = radial(K.k1, K.k2, r) - rd;
+    const double d = radial_derivative(K.k1, K.k2, r);
+    if (!(d > 0.0)) return std::nullopt;
+    double next = r - g / d;
+    if (next < 0.0) next = 0.5 * r;
+    if (std::isfinite(r_fold) && next >= r_fold) next = 0.5 * (r + r_fold);
+    if (std::abs(next - r) <= 1e-15 * std::max(1.0, r)) {
+      r = next;
+      break;
+    }
+    r = next;
+  }
+  if (std::abs(radial(K.k1, K.k2, r) - rd) > 1e-10 * std::max(1.0, rd)) return std::nullopt;
+  const double s = r / rd;
+  return cv::Vec2d(xy_d[0] * s, xy_d[1] * s);
+}
+
+cv::Vec3d Camera::forward() const {
+  return {extrinsics.R(2, 0), extrinsics.R(2, 1), extrinsics.R(2, 2)};
+}
+
+std::optional<cv::Vec2d> Camera::project(const cv::Vec3d& X) const {
+  const cv::Vec3d Xc = extrinsics.R * X + extrinsics.t;
+  if (!(Xc[2] > 0.0)) return std::nullopt;
+  const cv::Vec2d xd = distort_normalized(intrinsics, {Xc[0] / Xc[2], Xc[1] / Xc[2]});
+  return cv::Vec2d(intrinsics.fx * xd[0] + intrinsics.cx, intrinsics.fy * xd[1] + intrinsics.cy);
+}
+
+std::optional<cv::Vec3d> Camera::unproject(const cv::Vec2d& p) const {
+  const cv::Vec2d xd((p[0] - intrinsics.cx) / intrinsics.fx,
+                     (p[1] - intrinsics.cy) / intrinsics.fy);
+  const auto x = undistort_normalized(intrinsics, xd);
+  if (!x) return std::nullopt;
+  const cv::Vec3d d = extrinsics.R.t() * cv::Vec3d((*x)[0], (*x)[1], 1.0);
+  return d / cv::norm(d);
+}
+
+cv::Vec2d Camera::distort_pixel(const cv::Vec2d& p) const {
+  const cv::Vec2d x((p[0] - intrinsics.cx) / intrinsics.fx, (p[1] - intrinsics.cy) / intrinsics.fy);
+  const cv::Vec2d xd = distort_normalized(intrinsics, x);
+  return {intrinsics.fx * xd[0] + intrinsics.cx, intrinsics.fy * xd[1] + intrinsics.cy};
+}
+
+std::optional<cv::Vec2d> Camera::undistort_pixel(const cv::Vec2d& p) const {
+  const cv::Vec2d xd((p[0] - intrinsics.cx) / intrinsics.fx,
+                     (p[1] - intrinsics.cy) / intrinsics.fy);
+  const auto x = undistort_normalized(intrinsics, xd);
+  if (!x) return std::nullopt;
+  return cv::Vec2d(intrinsics.fx * (*x)[0] + intrinsics.cx,
+                   intrinsics.fy * (*x)[1] + intrinsics.cy);
+}
+
+}  // namespace lf

@@ -1,0 +1,304 @@
+#include "lf/plan.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace lf {
+
+namespace {
+PixelForm form_from(const cv::Vec3d& coeffs) {
+  return {coeffs[0], coeffs[1], coeffs[2]};
+}
+}  // namespace
+
+ViewGeometry::ViewGeometry(const Rig& rig, const ViewRequest& request) : rig_(&rig), req_(request) {
+  validate(req_);
+  const VirtualView& v = req_.view;
+  const cv::Matx33d Kinv = v.intrinsics().K().inv();
+  M_ = v.R.t() * Kinv;
+  const CameraPlane& P = rig.plane();
+  const cv::Vec3d E = v.position;
+  eye_dist_ = P.signed_distance(E);
+  // Snap an eye that is on the plane up to rounding of the plane fit itself.
+  const double scale = std::max(cv::norm(E - P.origin), rig.typical_spacing());
+  if (std::abs(eye_dist_) <= 1e-15 * scale) eye_dist_ = 0.0;
+  eye2d_ = P.to_plane(E);
+  const cv::Matx33d Mt = M_.t();
+  dn_ = form_from(Mt * P.normal);
+  const PixelForm ds = form_from(Mt * P.u), dt = form_from(Mt * P.v);
+  for (const Form2& f : rig.facets()) {
+    const double at_eye = f(eye2d_);
+    facet_eye_.push_back(at_eye);
+    facet_px_.push_back(dn_ * at_eye + (ds * f.a + dt * f.b) * (-eye_dist_));
+  }
+  const FocalPlane& fp = req_.focal_plane;
+  fw_ = form_from(Mt * fp.n);
+  H_.reserve(rig.cameras.size());
+  for (const Camera& c : rig.cameras) {
+    const cv::Matx33d& R = c.extrinsics.R;
+    cv::Matx33d A;
+    if (fp.at_infinity()) {
+      A = R;
+    } else {
+      const cv::Vec3d q = R * E + c.extrinsics.t;
+      A = cv::Matx33d(q[0] * fp.n[0], q[0] * fp.n[1], q[0] * fp.n[2], q[1] * fp.n[0],
+                      q[1] * fp.n[1], q[1] * fp.n[2], q[2] * fp.n[0], q[2] * fp.n[1],
+                      q[2] * fp.n[2]) -
+          R * (fp.n.dot(E) + fp.d);
+    }
+    H_.push_back(c.intrinsics.K() * A * M_);
+  }
+}
+
+int ViewGeometry::focal_sign(double x, double y) const {
+  if (focal_at_infinity()) return 1;
+  return fw_(x, y) < 0 ? -1 : 1;
+}
+
+bool ViewGeometry::visible(int index, double x, double y) const {
+  const cv::Matx33d& H = H_[index];
+  const double z = H(2, 0) * x + H(2, 1) * y + H(2, 2);
+  return focal_sign(x, y) * z > 0;
+}
+
+PixelForm ViewGeometry::facet_form(int facet, int sign) const {
+  return facet_px_[facet] * sign;
+}
+double ViewGeometry::facet_at_eye(int facet, int sign) const {
+  return facet_eye_[facet] * sign;
+}
+
+bool ViewGeometry::tie_positive(int facet, int sign) const {
+  // Perturb X by (eps, eps^2): the sign of the form's gradient decides.
+  const Form2& f = rig_->facets()[facet];
+  const double a = f.a * sign, b = f.b * sign;
+  return a > 0 || (a == 0 && b > 0);
+}
+
+bool ViewGeometry::inside(int s, double x, double y, std::array<double, 3>* w) const {
+  const Simplex& sx = rig_->simplices()[s];
+  if (sx.size == 1) {
+    if (w) *w = {1.0, 0.0, 0.0};
+    return true;
+  }
+  std::array<double, 3> v{0, 0, 0};
+  double orient = 1.0;
+  if (eye_dist_ == 0.0) {
+    for (int k = 0; k < sx.size; ++k) v[k] = facet_at_eye(sx.facet[k], sx.sign[k]);
+  } else {
+    const double dn = dn_(x, y);
+    if (dn == 0.0) return false;
+    orient = dn > 0 ? 1.0 : -1.0;
+    for (int k = 0; k < sx.size; ++k) v[k] = facet_form(sx.facet[k], sx.sign[k])(x, y);
+  }
+  double sum = 0;
+  for (int k = 0; k < sx.size; ++k) {
+    const double e = v[k] * orient;
+    if (e < 0 || (e == 0 && !tie_positive(sx.facet[k], sx.sign[k]))) return false;
+    sum += v[k];
+  }
+  if (w) {
+    *w = {0, 0, 0};
+    for (int k = 0; k < sx.size; ++k) (*w)[k] = std::clamp(v[k] / sum, 0.0, 1.0);
+  }
+  return true;
+}
+
+ApertureSample ViewGeometry::locate(double x, double y) const {
+  ApertureSample out;
+  const auto& simplices = rig_->simplices();
+  for (size_t s = 0; s < simplices.size(); ++s) {
+    std::array<double, 3> w;
+    if (inside(static_cast<int>(s), x, y, &w)) {
+      out.simplex = static_cast<int>(s);
+      out.count = simplices[s].size;
+      out.cams = simplices[s].cams;
+      out.weight = w;
+      return out;
+    }
+  }
+  return out;
+}
+
+size_t FragmentPlan::pixel_count() const {
+  size_t n = 0;
+  for (const auto& s : row_spans) n += static_cast<size_t>(s[1] - s[0]);
+  return n;
+}
+
+namespace {
+
+using Polygon = std::vector<cv::Vec2d>;
+
+// Sutherland-Hodgman against h(p) >= 0.
+Polygon clip(const Polygon& poly, const PixelForm& h) {
+  if (h.a == 0 && h.b == 0) return h.c >= 0 ? poly : Polygon{};
+  Polygon out;
+  const size_t n = poly.size();
+  for (size_t i = 0; i < n; ++i) {
+    const cv::Vec2d& p = poly[i];
+    const cv::Vec2d& q = poly[(i + 1) % n];
+    const double hp = h(p[0], p[1]), hq = h(q[0], q[1]);
+    if (hp >= 0) out.push_back(p);
+    if ((hp >= 0) != (hq >= 0)) {
+      const double t = hp / (hp - hq);
+      out.push_back(p + (q - p) * t);
+    }
+  }
+  return out;
+}
+
+// x-extent of a convex polygon on the horizontal line y (clamped to its y range).
+bool row_extent(const Polygon& poly, double y, double& xl, double& xr) {
+  double ymin = INFINITY, ymax = -INFINITY;
+  for (const auto& p : poly) ymin = std::min(ymin, p[1]), ymax = std::max(ymax, p[1]);
+  y = std::clamp(y, ymin, ymax);
+  xl = INFINITY, xr = -INFINITY;
+  const size_t n = poly.size();
+  for (size_t i = 0; i < n; ++i) {
+    const cv::Vec2d& p = poly[i];
+    const cv::Vec2d& q = poly[(i + 1) % n];
+    if ((p[1] <= y && y <= q[1]) || (q[1] <= y && y <= p[1])) {
+      double x;
+      if (q[1] == p[1]) {
+        xl = std::min({xl, p[0], q[0]});
+        xr = std::max({xr, p[0], q[0]});
+        continue;
+      }
+      x = p[0] + (q[0] - p[0]) * (y - p[1]) / (q[1] - p[1]);
+      xl = std::min(xl, x);
+      xr = std::max(xr, x);
+    }
+  }
+  return xl <= xr;
+}
+
+PixelForm constant(double c) {
+  return {0, 0, c};
+}
+
+double max_abs(const PixelForm& f) {
+  return std::max({std::abs(f.a), std::abs(f.b), std::abs(f.c)});
+}
+
+}  // namespace
+
+FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
+  const Rig& rig = g.rig();
+  FragmentPlan plan;
+  plan.camera_index = index;
+  plan.camera_id = rig.cameras[index].id;
+  plan.out_width = g.width();
+  plan.out_height = g.height();
+  const int W = g.width(), H = g.height();
+  const Polygon frame = {{-0.5, -0.5}, {W - 0.5, -0.5}, {W - 0.5, H - 0.5}, {-0.5, H - 0.5}};
+  const cv::Matx33d& Hc = g.homography(index);
+  const PixelForm zc{Hc(2, 0), Hc(2, 1), Hc(2, 2)};
+
+  const auto& simplices = rig.simplices();
+  for (size_t s = 0; s < simplices.size(); ++s) {
+    const Simplex& sx = simplices[s];
+    int slot = -1;
+    for (int k = 0; k < sx.size; ++k)
+      if (sx.cams[k] == index) slot = k;
+    if (slot < 0) continue;
+    // Weight forms of this camera in this simplex.
+    PixelForm num, den;
+    if (sx.size == 1) {
+      num = den = constant(1.0);
+    } else if (g.eye_on_camera_plane()) {
+      double sum = 0;
+      for (int k = 0; k < sx.size; ++k) sum += g.facet_at_eye(sx.facet[k], sx.sign[k]);
+      num = constant(g.facet_at_eye(sx.facet[slot], sx.sign[slot]));
+      den = constant(sum);
+    } else {
+      num = g.facet_form(sx.facet[slot], sx.sign[slot]);
+      for (int k = 0; k < sx.size; ++k) den = den + g.facet_form(sx.facet[k], sx.sign[k]);
+    }
+    const double dscale = max_abs(den);
+    if (dscale > 0) num = num * (1.0 / dscale), den = den * (1.0 / dscale);
+
+    // Orientation pieces of the camera plane (sign of D_n) ...
+    const bool single = sx.size == 1 || g.eye_on_camera_plane();
+    for (int sd : {1, -1}) {
+      if (single && sd < 0) break;
+      Polygon base = frame;
+      if (!single) {
+        base = clip(base, g.camera_plane_denominator() * sd);
+        for (int k = 0; k < sx.size && !base.empty(); ++k)
+          base = clip(base, g.facet_form(sx.facet[k], sx.sign[k]) * sd);
+      } else if (sx.size > 1) {
+        std::array<double, 3> w;
+        if (!g.inside(static_cast<int>(s), 0, 0, &w) || !(w[slot] > 0)) break;
+      }
+      if (base.size() < 3) continue;
+      // ... times pieces of the focal plane's orientation.
+      for (int sf : {1, -1}) {
+        if (g.focal_at_infinity() && sf < 0) break;
+        Polygon poly = base;
+        if (!g.focal_at_infinity()) poly = clip(poly, g.focal_denominator() * sf);
+        if (poly.size() >= 3) poly = clip(poly, zc * sf);
+        if (poly.size() < 3) continue;
+        FragmentPiece piece;
+        piece.H = Hc * static_cast<double>(sf);
+        piece.H *= 1.0 / cv::norm(piece.H);
+        piece.weight_num = num;
+        piece.weight_den = den;
+        const int piece_id = static_cast<int>(plan.pieces.size());
+        bool used = false;
+        auto pred = [&](int x, int y) {
+          if (g.focal_sign(x, y) != sf) return false;
+          if (!(zc(x, y) * sf > 0)) return false;
+          if (!single) {
+            const double dn = g.camera_plane_denominator()(x, y);
+            if ((dn > 0 ? 1 : -1) != sd || dn == 0) return false;
+          }
+          std::array<double, 3> w;
+          return g.inside(static_cast<int>(s), x, y, &w) && w[slot] > 0;
+        };
+        double ymin = INFINITY, ymax = -INFINITY;
+        for (const auto& p : poly) ymin = std::min(ymin, p[1]), ymax = std::max(ymax, p[1]);
+        const int y0 = std::max(0, static_cast<int>(std::floor(ymin)) - 1);
+        const int y1 = std::min(H - 1, static_cast<int>(std::ceil(ymax)) + 1);
+        for (int y = y0; y <= y1; ++y) {
+          double xl, xr;
+          if (!row_extent(poly, y, xl, xr)) continue;
+          int a = std::clamp(static_cast<int>(std::floor(xl)) - 1, 0, W - 1);
+          int b = std::clamp(static_cast<int>(std::ceil(xr)) + 1, 0, W - 1);
+          while (a <= b && !pred(a, y)) ++a;
+          while (b >= a && !pred(b, y)) --b;
+          if (a > b) continue;
+          while (a > 0 && pred(a - 1, y)) --a;
+          while (b < W - 1 && pred(b + 1, y)) ++b;
+          plan.runs.push_back({y, a, b + 1, piece_id});
+          used = true;
+        }
+        if (used) plan.pieces.push_back(piece);
+      }
+    }
+  }
+  std::sort(plan.runs.begin(), plan.runs.end(),
+            [](const Run& a, const Run& b) { return a.y != b.y ? a.y < b.y : a.x0 < b.x0; });
+  if (plan.runs.empty()) return plan;
+  int x0 = W, x1 = 0;
+  for (const Run& r : plan.runs) x0 = std::min(x0, r.x0), x1 = std::max(x1, r.x1);
+  const int ry0 = plan.runs.front().y, ry1 = plan.runs.back().y;
+  plan.rect = cv::Rect(x0, ry0, x1 - x0, ry1 - ry0 + 1);
+  plan.row_spans.assign(plan.rect.height, {0, 0});
+  std::vector<bool> seen(plan.rect.height, false);
+  for (const Run& r : plan.runs) {
+    auto& span = plan.row_spans[r.y - ry0];
+    if (!seen[r.y - ry0]) {
+      span = {r.x0, r.x1};
+      seen[r.y - ry0] = true;
+    } else {
+      span[0] = std::min(span[0], r.x0);
+      span[1] = std::max(span[1], r.x1);
+    }
+  }
+  for (int k = 0; k < plan.rect.height; ++k)
+    if (!seen[k]) plan.row_spans[k] = {plan.rect.x, plan.rect.x};
+  return plan;
+}
+
+}  // namespace lf

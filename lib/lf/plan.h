@@ -1,0 +1,149 @@
+// Fragment planning: one camera x one view request (Yang et al. 2002,
+// Section 4.1 and Figure 3).
+//
+// Geometry. Output pixel p = (x, y) (pixel-centre coordinates of the virtual
+// view) defines the line L(p) through the eye E with direction
+// D(p) = R_v^T K_v^{-1} (x, y, 1). The line meets
+//  * the focal plane at F(p); camera i samples its image at the projection of
+//    F(p). Because the focal surface is a plane, output pixel -> camera pixel
+//    is a single 3x3 homography H_i = K_i [ (R_i E + t_i) n^T - (n.E + d) R_i ] M
+//    with M = R_v^T K_v^{-1} (lens distortion is applied afterwards), and
+//    H_i = K_i R_i M for the plane at infinity;
+//  * the camera plane at X(p) = E_2d - dist(E) * D_2d(p) / D_n(p); the aperture
+//    weight of camera i is its barycentric coordinate of X(p) in the simplex
+//    of the rig triangulation containing X(p). Every barycentric coordinate is
+//    e_k(X(p)) / sum_j e_j(X(p)) with e_k linear on the plane, so multiplied by
+//    D_n(p) it is a ratio of two linear functions of (x, y): perspective-
+//    correct, and every region where a camera contributes is an intersection of
+//    half-planes in output pixels. Triangles behind the eye or straddling the
+//    eye plane need no special case: lines, not rays, are intersected.
+//
+// Exactness. Pixel membership is decided by one predicate (ViewGeometry::
+// inside) evaluated in double precision: signs of the facet forms, with ties
+// broken by a symbolic perturbation of X towards +s (then +t). Shared facets
+// are evaluated bit-identically with opposite signs, so every line that meets
+// the triangulated part of the camera plane is claimed by exactly one simplex:
+// the weights at each output pixel sum to 1 wherever the view sees the camera
+// surface, and are 0 elsewhere. Fragment runs are the exact pixel sets of that
+// predicate (float clipping only proposes them).
+//
+// Degenerate cases (defined results):
+//  * eye exactly on the camera plane: every line meets the plane at the eye,
+//    so the weights are constant over the image (the eye's barycentrics);
+//  * lines parallel to the camera plane (D_n = 0, eye off the plane): they
+//    never meet the camera surface, weight 0 (not seen);
+//  * eye on the focal plane: every line meets the focal plane at the eye, so
+//    each camera contributes the single colour where it sees the eye;
+//  * lines parallel to the focal plane meet it at infinity: cameras sample the
+//    line's direction (continuous with nearby pixels);
+//  * a focal point behind camera i (or in its image plane): not visible to
+//    camera i, alpha 0 (renormalised by the compositor).
+#pragma once
+
+#include <array>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "lf/rig.h"
+#include "lf/view.h"
+
+namespace lf {
+
+// h(x, y) = a x + b y + c over output pixel coordinates.
+struct PixelForm {
+  double a = 0, b = 0, c = 0;
+  double operator()(double x, double y) const { return a * x + b * y + c; }
+  PixelForm operator*(double s) const { return {a * s, b * s, c * s}; }
+  PixelForm operator+(const PixelForm& o) const { return {a + o.a, b + o.b, c + o.c}; }
+};
+
+// Weights at one output pixel.
+struct ApertureSample {
+  int simplex = -1;                       // -1: the line does not meet the camera surface
+  int count = 0;                          // cameras in the simplex
+  std::array<int, 3> cams{-1, -1, -1};    // camera indices
+  std::array<double, 3> weight{0, 0, 0};  // in [0, 1], summing to 1
+};
+
+// Everything about one request that all cameras share.
+class ViewGeometry {
+ public:
+  // Validates the request (throws std::invalid_argument) and precomputes.
+  ViewGeometry(const Rig& rig, const ViewRequest& request);
+
+  const Rig& rig() const { return *rig_; }
+  const ViewRequest& request() const { return req_; }
+  int width() const { return req_.view.width; }
+  int height() const { return req_.view.height; }
+
+  // Line-of-pixel direction in world coordinates (not normalised).
+  cv::Vec3d ray(double x, double y) const { return M_ * cv::Vec3d(x, y, 1.0); }
+  // Output pixel -> undistorted pixel of camera `index` (homogeneous; the sign
+  // is that of the true projective point, see focal_sign()).
+  const cv::Matx33d& homography(int index) const { return H_[index]; }
+  // Sign of the focal intersection's homogeneous w at a pixel: the homography
+  // images a point in front of camera i iff focal_sign * z_i > 0.
+  int focal_sign(double x, double y) const;
+  bool focal_at_infinity() const { return req_.focal_plane.at_infinity(); }
+
+  // Exact membership of a pixel's line in simplex `s`; fills barycentric
+  // weights (per simplex vertex) when inside.
+  bool inside(int s, double x, double y, std::array<double, 3>* weights = nullptr) const;
+  // The simplex containing the pixel's line and its weights.
+  ApertureSample locate(double x, double y) const;
+  // Whether camera `index` sees the focal point of pixel (x, y).
+  bool visible(int index, double x, double y) const;
+
+  // Pixel forms (for planning).
+  bool eye_on_camera_plane() const { return eye_dist_ == 0.0; }
+  const PixelForm& camera_plane_denominator() const { return dn_; }
+  PixelForm facet_form(int facet, int sign) const;  // e(X(p)) * D_n(p)
+  double facet_at_eye(int facet, int sign) const;   // e(E_2d)
+  PixelForm focal_denominator() const { return fw_; }
+
+ private:
+  bool tie_positive(int facet, int sign) const;
+  const Rig* rig_;
+  ViewRequest req_;
+  cv::Matx33d M_;
+  double eye_dist_ = 0;
+  cv::Vec2d eye2d_;
+  PixelForm dn_, fw_;
+  std::vector<PixelForm> facet_px_;
+  std::vector<double> facet_eye_;
+  std::vector<cv::Matx33d> H_;
+};
+
+// A run of output pixels [x0, x1) on row y rendered with one piece.
+struct Run {
+  int y = 0, x0 = 0, x1 = 0;
+  int piece = 0;
+};
+
+// One region of a fragment with a single weight formula and homography.
+// Float coefficients are normalised copies of the double ones.
+struct FragmentPiece {
+  cv::Matx33d H;         // output pixel -> camera homogeneous, oriented so z > 0 where visible
+  PixelForm weight_num;  // aperture weight = num / den, in [0, 1] on the piece
+  PixelForm weight_den;
+};
+
+struct FragmentPlan {
+  int camera_index = -1;
+  int camera_id = -1;
+  int out_width = 0, out_height = 0;
+  cv::Rect rect;  // bounding box of the pixels with nonzero weight (empty if none)
+  std::vector<FragmentPiece> pieces;
+  std::vector<Run> runs;  // sorted by (y, x0), disjoint
+  // Per row of rect: [begin, end) in output x (the hull of that row's runs).
+  std::vector<std::array<int, 2>> row_spans;
+
+  bool empty() const { return runs.empty(); }
+  size_t pixel_count() const;  // pixels carried (sum of row spans)
+};
+
+// Plans camera `index`'s fragment for the request. Never throws for a valid
+// ViewGeometry; a camera that does not contribute gets an empty plan.
+FragmentPlan plan_fragment(const ViewGeometry& geometry, int index);
+
+}  // namespace lf

@@ -1,0 +1,556 @@
+#include "lf/rig.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+namespace lf {
+
+namespace {
+
+std::string cam_label(const Camera& c) {
+  return "camera " + std::to_string(c.id) + (c.name.empty() ? "" : " (" + c.name + ")");
+}
+
+void check_camera(const Camera& c) {
+  auto bad = [&](const std::string& what) {
+    throw std::invalid_argument("rig: " + cam_label(c) + ": " + what);
+  };
+  if (c.width < 2 || c.height < 2 || c.width > 65535 || c.height > 65535)
+    bad("image size " + std::to_string(c.width) + "x" + std::to_string(c.height) +
+        " is outside 2..65535");
+  const Intrinsics& k = c.intrinsics;
+  for (double v : {k.fx, k.fy, k.cx, k.cy, k.k1, k.k2})
+    if (!std::isfinite(v)) bad("intrinsics are not finite");
+  if (!(k.fx > 0) || !(k.fy > 0)) bad("focal lengths fx, fy must be > 0");
+  const cv::Matx33d& R = c.extrinsics.R;
+  for (int i = 0; i < 9; ++i)
+    if (!std::isfinite(R.val[i])) bad("rotation R is not finite");
+  for (int i = 0; i < 3; ++i)
+    if (!std::isfinite(c.extrinsics.t[i])) bad("translation t is not finite");
+  const double orth = cv::norm(R * R.t() - cv::Matx33d::eye(), cv::NORM_INF);
+  if (orth > 1e-6 || cv::determinant(R) < 0) bad("R is not a rotation (R R^T != I or det < 0)");
+}
+
+}  // namespace
+
+int Rig::index_of(int id) const {
+  for (size_t i = 0; i < cameras.size(); ++i)
+    if (cameras[i].id == id) return static_cast<int>(i);
+  return -1;
+}
+
+void Rig::finalize() {
+  if (cameras.empty()) throw std::invalid_argument("rig '" + name + "': no cameras");
+  std::set<int> ids;
+  for (const Camera& c : cameras) {
+    check_camera(c);
+    if (!ids.insert(c.id).second)
+      throw std::invalid_argument("rig: duplicate camera id " + std::to_string(c.id));
+  }
+  if (!grid.empty()) {
+    if (grid.cells.size() != static_cast<size_t>(grid.rows) * grid.cols)
+      throw std::invalid_argument("rig: grid has " + std::to_string(grid.cells.size()) +
+                                  " cells, expected rows*cols");
+    for (int idx : grid.cells)
+      if (idx < -1 || idx >= static_cast<int>(cameras.size()))
+        throw std::invalid_argument("rig: grid cell refers to unknown camera index " +
+                                    std::to_string(idx));
+  }
+  compute_plane();
+  triangulate();
+  build_simplices();
+}
+
+void Rig::compute_plane() {
+  const size_t n = cameras.size();
+  cv::Vec3d mean(0, 0, 0), fwd(0, 0, 0), right(0, 0, 0);
+  for (const Camera& c : cameras) {
+    mean += c.center();
+    fwd += c.forward();
+    right += cv::Vec3d(c.extrinsics.R(0, 0), c.extrinsics.R(0, 1), c.extrinsics.R(0, 2));
+  }
+  mean *= 1.0 / n;
+  double extent = 0;
+  for (const Camera& c : cameras) extent = std::max(extent, cv::norm(c.center() - mean));
+  for (size_t i = 0; i < n; ++i)
+    for (size_t j = i + 1; j < n; ++j)
+      if (cv::norm(cameras[i].center() - cameras[j].center()) <= 1e-9 * extent)
+        throw std::invalid_argument("rig: " + cam_label(cameras[i]) + " and " +
+                                    cam_label(cameras[j]) + " share the same centre");
+  auto unit = [](cv::Vec3d v) { return v / cv::norm(v); };
+  auto orthogonal_to = [](const cv::Vec3d& v, const cv::Vec3d& axis) {
+    return v - axis * v.dot(axis);
+  };
+  if (cv::norm(fwd) < 1e-9) fwd = cameras[0].forward();
+  fwd = unit(fwd);
+  if (cv::norm(right) < 1e-9)
+    right = cv::Vec3d(cameras[0].extrinsics.R(0, 0), cameras[0].extrinsics.R(0, 1),
+                      cameras[0].extrinsics.R(0, 2));
+  plane_.origin = mean;
+  if (n == 1) {
+    dimension_ = 0;
+    plane_.normal = fwd;
+    plane_.u = unit(orthogonal_to(right, fwd));
+  } else {
+    cv::Matx33d cov = cv::Matx33d::zeros();
+    for (const Camera& c : cameras) {
+      const cv::Vec3d d = c.center() - mean;
+      cov += d * d.t();
+    }
+    cv::Mat evals, evecs;
+    cv::eigen(cv::Mat(cov), evals, evecs);  // descending
+    auto row = [&](int r) {
+      return cv::Vec3d(evecs.at<double>(r, 0), evecs.at<double>(r, 1), evecs.at<double>(r, 2));
+    };
+    const double l1 = evals.at<double>(0), l2 = evals.at<double>(1);
+    if (l2 <= 1e-12 * l1) {
+      dimension_ = 1;
+      cv::Vec3d line = row(0);
+      cv::Vec3d nrm = orthogonal_to(fwd, line);
+      if (cv::norm(nrm) < 1e-9) nrm = orthogonal_to(cv::Vec3d(0, 0, 1), line);
+      if (cv::norm(nrm) < 1e-9) nrm = orthogonal_to(cv::Vec3d(0, 1, 0), line);
+      plane_.normal = unit(nrm);
+      plane_.u = line.dot(right) < 0 ? -line : line;
+    } else {
+      dimension_ = 2;
+      cv::Vec3d nrm = row(2);
+      if (nrm.dot(fwd) < 0) nrm = -nrm;
+      plane_.normal = nrm;
+      cv::Vec3d u = orthogonal_to(right, nrm);
+      if (cv::norm(u) < 1e-9) u = row(0);
+      plane_.u = unit(u);
+    }
+  }
+  plane_.v = plane_.normal.cross(plane_.u);
+  plane_pos_.clear();
+  for (const Camera& c : cameras) plane_pos_.push_back(plane_.to_plane(c.center()));
+  std::vector<double> nn;
+  for (size_t i = 0; i < n; ++i) {
+    double best = INFINITY;
+    for (size_t j = 0; j < n; ++j)
+      if (j != i) best = std::min(best, cv::norm(plane_pos_[i] - plane_pos_[j]));
+    nn.push_back(best);
+  }
+  std::nth_element(nn.begin(), nn.begin() + nn.size() / 2, nn.end());
+  spacing_ = n > 1 ? nn[nn.size() / 2] : 1.0;
+  if (!(spacing_ > 0)) spacing_ = 1.0;
+}
+
+namespace {
+double area2(const cv::Vec2d& a, const cv::Vec2d& b, const cv::Vec2d& c) {
+  return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+}
+
+// Delaunay triangulation (cv::Subdiv2D) of 2D points; returns index triples.
+std::vector<std::array<int, 3>> delaunay(const std::vector<cv::Point2d>& pts) {
+  double minx = INFINITY, miny = INFINITY, maxx = -INFINITY, maxy = -INFINITY;
+  for (const auto& p : pts) {
+    minx = std::min(minx, p.x), maxx = std::max(maxx, p.x);
+    miny = std::min(miny, p.y), maxy = std::max(maxy, p.y);
+  }
+  const double scale = 1000.0 / std::max({maxx - minx, maxy - miny, 1e-300});
+  cv::Subdiv2D subdiv(cv::Rect(-10, -10, 1021, 1021));
+  std::map<std::pair<float, float>, int> index;
+  for (size_t i = 0; i < pts.size(); ++i) {
+    cv::Point2f q(static_cast<float>((pts[i].x - minx) * scale),
+                  static_cast<float>((pts[i].y - miny) * scale));
+    index[{q.x, q.y}] = static_cast<int>(i);
+    subdiv.insert(q);
+  }
+  std::vector<cv::Vec6f> tris;
+  subdiv.getTriangleList(tris);
+  std::vector<std::array<int, 3>> out;
+  for (const auto& t : tris) {
+    std::array<int, 3> tri;
+    bool ok = true;
+    for (int k = 0; k < 3 && ok; ++k) {
+      auto it = index.find({t[2 * k], t[2 * k + 1]});
+      if (it == index.end())
+        ok = false;
+      else
+        tri[k] = it->second;
+    }
+    if (ok) out.push_back(tri);
+  }
+  return out;
+}
+}  // namespace
+
+void Rig::triangulate() {
+  if (dimension_ < 2) {
+    triangles.clear();
+    return;
+  }
+  std::vector<std::array<int, 3>> tri_idx;  // camera indices
+  if (!triangles.empty()) {
+    for (const auto& t : triangles) {
+      std::array<int, 3> ti;
+      for (int k = 0; k < 3; ++k) {
+        ti[k] = index_of(t[k]);
+        if (ti[k] < 0)
+          throw std::invalid_argument("rig: triangle names unknown camera id " +
+                                      std::to_string(t[k]));
+      }
+      tri_idx.push_back(ti);
+    }
+  } else {
+    std::vector<cv::Point2d> pts(cameras.size());
+    std::vector<cv::Vec2d> lattice(cameras.size());
+    bool use_grid = !grid.empty();
+    if (use_grid) {
+      std::vector<int> seen(cameras.size(), 0);
+      for (int r = 0; r < grid.rows; ++r)
+        for (int c = 0; c < grid.cols; ++c) {
+          const int idx = grid.at(r, c);
+          if (idx < 0) continue;
+          // A slight shear makes every cell split along the same diagonal.
+          lattice[idx] = cv::Vec2d(c + 1e-3 * r, r);
+          seen[idx]++;
+        }
+      for (size_t i = 0; i < cameras.size(); ++i)
+        if (seen[i] != 1) use_grid = false;  // camera outside (or twice in) the grid
+    }
+    for (size_t i = 0; i < cameras.size(); ++i) {
+      const cv::Vec2d p = use_grid ? lattice[i] : plane_pos_[i];
+      pts[i] = {p[0], p[1]};
+    }
+    tri_idx = delaunay(pts);
+    // Drop slivers from collinear lattice boundaries.
+    tri_idx.erase(std::remove_if(tri_idx.begin(), tri_idx.end(),
+                                 [&](const std::array<int, 3>& t) {
+                                   return std::abs(area2(cv::Vec2d(pts[t[0]].x, pts[t[0]].y),
+                                                         cv::Vec2d(pts[t[1]].x, pts[t[1]].y),
+                                                         cv::Vec2d(pts[t[2]].x, pts[t[2]].y))) <
+                                          1e-6;
+                                 }),
+                  tri_idx.end());
+  }
+  // Orient every triangle counter-clockwise on the camera plane and check
+  // that the triangulation does not fold over.
+  const double min_area = 1e-9 * spacing_ * spacing_;
+  int positive = 0, negative = 0;
+  std::vector<double> signs;
+  for (auto& t : tri_idx) {
+    const double a = area2(plane_pos_[t[0]], plane_pos_[t[1]], plane_pos_[t[2]]);
+    if (std::abs(a) <= min_area)
+      throw std::invalid_argument("rig: triangle of cameras " + cam_label(cameras[t[0]]) + ", " +
+                                  cam_label(cameras[t[1]]) + ", " + cam_label(cameras[t[2]]) +
+                                  " is degenerate on the camera plane");
+    (a > 0 ? positive : negative)++;
+  }
+  if (positive > 0 && negative > 0 && triangles.empty()) {
+    // Lattice orientation and measured orientation disagree for some triangles.
+    throw std::invalid_argument("rig: the grid triangulation folds over on the camera plane (" +
+                                std::to_string(std::min(positive, negative)) +
+                                " triangles flipped): camera positions contradict the grid");
+  }
+  triangles.clear();
+  for (auto& t : tri_idx) {
+    if (area2(plane_pos_[t[0]], plane_pos_[t[1]], plane_pos_[t[2]]) < 0) std::swap(t[1], t[2]);
+    triangles.push_back({cameras[t[0]].id, cameras[t[1]].id, cameras[t[2]].id});
+  }
+}
+
+void Rig::build_simplices() {
+  simplices_.clear();
+  facets_.clear();
+  if (dimension_ == 0) {
+    Simplex s;
+    s.size = 1;
+    s.cams[0] = 0;
+    simplices_.push_back(s);
+    return;
+  }
+  if (dimension_ == 1) {
+    std::vector<int> order(cameras.size());
+    for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+    std::sort(order.begin(), order.end(),
+              [&](int a, int b) { return plane_pos_[a][0] < plane_pos_[b][0]; });
+    // Facet k: the point s = s_k, form (1, 0, -s_k) (positive beyond it).
+    for (int idx : order) facets_.push_back({1.0, 0.0, -plane_pos_[idx][0]});
+    for (size_t k = 0; k + 1 < order.size(); ++k) {
+      Simplex s;
+      s.size = 2;
+      s.cams = {order[k], order[k + 1], -1};
+      // weight(a) ~ s_b - s = -(facet b); weight(b) ~ s - s_a = +(facet a).
+      s.facet = {static_cast<int>(k + 1), static_cast<int>(k), -1};
+      s.sign = {-1, +1, 0};
+      simplices_.push_back(s);
+    }
+    return;
+  }
+  std::map<std::pair<int, int>, int> edge_index;
+  auto facet_of = [&](int i, int j, int& sign) {
+    // Canonical edge (lo -> hi); form = cross(P_hi - P_lo, X - P_lo).
+    const int lo = std::min(i, j), hi = std::max(i, j);
+    sign = (i == lo) ? 1 : -1;
+    auto it = edge_index.find({lo, hi});
+    if (it != edge_index.end()) return it->second;
+    const cv::Vec2d& p = plane_pos_[lo];
+    const cv::Vec2d d = plane_pos_[hi] - p;
+    facets_.push_back({-d[1], d[0], d[1] * p[0] - d[0] * p[1]});
+    const int id = static_cast<int>(facets_.size()) - 1;
+    edge_index[{lo, hi}] = id;
+    return id;
+  };
+  for (const auto& t : triangles) {
+    Simplex s;
+    s.size = 3;
+    for (int k = 0; k < 3; ++k) s.cams[k] = index_of(t[k]);
+    for (int k = 0; k < 3; ++k) {
+      // Vertex k's weight is proportional to the edge function of the
+      // opposite edge (k+1 -> k+2), positive on the left (where k lies).
+      s.facet[k] = facet_of(s.cams[(k + 1) % 3], s.cams[(k + 2) % 3], s.sign[k]);
+    }
+    simplices_.push_back(s);
+  }
+}
+
+Rig Rig::without(const std::vector<int>& drop) const {
+  std::vector<int> keep;
+  for (size_t i = 0; i < cameras.size(); ++i)
+    if (std::find(drop.begin(), drop.end(), static_cast<int>(i)) == drop.end())
+      keep.push_back(static_cast<int>(i));
+  Rig r = subset(keep);
+  if (!grid.empty()) {
+    // Keep the full grid extent so that holes stay holes (and get filled).
+    std::vector<int> remap(cameras.size(), -1);
+    for (size_t k = 0; k < keep.size(); ++k) remap[keep[k]] = static_cast<int>(k);
+    r.grid = grid;
+    for (int& c : r.grid.cells) c = c >= 0 ? remap[c] : -1;
+    r.triangles.clear();
+    r.finalize();
+  }
+  return r;
+}
+
+Rig Rig::subset(const std::vector<int>& keep) const {
+  Rig r;
+  r.name = name;
+  r.unit = unit;
+  r.has_focal_param = has_focal_param;
+  r.focal_param_f_px = focal_param_f_px;
+  r.focal_param_infinity = focal_param_infinity;
+  std::vector<int> remap(cameras.size(), -1);
+  for (int i : keep) {
+    if (i < 0 || i >= static_cast<int>(cameras.size()))
+      throw std::invalid_argument("rig subset: camera index " + std::to_string(i) +
+                                  " out of range");
+    remap[i] = static_cast<int>(r.cameras.size());
+    r.cameras.push_back(cameras[i]);
+  }
+  if (!grid.empty()) {
+    int r0 = grid.rows, r1 = -1, c0 = grid.cols, c1 = -1;
+    for (int rr = 0; rr < grid.rows; ++rr)
+      for (int cc = 0; cc < grid.cols; ++cc)
+        if (grid.at(rr, cc) >= 0 && remap[grid.at(rr, cc)] >= 0) {
+          r0 = std::min(r0, rr), r1 = std::max(r1, rr);
+          c0 = std::min(c0, cc), c1 = std::max(c1, cc);
+        }
+    if (r1 >= 0) {
+      r.grid.rows = r1 - r0 + 1;
+      r.grid.cols = c1 - c0 + 1;
+      for (int rr = r0; rr <= r1; ++rr)
+        for (int cc = c0; cc <= c1; ++cc) {
+          const int idx = grid.at(rr, cc);
+          r.grid.cells.push_back(idx >= 0 ? remap[idx] : -1);
+        }
+    }
+  }
+  r.finalize();
+  return r;
+}
+
+// ---------------------------------------------------------------------------
+// Rig file
+
+namespace {
+using nlohmann::json;
+constexpr const char* kFormat = "lightfield-gst-rig";
+constexpr int kVersion = 1;
+
+[[noreturn]] void fail(const std::string& origin, const std::string& what) {
+  throw std::runtime_error("rig file " + origin + ": " + what);
+}
+
+template <typename T>
+T get_field(const json& j, const char* key, const std::string& origin, const std::string& where) {
+  if (!j.contains(key)) fail(origin, where + ": missing field '" + key + "'");
+  try {
+    return j.at(key).get<T>();
+  } catch (const json::exception& e) {
+    fail(origin, where + ": field '" + key + "' has the wrong type (" + e.what() + ")");
+  }
+}
+}  // namespace
+
+std::string rig_to_json(const Rig& rig) {
+  json j;
+  j["format"] = kFormat;
+  j["version"] = kVersion;
+  j["name"] = rig.name;
+  j["unit"] = rig.unit;
+  j["conventions"] =
+      "extrinsics map world to camera: X_cam = R X + t (R row-major); camera frame x right, "
+      "y down, z forward; pixel origin at the centre of the top-left pixel; radial distortion "
+      "k1, k2 on normalized coordinates";
+  json cams = json::array();
+  for (const Camera& c : rig.cameras) {
+    json jc;
+    jc["id"] = c.id;
+    jc["name"] = c.name;
+    jc["width"] = c.width;
+    jc["height"] = c.height;
+    const Intrinsics& k = c.intrinsics;
+    jc["intrinsics"] = {{"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx},
+                        {"cy", k.cy}, {"k1", k.k1}, {"k2", k.k2}};
+    std::vector<double> R(c.extrinsics.R.val, c.extrinsics.R.val + 9);
+    std::vector<double> t(c.extrinsics.t.val, c.extrinsics.t.val + 3);
+    jc["R"] = R;
+    jc["t"] = t;
+    if (!c.image.empty()) jc["image"] = c.image;
+    cams.push_back(jc);
+  }
+  j["cameras"] = cams;
+  if (!rig.grid.empty()) {
+    json rows = json::array();
+    for (int r = 0; r < rig.grid.rows; ++r) {
+      json row = json::array();
+      for (int c = 0; c < rig.grid.cols; ++c) {
+        const int idx = rig.grid.at(r, c);
+        row.push_back(idx >= 0 ? json(rig.cameras[idx].id) : json(nullptr));
+      }
+      rows.push_back(row);
+    }
+    j["grid"] = {{"rows", rig.grid.rows}, {"cols", rig.grid.cols}, {"camera_ids", rows}};
+  }
+  j["triangles"] = rig.triangles;
+  if (rig.has_focal_param)
+    j["focal_param"] = {{"f_px", rig.focal_param_f_px}, {"a_infinity", rig.focal_param_infinity}};
+  return j.dump(1);
+}
+
+Rig rig_from_json(const std::string& text, const std::string& origin) {
+  json j;
+  try {
+    j = json::parse(text);
+  } catch (const json::parse_error& e) {
+    fail(origin, std::string("not valid JSON: ") + e.what());
+  }
+  if (!j.is_object()) fail(origin, "top level is not a JSON object");
+  const auto format = get_field<std::string>(j, "format", origin, "header");
+  if (format != kFormat) fail(origin, "format is '" + format + "', expected '" + kFormat + "'");
+  const int version = get_field<int>(j, "version", origin, "header");
+  if (version < 1 || version > kVersion)
+    fail(origin, "unsupported version " + std::to_string(version) + " (this build reads 1.." +
+                     std::to_string(kVersion) + ")");
+  Rig rig;
+  rig.name = j.value("name", "");
+  rig.unit = j.value("unit", "unit");
+  if (!j.contains("cameras") || !j["cameras"].is_array()) fail(origin, "missing array 'cameras'");
+  for (size_t i = 0; i < j["cameras"].size(); ++i) {
+    const json& jc = j["cameras"][i];
+    const std::string where = "cameras[" + std::to_string(i) + "]";
+    Camera c;
+    c.id = get_field<int>(jc, "id", origin, where);
+    c.name = jc.value("name", "");
+    c.width = get_field<int>(jc, "width", origin, where);
+    c.height = get_field<int>(jc, "height", origin, where);
+    const json ji = get_field<json>(jc, "intrinsics", origin, where);
+    c.intrinsics.fx = get_field<double>(ji, "fx", origin, where + ".intrinsics");
+    c.intrinsics.fy = get_field<double>(ji, "fy", origin, where + ".intrinsics");
+    c.intrinsics.cx = get_field<double>(ji, "cx", origin, where + ".intrinsics");
+    c.intrinsics.cy = get_field<double>(ji, "cy", origin, where + ".intrinsics");
+    c.intrinsics.k1 = ji.value("k1", 0.0);
+    c.intrinsics.k2 = ji.value("k2", 0.0);
+    const auto R = get_field<std::vector<double>>(jc, "R", origin, where);
+    const auto t = get_field<std::vector<double>>(jc, "t", origin, where);
+    if (R.size() != 9) fail(origin, where + ": R must have 9 numbers (row-major)");
+    if (t.size() != 3) fail(origin, where + ": t must have 3 numbers");
+    for (int k = 0; k < 9; ++k) c.extrinsics.R.val[k] = R[k];
+    for (int k = 0; k < 3; ++k) c.extrinsics.t[k] = t[k];
+    c.image = jc.value("image", "");
+    rig.cameras.push_back(c);
+  }
+  if (j.contains("grid")) {
+    const json& g = j["grid"];
+    rig.grid.rows = get_field<int>(g, "rows", origin, "grid");
+    rig.grid.cols = get_field<int>(g, "cols", origin, "grid");
+    if (rig.grid.rows < 0 || rig.grid.cols < 0 || rig.grid.rows > 4096 || rig.grid.cols > 4096)
+      fail(origin, "grid: rows/cols out of range 0..4096");
+    const json ids = get_field<json>(g, "camera_ids", origin, "grid");
+    if (!ids.is_array() || ids.size() != static_cast<size_t>(rig.grid.rows))
+      fail(origin, "grid: camera_ids must have 'rows' rows");
+    for (const json& row : ids) {
+      if (!row.is_array() || row.size() != static_cast<size_t>(rig.grid.cols))
+        fail(origin, "grid: every row of camera_ids must have 'cols' entries");
+      for (const json& cell : row) {
+        if (cell.is_null()) {
+          rig.grid.cells.push_back(-1);
+          continue;
+        }
+        if (!cell.is_number_integer()) fail(origin, "grid: camera_ids entries are ids or null");
+        const int idx = rig.index_of(cell.get<int>());
+        if (idx < 0) fail(origin, "grid: unknown camera id " + std::to_string(cell.get<int>()));
+        rig.grid.cells.push_back(idx);
+      }
+    }
+  }
+  if (j.contains("triangles")) {
+    try {
+      rig.triangles = j["triangles"].get<std::vector<std::array<int, 3>>>();
+    } catch (const json::exception& e) {
+      fail(origin, std::string("triangles must be [id, id, id] triples: ") + e.what());
+    }
+  }
+  if (j.contains("focal_param")) {
+    rig.has_focal_param = true;
+    rig.focal_param_f_px = get_field<double>(j["focal_param"], "f_px", origin, "focal_param");
+    rig.focal_param_infinity =
+        get_field<double>(j["focal_param"], "a_infinity", origin, "focal_param");
+  }
+  try {
+    rig.finalize();
+  } catch (const std::invalid_argument& e) {
+    fail(origin, e.what());
+  }
+  return rig;
+}
+
+Rig load_rig(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("rig file " + path + ": cannot open");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  Rig rig = rig_from_json(ss.str(), path);
+  const auto dir = std::filesystem::absolute(path).parent_path();
+  for (Camera& c : rig.cameras)
+    if (!c.image.empty() && std::filesystem::path(c.image).is_relative())
+      c.image = (dir / c.image).lexically_normal().string();
+  return rig;
+}
+
+void save_rig(const Rig& rig, const std::string& path) {
+  Rig copy = rig;
+  const auto dir = std::filesystem::absolute(path).parent_path();
+  for (Camera& c : copy.cameras)
+    if (!c.image.empty()) {
+      std::error_code ec;
+      auto rel = std::filesystem::relative(std::filesystem::absolute(c.image), dir, ec);
+      if (!ec && !rel.empty()) c.image = rel.string();
+    }
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error("rig file " + path + ": cannot write");
+  out << rig_to_json(copy) << "\n";
+  if (!out) throw std::runtime_error("rig file " + path + ": write failed");
+}
+
+}  // namespace lf

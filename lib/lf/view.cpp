@@ -1,0 +1,89 @@
+#include "lf/view.h"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace lf {
+
+FocalPlane FocalPlane::through(const cv::Vec3d& p, const cv::Vec3d& normal) {
+  const cv::Vec3d n = normal / cv::norm(normal);
+  return {n, -n.dot(p)};
+}
+
+double VirtualView::focal_px() const {
+  return 0.5 * height / std::tan(0.5 * vfov_deg * CV_PI / 180.0);
+}
+
+Intrinsics VirtualView::intrinsics() const {
+  Intrinsics k;
+  k.fx = k.fy = focal_px();
+  k.cx = 0.5 * (width - 1) + shift_x;
+  k.cy = 0.5 * (height - 1) + shift_y;
+  return k;
+}
+
+VirtualView VirtualView::from_camera(const Camera& cam, int width, int height) {
+  const Intrinsics& k = cam.intrinsics;
+  if (std::abs(k.fx - k.fy) > 1e-9 * k.fx)
+    throw std::invalid_argument("VirtualView::from_camera: camera " + std::to_string(cam.id) +
+                                " has fx != fy; virtual views have square pixels");
+  // Scale so that the camera's image height maps onto the output height, and
+  // centre the output horizontally on the camera's image (cropping or
+  // padding the width when aspect ratios differ).
+  const double s = static_cast<double>(height) / cam.height;
+  const Intrinsics ks = k.scaled(s);
+  const double crop_x = 0.5 * (cam.width * s - width);  // pixels cut on the left
+  VirtualView v;
+  v.position = cam.center();
+  v.R = cam.extrinsics.R;
+  v.width = width;
+  v.height = height;
+  v.vfov_deg = 2.0 * std::atan(0.5 * height / ks.fy) * 180.0 / CV_PI;
+  v.shift_x = (ks.cx - crop_x) - 0.5 * (width - 1);
+  v.shift_y = ks.cy - 0.5 * (height - 1);
+  return v;
+}
+
+VirtualView VirtualView::look_at(const cv::Vec3d& eye, const cv::Vec3d& target,
+                                 const cv::Vec3d& down, double vfov_deg, int width, int height) {
+  cv::Vec3d z = target - eye;
+  if (cv::norm(z) == 0) throw std::invalid_argument("look_at: eye equals target");
+  z /= cv::norm(z);
+  cv::Vec3d x = down.cross(z);
+  if (cv::norm(x) < 1e-12) throw std::invalid_argument("look_at: 'down' is parallel to the view");
+  x /= cv::norm(x);
+  const cv::Vec3d y = z.cross(x);
+  VirtualView v;
+  v.position = eye;
+  v.R = cv::Matx33d(x[0], x[1], x[2], y[0], y[1], y[2], z[0], z[1], z[2]);
+  v.vfov_deg = vfov_deg;
+  v.width = width;
+  v.height = height;
+  return v;
+}
+
+void validate(const ViewRequest& req) {
+  auto bad = [](const std::string& what) { throw std::invalid_argument("view request: " + what); };
+  const VirtualView& v = req.view;
+  for (int i = 0; i < 3; ++i)
+    if (!std::isfinite(v.position[i])) bad("position is not finite");
+  for (int i = 0; i < 9; ++i)
+    if (!std::isfinite(v.R.val[i])) bad("orientation is not finite");
+  if (cv::norm(v.R * v.R.t() - cv::Matx33d::eye(), cv::NORM_INF) > 1e-6 || cv::determinant(v.R) < 0)
+    bad("orientation is not a rotation matrix");
+  if (!(v.vfov_deg > 0.0 && v.vfov_deg <= 179.9))
+    bad("vertical field of view " + std::to_string(v.vfov_deg) + " deg is outside (0, 179.9]");
+  if (v.width < 1 || v.height < 1 || v.width > 16384 || v.height > 16384)
+    bad("output size " + std::to_string(v.width) + "x" + std::to_string(v.height) +
+        " is outside 1..16384");
+  if (!std::isfinite(v.shift_x) || !std::isfinite(v.shift_y)) bad("lens shift is not finite");
+  const FocalPlane& p = req.focal_plane;
+  for (int i = 0; i < 3; ++i)
+    if (!std::isfinite(p.n[i])) bad("focal plane normal is not finite");
+  if (!std::isfinite(p.d)) bad("focal plane offset is not finite");
+  if (p.at_infinity() && p.d == 0.0) bad("focal plane (0, 0, 0, 0) is not a plane");
+  if (req.aperture != Aperture::kTent) bad("unknown aperture");
+}
+
+}  // namespace lf

@@ -1,0 +1,70 @@
+// View requests (Yang et al. 2002, Section 4.3: "The view request consists of
+// a virtual view and focal plane. The virtual view is specified by position,
+// orientation, and field-of-view, and the focal plane is specified by a plane
+// equation.") plus the aperture and the tags that route fragments.
+//
+// All positions and planes are in rig (world) coordinates and rig units.
+#pragma once
+
+#include <cstdint>
+#include <opencv2/core.hpp>
+
+#include "lf/camera.h"
+
+namespace lf {
+
+// Focal plane pi = (n, d): points X with n . X + d = 0, as a homogeneous
+// 4-vector. n = (0, 0, 0) with d != 0 is the plane at infinity (focus at
+// infinity: every camera samples the direction of the viewing ray).
+struct FocalPlane {
+  cv::Vec3d n = {0, 0, 1};
+  double d = -1.0;
+
+  bool at_infinity() const { return n[0] == 0 && n[1] == 0 && n[2] == 0; }
+  static FocalPlane infinity() { return {{0, 0, 0}, 1.0}; }
+  // Plane with unit normal `normal` through point `p`.
+  static FocalPlane through(const cv::Vec3d& p, const cv::Vec3d& normal);
+};
+
+// Aperture filter over the camera plane (Isaksen et al. 2000). The paper's
+// renderer uses the tent: barycentric weights over the rig's triangulation
+// (1 at a camera, 0 at its neighbours).
+enum class Aperture : uint8_t { kTent = 0 };
+
+// The virtual camera. Intrinsics are derived from the vertical field of view
+// and the size; `shift_x/shift_y` move the principal point off the image
+// centre (an off-axis "lens shift", as in the rectified cameras of a light
+// slab). Pixel convention as in camera.h.
+struct VirtualView {
+  cv::Vec3d position = {0, 0, 0};      // eye, rig coordinates
+  cv::Matx33d R = cv::Matx33d::eye();  // world -> view rotation
+  double vfov_deg = 60.0;              // vertical field of view, degrees
+  int width = 640;                     // output size, pixels
+  int height = 480;
+  double shift_x = 0.0;  // principal point offset, pixels
+  double shift_y = 0.0;
+
+  double focal_px() const;  // fx = fy = (height/2) / tan(vfov/2)
+  Intrinsics intrinsics() const;
+  // A virtual view identical to a camera (pose and, after scaling to the
+  // output size, intrinsics). Requires fx == fy within 1e-9 relative.
+  static VirtualView from_camera(const Camera& cam, int width, int height);
+  // Look-at constructor: eye, target, and the world "down" hint (camera y).
+  static VirtualView look_at(const cv::Vec3d& eye, const cv::Vec3d& target, const cv::Vec3d& down,
+                             double vfov_deg, int width, int height);
+};
+
+struct ViewRequest {
+  uint32_t viewer_id = 0;  // which viewer (one output stream per viewer)
+  uint64_t sequence = 0;   // request number, increasing per viewer
+  VirtualView view;
+  FocalPlane focal_plane;
+  Aperture aperture = Aperture::kTent;
+};
+
+// Throws std::invalid_argument naming the field when a request cannot be
+// rendered: non-finite numbers, size outside 1..16384, fov outside
+// (0, 179.9] degrees, R not a rotation, or a focal plane with n = 0 and d = 0.
+void validate(const ViewRequest& req);
+
+}  // namespace lf

@@ -1,0 +1,355 @@
+#include "lf/wire.h"
+
+#include <turbojpeg.h>
+#include <zlib.h>
+
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <string>
+
+namespace lf {
+
+namespace {
+
+class Writer {
+ public:
+  explicit Writer(std::vector<uint8_t>& b) : b_(b) {}
+  void u8(uint8_t v) { b_.push_back(v); }
+  void u16(uint16_t v) { u8(v >> 8), u8(v & 0xff); }
+  void u32(uint32_t v) { u16(v >> 16), u16(v & 0xffff); }
+  void u64(uint64_t v) { u32(static_cast<uint32_t>(v >> 32)), u32(static_cast<uint32_t>(v)); }
+  void f64(double d) {
+    uint64_t v;
+    std::memcpy(&v, &d, 8);
+    u64(v);
+  }
+  void bytes(const void* p, size_t n) {
+    const auto* c = static_cast<const uint8_t*>(p);
+    b_.insert(b_.end(), c, c + n);
+  }
+
+ private:
+  std::vector<uint8_t>& b_;
+};
+
+class Reader {
+ public:
+  Reader(const uint8_t* p, size_t n, const char* what) : p_(p), n_(n), what_(what) {}
+  uint8_t u8() { return need(1), p_[pos_++]; }
+  uint16_t u16() {
+    const uint16_t hi = u8();
+    return static_cast<uint16_t>(hi << 8 | u8());
+  }
+  uint32_t u32() {
+    const uint32_t hi = u16();
+    return hi << 16 | u16();
+  }
+  uint64_t u64() {
+    const uint64_t hi = u32();
+    return hi << 32 | u32();
+  }
+  double f64() {
+    const uint64_t v = u64();
+    double d;
+    std::memcpy(&d, &v, 8);
+    return d;
+  }
+  size_t pos() const { return pos_; }
+
+ private:
+  void need(size_t k) {
+    if (pos_ + k > n_)
+      throw WireError(std::string(what_) + ": truncated at byte " + std::to_string(pos_) + " of " +
+                      std::to_string(n_));
+  }
+  const uint8_t* p_;
+  size_t n_, pos_ = 0;
+  const char* what_;
+};
+
+uint32_t crc(const uint8_t* a, size_t na, const uint8_t* b = nullptr, size_t nb = 0) {
+  uLong c = crc32(0L, Z_NULL, 0);
+  c = crc32(c, a, static_cast<uInt>(na));
+  if (nb) c = crc32(c, b, static_cast<uInt>(nb));
+  return static_cast<uint32_t>(c);
+}
+
+struct TjDeleter {
+  void operator()(void* h) const {
+    if (h) tjDestroy(h);
+  }
+};
+using TjHandle = std::unique_ptr<void, TjDeleter>;
+
+tjhandle compressor() {
+  thread_local TjHandle h(tjInitCompress());
+  if (!h) throw std::runtime_error("TurboJPEG: cannot create a compressor");
+  return h.get();
+}
+tjhandle decompressor() {
+  thread_local TjHandle h(tjInitDecompress());
+  if (!h) throw std::runtime_error("TurboJPEG: cannot create a decompressor");
+  return h.get();
+}
+
+[[noreturn]] void bad_fragment(const std::string& what) {
+  throw WireError("fragment: " + what);
+}
+
+}  // namespace
+
+std::vector<uint8_t> serialize_fragment(const Fragment& f, Encoding enc, int quality) {
+  check_fragment(f);
+  if (quality < 1 || quality > 100)
+    throw std::invalid_argument("serialize_fragment: JPEG quality must be 1..100");
+  if (f.empty()) enc = Encoding::kEmpty;
+  std::vector<uint8_t> payload;
+  if (enc != Encoding::kEmpty) {
+    Writer p(payload);
+    for (const auto& s : f.spans) {
+      p.u16(static_cast<uint16_t>(s[0] - f.rect.x));
+      p.u16(static_cast<uint16_t>(s[1] - f.rect.x));
+    }
+    if (enc == Encoding::kRaw) {
+      p.bytes(f.pixels.data(), f.pixels.size());
+    } else if (enc == Encoding::kJpeg) {
+      const int w = f.rect.width, h = f.rect.height;
+      std::vector<uint8_t> full(static_cast<size_t>(w) * h * 4, 0);
+      const uint8_t* src = f.pixels.data();
+      for (int r = 0; r < h; ++r) {
+        const int n = 4 * (f.spans[r][1] - f.spans[r][0]);
+        std::memcpy(full.data() + (static_cast<size_t>(r) * w + f.spans[r][0] - f.rect.x) * 4, src,
+                    n);
+        src += n;
+      }
+      unsigned char* jpeg = nullptr;
+      unsigned long jsize = 0;
+      if (tjCompress2(compressor(), full.data(), w, w * 4, h, TJPF_CMYK, &jpeg, &jsize, TJSAMP_420,
+                      quality, 0) != 0) {
+        const std::string err = tjGetErrorStr2(compressor());
+        tjFree(jpeg);
+        throw std::runtime_error("fragment JPEG compression failed: " + err);
+      }
+      p.bytes(jpeg, jsize);
+      tjFree(jpeg);
+    } else {
+      throw std::invalid_argument("serialize_fragment: unknown encoding");
+    }
+  }
+  if (payload.size() > kMaxPayload)
+    throw std::invalid_argument("serialize_fragment: payload exceeds 64 MiB");
+  std::vector<uint8_t> out;
+  out.reserve(kFragmentHeaderSize + payload.size());
+  Writer w(out);
+  w.bytes("LFFR", 4);
+  w.u16(1);
+  w.u16(kFragmentHeaderSize);
+  w.u32(f.viewer_id);
+  w.u64(f.sequence);
+  w.u32(f.camera_id);
+  w.u64(static_cast<uint64_t>(f.capture_time_ns));
+  w.u16(static_cast<uint16_t>(f.out_width));
+  w.u16(static_cast<uint16_t>(f.out_height));
+  const bool e = enc == Encoding::kEmpty;
+  w.u16(e ? 0 : f.rect.x), w.u16(e ? 0 : f.rect.y);
+  w.u16(e ? 0 : f.rect.width), w.u16(e ? 0 : f.rect.height);
+  w.u8(static_cast<uint8_t>(enc));
+  w.u8(enc == Encoding::kJpeg ? static_cast<uint8_t>(quality) : 0);
+  w.u16(0);
+  w.u32(static_cast<uint32_t>(payload.size()));
+  w.u32(crc(out.data(), out.size(), payload.data(), payload.size()));
+  w.bytes(payload.data(), payload.size());
+  return out;
+}
+
+Fragment parse_fragment(const uint8_t* data, size_t size, Encoding* enc_out) {
+  if (data == nullptr && size > 0) bad_fragment("null buffer");
+  if (size < kFragmentHeaderSize)
+    bad_fragment("truncated header (" + std::to_string(size) + " of " +
+                 std::to_string(kFragmentHeaderSize) + " bytes)");
+  Reader r(data, size, "fragment");
+  if (std::memcmp(data, "LFFR", 4) != 0) bad_fragment("bad magic (not an lf fragment)");
+  for (int i = 0; i < 4; ++i) r.u8();
+  const uint16_t version = r.u16();
+  if (version != 1) bad_fragment("unsupported version " + std::to_string(version));
+  const uint16_t hsize = r.u16();
+  if (hsize != kFragmentHeaderSize) bad_fragment("bad header size " + std::to_string(hsize));
+  Fragment f;
+  f.viewer_id = r.u32();
+  f.sequence = r.u64();
+  f.camera_id = r.u32();
+  f.capture_time_ns = static_cast<int64_t>(r.u64());
+  f.out_width = r.u16();
+  f.out_height = r.u16();
+  const int x = r.u16(), y = r.u16(), w = r.u16(), h = r.u16();
+  const uint8_t enc = r.u8();
+  r.u8();  // quality, informational
+  const uint16_t reserved = r.u16();
+  const uint32_t psize = r.u32();
+  const uint32_t sum = r.u32();
+  if (reserved != 0) bad_fragment("reserved field is not zero");
+  if (f.out_width < 1 || f.out_height < 1 || f.out_width > 16384 || f.out_height > 16384)
+    bad_fragment("output size " + std::to_string(f.out_width) + "x" + std::to_string(f.out_height) +
+                 " out of range 1..16384");
+  if (psize > kMaxPayload)
+    bad_fragment("payload size " + std::to_string(psize) + " exceeds 64 MiB");
+  if (size != kFragmentHeaderSize + psize)
+    bad_fragment("buffer is " + std::to_string(size) + " bytes, header announces " +
+                 std::to_string(kFragmentHeaderSize + psize) +
+                 (size < kFragmentHeaderSize + psize ? " (truncated)" : " (trailing bytes)"));
+  const uint8_t* payload = data + kFragmentHeaderSize;
+  if (crc(data, kFragmentHeaderSize - 4, payload, psize) != sum)
+    bad_fragment("CRC mismatch (corrupt data)");
+  if (enc > 2) bad_fragment("unknown encoding " + std::to_string(enc));
+  if (enc_out) *enc_out = static_cast<Encoding>(enc);
+  if (enc == 0) {
+    if (x || y || w || h || psize) bad_fragment("empty fragment with a rectangle or payload");
+    return f;
+  }
+  if (w == 0 || h == 0) bad_fragment("non-empty fragment with an empty rectangle");
+  if (x + w > f.out_width || y + h > f.out_height)
+    bad_fragment("rectangle " + std::to_string(w) + "x" + std::to_string(h) + "+" +
+                 std::to_string(x) + "+" + std::to_string(y) + " exceeds the output frame");
+  f.rect = cv::Rect(x, y, w, h);
+  Reader p(payload, psize, "fragment payload");
+  size_t npix = 0;
+  f.spans.resize(h);
+  for (int row = 0; row < h; ++row) {
+    const int b = p.u16(), e = p.u16();
+    if (b > e || e > w)
+      bad_fragment("row " + std::to_string(row) + " span [" + std::to_string(b) + ", " +
+                   std::to_string(e) + ") outside width " + std::to_string(w));
+    f.spans[row] = {static_cast<uint16_t>(x + b), static_cast<uint16_t>(x + e)};
+    npix += e - b;
+  }
+  const size_t rest = psize - p.pos();
+  const uint8_t* body = payload + p.pos();
+  if (enc == 1) {
+    if (rest != 4 * npix)
+      bad_fragment("raw payload has " + std::to_string(rest) + " pixel bytes, spans need " +
+                   std::to_string(4 * npix));
+    f.pixels.assign(body, body + rest);
+  } else {
+    int jw = 0, jh = 0, sub = 0, cs = 0;
+    if (tjDecompressHeader3(decompressor(), body, rest, &jw, &jh, &sub, &cs) != 0)
+      bad_fragment(std::string("JPEG header: ") + tjGetErrorStr2(decompressor()));
+    if (jw != w || jh != h)
+      bad_fragment("JPEG is " + std::to_string(jw) + "x" + std::to_string(jh) + ", rectangle is " +
+                   std::to_string(w) + "x" + std::to_string(h));
+    if (cs != TJCS_YCCK && cs != TJCS_CMYK) bad_fragment("JPEG is not a 4-component image");
+    std::vector<uint8_t> full(static_cast<size_t>(w) * h * 4);
+    if (tjDecompress2(decompressor(), body, rest, full.data(), w, w * 4, h, TJPF_CMYK,
+                      TJFLAG_STOPONWARNING) != 0)
+      bad_fragment(std::string("JPEG data: ") + tjGetErrorStr2(decompressor()));
+    f.pixels.resize(4 * npix);
+    uint8_t* dst = f.pixels.data();
+    for (int row = 0; row < h; ++row) {
+      const int n = 4 * (f.spans[row][1] - f.spans[row][0]);
+      std::memcpy(dst, full.data() + (static_cast<size_t>(row) * w + f.spans[row][0] - x) * 4, n);
+      dst += n;
+    }
+  }
+  check_fragment(f);
+  return f;
+}
+
+cv::Vec4d quaternion_from_rotation(const cv::Matx33d& R) {
+  // Shepperd's method.
+  const double tr = R(0, 0) + R(1, 1) + R(2, 2);
+  cv::Vec4d q;
+  if (tr > 0) {
+    const double s = 2.0 * std::sqrt(1.0 + tr);
+    q = {0.25 * s, (R(2, 1) - R(1, 2)) / s, (R(0, 2) - R(2, 0)) / s, (R(1, 0) - R(0, 1)) / s};
+  } else if (R(0, 0) > R(1, 1) && R(0, 0) > R(2, 2)) {
+    const double s = 2.0 * std::sqrt(1.0 + R(0, 0) - R(1, 1) - R(2, 2));
+    q = {(R(2, 1) - R(1, 2)) / s, 0.25 * s, (R(0, 1) + R(1, 0)) / s, (R(0, 2) + R(2, 0)) / s};
+  } else if (R(1, 1) > R(2, 2)) {
+    const double s = 2.0 * std::sqrt(1.0 + R(1, 1) - R(0, 0) - R(2, 2));
+    q = {(R(0, 2) - R(2, 0)) / s, (R(0, 1) + R(1, 0)) / s, 0.25 * s, (R(1, 2) + R(2, 1)) / s};
+  } else {
+    const double s = 2.0 * std::sqrt(1.0 + R(2, 2) - R(0, 0) - R(1, 1));
+    q = {(R(1, 0) - R(0, 1)) / s, (R(0, 2) + R(2, 0)) / s, (R(1, 2) + R(2, 1)) / s, 0.25 * s};
+  }
+  return q / cv::norm(q);
+}
+
+cv::Matx33d rotation_from_quaternion(const cv::Vec4d& qin) {
+  const cv::Vec4d q = qin / cv::norm(qin);
+  const double w = q[0], x = q[1], y = q[2], z = q[3];
+  return {1 - 2 * (y * y + z * z), 2 * (x * y - z * w),     2 * (x * z + y * w),
+          2 * (x * y + z * w),     1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
+          2 * (x * z - y * w),     2 * (y * z + x * w),     1 - 2 * (x * x + y * y)};
+}
+
+std::vector<uint8_t> serialize_request(const ViewRequest& req) {
+  validate(req);
+  std::vector<uint8_t> out;
+  out.reserve(kRequestSize);
+  Writer w(out);
+  w.bytes("LFVR", 4);
+  w.u16(1);
+  w.u16(kRequestSize);
+  w.u32(req.viewer_id);
+  w.u64(req.sequence);
+  for (int i = 0; i < 3; ++i) w.f64(req.view.position[i]);
+  const cv::Vec4d q = quaternion_from_rotation(req.view.R);
+  for (int i = 0; i < 4; ++i) w.f64(q[i]);
+  w.f64(req.view.vfov_deg);
+  w.u16(static_cast<uint16_t>(req.view.width));
+  w.u16(static_cast<uint16_t>(req.view.height));
+  w.f64(req.view.shift_x);
+  w.f64(req.view.shift_y);
+  for (int i = 0; i < 3; ++i) w.f64(req.focal_plane.n[i]);
+  w.f64(req.focal_plane.d);
+  w.u8(static_cast<uint8_t>(req.aperture));
+  w.u8(0), w.u8(0), w.u8(0);
+  w.u32(crc(out.data(), out.size()));
+  return out;
+}
+
+ViewRequest parse_request(const uint8_t* data, size_t size) {
+  auto bad = [](const std::string& what) { throw WireError("view request: " + what); };
+  if (data == nullptr && size > 0) bad("null buffer");
+  if (size < kRequestSize)
+    bad("truncated (" + std::to_string(size) + " of " + std::to_string(kRequestSize) + " bytes)");
+  if (std::memcmp(data, "LFVR", 4) != 0) bad("bad magic (not an lf view request)");
+  Reader r(data, size, "view request");
+  for (int i = 0; i < 4; ++i) r.u8();
+  const uint16_t version = r.u16();
+  if (version != 1) bad("unsupported version " + std::to_string(version));
+  const uint16_t total = r.u16();
+  if (total != kRequestSize || size != kRequestSize)
+    bad("size " + std::to_string(size) + " (announced " + std::to_string(total) + "), expected " +
+        std::to_string(kRequestSize));
+  ViewRequest req;
+  req.viewer_id = r.u32();
+  req.sequence = r.u64();
+  for (int i = 0; i < 3; ++i) req.view.position[i] = r.f64();
+  cv::Vec4d q;
+  for (int i = 0; i < 4; ++i) q[i] = r.f64();
+  req.view.vfov_deg = r.f64();
+  req.view.width = r.u16();
+  req.view.height = r.u16();
+  req.view.shift_x = r.f64();
+  req.view.shift_y = r.f64();
+  for (int i = 0; i < 3; ++i) req.focal_plane.n[i] = r.f64();
+  req.focal_plane.d = r.f64();
+  const uint8_t ap = r.u8();
+  const uint8_t r0 = r.u8(), r1 = r.u8(), r2 = r.u8();
+  const uint32_t sum = r.u32();
+  if (crc(data, kRequestSize - 4) != sum) bad("CRC mismatch (corrupt data)");
+  if (r0 || r1 || r2) bad("reserved bytes are not zero");
+  if (ap != 0) bad("unknown aperture " + std::to_string(ap));
+  const double qn = cv::norm(q);
+  if (!std::isfinite(qn) || std::abs(qn - 1.0) > 1e-6) bad("orientation quaternion is not unit");
+  req.view.R = rotation_from_quaternion(q);
+  try {
+    validate(req);
+  } catch (const std::invalid_argument& e) {
+    throw WireError(e.what());
+  }
+  return req;
+}
+
+}  // namespace lf

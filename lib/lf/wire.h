@@ -1,0 +1,70 @@
+// Wire formats for fragments and view requests: one serializer and one
+// validating parser shared by senders and receivers (metas do not survive
+// RTP, so everything a receiver needs travels in band).
+//
+// All integers and IEEE-754 doubles are big-endian (network order). Every
+// message ends with (fragment: its header ends with) a CRC-32 (zlib) over the
+// header and the payload, so corruption is detected, not rendered.
+//
+// Fragment, version 1: 56-byte header
+//   0  "LFFR"            4 bytes magic
+//   4  version  u16      = 1
+//   6  header   u16      = 56
+//   8  viewer_id u32, 12 sequence u64, 20 camera_id u32, 24 capture_time_ns i64
+//  32  out_width u16, 34 out_height u16 (the output frame, 1..16384)
+//  36  rect x, y, w, h  u16 x 4 (inside the output frame; all 0 when empty)
+//  44  encoding u8 (0 empty, 1 raw, 2 jpeg), 45 jpeg quality u8, 46 reserved u16 (0)
+//  48  payload_size u32 (<= 64 MiB), 52 crc32 u32 (bytes 0..51, then payload)
+// Payload: rect.h row spans (u16 begin, u16 end, relative to rect.x, begin <=
+// end <= w), then
+//   raw:  the span pixels, 4 bytes each, row after row;
+//   jpeg: a 4-component (YCCK, via TurboJPEG's CMYK path: 4:2:0 chroma,
+//         full-resolution 4th channel) JPEG of the w x h rectangle; pixels
+//         outside the spans are ignored.
+//
+// View request, version 1: 144 bytes
+//   0 "LFVR", 4 version u16 = 1, 6 size u16 = 144, 8 viewer_id u32, 12 sequence u64,
+//  20 position f64 x 3, 44 orientation quaternion (w, x, y, z) f64 x 4 (world -> view,
+//     unit within 1e-6), 76 vfov_deg f64, 84 width u16, 86 height u16,
+//  88 shift_x f64, 96 shift_y f64, 104 focal plane n f64 x 3, 128 d f64,
+// 136 aperture u8, 137 reserved 3 bytes (0), 140 crc32 u32 (bytes 0..139).
+#pragma once
+
+#include <cstdint>
+#include <stdexcept>
+#include <vector>
+
+#include "lf/fragment.h"
+#include "lf/view.h"
+
+namespace lf {
+
+enum class Encoding : uint8_t { kEmpty = 0, kRaw = 1, kJpeg = 2 };
+
+// Thrown by the parsers; the message names the field and what is wrong.
+struct WireError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+constexpr size_t kFragmentHeaderSize = 56;
+constexpr size_t kRequestSize = 144;
+constexpr size_t kMaxPayload = 64u << 20;
+
+// Serializes a fragment (empty fragments are always sent as kEmpty).
+// jpeg_quality in 1..100. Throws std::invalid_argument on an inconsistent
+// fragment.
+std::vector<uint8_t> serialize_fragment(const Fragment& f, Encoding encoding,
+                                        int jpeg_quality = 90);
+// Parses and validates; the result passes check_fragment(). `encoding`
+// receives the payload's encoding if not null.
+Fragment parse_fragment(const uint8_t* data, size_t size, Encoding* encoding = nullptr);
+
+std::vector<uint8_t> serialize_request(const ViewRequest& r);
+// Parses and validates (including lf::validate()).
+ViewRequest parse_request(const uint8_t* data, size_t size);
+
+// Rotation matrix <-> unit quaternion (w, x, y, z).
+cv::Vec4d quaternion_from_rotation(const cv::Matx33d& R);
+cv::Matx33d rotation_from_quaternion(const cv::Vec4d& q);
+
+}  // namespace lf

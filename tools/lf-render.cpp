@@ -1,0 +1,208 @@
+// lf-render: offline light field rendering of one view or a camera path.
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "cli.h"
+#include "lf/datasets.h"
+
+namespace {
+
+const char* kHelp =
+    R"(lf-render: render virtual views of a light field (finite-viewpoints renderer of
+Yang et al. 2002: per-camera fragments through a focal plane, tent aperture over
+the camera triangulation, additive compositing with renormalisation).
+
+usage: lf-render --input PATH [view] [options] --out FILE
+
+input
+  --input PATH          dataset folder (Stanford out_*.png, HCI parameters.cfg,
+                        Blender 'Original Camera_*', Middlebury *_par.txt) or a
+                        rig file (.json, see --save-rig)
+  --block R0,C0,ROWS,COLS  only the cameras of this block of the grid
+  --input-scale S       resize camera images by S first (default 1; 0.5 halves)
+  --save-rig FILE       write the rig file (JSON) and continue
+
+view (one of; default: --orbit 0.6)
+  --at X,Y[,Z]          one view at this position in rig units (the dataset's own
+                        units: Stanford X,Y from the file names, HCI/Blender
+                        metres); orientation and intrinsics follow the cameras
+                        (interpolated between the surrounding ones)
+  --eye X,Y,Z --look-at X,Y,Z [--vfov DEG]   one view with a full pose
+  --path FILE           keyframed camera path (JSON, see README)
+  --orbit R             circular path on the camera plane, radius R x half the
+                        array's extent
+  --dolly D             with --orbit: also move +-D rig units along the plane normal
+  --frames N            frames of a path (default 60)
+
+rendering
+  --size WxH            output size in pixels (default 640x480)
+  --focal SPEC          focal plane: auto (default; photo-consistency, chosen from
+                        the images), infinity, depth:Z (rig units from the camera
+                        plane), param:A (light-slab focal parameter: Stanford's
+                        pixels of shift per position unit), plane:nx,ny,nz,d
+  --refocus-every N     with --focal auto on a path: re-run auto-focus every N
+                        frames (default 15)
+  --threads N           render cameras in parallel (default: all cores)
+
+output
+  --out FILE            .png: one image (a path writes FILE with _0000, _0001, ...)
+                        .avi (Motion JPEG) or .mp4 (MPEG-4 part 2): a video
+  --fps F               video frame rate (default 30)
+  --quiet               no progress output
+)";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i)
+    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
+      std::cout << kHelp;
+      return 0;
+    }
+  try {
+    cli::Args args(argc, argv,
+                   {"--input", "--block", "--input-scale", "--save-rig", "--at", "--eye",
+                    "--look-at", "--vfov", "--path", "--orbit", "--dolly", "--frames", "--size",
+                    "--focal", "--refocus-every", "--threads", "--out", "--fps"},
+                   {"--quiet"});
+    if (!args.has("--input")) throw std::invalid_argument("--input is required (see --help)");
+    if (!args.has("--out")) throw std::invalid_argument("--out is required (see --help)");
+    const bool quiet = args.has("--quiet");
+    lf::Rig rig = lf::load_rig_or_dataset(args.get("--input"));
+    if (args.has("--block")) {
+      const auto b = args.numbers("--block", 4, 4);
+      rig = lf::grid_block(rig, int(b[0]), int(b[1]), int(b[2]), int(b[3]));
+    }
+    if (args.has("--input-scale")) rig = lf::scale_rig(rig, args.number("--input-scale", 1));
+    if (args.has("--save-rig")) lf::save_rig(rig, args.get("--save-rig"));
+    int W = 640, H = 480;
+    if (args.has("--size")) cli::parse_size(args.get("--size"), W, H);
+    const int threads = args.integer("--threads", cv::getNumberOfCPUs());
+    if (!quiet)
+      std::fprintf(stderr, "rig '%s': %zu cameras (%s), loading images\n", rig.name.c_str(),
+                   rig.cameras.size(),
+                   rig.grid.empty() ? "unstructured"
+                                    : (std::to_string(rig.grid.rows) + "x" +
+                                       std::to_string(rig.grid.cols) + " grid")
+                                          .c_str());
+    const auto images = lf::load_images(rig, [&](int k, int n) {
+      if (!quiet) cli::progress("images", k, n);
+    });
+
+    // Views.
+    std::vector<lf::VirtualView> views;
+    bool closed = false;
+    if (args.has("--at")) {
+      const auto p = args.numbers("--at", 2, 3);
+      cv::Vec3d eye(p[0], p[1], 0);
+      if (p.size() == 3) {
+        eye[2] = p[2];
+      } else {  // on the camera plane: solve its equation for z
+        const lf::CameraPlane& P = rig.plane();
+        if (std::abs(P.normal[2]) < 1e-9)
+          throw std::invalid_argument("--at X,Y: the camera plane is vertical here; give X,Y,Z");
+        eye[2] =
+            P.origin[2] -
+            (P.normal[0] * (p[0] - P.origin[0]) + P.normal[1] * (p[1] - P.origin[1])) / P.normal[2];
+      }
+      views.push_back(lf::view_between_cameras(rig, eye, W, H));
+    } else if (args.has("--eye")) {
+      const auto e = args.numbers("--eye", 3, 3);
+      if (!args.has("--look-at")) throw std::invalid_argument("--eye needs --look-at");
+      const auto l = args.numbers("--look-at", 3, 3);
+      const cv::Matx33d& R = rig.cameras[0].extrinsics.R;
+      views.push_back(lf::VirtualView::look_at({e[0], e[1], e[2]}, {l[0], l[1], l[2]},
+                                               {R(1, 0), R(1, 1), R(1, 2)},
+                                               args.number("--vfov", 50), W, H));
+    } else {
+      const int frames = args.integer("--frames", 60);
+      if (frames < 1 || frames > 100000) throw std::invalid_argument("--frames out of range");
+      std::vector<cli::Keyframe> keys;
+      if (args.has("--path")) {
+        keys = cli::load_path(args.get("--path"));
+      } else {
+        keys = cli::orbit_path(rig, args.number("--orbit", 0.6), args.number("--dolly", 0), 24);
+        closed = true;
+      }
+      views = cli::sample_path(rig, keys, frames, W, H, closed);
+    }
+
+    const cli::FocalSpec focal = cli::parse_focal(args.get("--focal", "auto"), rig);
+    std::unique_ptr<lf::AutofocusContext> af;
+    if (focal.kind == cli::FocalSpec::kAuto)
+      af = std::make_unique<lf::AutofocusContext>(rig, images);
+    const int refocus = std::max(1, args.integer("--refocus-every", 15));
+
+    const std::string out = args.get("--out");
+    const std::string ext = std::filesystem::path(out).extension().string();
+    cv::VideoWriter video;
+    if (ext == ".avi" || ext == ".mp4") {
+      const int fourcc = ext == ".avi" ? cv::VideoWriter::fourcc('M', 'J', 'P', 'G')
+                                       : cv::VideoWriter::fourcc('m', 'p', '4', 'v');
+      if (!video.open(out, cv::CAP_FFMPEG, fourcc, args.number("--fps", 30), cv::Size(W, H)))
+        throw std::runtime_error("cannot open video " + out + " for writing");
+    } else if (ext != ".png") {
+      throw std::invalid_argument("--out must end in .png, .avi or .mp4");
+    }
+
+    lf::FocalPlane plane = focal.plane;
+    double total_ms = 0;
+    size_t frag_px = 0;
+    for (size_t f = 0; f < views.size(); ++f) {
+      lf::ViewRequest req;
+      req.sequence = f;
+      req.view = views[f];
+      if (af && f % refocus == 0) {
+        req.focal_plane = lf::FocalPlane::infinity();
+        const auto r = af->run(req);
+        plane = r.plane;
+        if (!quiet && views.size() == 1) {
+          std::fprintf(stderr, "auto-focus: inverse depth %.6g /%s", r.inverse_depth,
+                       rig.unit.c_str());
+          if (rig.has_focal_param)
+            std::fprintf(stderr, " (focal parameter %.4f)",
+                         lf::focal_param_from_inverse_depth(rig, r.inverse_depth));
+          std::fprintf(stderr, "\n");
+        }
+      }
+      req.focal_plane = plane;
+      lf::RenderStats st;
+      const auto t0 = std::chrono::steady_clock::now();
+      const cv::Mat img = lf::render_view(rig, images, req, &st, threads);
+      total_ms +=
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      frag_px += st.fragment_pixels;
+      cv::Mat bgr;
+      cv::cvtColor(img, bgr, cv::COLOR_BGRA2BGR);
+      if (video.isOpened()) {
+        video.write(bgr);
+      } else {
+        std::string name = out;
+        if (views.size() > 1) {
+          char suffix[16];
+          std::snprintf(suffix, sizeof suffix, "_%04zu", f);
+          name = (std::filesystem::path(out).parent_path() /
+                  (std::filesystem::path(out).stem().string() + suffix + ".png"))
+                     .string();
+        }
+        if (!cv::imwrite(name, bgr)) throw std::runtime_error("cannot write " + name);
+      }
+      if (!quiet) cli::progress("render", static_cast<int>(f + 1), static_cast<int>(views.size()));
+    }
+    if (!quiet)
+      std::fprintf(stderr,
+                   "%zu frame(s) %dx%d from %zu cameras: %.1f ms/frame render, fragment pixels "
+                   "%.2fx the output; wrote %s\n",
+                   views.size(), W, H, rig.cameras.size(), total_ms / views.size(),
+                   static_cast<double>(frag_px) / views.size() / (double(W) * H), out.c_str());
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "lf-render: error: %s\n", e.what());
+    return 1;
+  }
+}
