@@ -275,7 +275,8 @@ void Rig::build_simplices() {
     std::sort(order.begin(), order.end(),
               [&](int a, int b) { return plane_pos_[a][0] < plane_pos_[b][0]; });
     // Facet k: the point s = s_k, form (1, 0, -s_k) (positive beyond it).
-    for (int idx : order) facets_.push_back({1.0, 0.0, -plane_pos_[idx][0]});
+    for (int idx : order)
+      facets_.push_back({1.0, 0.0, -plane_pos_[idx][0], plane_pos_[idx][0], 0.0});
     for (size_t k = 0; k + 1 < order.size(); ++k) {
       Simplex s;
       s.size = 2;
@@ -296,7 +297,7 @@ void Rig::build_simplices() {
     if (it != edge_index.end()) return it->second;
     const cv::Vec2d& p = plane_pos_[lo];
     const cv::Vec2d d = plane_pos_[hi] - p;
-    facets_.push_back({-d[1], d[0], d[1] * p[0] - d[0] * p[1]});
+    facets_.push_back({-d[1], d[0], d[1] * p[0] - d[0] * p[1], p[0], p[1]});
     const int id = static_cast<int>(facets_.size()) - 1;
     edge_index[{lo, hi}] = id;
     return id;

@@ -51,10 +51,14 @@ struct CameraPlane {
   double signed_distance(const cv::Vec3d& X) const { return (X - origin).dot(normal); }
 };
 
-// Linear form a*s + b*t + c over the camera plane.
+// Linear form a*s + b*t + c over the camera plane, zero on its facet. It is
+// evaluated as a (s - s0) + b (t - t0) from a stored point (s0, t0) of the
+// facet, which is exactly zero at both end points of an edge whatever the
+// rounding (so the tie rule sees exact zeros at vertices).
 struct Form2 {
   double a = 0, b = 0, c = 0;
-  double operator()(const cv::Vec2d& p) const { return a * p[0] + b * p[1] + c; }
+  double s0 = 0, t0 = 0;
+  double operator()(const cv::Vec2d& p) const { return a * (p[0] - s0) + b * (p[1] - t0); }
 };
 
 struct Simplex {

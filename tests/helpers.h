@@ -1,0 +1,40 @@
+// Shared checks for the tests.
+#pragma once
+
+#include <string>
+
+#include "lf/plan.h"
+#include "lf/rig.h"
+
+namespace testing_lf {
+
+// Path under ../shared/data.
+std::string data_path(const std::string& rel);
+
+struct WeightCheck {
+  size_t seen = 0;  // pixels whose line meets the camera surface (locate())
+  size_t unseen = 0;
+  // max |sum of fragment weights - sum of aperture weights of the cameras
+  // that see the pixel's focal point| over seen pixels (= |sum - 1| when
+  // every camera sees it, i.e. invisible == 0)
+  double max_sum_error = 0;
+  size_t invisible = 0;                   // (pixel, camera) pairs with weight the camera cannot see
+  double max_unseen_sum = 0;              // max sum of weights over unseen pixels
+  double min_weight = 1, max_weight = 0;  // over all fragment pixels
+  size_t coverage_mismatch = 0;           // pixels where plan runs != (locate weight > 0)
+  size_t rect_mismatch = 0;               // fragments whose rect != bbox of nonzero-weight pixels
+  size_t overlaps = 0;                    // pixels claimed twice by one camera's runs
+  bool finite = true;
+  size_t fragment_pixels = 0;
+};
+
+// Plans every camera's fragment for the request and checks the weights
+// against ViewGeometry::locate() at every output pixel (brute force).
+WeightCheck check_weights(const lf::Rig& rig, const lf::ViewRequest& req);
+
+// Asserts the invariants every view must satisfy.
+// all_visible: the view is an ordinary one where every camera sees every
+// focal point it is weighted for (so weights sum to exactly 1).
+void expect_valid(const WeightCheck& c, const std::string& what, bool all_visible = true);
+
+}  // namespace testing_lf
