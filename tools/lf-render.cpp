@@ -74,6 +74,8 @@ int main(int argc, char** argv) {
     if (!args.has("--out")) throw std::invalid_argument("--out is required (see --help)");
     const bool quiet = args.has("--quiet");
     lf::Rig rig = lf::load_rig_or_dataset(args.get("--input"));
+    if (!quiet)
+      for (const auto& w : rig.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     if (args.has("--block")) {
       const auto b = args.numbers("--block", 4, 4);
       rig = lf::grid_block(rig, int(b[0]), int(b[1]), int(b[2]), int(b[3]));

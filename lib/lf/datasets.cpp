@@ -288,7 +288,13 @@ Rig import_middlebury(const std::string& folder) {
     const cv::Size s = image_size(c.image);
     c.width = s.width;
     c.height = s.height;
-    rig.cameras.push_back(c);
+    bool duplicate = false;
+    for (const Camera& o : rig.cameras)
+      if (cv::norm(o.center() - c.center()) < 1e-6) {
+        rig.warnings.push_back(name + " has the same camera centre as " + o.name + ": dropped");
+        duplicate = true;
+      }
+    if (!duplicate) rig.cameras.push_back(c);
   }
   rig.finalize();
   return rig;

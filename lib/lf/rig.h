@@ -83,6 +83,10 @@ class Rig {
   // per rig unit of camera displacement. The plane parallel to the camera
   // plane at depth z (along the normal, from the plane) has
   // a = a_infinity - f_px / z, i.e. z = f_px / (a_infinity - a).
+  // Notes from importers about input they had to adapt (e.g. a duplicate
+  // viewpoint dropped); tools print them.
+  std::vector<std::string> warnings;
+
   bool has_focal_param = false;
   double focal_param_f_px = 0.0;
   double focal_param_infinity = 0.0;

@@ -1,0 +1,170 @@
+// Fragment rendering and compositing against analytically rendered images of
+// a textured plane (exact ground truth when the focal plane is that plane).
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "lf/renderer.h"
+#include "lf/synthetic.h"
+
+namespace {
+
+constexpr double kDepth = 10.0, kPeriod = 1.0;
+
+lf::Camera camera_of(const lf::VirtualView& v) {
+  lf::Camera c;
+  c.width = v.width;
+  c.height = v.height;
+  c.intrinsics = v.intrinsics();
+  c.extrinsics = lf::Extrinsics::from_center(v.R, v.position);
+  return c;
+}
+
+// PSNR over pixels the render covered (alpha 255); also returns coverage.
+double covered_psnr(const cv::Mat& out, const cv::Mat& truth, double* coverage = nullptr) {
+  double se = 0;
+  size_t n = 0;
+  for (int y = 0; y < out.rows; ++y)
+    for (int x = 0; x < out.cols; ++x) {
+      const auto a = out.at<cv::Vec4b>(y, x), b = truth.at<cv::Vec4b>(y, x);
+      if (a[3] != 255) continue;
+      for (int c = 0; c < 3; ++c) se += (a[c] - b[c]) * (a[c] - b[c]);
+      ++n;
+    }
+  if (coverage) *coverage = static_cast<double>(n) / (out.rows * out.cols);
+  return n ? 10 * std::log10(255.0 * 255.0 * 3 * n / std::max(se, 1e-9)) : 0;
+}
+
+std::vector<cv::Mat> images_of(const lf::Rig& rig) {
+  std::vector<cv::Mat> im;
+  for (const auto& c : rig.cameras) im.push_back(lf::render_textured_plane(c, kDepth, kPeriod));
+  return im;
+}
+
+lf::ViewRequest view_at(const cv::Vec3d& eye, const cv::Vec3d& target) {
+  lf::ViewRequest r;
+  r.view = lf::VirtualView::look_at(eye, target, {0, 1, 0}, 35, 200, 150);
+  r.focal_plane = lf::FocalPlane::through({0, 0, kDepth}, {0, 0, 1});
+  return r;
+}
+
+TEST(Render, MatchesAnalyticImageOfTheFocalPlane) {
+  const lf::Rig rig = lf::synthetic_grid_rig(5, 5, 0.5, 240, 180, 50, 2.0, 4);
+  const auto images = images_of(rig);
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int k = 0; k < 6; ++k) {
+    const cv::Vec3d eye(0.7 * u(rng), 0.7 * u(rng), k % 2 ? 0.0 : 1.5 * u(rng));
+    const auto req = view_at(eye, {u(rng), u(rng), kDepth});
+    lf::RenderStats st;
+    const cv::Mat out = lf::render_view(rig, images, req, &st);
+    const cv::Mat truth = lf::render_textured_plane(camera_of(req.view), kDepth, kPeriod);
+    double cov;
+    const double p = covered_psnr(out, truth, &cov);
+    EXPECT_GT(cov, 0.9) << "view " << k;
+    EXPECT_GT(p, 40.0) << "view " << k;
+  }
+}
+
+TEST(Render, LensDistortionIsAppliedToSamplingCoordinates) {
+  lf::Rig rig = lf::synthetic_grid_rig(4, 4, 0.5, 240, 180, 50, 1.0, 8);
+  for (auto& c : rig.cameras) c.intrinsics.k1 = -0.2, c.intrinsics.k2 = 0.05;
+  rig.finalize();
+  const auto images = images_of(rig);  // distorted images
+  const auto req = view_at({0.1, -0.2, 0.0}, {0.3, 0.2, kDepth});
+  const cv::Mat truth = lf::render_textured_plane(camera_of(req.view), kDepth, kPeriod);
+  const double with = covered_psnr(lf::render_view(rig, images, req), truth);
+  lf::Rig ignorant = rig;  // same images, distortion ignored
+  for (auto& c : ignorant.cameras) c.intrinsics.k1 = c.intrinsics.k2 = 0;
+  ignorant.finalize();
+  const double without = covered_psnr(lf::render_view(ignorant, images, req), truth);
+  EXPECT_GT(with, 38.0);
+  EXPECT_LT(without, with - 10.0);
+}
+
+TEST(Render, AccumulatedWeightIsFullWhereverTheSurfaceIsSeen) {
+  const lf::Rig rig = lf::synthetic_grid_rig(4, 4, 0.5, 240, 180, 50);
+  const auto images = images_of(rig);
+  const auto req = view_at({0.2, 0.1, -1.0}, {0.0, 0.0, kDepth});
+  const lf::ViewGeometry g(rig, req);
+  lf::Compositor comp;
+  comp.reset(req.view.width, req.view.height);
+  for (size_t i = 0; i < rig.cameras.size(); ++i) {
+    lf::Fragment f;
+    lf::render_fragment(lf::plan_fragment(g, static_cast<int>(i)), rig.cameras[i], images[i], f);
+    comp.add(f);
+  }
+  int seen = 0, worst = 0;
+  for (int y = 0; y < req.view.height; ++y)
+    for (int x = 0; x < req.view.width; ++x) {
+      if (g.locate(x, y).simplex < 0) {
+        EXPECT_EQ(comp.weight_at(x, y), 0u);
+        continue;
+      }
+      // Every camera sees this plane fully here: 3 premultiplied alphas add
+      // to 255 up to rounding (one 8-bit rounding per fragment).
+      worst = std::max(worst, std::abs(static_cast<int>(comp.weight_at(x, y)) - 255));
+      ++seen;
+    }
+  EXPECT_GT(seen, 1000);
+  EXPECT_LE(worst, 2);
+}
+
+TEST(Render, MissingFragmentDegradesGracefully) {
+  const lf::Rig rig = lf::synthetic_grid_rig(4, 4, 0.5, 240, 180, 50);
+  const auto images = images_of(rig);
+  const auto req = view_at({0.1, 0.1, -1.0}, {0.0, 0.0, kDepth});
+  const lf::ViewGeometry g(rig, req);
+  std::vector<lf::Fragment> frags(rig.cameras.size());
+  for (size_t i = 0; i < rig.cameras.size(); ++i)
+    lf::render_fragment(lf::plan_fragment(g, static_cast<int>(i)), rig.cameras[i], images[i],
+                        frags[i]);
+  auto composite = [&](int skip) {
+    lf::Compositor c;
+    c.reset(req.view.width, req.view.height);
+    for (size_t i = 0; i < frags.size(); ++i)
+      if (static_cast<int>(i) != skip) c.add(frags[i]);
+    cv::Mat out;
+    c.resolve(out);
+    return out;
+  };
+  const cv::Mat full = composite(-1);
+  // Drop the camera with the largest fragment.
+  int big = 0;
+  for (size_t i = 0; i < frags.size(); ++i)
+    if (frags[i].pixel_count() > frags[big].pixel_count()) big = static_cast<int>(i);
+  const cv::Mat degraded = composite(big);
+  double diff = 0;
+  size_t n = 0, holes = 0;
+  for (int y = 0; y < full.rows; ++y)
+    for (int x = 0; x < full.cols; ++x) {
+      const auto a = full.at<cv::Vec4b>(y, x), b = degraded.at<cv::Vec4b>(y, x);
+      if (a[3] != 255) continue;
+      if (b[3] != 255) {
+        ++holes;  // only where the dropped camera was the sole contributor
+        continue;
+      }
+      for (int c = 0; c < 3; ++c) diff += std::abs(a[c] - b[c]);
+      n += 3;
+    }
+  ASSERT_GT(n, 0u);
+  // Renormalised, not darkened: the remaining cameras see the same plane.
+  EXPECT_LT(diff / n, 1.5);
+  EXPECT_LT(holes, n / 3 / 50);
+}
+
+TEST(Render, RejectsWrongImages) {
+  const lf::Rig rig = lf::synthetic_grid_rig(2, 2, 0.5, 64, 48, 50);
+  const auto req = view_at({0, 0, 0}, {0, 0, kDepth});
+  const lf::ViewGeometry g(rig, req);
+  lf::Fragment f;
+  const auto plan = lf::plan_fragment(g, 0);
+  EXPECT_THROW(lf::render_fragment(plan, rig.cameras[0], cv::Mat(48, 64, CV_8UC3), f),
+               std::invalid_argument);
+  EXPECT_THROW(lf::render_fragment(plan, rig.cameras[0], cv::Mat(40, 64, CV_8UC4), f),
+               std::invalid_argument);
+  std::vector<cv::Mat> too_few(3, cv::Mat(48, 64, CV_8UC4));
+  EXPECT_THROW(lf::render_view(rig, too_few, req), std::invalid_argument);
+}
+
+}  // namespace

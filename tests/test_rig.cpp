@@ -1,0 +1,184 @@
+// Rigs: importers for every shared dataset, triangulation, rig file I/O.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "helpers.h"
+#include "lf/datasets.h"
+#include "lf/synthetic.h"
+
+namespace {
+
+using testing_lf::data_path;
+
+double hull_area(const lf::Rig& rig) {
+  double a = 0;
+  for (const auto& t : rig.triangles) {
+    const auto& p = rig.plane_positions();
+    const cv::Vec2d A = p[rig.index_of(t[0])], B = p[rig.index_of(t[1])], C = p[rig.index_of(t[2])];
+    const double s = (B[0] - A[0]) * (C[1] - A[1]) - (B[1] - A[1]) * (C[0] - A[0]);
+    EXPECT_GT(s, 0) << "triangles must be counter-clockwise on the camera plane";
+    a += 0.5 * s;
+  }
+  return a;
+}
+
+TEST(Rig, StanfordChess) {
+  const lf::Rig rig = lf::import_dataset(data_path("stanford-chess"));
+  ASSERT_EQ(rig.cameras.size(), 81u);
+  EXPECT_EQ(rig.grid.rows, 9);
+  EXPECT_EQ(rig.grid.cols, 9);
+  EXPECT_EQ(rig.dimension(), 2);
+  EXPECT_EQ(rig.triangles.size(), 128u);
+  const lf::Camera& c = rig.cameras[rig.grid.at(0, 0)];
+  EXPECT_EQ(c.name, "r00c00");
+  EXPECT_EQ(c.width, 1400);
+  EXPECT_EQ(c.height, 800);
+  EXPECT_NEAR(c.center()[0], -3355.331299, 1e-9);  // X from the file name
+  EXPECT_NEAR(c.center()[1], -780.134705, 1e-9);   // Y
+  // Rectified slab: identical orientation, principal points shifting with X.
+  const lf::Camera& d = rig.cameras[rig.grid.at(0, 8)];
+  EXPECT_NEAR(d.intrinsics.cx - c.intrinsics.cx, 0.5 * (d.center()[0] - c.center()[0]), 1e-9);
+  EXPECT_TRUE(rig.has_focal_param);
+  // Image shift between two cameras for focal parameter a equals a * dX.
+  const double a = -0.2, z = rig.focal_param_f_px / (rig.focal_param_infinity - a);
+  const cv::Vec3d X(-3320, -810, z);
+  const double shift = (*d.project(X))[0] - (*c.project(X))[0];
+  EXPECT_NEAR(shift, a * (d.center()[0] - c.center()[0]), 1e-6);
+}
+
+TEST(Rig, HciCotton) {
+  const lf::Rig rig = lf::import_dataset(data_path("hci-cotton"));
+  ASSERT_EQ(rig.cameras.size(), 81u);
+  const lf::Camera& centre = rig.cameras[40];
+  EXPECT_EQ(centre.name, "input_Cam040");
+  EXPECT_NEAR(centre.intrinsics.fx, 100.0 / 35.0 * 512, 1e-9);
+  EXPECT_NEAR(centre.intrinsics.cx, 255.5, 1e-12);
+  EXPECT_LT(cv::norm(centre.center()), 1e-12);
+  EXPECT_NEAR(rig.typical_spacing(), 0.025, 1e-12);
+  // A point at the focus distance has zero disparity; disparity d between
+  // neighbours is f b (1/z - 1/z0) and points move left in the next column.
+  const cv::Vec3d P(0.05, -0.03, 2.0);
+  const double u40 = (*centre.project(P))[0], u41 = (*rig.cameras[41].project(P))[0];
+  const double d = 1462.857142857 * 0.025 * (1 / 2.0 - 1 / 4.25);
+  EXPECT_NEAR(u40 - u41, d, 1e-6);
+  const cv::Vec3d Q(0.05, -0.03, 4.25);
+  EXPECT_NEAR((*centre.project(Q))[0], (*rig.cameras[41].project(Q))[0], 1e-9);
+}
+
+TEST(Rig, BlenderShop) {
+  const lf::Rig rig = lf::import_dataset(data_path("blender-shop-9x9"));
+  ASSERT_EQ(rig.cameras.size(), 81u);
+  EXPECT_NEAR(rig.cameras[0].intrinsics.fx, 800.0, 1e-9);
+  // Row 0 is the top (largest j), column 0 the leftmost (largest i).
+  const lf::Camera& tl = rig.cameras[rig.grid.at(0, 0)];
+  const lf::Camera& br = rig.cameras[rig.grid.at(8, 8)];
+  EXPECT_LT(tl.center()[0], br.center()[0]);  // left of
+  EXPECT_LT(tl.center()[1], br.center()[1]);  // above (y down)
+  EXPECT_NEAR(br.center()[0] - tl.center()[0], 2 * 0.369230769, 1e-9);
+}
+
+TEST(Rig, MiddleburyRingIsUnstructured) {
+  const lf::Rig rig = lf::import_dataset(data_path("middlebury-temple"));
+  // templeSR0011 repeats templeSR0001's viewpoint: dropped with a warning.
+  ASSERT_EQ(rig.cameras.size(), 15u);
+  ASSERT_EQ(rig.warnings.size(), 1u);
+  EXPECT_NE(rig.warnings[0].find("templeSR0011"), std::string::npos);
+  EXPECT_TRUE(rig.grid.empty());
+  EXPECT_EQ(rig.dimension(), 2);
+  EXPECT_GE(rig.triangles.size(), 10u);
+  EXPECT_NEAR(rig.cameras[0].intrinsics.fx, 1520.4, 1e-9);
+  hull_area(rig);
+}
+
+TEST(Rig, GridTriangulationAndHoles) {
+  const lf::Rig rig = lf::synthetic_grid_rig(8, 8, 1.0, 64, 48);
+  EXPECT_EQ(rig.triangles.size(), 98u);
+  EXPECT_NEAR(hull_area(rig), 49.0, 1e-9);
+  // Interior camera removed: its hole is re-triangulated (area unchanged).
+  const lf::Rig holed = rig.without({rig.grid.at(3, 4)});
+  EXPECT_EQ(holed.cameras.size(), 63u);
+  EXPECT_NEAR(hull_area(holed), 49.0, 1e-9);
+  EXPECT_EQ(holed.triangles.size(), 96u);
+  // A corner removed: the convex hull loses half a cell.
+  EXPECT_NEAR(hull_area(rig.without({rig.grid.at(0, 0)})), 48.5, 1e-9);
+  // Blocks keep the grid.
+  const lf::Rig block = lf::grid_block(rig, 2, 2, 3, 4);
+  EXPECT_EQ(block.grid.rows, 3);
+  EXPECT_EQ(block.grid.cols, 4);
+  EXPECT_EQ(block.cameras.size(), 12u);
+}
+
+TEST(Rig, FoldedGridIsRejected) {
+  lf::Rig rig = lf::synthetic_grid_rig(3, 3, 1.0, 64, 48);
+  // Swap two cameras' positions so that the grid topology contradicts them.
+  std::swap(rig.cameras[0].extrinsics, rig.cameras[4].extrinsics);
+  rig.triangles.clear();
+  EXPECT_THROW(rig.finalize(), std::invalid_argument);
+}
+
+TEST(Rig, FileRoundTrip) {
+  lf::Rig rig = lf::synthetic_grid_rig(3, 4, 0.1, 320, 240, 45, 2.0, 5);
+  rig.cameras[3].intrinsics.k1 = -0.2;
+  rig.cameras[3].image = "/nonexistent/cam3.png";
+  rig.grid.cells[5] = -1;  // an empty grid position
+  rig.cameras.erase(rig.cameras.begin() + 11);
+  rig.grid.cells[11] = -1;
+  rig.triangles.clear();
+  rig.finalize();
+  const auto path = std::filesystem::temp_directory_path() / "lf_rig_roundtrip.json";
+  lf::save_rig(rig, path.string());
+  const lf::Rig back = lf::load_rig(path.string());
+  ASSERT_EQ(back.cameras.size(), rig.cameras.size());
+  for (size_t i = 0; i < rig.cameras.size(); ++i) {
+    EXPECT_EQ(back.cameras[i].id, rig.cameras[i].id);
+    EXPECT_EQ(back.cameras[i].intrinsics.k1, rig.cameras[i].intrinsics.k1);
+    EXPECT_LT(cv::norm(back.cameras[i].extrinsics.R - rig.cameras[i].extrinsics.R), 1e-15);
+    EXPECT_EQ(back.cameras[i].extrinsics.t, rig.cameras[i].extrinsics.t);
+  }
+  EXPECT_EQ(back.cameras[3].image, "/nonexistent/cam3.png");
+  EXPECT_EQ(back.triangles, rig.triangles);
+  EXPECT_EQ(back.grid.cells, rig.grid.cells);
+  std::filesystem::remove(path);
+}
+
+TEST(Rig, BadRigFilesGiveClearErrors) {
+  const std::string good = lf::rig_to_json(lf::synthetic_grid_rig(2, 2, 0.1, 64, 48));
+  auto expect_error = [](const std::string& text, const std::string& word) {
+    try {
+      lf::rig_from_json(text, "test.json");
+      ADD_FAILURE() << "accepted: " << word;
+    } catch (const std::runtime_error& e) {
+      const std::string msg = e.what();
+      EXPECT_NE(msg.find("test.json"), std::string::npos) << msg;
+      EXPECT_NE(msg.find(word), std::string::npos) << msg;
+    }
+  };
+  auto replace = [&](const std::string& from, const std::string& to) {
+    std::string s = good;
+    const auto at = s.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    return s.replace(at, from.size(), to);
+  };
+  expect_error("{not json", "not valid JSON");
+  expect_error("[]", "not a JSON object");
+  expect_error(replace("\"lightfield-gst-rig\"", "\"other\""), "format");
+  expect_error(replace("\"version\": 1", "\"version\": 99"), "unsupported version");
+  expect_error(replace("\"fx\":", "\"fx_\":"), "'fx'");
+  expect_error(replace("\"width\": 64", "\"width\": 0"), "image size");
+  expect_error(replace("\"fx\": ", "\"fx\": -"), "focal");
+  expect_error(replace("\"id\": 1,", "\"id\": 0,"), "unknown camera id 1");
+  lf::Rig dup = lf::synthetic_grid_rig(2, 2, 0.1, 64, 48);
+  dup.cameras[1].id = 0;
+  EXPECT_THROW(dup.finalize(), std::invalid_argument);
+  // A rig whose R is not a rotation (serialized without finalize()).
+  lf::Rig skew = lf::synthetic_grid_rig(2, 2, 0.1, 64, 48);
+  skew.cameras[2].extrinsics.R(0, 1) = 0.3;
+  expect_error(lf::rig_to_json(skew), "not a rotation");
+  EXPECT_THROW(lf::load_rig("/nonexistent/rig.json"), std::runtime_error);
+  EXPECT_THROW(lf::import_dataset("/nonexistent"), std::runtime_error);
+}
+
+}  // namespace

@@ -1,0 +1,246 @@
+// Wire formats: round trips, and rejection of truncated, corrupt, oversized
+// and inconsistent input (never a crash, always a WireError naming the field).
+#include <gtest/gtest.h>
+#include <zlib.h>
+
+#include <random>
+
+#include "lf/renderer.h"
+#include "lf/synthetic.h"
+#include "lf/wire.h"
+
+namespace {
+
+lf::Fragment sample_fragment() {
+  const lf::Rig rig = lf::synthetic_grid_rig(3, 3, 0.5, 160, 120, 50);
+  lf::ViewRequest req;
+  req.viewer_id = 7;
+  req.sequence = 123456789012ull;
+  req.view = lf::VirtualView::look_at({0.1, 0.1, -1}, {0, 0, 10}, {0, 1, 0}, 40, 160, 120);
+  req.focal_plane = lf::FocalPlane::through({0, 0, 10}, {0, 0, 1});
+  const lf::ViewGeometry g(rig, req);
+  lf::Fragment f;
+  f.viewer_id = req.viewer_id;
+  f.sequence = req.sequence;
+  f.capture_time_ns = 987654321;
+  lf::render_fragment(lf::plan_fragment(g, 4), rig.cameras[4],
+                      lf::render_textured_plane(rig.cameras[4], 10, 1.0), f);
+  return f;
+}
+
+lf::ViewRequest sample_request() {
+  lf::ViewRequest r;
+  r.viewer_id = 3;
+  r.sequence = 42;
+  r.view = lf::VirtualView::look_at({0.1, -0.2, 0.3}, {1, 2, 10}, {0, 1, 0}, 47.5, 640, 480);
+  r.view.shift_x = 3.25;
+  r.view.shift_y = -1.5;
+  r.focal_plane = lf::FocalPlane::through({0, 0, 7}, {0.1, 0.2, 1});
+  return r;
+}
+
+// Rewrites the CRC so that semantic checks (not the checksum) must catch a change.
+void resign_fragment(std::vector<uint8_t>& b) {
+  uLong c = crc32(0L, Z_NULL, 0);
+  c = crc32(c, b.data(), 52);
+  c = crc32(c, b.data() + 56, static_cast<uInt>(b.size() - 56));
+  for (int i = 0; i < 4; ++i) b[52 + i] = static_cast<uint8_t>(c >> (24 - 8 * i));
+}
+void put16(std::vector<uint8_t>& b, size_t at, uint16_t v) {
+  b[at] = v >> 8, b[at + 1] = v & 0xff;
+}
+
+TEST(Wire, RawFragmentRoundTrip) {
+  const lf::Fragment f = sample_fragment();
+  ASSERT_FALSE(f.empty());
+  const auto bytes = lf::serialize_fragment(f, lf::Encoding::kRaw);
+  lf::Encoding enc;
+  const lf::Fragment g = lf::parse_fragment(bytes.data(), bytes.size(), &enc);
+  EXPECT_EQ(enc, lf::Encoding::kRaw);
+  EXPECT_EQ(g.viewer_id, f.viewer_id);
+  EXPECT_EQ(g.sequence, f.sequence);
+  EXPECT_EQ(g.camera_id, f.camera_id);
+  EXPECT_EQ(g.capture_time_ns, f.capture_time_ns);
+  EXPECT_EQ(g.rect, f.rect);
+  EXPECT_EQ(g.out_width, f.out_width);
+  EXPECT_EQ(g.spans, f.spans);
+  EXPECT_EQ(g.pixels, f.pixels);
+}
+
+TEST(Wire, JpegFragmentRoundTrip) {
+  const lf::Fragment f = sample_fragment();
+  const auto raw = lf::serialize_fragment(f, lf::Encoding::kRaw);
+  const auto jpg = lf::serialize_fragment(f, lf::Encoding::kJpeg, 90);
+  EXPECT_LT(jpg.size(), raw.size() / 3);
+  lf::Encoding enc;
+  const lf::Fragment g = lf::parse_fragment(jpg.data(), jpg.size(), &enc);
+  EXPECT_EQ(enc, lf::Encoding::kJpeg);
+  EXPECT_EQ(g.spans, f.spans);
+  ASSERT_EQ(g.pixels.size(), f.pixels.size());
+  double se = 0, alpha_err = 0;
+  for (size_t i = 0; i < f.pixels.size(); ++i) {
+    const double d = double(g.pixels[i]) - f.pixels[i];
+    se += d * d;
+    if (i % 4 == 3) alpha_err = std::max(alpha_err, std::abs(d));
+  }
+  const double psnr = 10 * std::log10(255.0 * 255.0 * f.pixels.size() / se);
+  EXPECT_GT(psnr, 38.0);
+  EXPECT_LE(alpha_err, 6.0);  // the weight channel survives q90 closely
+}
+
+TEST(Wire, EmptyFragmentRoundTrip) {
+  lf::Fragment f;
+  f.camera_id = 9;
+  f.out_width = 640;
+  f.out_height = 480;
+  const auto b = lf::serialize_fragment(f, lf::Encoding::kJpeg);
+  EXPECT_EQ(b.size(), lf::kFragmentHeaderSize);
+  lf::Encoding enc;
+  const lf::Fragment g = lf::parse_fragment(b.data(), b.size(), &enc);
+  EXPECT_EQ(enc, lf::Encoding::kEmpty);
+  EXPECT_TRUE(g.empty());
+  EXPECT_EQ(g.camera_id, 9u);
+}
+
+TEST(Wire, RequestRoundTrip) {
+  const lf::ViewRequest r = sample_request();
+  const auto b = lf::serialize_request(r);
+  ASSERT_EQ(b.size(), lf::kRequestSize);
+  const lf::ViewRequest s = lf::parse_request(b.data(), b.size());
+  EXPECT_EQ(s.viewer_id, r.viewer_id);
+  EXPECT_EQ(s.sequence, r.sequence);
+  EXPECT_EQ(s.view.position, r.view.position);
+  EXPECT_LT(cv::norm(s.view.R - r.view.R, cv::NORM_INF), 1e-15);
+  EXPECT_EQ(s.view.vfov_deg, r.view.vfov_deg);
+  EXPECT_EQ(s.view.width, 640);
+  EXPECT_EQ(s.view.shift_x, 3.25);
+  EXPECT_EQ(s.focal_plane.n, r.focal_plane.n);
+  EXPECT_EQ(s.focal_plane.d, r.focal_plane.d);
+  // Big-endian on the wire: magic then version 1.
+  EXPECT_EQ(std::string(b.begin(), b.begin() + 4), "LFVR");
+  EXPECT_EQ(b[4], 0);
+  EXPECT_EQ(b[5], 1);
+}
+
+TEST(Wire, TruncatedInputIsRejectedAtEveryLength) {
+  const lf::Fragment f = sample_fragment();
+  for (auto enc : {lf::Encoding::kRaw, lf::Encoding::kJpeg}) {
+    const auto b = lf::serialize_fragment(f, enc);
+    for (size_t n = 0; n < b.size(); n += (n < 200 ? 1 : 97))
+      EXPECT_THROW(lf::parse_fragment(b.data(), n), lf::WireError) << "length " << n;
+  }
+  const auto r = lf::serialize_request(sample_request());
+  for (size_t n = 0; n < r.size(); ++n)
+    EXPECT_THROW(lf::parse_request(r.data(), n), lf::WireError) << "length " << n;
+  EXPECT_THROW(lf::parse_fragment(nullptr, 0), lf::WireError);
+}
+
+TEST(Wire, CorruptionIsDetected) {
+  const lf::Fragment f = sample_fragment();
+  std::mt19937_64 rng(1);
+  for (auto enc : {lf::Encoding::kRaw, lf::Encoding::kJpeg}) {
+    const auto good = lf::serialize_fragment(f, enc);
+    std::uniform_int_distribution<size_t> pos(0, good.size() - 1);
+    for (int k = 0; k < 300; ++k) {
+      auto b = good;
+      b[pos(rng)] ^= static_cast<uint8_t>(1 + rng() % 255);
+      EXPECT_THROW(lf::parse_fragment(b.data(), b.size()), lf::WireError);
+    }
+  }
+  const auto good = lf::serialize_request(sample_request());
+  for (size_t i = 0; i < good.size(); ++i) {
+    auto b = good;
+    b[i] ^= 0x5a;
+    EXPECT_THROW(lf::parse_request(b.data(), b.size()), lf::WireError) << "byte " << i;
+  }
+}
+
+TEST(Wire, OversizedAndTrailingInputIsRejected) {
+  const lf::Fragment f = sample_fragment();
+  auto b = lf::serialize_fragment(f, lf::Encoding::kRaw);
+  auto big = b;
+  big[48] = 0x7f;  // payload size ~2 GB
+  resign_fragment(big);
+  try {
+    lf::parse_fragment(big.data(), big.size());
+    FAIL() << "accepted";
+  } catch (const lf::WireError& e) {
+    EXPECT_NE(std::string(e.what()).find("exceeds"), std::string::npos) << e.what();
+  }
+  auto trailing = b;
+  trailing.push_back(0);
+  EXPECT_THROW(lf::parse_fragment(trailing.data(), trailing.size()), lf::WireError);
+}
+
+TEST(Wire, InconsistentFragmentsAreRejected) {
+  const lf::Fragment f = sample_fragment();
+  const auto good = lf::serialize_fragment(f, lf::Encoding::kRaw);
+  auto expect_error = [](std::vector<uint8_t> b, const std::string& word) {
+    resign_fragment(b);
+    try {
+      lf::parse_fragment(b.data(), b.size());
+      ADD_FAILURE() << "accepted (" << word << ")";
+    } catch (const lf::WireError& e) {
+      EXPECT_NE(std::string(e.what()).find(word), std::string::npos) << e.what();
+    }
+  };
+  auto b = good;
+  put16(b, 36, static_cast<uint16_t>(f.out_width - f.rect.width + 1));  // rect beyond frame
+  expect_error(b, "exceeds the output frame");
+  b = good;
+  put16(b, 56, 0xffff);  // first span begins past the rectangle
+  expect_error(b, "span");
+  b = good;
+  b[44] = 7;
+  expect_error(b, "unknown encoding");
+  b = good;
+  b[5] = 2;
+  expect_error(b, "version");
+  b = good;
+  b[0] = 'X';
+  expect_error(b, "magic");
+  b = good;
+  put16(b, 32, 0);  // output width 0
+  expect_error(b, "output size");
+  // A JPEG whose size disagrees with the rectangle.
+  lf::Fragment g = f;
+  auto jb = lf::serialize_fragment(g, lf::Encoding::kJpeg);
+  put16(jb, 40, static_cast<uint16_t>(f.rect.width - 1));
+  for (auto& s : g.spans) s[1] = std::min<uint16_t>(s[1], f.rect.x + f.rect.width - 1);
+  // rewrite spans in the payload to stay inside the narrower rectangle
+  for (int r = 0; r < f.rect.height; ++r) {
+    put16(jb, 56 + 4 * r,
+          static_cast<uint16_t>(std::min<int>(g.spans[r][0], g.spans[r][1]) - f.rect.x));
+    put16(jb, 58 + 4 * r, static_cast<uint16_t>(g.spans[r][1] - f.rect.x));
+  }
+  expect_error(jb, "JPEG is");
+  // Garbage JPEG body.
+  auto gb = lf::serialize_fragment(f, lf::Encoding::kJpeg);
+  for (size_t i = 56 + 4 * f.rect.height; i < gb.size(); ++i) gb[i] = 0x11;
+  expect_error(gb, "JPEG");
+}
+
+TEST(Wire, InvalidRequestsAreRejected) {
+  auto r = sample_request();
+  auto b = lf::serialize_request(r);
+  // Non-unit quaternion with a valid CRC.
+  auto q = b;
+  q[44] ^= 0x10;
+  uLong c = crc32(crc32(0L, Z_NULL, 0), q.data(), 140);
+  for (int i = 0; i < 4; ++i) q[140 + i] = static_cast<uint8_t>(c >> (24 - 8 * i));
+  EXPECT_THROW(lf::parse_request(q.data(), q.size()), lf::WireError);
+  // Serializing an invalid request refuses.
+  r.view.vfov_deg = 200;
+  EXPECT_THROW(lf::serialize_request(r), std::invalid_argument);
+  // Random garbage never crashes.
+  std::mt19937_64 rng(9);
+  for (int k = 0; k < 2000; ++k) {
+    std::vector<uint8_t> g(rng() % 400);
+    for (auto& x : g) x = static_cast<uint8_t>(rng());
+    if (g.size() >= 4) std::memcpy(g.data(), k % 2 ? "LFVR" : "LFFR", 4);
+    EXPECT_THROW(lf::parse_request(g.data(), g.size()), lf::WireError);
+    EXPECT_THROW(lf::parse_fragment(g.data(), g.size()), lf::WireError);
+  }
+}
+
+}  // namespace
