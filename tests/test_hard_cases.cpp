@@ -116,7 +116,9 @@ TEST(HardCases, EyeOnFocalPlane) {
       const cv::Vec3d h = g.homography(static_cast<int>(i)) * cv::Vec3d(x, y, 1);
       ASSERT_TRUE(std::isfinite(h[0]) && std::isfinite(h[1]) && std::isfinite(h[2]));
       EXPECT_EQ(g.visible(static_cast<int>(i), x, y), expect.has_value());
-      if (expect) EXPECT_LT(cv::norm(cv::Vec2d(h[0] / h[2], h[1] / h[2]) - *expect), 1e-6);
+      if (expect) {
+        EXPECT_LT(cv::norm(cv::Vec2d(h[0] / h[2], h[1] / h[2]) - *expect), 1e-6);
+      }
     }
   }
   render_ok(rig, req, "eye on focal plane");
@@ -183,7 +185,7 @@ TEST(HardCases, LinearArray) {
   const lf::Rig rig = lf::synthetic_grid_rig(1, 6, 0.5, 64, 48, 50);
   EXPECT_EQ(rig.dimension(), 1);
   EXPECT_EQ(rig.simplices().size(), 5u);
-  for (const cv::Vec3d eye : {cv::Vec3d(0.3, 0, 0), cv::Vec3d(0.3, 0.2, -1.5)}) {
+  for (const cv::Vec3d& eye : {cv::Vec3d(0.3, 0, 0), cv::Vec3d(0.3, 0.2, -1.5)}) {
     const auto req = request(eye, {0.3, 0, 10}, 60, plane_z(10));
     const auto c = check_weights(rig, req);
     expect_valid(c, "1 x N array");

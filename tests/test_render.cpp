@@ -153,6 +153,28 @@ TEST(Render, MissingFragmentDegradesGracefully) {
   EXPECT_LT(holes, n / 3 / 50);
 }
 
+TEST(Render, SimdAndScalarKernelsAreBitIdentical) {
+  for (bool distort : {false, true}) {
+    lf::Rig rig = lf::synthetic_grid_rig(3, 3, 0.5, 240, 180, 50, 2.0, 6);
+    if (distort)
+      for (auto& c : rig.cameras) c.intrinsics.k1 = -0.2, c.intrinsics.k2 = 0.05;
+    rig.finalize();
+    const auto images = images_of(rig);
+    const auto req = view_at({0.3, -0.1, -0.8}, {0.0, 0.2, kDepth});
+    const lf::ViewGeometry g(rig, req);
+    size_t compared = 0;
+    for (size_t i = 0; i < rig.cameras.size(); ++i) {
+      const auto plan = lf::plan_fragment(g, static_cast<int>(i));
+      lf::Fragment a, b;
+      lf::render_fragment(plan, rig.cameras[i], images[i], a, lf::Kernel::kBest);
+      lf::render_fragment(plan, rig.cameras[i], images[i], b, lf::Kernel::kScalar);
+      EXPECT_EQ(a.pixels, b.pixels) << "camera " << i << (distort ? " (distorted)" : "");
+      compared += a.pixel_count();
+    }
+    EXPECT_GT(compared, 20000u);
+  }
+}
+
 TEST(Render, RejectsWrongImages) {
   const lf::Rig rig = lf::synthetic_grid_rig(2, 2, 0.5, 64, 48, 50);
   const auto req = view_at({0, 0, 0}, {0, 0, kDepth});

@@ -186,7 +186,7 @@ int main(int argc, char** argv) {
       } else {
         std::string name = out;
         if (views.size() > 1) {
-          char suffix[16];
+          char suffix[32];
           std::snprintf(suffix, sizeof suffix, "_%04zu", f);
           name = (std::filesystem::path(out).parent_path() /
                   (std::filesystem::path(out).stem().string() + suffix + ".png"))

@@ -42,8 +42,12 @@ struct Fragment {
 // applied to the sampling coordinates when the camera has any. No threads,
 // no allocation beyond `out.pixels`. Throws std::invalid_argument on an image
 // of the wrong size or type.
+enum class Kernel { kBest, kScalar };
+// kBest uses SSE2 where the build has it (x86-64; meson option simd); the
+// scalar reference kernel gives bit-identical results (tested).
 void render_fragment(const FragmentPlan& plan, const Camera& camera, const cv::Mat& image,
-                     Fragment& out);
+                     Fragment& out, Kernel kernel = Kernel::kBest);
+bool simd_available();
 
 // Additive compositor with renormalisation (Section 4.3: "It then adds the
 // fragment into the frame buffer"). Accumulates premultiplied fragments and

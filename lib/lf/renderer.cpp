@@ -266,6 +266,23 @@ AutofocusResult AutofocusContext::run(const ViewRequest& req) const {
   return res;
 }
 
+cv::Mat camera_view_image(const Camera& cam, const cv::Mat& image, int width, int height) {
+  const double s = static_cast<double>(height) / cam.height;
+  const double sw = cam.width * s, crop = 0.5 * (sw - width);
+  if (std::abs(sw - std::round(sw)) > 1e-9 || std::abs(crop - std::round(crop)) > 1e-9)
+    throw std::invalid_argument("camera_view_image: " + std::to_string(width) + "x" +
+                                std::to_string(height) + " is not a whole-pixel crop of camera " +
+                                std::to_string(cam.id) + "'s image");
+  cv::Mat scaled;
+  cv::resize(image, scaled, cv::Size(static_cast<int>(std::lround(sw)), height), 0, 0,
+             cv::INTER_AREA);
+  cv::Mat out(height, width, image.type(), cv::Scalar::all(0));
+  const int c = static_cast<int>(std::lround(crop));
+  const int x0 = std::max(0, c), x1 = std::min(scaled.cols, c + width);
+  if (x1 > x0) scaled.colRange(x0, x1).copyTo(out.colRange(x0 - c, x1 - c));
+  return out;
+}
+
 // ---------------------------------------------------------------------------
 // Metrics
 

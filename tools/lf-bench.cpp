@@ -1,0 +1,545 @@
+// lf-bench: speed against error for the light field renderer.
+//  1. Leave-one-out quality (PSNR, SSIM) and time per frame over a grid of
+//     settings (output size, encoding, focal-plane choice), including the
+//     best single plane of an exhaustive sweep (an oracle that sees the
+//     held-out image) and auto-focus (which does not).
+//  2. Bandwidth: fragment pixels and bytes per output frame for 4, 16, 64
+//     cameras spread over the array and a synthetic 256-camera rig.
+//  3. Speed ratios measured side by side on one core: our fragments vs
+//     OpenCV's warpPerspective for the same number of output pixels, and vs
+//     the naive approach (warp every camera to the full frame, then blend).
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <map>
+#include <numeric>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "cli.h"
+#include "lf/datasets.h"
+#include "lf/synthetic.h"
+#include "lf/wire.h"
+
+namespace {
+
+const char* kHelp = R"(lf-bench: speed against error (leave-one-out quality, bandwidth, speed ratios).
+
+usage: lf-bench [options]
+  --input PATH        dataset folder or rig file (default ../shared/data/stanford-chess)
+  --block R0,C0,R,C   grid block to use (default 0,0,8,8 when the grid is that large)
+  --input-scale S     resize camera images first (default 1)
+  --sizes LIST        output sizes, e.g. 320x240,640x480 (default)
+  --encodings LIST    none (in-process), raw (wire format), jpegQ (e.g. jpeg90);
+                      default none,jpeg90
+  --focal LIST        focal choices: auto, best (exhaustive sweep against the held-out
+                      image: an oracle), infinity, depth:Z, param:A (default auto,best)
+  --loo N             number of held-out cameras, spread over the block's interior (12)
+  --sweep-steps N     planes in the exhaustive sweep (default 96)
+  --plot FILE         write a PNG plot (default lf-bench.png)
+  --skip-quality, --skip-bandwidth, --skip-speed   leave out a section
+All timings run on one core (OpenCV single-threaded too); times are medians.
+)";
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+}
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+double mean(const std::vector<double>& v) {
+  return v.empty() ? 0 : std::accumulate(v.begin(), v.end(), 0.0) / v.size();
+}
+
+struct Encoding {
+  std::string name;
+  bool wire = false;
+  lf::Encoding enc = lf::Encoding::kRaw;
+  int quality = 90;
+};
+
+Encoding parse_encoding(const std::string& s) {
+  Encoding e;
+  e.name = s;
+  if (s == "none") return e;
+  e.wire = true;
+  if (s == "raw") return e;
+  if (s.rfind("jpeg", 0) == 0) {
+    e.enc = lf::Encoding::kJpeg;
+    e.quality = static_cast<int>(cli::parse_numbers(s.substr(4), "jpeg quality")[0]);
+    if (e.quality < 1 || e.quality > 100) throw std::invalid_argument("jpeg quality 1..100");
+    return e;
+  }
+  throw std::invalid_argument("encoding '" + s + "': use none, raw or jpegQ");
+}
+
+struct FrameResult {
+  cv::Mat image;
+  double ms = 0;
+  size_t fragment_pixels = 0;
+  size_t bytes = 0;
+};
+
+// One output frame through the finite-viewpoints pipeline in-process:
+// plan + render every fragment, optionally through the wire format, composite.
+FrameResult render_frame(const lf::Rig& rig, const std::vector<cv::Mat>& images,
+                         const lf::ViewRequest& req, const Encoding& e) {
+  FrameResult r;
+  const auto t0 = Clock::now();
+  const lf::ViewGeometry g(rig, req);
+  lf::Compositor comp;
+  comp.reset(req.view.width, req.view.height);
+  lf::Fragment f;
+  for (size_t i = 0; i < rig.cameras.size(); ++i) {
+    const lf::FragmentPlan plan = lf::plan_fragment(g, static_cast<int>(i));
+    lf::render_fragment(plan, rig.cameras[i], images[i], f);
+    r.fragment_pixels += f.pixel_count();
+    if (e.wire) {
+      const auto bytes = lf::serialize_fragment(f, e.enc, e.quality);
+      r.bytes += bytes.size();
+      comp.add(lf::parse_fragment(bytes.data(), bytes.size()));
+    } else {
+      comp.add(f);
+    }
+  }
+  comp.resolve(r.image);
+  r.ms = ms_since(t0);
+  return r;
+}
+
+// ---------------------------------------------------------------------------
+// Plot helpers (OpenCV drawing).
+struct Axes {
+  cv::Mat img;
+  cv::Rect area;
+  double x0, x1, y0, y1;
+  cv::Point at(double x, double y) const {
+    return {area.x + static_cast<int>((x - x0) / (x1 - x0) * area.width),
+            area.y + area.height - static_cast<int>((y - y0) / (y1 - y0) * area.height)};
+  }
+};
+Axes axes(cv::Mat& canvas, cv::Rect area, double x0, double x1, double y0, double y1,
+          const std::string& title, const std::string& xl, const std::string& yl) {
+  Axes a{canvas, area, x0, x1, y0, y1};
+  cv::rectangle(canvas, area, cv::Scalar(0, 0, 0), 1);
+  for (int k = 0; k <= 4; ++k) {
+    const double xv = x0 + (x1 - x0) * k / 4, yv = y0 + (y1 - y0) * k / 4;
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3g", xv);
+    cv::putText(canvas, buf, a.at(xv, y0) + cv::Point(-12, 18), cv::FONT_HERSHEY_SIMPLEX, 0.4,
+                cv::Scalar(0, 0, 0));
+    std::snprintf(buf, sizeof buf, "%.3g", yv);
+    cv::putText(canvas, buf, a.at(x0, yv) + cv::Point(-45, 4), cv::FONT_HERSHEY_SIMPLEX, 0.4,
+                cv::Scalar(0, 0, 0));
+    cv::line(canvas, a.at(x0, yv), a.at(x1, yv), cv::Scalar(220, 220, 220));
+  }
+  cv::putText(canvas, title, {area.x, area.y - 10}, cv::FONT_HERSHEY_SIMPLEX, 0.5,
+              cv::Scalar(0, 0, 0), 1);
+  cv::putText(canvas, xl, {area.x + area.width / 2 - 60, area.y + area.height + 36},
+              cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0));
+  cv::putText(canvas, yl, {area.x - 55, area.y - 10 + 0}, cv::FONT_HERSHEY_SIMPLEX, 0.0001,
+              cv::Scalar(0, 0, 0));
+  return a;
+}
+
+struct SettingStats {
+  std::vector<double> psnr, ssim, ms, px_ratio, bytes;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i)
+    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
+      std::cout << kHelp;
+      return 0;
+    }
+  try {
+    cli::Args args(argc, argv,
+                   {"--input", "--block", "--input-scale", "--sizes", "--encodings", "--focal",
+                    "--loo", "--sweep-steps", "--plot"},
+                   {"--skip-quality", "--skip-bandwidth", "--skip-speed"});
+    cv::setNumThreads(1);
+    lf::Rig rig = lf::load_rig_or_dataset(args.get("--input", "../shared/data/stanford-chess"));
+    if (args.has("--block")) {
+      const auto b = args.numbers("--block", 4, 4);
+      rig = lf::grid_block(rig, int(b[0]), int(b[1]), int(b[2]), int(b[3]));
+    } else if (rig.grid.rows >= 8 && rig.grid.cols >= 8) {
+      rig = lf::grid_block(rig, 0, 0, 8, 8);
+    }
+    if (args.has("--input-scale")) rig = lf::scale_rig(rig, args.number("--input-scale", 1));
+    std::fprintf(stderr, "rig '%s': %zu cameras; loading images\n", rig.name.c_str(),
+                 rig.cameras.size());
+    const auto images = lf::load_images(rig, [](int k, int n) { cli::progress("images", k, n); });
+
+    std::vector<std::pair<int, int>> sizes;
+    {
+      std::stringstream ss(args.get("--sizes", "320x240,640x480"));
+      std::string tok;
+      while (std::getline(ss, tok, ',')) {
+        int w, h;
+        cli::parse_size(tok, w, h);
+        sizes.emplace_back(w, h);
+      }
+    }
+    std::vector<Encoding> encodings;
+    {
+      std::stringstream ss(args.get("--encodings", "none,jpeg90"));
+      std::string tok;
+      while (std::getline(ss, tok, ',')) encodings.push_back(parse_encoding(tok));
+    }
+    std::vector<std::string> focals;
+    {
+      std::stringstream ss(args.get("--focal", "auto,best"));
+      std::string tok;
+      while (std::getline(ss, tok, ',')) focals.push_back(tok);
+    }
+    const int W0 = sizes.back().first, H0 = sizes.back().second;
+    cv::Mat canvas(520, 1100, CV_8UC3, cv::Scalar(255, 255, 255));
+    const double spacing = rig.typical_spacing();
+    std::vector<double> fxs;
+    for (const auto& c : rig.cameras) fxs.push_back(c.intrinsics.fx);
+    const double q_max = 24.0 / (median(fxs) * spacing);
+    auto q_label = [&](double q) {
+      return rig.has_focal_param ? lf::focal_param_from_inverse_depth(rig, q) : q;
+    };
+    const char* q_name = rig.has_focal_param ? "focal parameter a" : "inverse depth";
+
+    // ---------------------------------------------------------------- quality
+    if (!args.has("--skip-quality")) {
+      // Held-out cameras: interior of the grid (their viewpoint lies inside
+      // the remaining cameras' triangulation), spread evenly.
+      std::vector<int> interior;
+      for (size_t i = 0; i < rig.cameras.size(); ++i) {
+        bool border = false;
+        if (!rig.grid.empty()) {
+          for (int r = 0; r < rig.grid.rows; ++r)
+            for (int c = 0; c < rig.grid.cols; ++c)
+              if (rig.grid.at(r, c) == static_cast<int>(i))
+                border = r == 0 || c == 0 || r == rig.grid.rows - 1 || c == rig.grid.cols - 1;
+        }
+        if (!border) interior.push_back(static_cast<int>(i));
+      }
+      const int n_loo = std::min<int>(args.integer("--loo", 12), interior.size());
+      std::vector<int> held;
+      for (int k = 0; k < n_loo; ++k)
+        held.push_back(interior[(k * interior.size() + interior.size() / 2) / n_loo %
+                                interior.size()]);
+      const int steps = std::max(8, args.integer("--sweep-steps", 96));
+      std::map<std::string, SettingStats> stats;
+      std::vector<std::string> order;
+      std::vector<double> gap_auto, af_ms, nearest_psnr;
+      std::vector<double> sweep_mean(steps, 0.0), auto_q, best_q;
+      std::printf("\n## Leave-one-out on %s (%zu cameras, %d held out; border %s)\n\n",
+                  rig.name.c_str(), rig.cameras.size(), n_loo, "2.5% of the height cut");
+      for (int k = 0; k < n_loo; ++k) {
+        const int j = held[k];
+        const lf::Rig rj = rig.without({j});
+        std::vector<cv::Mat> ij;
+        for (size_t i = 0; i < images.size(); ++i)
+          if (static_cast<int>(i) != j) ij.push_back(images[i]);
+        const lf::AutofocusContext af(rj, ij);
+        // Exhaustive sweep at the smallest size (an oracle: it sees the truth).
+        const auto [ws, hs] = sizes.front();
+        lf::ViewRequest sreq;
+        sreq.view = lf::VirtualView::from_camera(rig.cameras[j], ws, hs);
+        const cv::Mat sgt = lf::camera_view_image(rig.cameras[j], images[j], ws, hs);
+        double best = -1, qbest = 0;
+        for (int s = 0; s < steps; ++s) {
+          const double q = q_max * s / (steps - 1);
+          sreq.focal_plane = lf::plane_at_inverse_depth(rj, q);
+          const double p = lf::psnr(render_frame(rj, ij, sreq, {"none"}).image, sgt, hs / 40);
+          sweep_mean[s] += p / n_loo;
+          if (p > best) best = p, qbest = q;
+        }
+        best_q.push_back(qbest);
+        for (const auto& [W, H] : sizes) {
+          lf::ViewRequest req;
+          req.view = lf::VirtualView::from_camera(rig.cameras[j], W, H);
+          const cv::Mat gt = lf::camera_view_image(rig.cameras[j], images[j], W, H);
+          const int border = H / 40;
+          const auto t0 = Clock::now();
+          req.focal_plane = lf::FocalPlane::infinity();
+          const lf::FocalPlane auto_plane = af.run(req).plane;
+          af_ms.push_back(ms_since(t0));
+          if (W == W0) auto_q.push_back(auto_plane.n.dot(rj.plane().normal));
+          double p_auto = 0, p_best = 0;
+          for (const std::string& fs : focals) {
+            if (fs == "auto") req.focal_plane = auto_plane;
+            else if (fs == "best") req.focal_plane = lf::plane_at_inverse_depth(rj, qbest);
+            else req.focal_plane = cli::parse_focal(fs, rj).plane;
+            for (const Encoding& e : encodings) {
+              const std::string key = std::to_string(W) + "x" + std::to_string(H) + " | " +
+                                      e.name + " | " + fs;
+              if (!stats.count(key)) order.push_back(key);
+              auto& st = stats[key];
+              std::vector<double> times;
+              FrameResult fr;
+              for (int rep = 0; rep < 3; ++rep) {
+                fr = render_frame(rj, ij, req, e);
+                times.push_back(fr.ms);
+              }
+              const double p = lf::psnr(fr.image, gt, border);
+              st.psnr.push_back(p);
+              st.ssim.push_back(lf::ssim(fr.image, gt, border));
+              st.ms.push_back(median(times));
+              st.px_ratio.push_back(static_cast<double>(fr.fragment_pixels) / (W * H));
+              st.bytes.push_back(static_cast<double>(fr.bytes));
+              if (e.name == encodings.front().name && fs == "auto") p_auto = p;
+              if (e.name == encodings.front().name && fs == "best") p_best = p;
+            }
+          }
+          if (W == W0) {
+            gap_auto.push_back(p_best - p_auto);
+            // Nearest-camera baseline through the auto plane.
+            int nearest = 0;
+            for (size_t i = 0; i < rj.cameras.size(); ++i)
+              if (cv::norm(rj.cameras[i].center() - req.view.position) <
+                  cv::norm(rj.cameras[nearest].center() - req.view.position))
+                nearest = static_cast<int>(i);
+            const lf::Rig one = rj.subset({nearest});
+            req.focal_plane = auto_plane;
+            nearest_psnr.push_back(
+                lf::psnr(render_frame(one, {ij[nearest]}, req, {"none"}).image, gt, border));
+          }
+        }
+        cli::progress("leave-one-out", k + 1, n_loo);
+      }
+      std::printf("| output | encoding | focal plane | PSNR dB | SSIM | ms/frame (1 core) | "
+                  "fragment px / output px | bytes/frame |\n|---|---|---|---|---|---|---|---|\n");
+      for (const auto& key : order) {
+        const auto& st = stats[key];
+        std::printf("| %s | %.2f | %.4f | %.2f | %.2f | %s |\n", key.c_str(), mean(st.psnr),
+                    mean(st.ssim), median(st.ms), mean(st.px_ratio),
+                    mean(st.bytes) > 0 ? std::to_string(static_cast<long>(mean(st.bytes))).c_str()
+                                       : "-");
+      }
+      if (!gap_auto.empty()) {
+        std::printf("\nAuto-focus vs the best single plane of a %d-plane exhaustive sweep (%dx%d, "
+                    "held-out views): gap mean %.3f dB, max %.3f dB; auto-focus %.1f ms per view "
+                    "(median)\n",
+                    steps, W0, H0, mean(gap_auto),
+                    *std::max_element(gap_auto.begin(), gap_auto.end()), median(af_ms));
+        std::printf("Nearest camera alone (through the auto plane, %dx%d): PSNR %.2f dB\n", W0, H0,
+                    mean(nearest_psnr));
+      }
+      // Plot (a): PSNR vs time; (b): mean sweep curve with auto / best picks.
+      double pmin = 1e9, pmax = -1e9, tmax = 0;
+      for (const auto& key : order) {
+        pmin = std::min(pmin, mean(stats[key].psnr));
+        pmax = std::max(pmax, mean(stats[key].psnr));
+        tmax = std::max(tmax, median(stats[key].ms));
+      }
+      Axes a = axes(canvas, {80, 50, 420, 380}, 0, tmax * 1.15, std::floor(pmin - 1),
+                    std::ceil(pmax + 1), "Leave-one-out PSNR vs time per frame (1 core)",
+                    "ms per frame", "PSNR dB");
+      const cv::Scalar colours[] = {{200, 60, 0}, {0, 120, 220}, {0, 160, 0}, {150, 0, 150},
+                                    {0, 0, 200},  {100, 100, 0}};
+      int ci = 0;
+      for (const auto& key : order) {
+        const cv::Point p = a.at(median(stats[key].ms), mean(stats[key].psnr));
+        cv::circle(canvas, p, 5, colours[ci % 6], cv::FILLED);
+        cv::putText(canvas, key, {100, 445 + 12 * (ci % 6) + (ci / 6) * 0}, cv::FONT_HERSHEY_SIMPLEX,
+                    0.38, colours[ci % 6]);
+        ci = (ci + 1) % 6 == 0 && ci > 0 ? ci + 1 : ci + 1;
+      }
+      double smin = 1e9, smax = -1e9;
+      for (double v : sweep_mean) smin = std::min(smin, v), smax = std::max(smax, v);
+      const double la = q_label(0), lb = q_label(q_max);
+      Axes b = axes(canvas, {620, 50, 440, 380}, std::min(la, lb), std::max(la, lb),
+                    std::floor(smin), std::ceil(smax + 0.5),
+                    std::string("Mean PSNR over the focal sweep (") + std::to_string(sizes.front().first) +
+                        "x" + std::to_string(sizes.front().second) + ")",
+                    q_name, "PSNR dB");
+      for (int s = 1; s < steps; ++s)
+        cv::line(canvas, b.at(q_label(q_max * (s - 1) / (steps - 1)), sweep_mean[s - 1]),
+                 b.at(q_label(q_max * s / (steps - 1)), sweep_mean[s]), cv::Scalar(0, 0, 0), 2);
+      for (double q : best_q)
+        cv::drawMarker(canvas, b.at(q_label(q), smax + 0.2), cv::Scalar(0, 160, 0),
+                       cv::MARKER_TRIANGLE_DOWN, 10, 2);
+      for (double q : auto_q)
+        cv::drawMarker(canvas, b.at(q_label(q), smax + 0.35), cv::Scalar(0, 0, 220),
+                       cv::MARKER_CROSS, 10, 2);
+      cv::putText(canvas, "green: best plane per held-out view; red: auto-focus", {620, 470},
+                  cv::FONT_HERSHEY_SIMPLEX, 0.42, cv::Scalar(0, 0, 0));
+    }
+
+    // ------------------------------------------------------------- bandwidth
+    // Views along an orbit with a dolly through the camera plane.
+    std::vector<lf::ViewRequest> path;
+    {
+      const auto keys = cli::orbit_path(rig, 0.5, 2.0 * spacing, 24);
+      const auto views = cli::sample_path(rig, keys, 24, W0, H0, true);
+      const lf::FocalPlane plane = rig.has_focal_param ? lf::plane_from_focal_param(rig, -0.2)
+                                                       : lf::plane_at_inverse_depth(rig, q_max / 3);
+      for (size_t k = 0; k < views.size(); ++k) {
+        lf::ViewRequest r;
+        r.sequence = k;
+        r.view = views[k];
+        r.focal_plane = plane;
+        path.push_back(r);
+      }
+    }
+    if (!args.has("--skip-bandwidth") && !rig.grid.empty()) {
+      std::printf("\n## Bandwidth per output frame (%dx%d, %zu views on an orbit with a +-%.3g %s "
+                  "dolly through the camera plane)\n\n",
+                  W0, H0, path.size(), 2.0 * spacing, rig.unit.c_str());
+      std::printf("| cameras | fragment px / output px | raw bytes/frame | JPEG q90 bytes/frame | "
+                  "vs 64 (px) |\n|---|---|---|---|---|\n");
+      const int R = rig.grid.rows, C = rig.grid.cols;
+      auto spread = [](int n, int k) {
+        std::vector<int> v;
+        for (int i = 0; i < k; ++i) v.push_back(static_cast<int>(std::lround(i * (n - 1.0) / (k - 1))));
+        return v;
+      };
+      std::vector<std::pair<std::string, double>> ratios;
+      double ref = 0;
+      auto measure = [&](const lf::Rig& r, const std::vector<cv::Mat>& im, bool real) {
+        double px = 0, raw = 0, jpg = 0;
+        for (const auto& req : path) {
+          px += render_frame(r, im, req, {"none"}).fragment_pixels;
+          if (real) {
+            raw += render_frame(r, im, req, parse_encoding("raw")).bytes;
+            jpg += render_frame(r, im, req, parse_encoding("jpeg90")).bytes;
+          }
+        }
+        const double n = path.size();
+        return std::array<double, 3>{px / n / (double(W0) * H0), raw / n, jpg / n};
+      };
+      std::vector<std::array<double, 3>> rows;
+      std::vector<std::string> names;
+      for (int k : {2, 4, 8}) {
+        if (k > std::min(R, C)) continue;
+        std::vector<int> keep;
+        for (int r : spread(R, k))
+          for (int c : spread(C, k))
+            if (rig.grid.at(r, c) >= 0) keep.push_back(rig.grid.at(r, c));
+        const lf::Rig sub = rig.subset(keep);
+        std::vector<cv::Mat> im;
+        for (int i : keep) im.push_back(images[i]);
+        rows.push_back(measure(sub, im, true));
+        names.push_back(std::to_string(keep.size()));
+        if (keep.size() == 64) ref = rows.back()[0];
+      }
+      {
+        // Synthetic 16 x 16 rig spanning the same camera-plane extent.
+        double ext = 0;
+        for (const auto& p : rig.plane_positions()) ext = std::max({ext, std::abs(p[0]), std::abs(p[1])});
+        lf::Rig syn = lf::synthetic_grid_rig(16, 16, 2 * ext / 15, 160, 90, 40);
+        const lf::CameraPlane& P = rig.plane();
+        const cv::Matx33d Rw(P.u[0], P.u[1], P.u[2], P.v[0], P.v[1], P.v[2], P.normal[0],
+                             P.normal[1], P.normal[2]);
+        for (auto& c : syn.cameras) {
+          const cv::Vec3d C0 = c.center();
+          c.extrinsics = lf::Extrinsics::from_center(
+              c.extrinsics.R * Rw, P.origin + P.u * C0[0] + P.v * C0[1]);
+        }
+        syn.triangles.clear();
+        syn.finalize();
+        std::vector<cv::Mat> im(syn.cameras.size(), cv::Mat(90, 160, CV_8UC4, cv::Scalar::all(128)));
+        rows.push_back(measure(syn, im, false));
+        names.push_back("256 (synthetic)");
+      }
+      for (size_t k = 0; k < rows.size(); ++k) {
+        const bool real = rows[k][1] > 0;
+        std::printf("| %s | %.3f | %s | %s | %+.1f %% |\n", names[k].c_str(), rows[k][0],
+                    real ? std::to_string(static_cast<long>(rows[k][1])).c_str() : "-",
+                    real ? std::to_string(static_cast<long>(rows[k][2])).c_str() : "-",
+                    ref > 0 ? 100.0 * (rows[k][0] / ref - 1) : 0.0);
+      }
+    }
+
+    // ----------------------------------------------------------------- speed
+    if (!args.has("--skip-speed")) {
+      std::vector<double> ours_ms, warp_ms, naive_ms;
+      size_t frag_px = 0, warp_px = 0;
+      const int nviews = std::min<int>(8, path.size());
+      for (int rep = 0; rep < 5; ++rep) {
+        double ours = 0, warp = 0, naive = 0;
+        frag_px = warp_px = 0;
+        for (int v = 0; v < nviews; ++v) {
+          const lf::ViewRequest& req = path[v * path.size() / nviews];
+          // Ours: plan and render every camera's fragment.
+          std::vector<lf::FragmentPlan> plans(rig.cameras.size());
+          std::vector<lf::Fragment> frags(rig.cameras.size());
+          auto t0 = Clock::now();
+          const lf::ViewGeometry g(rig, req);
+          for (size_t i = 0; i < rig.cameras.size(); ++i) {
+            plans[i] = lf::plan_fragment(g, static_cast<int>(i));
+            lf::render_fragment(plans[i], rig.cameras[i], images[i], frags[i]);
+          }
+          ours += ms_since(t0);
+          // OpenCV warpPerspective for the same number of output pixels: each
+          // non-empty fragment's homography into a destination of as many
+          // pixels as the fragment carries (its rectangle's width).
+          cv::Mat dst;
+          t0 = Clock::now();
+          for (size_t i = 0; i < rig.cameras.size(); ++i) {
+            const auto& p = plans[i];
+            if (p.empty()) continue;
+            const size_t n = p.pixel_count();
+            frag_px += n;
+            const int w = p.rect.width, h = static_cast<int>((n + w - 1) / w);
+            warp_px += static_cast<size_t>(w) * h;
+            const cv::Matx33d T(1, 0, p.rect.x, 0, 1, p.rect.y, 0, 0, 1);
+            cv::warpPerspective(images[i], dst, cv::Mat(p.pieces[0].H * T), cv::Size(w, h),
+                                cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT);
+          }
+          warp += ms_since(t0);
+          // Naive: every camera warped to the full frame, weighted, blended.
+          t0 = Clock::now();
+          cv::Mat acc(req.view.height, req.view.width, CV_32FC4, cv::Scalar::all(0));
+          cv::Mat weight(req.view.height, req.view.width, CV_32F);
+          for (size_t i = 0; i < rig.cameras.size(); ++i) {
+            cv::warpPerspective(images[i], dst, cv::Mat(g.homography(static_cast<int>(i))),
+                                acc.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
+                                cv::BORDER_CONSTANT);
+            weight.setTo(0);
+            for (const auto& r : plans[i].runs) {
+              const auto& pc = plans[i].pieces[r.piece];
+              float* wr = weight.ptr<float>(r.y);
+              for (int x = r.x0; x < r.x1; ++x)
+                wr[x] = static_cast<float>(pc.weight_num(x, r.y) / pc.weight_den(x, r.y));
+            }
+            for (int y = 0; y < acc.rows; ++y) {
+              float* a = acc.ptr<float>(y);
+              const uint8_t* s = dst.ptr<uint8_t>(y);
+              const float* wr = weight.ptr<float>(y);
+              for (int x = 0; x < acc.cols; ++x)
+                for (int c = 0; c < 4; ++c) a[4 * x + c] += wr[x] * s[4 * x + c];
+            }
+          }
+          naive += ms_since(t0);
+        }
+        ours_ms.push_back(ours / nviews);
+        warp_ms.push_back(warp / nviews);
+        naive_ms.push_back(naive / nviews);
+      }
+      const double o = median(ours_ms), w = median(warp_ms), nv = median(naive_ms);
+      const double w_same = w * static_cast<double>(frag_px) / warp_px;
+      std::printf("\n## Speed, one core, %zu cameras, %dx%d, %d views on the dolly orbit (median of 5)\n\n",
+                  rig.cameras.size(), W0, H0, nviews);
+      std::printf("| method | ms per view | output pixels per view |\n|---|---|---|\n");
+      std::printf("| ours: plan + render all fragments | %.2f | %zu |\n", o, frag_px / nviews);
+      std::printf("| OpenCV warpPerspective, same pixel count | %.2f | %zu |\n", w_same,
+                  frag_px / nviews);
+      std::printf("| naive: full-frame warp of every camera + blend | %.2f | %zu |\n", nv,
+                  rig.cameras.size() * static_cast<size_t>(W0) * H0);
+      std::printf("\nours / warpPerspective = %.2f (target <= 1.5); naive / ours = %.1f (target >= 15)\n",
+                  o / w_same, nv / o);
+    }
+    const std::string plot = args.get("--plot", "lf-bench.png");
+    if (!args.has("--skip-quality")) {
+      if (!cv::imwrite(plot, canvas)) throw std::runtime_error("cannot write " + plot);
+      std::printf("\nplot: %s\n", plot.c_str());
+    }
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "lf-bench: error: %s\n", e.what());
+    return 1;
+  }
+}
