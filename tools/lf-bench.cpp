@@ -24,7 +24,8 @@
 
 namespace {
 
-const char* kHelp = R"(lf-bench: speed against error (leave-one-out quality, bandwidth, speed ratios).
+const char* kHelp =
+    R"(lf-bench: speed against error (leave-one-out quality, bandwidth, speed ratios).
 
 usage: lf-bench [options]
   --input PATH        dataset folder or rig file (default ../shared/data/stanford-chess)
@@ -141,7 +142,7 @@ Axes axes(cv::Mat& canvas, cv::Rect area, double x0, double x1, double y0, doubl
               cv::Scalar(0, 0, 0), 1);
   cv::putText(canvas, xl, {area.x + area.width / 2 - 60, area.y + area.height + 36},
               cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0));
-  cv::putText(canvas, yl, {area.x - 55, area.y - 10 + 0}, cv::FONT_HERSHEY_SIMPLEX, 0.0001,
+  cv::putText(canvas, yl, {area.x - 60, area.y - 24}, cv::FONT_HERSHEY_SIMPLEX, 0.4,
               cv::Scalar(0, 0, 0));
   return a;
 }
@@ -199,7 +200,7 @@ int main(int argc, char** argv) {
       while (std::getline(ss, tok, ',')) focals.push_back(tok);
     }
     const int W0 = sizes.back().first, H0 = sizes.back().second;
-    cv::Mat canvas(520, 1100, CV_8UC3, cv::Scalar(255, 255, 255));
+    cv::Mat canvas(570, 1100, CV_8UC3, cv::Scalar(255, 255, 255));
     const double spacing = rig.typical_spacing();
     std::vector<double> fxs;
     for (const auto& c : rig.cameras) fxs.push_back(c.intrinsics.fx);
@@ -227,8 +228,8 @@ int main(int argc, char** argv) {
       const int n_loo = std::min<int>(args.integer("--loo", 12), interior.size());
       std::vector<int> held;
       for (int k = 0; k < n_loo; ++k)
-        held.push_back(interior[(k * interior.size() + interior.size() / 2) / n_loo %
-                                interior.size()]);
+        held.push_back(
+            interior[(k * interior.size() + interior.size() / 2) / n_loo % interior.size()]);
       const int steps = std::max(8, args.integer("--sweep-steps", 96));
       std::map<std::string, SettingStats> stats;
       std::vector<std::string> order;
@@ -269,12 +270,15 @@ int main(int argc, char** argv) {
           if (W == W0) auto_q.push_back(auto_plane.n.dot(rj.plane().normal));
           double p_auto = 0, p_best = 0;
           for (const std::string& fs : focals) {
-            if (fs == "auto") req.focal_plane = auto_plane;
-            else if (fs == "best") req.focal_plane = lf::plane_at_inverse_depth(rj, qbest);
-            else req.focal_plane = cli::parse_focal(fs, rj).plane;
+            if (fs == "auto")
+              req.focal_plane = auto_plane;
+            else if (fs == "best")
+              req.focal_plane = lf::plane_at_inverse_depth(rj, qbest);
+            else
+              req.focal_plane = cli::parse_focal(fs, rj).plane;
             for (const Encoding& e : encodings) {
-              const std::string key = std::to_string(W) + "x" + std::to_string(H) + " | " +
-                                      e.name + " | " + fs;
+              const std::string key =
+                  std::to_string(W) + "x" + std::to_string(H) + " | " + e.name + " | " + fs;
               if (!stats.count(key)) order.push_back(key);
               auto& st = stats[key];
               std::vector<double> times;
@@ -309,21 +313,23 @@ int main(int argc, char** argv) {
         }
         cli::progress("leave-one-out", k + 1, n_loo);
       }
-      std::printf("| output | encoding | focal plane | PSNR dB | SSIM | ms/frame (1 core) | "
-                  "fragment px / output px | bytes/frame |\n|---|---|---|---|---|---|---|---|\n");
+      std::printf(
+          "| output | encoding | focal plane | PSNR dB | SSIM | ms/frame (1 core) | "
+          "fragment px / output px | bytes/frame |\n|---|---|---|---|---|---|---|---|\n");
       for (const auto& key : order) {
         const auto& st = stats[key];
-        std::printf("| %s | %.2f | %.4f | %.2f | %.2f | %s |\n", key.c_str(), mean(st.psnr),
-                    mean(st.ssim), median(st.ms), mean(st.px_ratio),
-                    mean(st.bytes) > 0 ? std::to_string(static_cast<long>(mean(st.bytes))).c_str()
-                                       : "-");
+        std::printf(
+            "| %s | %.2f | %.4f | %.2f | %.2f | %s |\n", key.c_str(), mean(st.psnr), mean(st.ssim),
+            median(st.ms), mean(st.px_ratio),
+            mean(st.bytes) > 0 ? std::to_string(static_cast<long>(mean(st.bytes))).c_str() : "-");
       }
       if (!gap_auto.empty()) {
-        std::printf("\nAuto-focus vs the best single plane of a %d-plane exhaustive sweep (%dx%d, "
-                    "held-out views): gap mean %.3f dB, max %.3f dB; auto-focus %.1f ms per view "
-                    "(median)\n",
-                    steps, W0, H0, mean(gap_auto),
-                    *std::max_element(gap_auto.begin(), gap_auto.end()), median(af_ms));
+        std::printf(
+            "\nAuto-focus vs the best single plane of a %d-plane exhaustive sweep (%dx%d, "
+            "held-out views): gap mean %.3f dB, max %.3f dB; auto-focus %.1f ms per view "
+            "(median)\n",
+            steps, W0, H0, mean(gap_auto), *std::max_element(gap_auto.begin(), gap_auto.end()),
+            median(af_ms));
         std::printf("Nearest camera alone (through the auto plane, %dx%d): PSNR %.2f dB\n", W0, H0,
                     mean(nearest_psnr));
       }
@@ -337,23 +343,28 @@ int main(int argc, char** argv) {
       Axes a = axes(canvas, {80, 50, 420, 380}, 0, tmax * 1.15, std::floor(pmin - 1),
                     std::ceil(pmax + 1), "Leave-one-out PSNR vs time per frame (1 core)",
                     "ms per frame", "PSNR dB");
-      const cv::Scalar colours[] = {{200, 60, 0}, {0, 120, 220}, {0, 160, 0}, {150, 0, 150},
-                                    {0, 0, 200},  {100, 100, 0}};
-      int ci = 0;
-      for (const auto& key : order) {
+      const cv::Scalar colours[] = {{200, 60, 0},  {0, 120, 220}, {0, 160, 0},
+                                    {150, 0, 150}, {0, 0, 200},   {100, 100, 0}};
+      for (size_t ci = 0; ci < order.size(); ++ci) {
+        const auto& key = order[ci];
+        const cv::Scalar& col = colours[ci % 6];
         const cv::Point p = a.at(median(stats[key].ms), mean(stats[key].psnr));
-        cv::circle(canvas, p, 5, colours[ci % 6], cv::FILLED);
-        cv::putText(canvas, key, {100, 445 + 12 * (ci % 6) + (ci / 6) * 0}, cv::FONT_HERSHEY_SIMPLEX,
-                    0.38, colours[ci % 6]);
-        ci = (ci + 1) % 6 == 0 && ci > 0 ? ci + 1 : ci + 1;
+        if (ci < 6)
+          cv::circle(canvas, p, 5, col, cv::FILLED);
+        else
+          cv::drawMarker(canvas, p, col, cv::MARKER_SQUARE, 9, 2);
+        cv::putText(canvas, key,
+                    {90 + 210 * static_cast<int>(ci / 6), 480 + 13 * static_cast<int>(ci % 6)},
+                    cv::FONT_HERSHEY_SIMPLEX, 0.38, col);
       }
       double smin = 1e9, smax = -1e9;
       for (double v : sweep_mean) smin = std::min(smin, v), smax = std::max(smax, v);
       const double la = q_label(0), lb = q_label(q_max);
       Axes b = axes(canvas, {620, 50, 440, 380}, std::min(la, lb), std::max(la, lb),
                     std::floor(smin), std::ceil(smax + 0.5),
-                    std::string("Mean PSNR over the focal sweep (") + std::to_string(sizes.front().first) +
-                        "x" + std::to_string(sizes.front().second) + ")",
+                    std::string("Mean PSNR over the focal sweep (") +
+                        std::to_string(sizes.front().first) + "x" +
+                        std::to_string(sizes.front().second) + ")",
                     q_name, "PSNR dB");
       for (int s = 1; s < steps; ++s)
         cv::line(canvas, b.at(q_label(q_max * (s - 1) / (steps - 1)), sweep_mean[s - 1]),
@@ -364,7 +375,7 @@ int main(int argc, char** argv) {
       for (double q : auto_q)
         cv::drawMarker(canvas, b.at(q_label(q), smax + 0.35), cv::Scalar(0, 0, 220),
                        cv::MARKER_CROSS, 10, 2);
-      cv::putText(canvas, "green: best plane per held-out view; red: auto-focus", {620, 470},
+      cv::putText(canvas, "green: best plane per held-out view; red: auto-focus", {620, 480},
                   cv::FONT_HERSHEY_SIMPLEX, 0.42, cv::Scalar(0, 0, 0));
     }
 
@@ -385,15 +396,18 @@ int main(int argc, char** argv) {
       }
     }
     if (!args.has("--skip-bandwidth") && !rig.grid.empty()) {
-      std::printf("\n## Bandwidth per output frame (%dx%d, %zu views on an orbit with a +-%.3g %s "
-                  "dolly through the camera plane)\n\n",
-                  W0, H0, path.size(), 2.0 * spacing, rig.unit.c_str());
-      std::printf("| cameras | fragment px / output px | raw bytes/frame | JPEG q90 bytes/frame | "
-                  "vs 64 (px) |\n|---|---|---|---|---|\n");
+      std::printf(
+          "\n## Bandwidth per output frame (%dx%d, %zu views on an orbit with a +-%.3g %s "
+          "dolly through the camera plane)\n\n",
+          W0, H0, path.size(), 2.0 * spacing, rig.unit.c_str());
+      std::printf(
+          "| cameras | fragment px / output px | raw bytes/frame | JPEG q90 bytes/frame | "
+          "vs 64 (px) |\n|---|---|---|---|---|\n");
       const int R = rig.grid.rows, C = rig.grid.cols;
       auto spread = [](int n, int k) {
         std::vector<int> v;
-        for (int i = 0; i < k; ++i) v.push_back(static_cast<int>(std::lround(i * (n - 1.0) / (k - 1))));
+        for (int i = 0; i < k; ++i)
+          v.push_back(static_cast<int>(std::lround(i * (n - 1.0) / (k - 1))));
         return v;
       };
       std::vector<std::pair<std::string, double>> ratios;
@@ -428,19 +442,21 @@ int main(int argc, char** argv) {
       {
         // Synthetic 16 x 16 rig spanning the same camera-plane extent.
         double ext = 0;
-        for (const auto& p : rig.plane_positions()) ext = std::max({ext, std::abs(p[0]), std::abs(p[1])});
+        for (const auto& p : rig.plane_positions())
+          ext = std::max({ext, std::abs(p[0]), std::abs(p[1])});
         lf::Rig syn = lf::synthetic_grid_rig(16, 16, 2 * ext / 15, 160, 90, 40);
         const lf::CameraPlane& P = rig.plane();
         const cv::Matx33d Rw(P.u[0], P.u[1], P.u[2], P.v[0], P.v[1], P.v[2], P.normal[0],
                              P.normal[1], P.normal[2]);
         for (auto& c : syn.cameras) {
           const cv::Vec3d C0 = c.center();
-          c.extrinsics = lf::Extrinsics::from_center(
-              c.extrinsics.R * Rw, P.origin + P.u * C0[0] + P.v * C0[1]);
+          c.extrinsics = lf::Extrinsics::from_center(c.extrinsics.R * Rw,
+                                                     P.origin + P.u * C0[0] + P.v * C0[1]);
         }
         syn.triangles.clear();
         syn.finalize();
-        std::vector<cv::Mat> im(syn.cameras.size(), cv::Mat(90, 160, CV_8UC4, cv::Scalar::all(128)));
+        std::vector<cv::Mat> im(syn.cameras.size(),
+                                cv::Mat(90, 160, CV_8UC4, cv::Scalar::all(128)));
         rows.push_back(measure(syn, im, false));
         names.push_back("256 (synthetic)");
       }
@@ -521,16 +537,18 @@ int main(int argc, char** argv) {
       }
       const double o = median(ours_ms), w = median(warp_ms), nv = median(naive_ms);
       const double w_same = w * static_cast<double>(frag_px) / warp_px;
-      std::printf("\n## Speed, one core, %zu cameras, %dx%d, %d views on the dolly orbit (median of 5)\n\n",
-                  rig.cameras.size(), W0, H0, nviews);
+      std::printf(
+          "\n## Speed, one core, %zu cameras, %dx%d, %d views on the dolly orbit (median of 5)\n\n",
+          rig.cameras.size(), W0, H0, nviews);
       std::printf("| method | ms per view | output pixels per view |\n|---|---|---|\n");
       std::printf("| ours: plan + render all fragments | %.2f | %zu |\n", o, frag_px / nviews);
       std::printf("| OpenCV warpPerspective, same pixel count | %.2f | %zu |\n", w_same,
                   frag_px / nviews);
       std::printf("| naive: full-frame warp of every camera + blend | %.2f | %zu |\n", nv,
                   rig.cameras.size() * static_cast<size_t>(W0) * H0);
-      std::printf("\nours / warpPerspective = %.2f (target <= 1.5); naive / ours = %.1f (target >= 15)\n",
-                  o / w_same, nv / o);
+      std::printf(
+          "\nours / warpPerspective = %.2f (target <= 1.5); naive / ours = %.1f (target >= 15)\n",
+          o / w_same, nv / o);
     }
     const std::string plot = args.get("--plot", "lf-bench.png");
     if (!args.has("--skip-quality")) {

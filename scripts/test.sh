@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Sets everything up (scripts/setup.sh) and runs every test.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+./scripts/setup.sh
+if [ ! -d ../shared/data ]; then
+  echo "test: ../shared/data is missing (the real-data tests read it in place)" >&2
+  exit 1
+fi
+rm -rf build/gtest-xml
+status=0
+GTEST_OUTPUT=xml:"$PWD/build/gtest-xml/" meson test -C build --print-errorlogs || status=$?
+# One closing line with GoogleTest's counts over all test programs.
+passed=0; failed=0
+for f in build/gtest-xml/*.xml; do
+  [ -f "$f" ] || continue
+  t=$(grep -m1 -o 'tests="[0-9]*"' "$f" | grep -o '[0-9]*')
+  fl=$(grep -m1 -o 'failures="[0-9]*"' "$f" | grep -o '[0-9]*')
+  er=$(grep -m1 -o 'errors="[0-9]*"' "$f" | grep -o '[0-9]*')
+  passed=$((passed + t - fl - er)); failed=$((failed + fl + er))
+done
+if [ "$status" -ne 0 ] && [ "$failed" -eq 0 ]; then failed=1; fi
+echo "tests: ${passed} passed, ${failed} failed"
+exit "$status"
