@@ -383,8 +383,8 @@ int main(int argc, char** argv) {
     // Views along an orbit with a dolly through the camera plane.
     std::vector<lf::ViewRequest> path;
     {
-      const auto keys = cli::orbit_path(rig, 0.5, 2.0 * spacing, 24);
-      const auto views = cli::sample_path(rig, keys, 24, W0, H0, true);
+      const auto keys = lf::orbit_path(rig, 0.5, 2.0 * spacing, 24);
+      const auto views = lf::sample_path(rig, keys, 24, W0, H0, true);
       const lf::FocalPlane plane = rig.has_focal_param ? lf::plane_from_focal_param(rig, -0.2)
                                                        : lf::plane_at_inverse_depth(rig, q_max / 3);
       for (size_t k = 0; k < views.size(); ++k) {

@@ -124,14 +124,14 @@ int main(int argc, char** argv) {
     } else {
       const int frames = args.integer("--frames", 60);
       if (frames < 1 || frames > 100000) throw std::invalid_argument("--frames out of range");
-      std::vector<cli::Keyframe> keys;
+      std::vector<lf::Keyframe> keys;
       if (args.has("--path")) {
-        keys = cli::load_path(args.get("--path"));
+        keys = lf::load_path(args.get("--path"));
       } else {
-        keys = cli::orbit_path(rig, args.number("--orbit", 0.6), args.number("--dolly", 0), 24);
+        keys = lf::orbit_path(rig, args.number("--orbit", 0.6), args.number("--dolly", 0), 24);
         closed = true;
       }
-      views = cli::sample_path(rig, keys, frames, W, H, closed);
+      views = lf::sample_path(rig, keys, frames, W, H, closed);
     }
 
     const cli::FocalSpec focal = cli::parse_focal(args.get("--focal", "auto"), rig);
