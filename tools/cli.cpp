@@ -96,20 +96,7 @@ FocalSpec parse_focal(const std::string& s, const lf::Rig& rig) {
   f.text = s;
   if (s == "auto") return f;
   f.kind = FocalSpec::kPlane;
-  if (s == "infinity") {
-    f.plane = lf::FocalPlane::infinity();
-  } else if (s.rfind("depth:", 0) == 0) {
-    f.plane = lf::plane_at_depth(rig, parse_numbers(s.substr(6), "focal depth")[0]);
-  } else if (s.rfind("param:", 0) == 0) {
-    f.plane = lf::plane_from_focal_param(rig, parse_numbers(s.substr(6), "focal parameter")[0]);
-  } else if (s.rfind("plane:", 0) == 0) {
-    const auto v = parse_numbers(s.substr(6), "focal plane");
-    if (v.size() != 4) throw std::invalid_argument("focal plane needs nx,ny,nz,d");
-    f.plane = {{v[0], v[1], v[2]}, v[3]};
-  } else {
-    throw std::invalid_argument("--focal '" + s +
-                                "': use auto, infinity, depth:Z, param:A or plane:nx,ny,nz,d");
-  }
+  f.plane = lf::parse_focal_plane(s, rig);
   return f;
 }
 

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <opencv2/core.hpp>
+#include <string>
 #include <vector>
 
 #include "lf/fragment.h"
@@ -34,6 +35,11 @@ FocalPlane plane_at_inverse_depth(const Rig& rig, double q);
 // has no such parameterisation.
 FocalPlane plane_from_focal_param(const Rig& rig, double a);
 double focal_param_from_inverse_depth(const Rig& rig, double q);
+
+// Parses a focal-plane specification: "infinity", "depth:Z" (rig units from
+// the camera plane), "param:A" (light-slab focal parameter) or
+// "plane:nx,ny,nz,d". Throws std::invalid_argument naming the problem.
+FocalPlane parse_focal_plane(const std::string& spec, const Rig& rig);
 
 // A virtual view at world position `eye` on (or near) the camera plane,
 // looking like the rig's cameras: orientation of the nearest camera,

@@ -1,0 +1,342 @@
+// lfcamsrc: one camera of a rig as a video source. Mode "dataset": the
+// camera's still image from the rig (dataset folder or rig file) repeated as
+// video. Frames are captured on a schedule aligned to the pipeline clock:
+// running time k * period + phase (Yang et al. 2002, 4.4.4), so all cameras
+// that share a clock capture within one frame of each other. Buffer PTS is
+// the capture time (running time); OFFSET is the frame number.
+#include <gst/base/gstpushsrc.h>
+#include <gst/video/video.h>
+
+#include <memory>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "lfcommon.h"
+
+GST_DEBUG_CATEGORY_STATIC(lf_cam_src_debug);
+#define GST_CAT_DEFAULT lf_cam_src_debug
+
+G_BEGIN_DECLS
+#define LF_TYPE_CAM_SRC (lf_cam_src_get_type())
+G_DECLARE_FINAL_TYPE(LfCamSrc, lf_cam_src, LF, CAM_SRC, GstPushSrc)
+G_END_DECLS
+
+namespace {
+struct State {
+  std::shared_ptr<const lf::Rig> rig;
+  int index = -1;
+  cv::Mat rgba;  // the still, RGBA
+  guint64 frame = 0;
+};
+}  // namespace
+
+struct _LfCamSrc {
+  GstPushSrc parent;
+  gchar* rig;
+  gint camera_id, row, col;
+  gint fps_n, fps_d;
+  guint64 phase;
+  gboolean live;
+  GMutex lock;
+  GstClockID clock_id;
+  gboolean unlocked;
+  State* state;
+};
+
+enum {
+  PROP_0,
+  PROP_RIG,
+  PROP_CAMERA_ID,
+  PROP_ROW,
+  PROP_COL,
+  PROP_FRAMERATE,
+  PROP_PHASE,
+  PROP_IS_LIVE
+};
+
+G_DEFINE_TYPE(LfCamSrc, lf_cam_src, GST_TYPE_PUSH_SRC)
+
+static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE(
+    "src", GST_PAD_SRC, GST_PAD_ALWAYS,
+    GST_STATIC_CAPS("video/x-raw, format = (string) RGBA, width = (int) [ 2, 65535 ], "
+                    "height = (int) [ 2, 65535 ], framerate = (fraction) [ 1/1, 1000/1 ]"));
+
+static void lf_cam_src_set_property(GObject* obj, guint id, const GValue* v, GParamSpec* ps) {
+  LfCamSrc* self = LF_CAM_SRC(obj);
+  GST_OBJECT_LOCK(self);
+  switch (id) {
+    case PROP_RIG:
+      g_free(self->rig);
+      self->rig = g_value_dup_string(v);
+      break;
+    case PROP_CAMERA_ID:
+      self->camera_id = g_value_get_int(v);
+      break;
+    case PROP_ROW:
+      self->row = g_value_get_int(v);
+      break;
+    case PROP_COL:
+      self->col = g_value_get_int(v);
+      break;
+    case PROP_FRAMERATE:
+      self->fps_n = gst_value_get_fraction_numerator(v);
+      self->fps_d = gst_value_get_fraction_denominator(v);
+      break;
+    case PROP_PHASE:
+      self->phase = g_value_get_uint64(v);
+      break;
+    case PROP_IS_LIVE:
+      self->live = g_value_get_boolean(v);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
+  }
+  GST_OBJECT_UNLOCK(self);
+  // Must be known before READY->PAUSED (live sources do not preroll);
+  // set_live takes the object lock itself.
+  if (id == PROP_IS_LIVE) gst_base_src_set_live(GST_BASE_SRC(self), g_value_get_boolean(v));
+}
+
+static void lf_cam_src_get_property(GObject* obj, guint id, GValue* v, GParamSpec* ps) {
+  LfCamSrc* self = LF_CAM_SRC(obj);
+  GST_OBJECT_LOCK(self);
+  switch (id) {
+    case PROP_RIG:
+      g_value_set_string(v, self->rig);
+      break;
+    case PROP_CAMERA_ID:
+      g_value_set_int(v, self->camera_id);
+      break;
+    case PROP_ROW:
+      g_value_set_int(v, self->row);
+      break;
+    case PROP_COL:
+      g_value_set_int(v, self->col);
+      break;
+    case PROP_FRAMERATE:
+      gst_value_set_fraction(v, self->fps_n, self->fps_d);
+      break;
+    case PROP_PHASE:
+      g_value_set_uint64(v, self->phase);
+      break;
+    case PROP_IS_LIVE:
+      g_value_set_boolean(v, self->live);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
+  }
+  GST_OBJECT_UNLOCK(self);
+}
+
+static gboolean lf_cam_src_start(GstBaseSrc* src) {
+  LfCamSrc* self = LF_CAM_SRC(src);
+  if (!self->rig || !*self->rig) {
+    GST_ELEMENT_ERROR(self, RESOURCE, NOT_FOUND, ("No rig given"),
+                      ("set the 'rig' property to a rig file or dataset folder"));
+    return FALSE;
+  }
+  auto* st = new State();
+  try {
+    st->rig = lfgst::load_rig_cached(self->rig);
+    const lf::Rig& rig = *st->rig;
+    if (self->camera_id >= 0) {
+      st->index = rig.index_of(self->camera_id);
+      if (st->index < 0)
+        throw std::invalid_argument("camera-id " + std::to_string(self->camera_id) +
+                                    " is not in the rig");
+    } else if (self->row >= 0 && self->col >= 0) {
+      if (rig.grid.empty() || self->row >= rig.grid.rows || self->col >= rig.grid.cols ||
+          rig.grid.at(self->row, self->col) < 0)
+        throw std::invalid_argument("no camera at grid row " + std::to_string(self->row) +
+                                    ", column " + std::to_string(self->col));
+      st->index = rig.grid.at(self->row, self->col);
+    } else {
+      throw std::invalid_argument("set camera-id, or row and col");
+    }
+    const lf::Camera& cam = rig.cameras[st->index];
+    if (cam.image.empty())
+      throw std::invalid_argument("camera " + std::to_string(cam.id) + " has no image file");
+    cv::Mat bgr = cv::imread(cam.image, cv::IMREAD_COLOR);
+    if (bgr.empty()) throw std::runtime_error("image " + cam.image + ": missing or unreadable");
+    if (bgr.cols != cam.width || bgr.rows != cam.height)
+      cv::resize(bgr, bgr, cv::Size(cam.width, cam.height), 0, 0, cv::INTER_AREA);
+    cv::cvtColor(bgr, st->rgba, cv::COLOR_BGR2RGBA);
+  } catch (const std::exception& e) {
+    delete st;
+    GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("Cannot open the camera"), ("%s", e.what()));
+    return FALSE;
+  }
+  delete self->state;
+  self->state = st;
+  return TRUE;
+}
+
+static gboolean lf_cam_src_stop(GstBaseSrc* src) {
+  LfCamSrc* self = LF_CAM_SRC(src);
+  delete self->state;
+  self->state = nullptr;
+  return TRUE;
+}
+
+static GstCaps* lf_cam_src_get_caps(GstBaseSrc* src, GstCaps* filter) {
+  LfCamSrc* self = LF_CAM_SRC(src);
+  GstCaps* caps;
+  if (self->state) {
+    caps = gst_caps_new_simple("video/x-raw", "format", G_TYPE_STRING, "RGBA", "width", G_TYPE_INT,
+                               self->state->rgba.cols, "height", G_TYPE_INT, self->state->rgba.rows,
+                               "framerate", GST_TYPE_FRACTION, self->fps_n, self->fps_d, nullptr);
+  } else {
+    caps = gst_pad_get_pad_template_caps(GST_BASE_SRC_PAD(src));
+  }
+  if (filter) {
+    GstCaps* t = gst_caps_intersect_full(filter, caps, GST_CAPS_INTERSECT_FIRST);
+    gst_caps_unref(caps);
+    caps = t;
+  }
+  return caps;
+}
+
+static gboolean lf_cam_src_unlock(GstBaseSrc* src) {
+  LfCamSrc* self = LF_CAM_SRC(src);
+  g_mutex_lock(&self->lock);
+  self->unlocked = TRUE;
+  if (self->clock_id) gst_clock_id_unschedule(self->clock_id);
+  g_mutex_unlock(&self->lock);
+  return TRUE;
+}
+
+static gboolean lf_cam_src_unlock_stop(GstBaseSrc* src) {
+  LfCamSrc* self = LF_CAM_SRC(src);
+  g_mutex_lock(&self->lock);
+  self->unlocked = FALSE;
+  g_mutex_unlock(&self->lock);
+  return TRUE;
+}
+
+static void free_mat(gpointer p) {
+  delete static_cast<cv::Mat*>(p);
+}
+
+static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
+  LfCamSrc* self = LF_CAM_SRC(src);
+  State* st = self->state;
+  const GstClockTime period = gst_util_uint64_scale_int(GST_SECOND, self->fps_d, self->fps_n);
+  const GstClockTime pts = st->frame * period + self->phase;
+  if (self->live) {
+    GstClock* clock = gst_element_get_clock(GST_ELEMENT(src));
+    if (clock) {
+      g_mutex_lock(&self->lock);
+      if (self->unlocked) {
+        g_mutex_unlock(&self->lock);
+        gst_object_unref(clock);
+        return GST_FLOW_FLUSHING;
+      }
+      self->clock_id =
+          gst_clock_new_single_shot_id(clock, gst_element_get_base_time(GST_ELEMENT(src)) + pts);
+      g_mutex_unlock(&self->lock);
+      const GstClockReturn r = gst_clock_id_wait(self->clock_id, nullptr);
+      g_mutex_lock(&self->lock);
+      gst_clock_id_unref(self->clock_id);
+      self->clock_id = nullptr;
+      g_mutex_unlock(&self->lock);
+      gst_object_unref(clock);
+      if (r == GST_CLOCK_UNSCHEDULED) return GST_FLOW_FLUSHING;
+    }
+  }
+  // Zero-copy: the buffer shares the still (read-only).
+  auto* ref = new cv::Mat(st->rgba);
+  GstBuffer* buf = gst_buffer_new_wrapped_full(GST_MEMORY_FLAG_READONLY, ref->data,
+                                               ref->total() * ref->elemSize(), 0,
+                                               ref->total() * ref->elemSize(), ref, free_mat);
+  GST_BUFFER_PTS(buf) = pts;
+  GST_BUFFER_DTS(buf) = pts;
+  GST_BUFFER_DURATION(buf) = period;
+  GST_BUFFER_OFFSET(buf) = st->frame;
+  st->frame++;
+  *out = buf;
+  return GST_FLOW_OK;
+}
+
+static gboolean lf_cam_src_query(GstBaseSrc* src, GstQuery* q) {
+  LfCamSrc* self = LF_CAM_SRC(src);
+  if (GST_QUERY_TYPE(q) == GST_QUERY_LATENCY && self->live) {
+    gst_query_set_latency(q, TRUE, 0, GST_CLOCK_TIME_NONE);
+    return TRUE;
+  }
+  return GST_BASE_SRC_CLASS(lf_cam_src_parent_class)->query(src, q);
+}
+
+static void lf_cam_src_finalize(GObject* obj) {
+  LfCamSrc* self = LF_CAM_SRC(obj);
+  g_free(self->rig);
+  delete self->state;
+  g_mutex_clear(&self->lock);
+  G_OBJECT_CLASS(lf_cam_src_parent_class)->finalize(obj);
+}
+
+static void lf_cam_src_init(LfCamSrc* self) {
+  self->camera_id = -1;
+  self->row = self->col = -1;
+  self->fps_n = 30;
+  self->fps_d = 1;
+  g_mutex_init(&self->lock);
+  gst_base_src_set_format(GST_BASE_SRC(self), GST_FORMAT_TIME);
+}
+
+static void lf_cam_src_class_init(LfCamSrcClass* klass) {
+  GObjectClass* oc = G_OBJECT_CLASS(klass);
+  GstElementClass* ec = GST_ELEMENT_CLASS(klass);
+  GstBaseSrcClass* bc = GST_BASE_SRC_CLASS(klass);
+  GstPushSrcClass* pc = GST_PUSH_SRC_CLASS(klass);
+  oc->set_property = lf_cam_src_set_property;
+  oc->get_property = lf_cam_src_get_property;
+  oc->finalize = lf_cam_src_finalize;
+  const auto rw = static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
+                                           GST_PARAM_MUTABLE_READY);
+  g_object_class_install_property(
+      oc, PROP_RIG,
+      g_param_spec_string("rig", "Rig", "Rig file (.json) or dataset folder", nullptr, rw));
+  g_object_class_install_property(
+      oc, PROP_CAMERA_ID,
+      g_param_spec_int("camera-id", "Camera id", "Camera id in the rig (-1: use row and col)", -1,
+                       G_MAXINT, -1, rw));
+  g_object_class_install_property(
+      oc, PROP_ROW,
+      g_param_spec_int("row", "Row", "Grid row of the camera (-1: unset)", -1, 65535, -1, rw));
+  g_object_class_install_property(
+      oc, PROP_COL,
+      g_param_spec_int("col", "Column", "Grid column of the camera (-1: unset)", -1, 65535, -1,
+                       rw));
+  g_object_class_install_property(
+      oc, PROP_FRAMERATE,
+      gst_param_spec_fraction("framerate", "Frame rate", "Capture rate, frames per second", 1, 1,
+                              1000, 1, 30, 1, rw));
+  g_object_class_install_property(
+      oc, PROP_PHASE,
+      g_param_spec_uint64("phase", "Phase",
+                          "Capture schedule offset, ns: frame k is captured at running time "
+                          "k * period + phase",
+                          0, G_MAXUINT64, 0, rw));
+  g_object_class_install_property(
+      oc, PROP_IS_LIVE,
+      g_param_spec_boolean("is-live", "Live",
+                           "Capture in real time on the pipeline clock's schedule", FALSE, rw));
+  gst_element_class_add_static_pad_template(ec, &src_template);
+  gst_element_class_set_static_metadata(
+      ec, "Light field camera source", "Source/Video",
+      "One camera of a light field rig (dataset stills as video), captured on a clock-aligned "
+      "schedule",
+      "lightfield-gst");
+  bc->start = lf_cam_src_start;
+  bc->stop = lf_cam_src_stop;
+  bc->get_caps = lf_cam_src_get_caps;
+  bc->unlock = lf_cam_src_unlock;
+  bc->unlock_stop = lf_cam_src_unlock_stop;
+  bc->query = lf_cam_src_query;
+  pc->create = lf_cam_src_create;
+  GST_DEBUG_CATEGORY_INIT(lf_cam_src_debug, "lfcamsrc", 0, "light field camera source");
+}
+
+gboolean lf_cam_src_register(GstPlugin* plugin) {
+  return gst_element_register(plugin, "lfcamsrc", GST_RANK_NONE, LF_TYPE_CAM_SRC);
+}

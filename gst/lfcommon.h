@@ -1,0 +1,25 @@
+// Shared helpers of the lightfield GStreamer elements (thin wrappers over lib/).
+#pragma once
+
+#include <gst/gst.h>
+
+#include <memory>
+#include <opencv2/core.hpp>
+#include <string>
+
+#include "lf/rig.h"
+
+// Caps of the in-band formats (lib/lf/wire.h gives the byte layouts).
+#define LF_FRAGMENT_CAPS "application/x-lf-fragment, encoding = (string) { raw, jpeg }"
+#define LF_REQUEST_CAPS "application/x-lf-view-request"
+
+namespace lfgst {
+
+// Loads a rig file or dataset folder once per process (shared by all
+// elements that name the same path). Throws std::exception on errors.
+std::shared_ptr<const lf::Rig> load_rig_cached(const std::string& path);
+
+// "x,y,z" -> vector; false on malformed input.
+bool parse_vec3(const gchar* s, cv::Vec3d& out);
+
+}  // namespace lfgst

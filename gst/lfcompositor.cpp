@@ -1,0 +1,336 @@
+// lfcompositor: collects the fragments of each view request and adds them
+// into the output frame (Yang et al. 2002, 4.3), renormalised by the
+// accumulated weight. A GstAggregator: it composites a request when all of
+// its fragments are in, or at the deadline (the aggregator's `latency`) in
+// live pipelines with whatever arrived, so a dead camera never stops the
+// output. Output: ordinary raw video.
+#include <gst/base/gstaggregator.h>
+#include <gst/video/video.h>
+
+#include <map>
+#include <memory>
+#include <opencv2/imgproc.hpp>
+#include <set>
+
+#include "lf/fragment.h"
+#include "lf/wire.h"
+#include "lfcommon.h"
+
+GST_DEBUG_CATEGORY_STATIC(lf_compositor_debug);
+#define GST_CAT_DEFAULT lf_compositor_debug
+
+G_BEGIN_DECLS
+#define LF_TYPE_COMPOSITOR (lf_compositor_get_type())
+G_DECLARE_FINAL_TYPE(LfCompositor, lf_compositor, LF, COMPOSITOR, GstAggregator)
+G_END_DECLS
+
+namespace {
+struct Group {
+  std::vector<lf::Fragment> fragments;
+  std::set<uint32_t> cameras;
+  GstClockTime pts = GST_CLOCK_TIME_NONE, duration = GST_CLOCK_TIME_NONE;
+};
+struct State {
+  std::shared_ptr<const lf::Rig> rig;
+  std::map<uint64_t, Group> pending;  // by request sequence
+  int64_t last_emitted = -1;
+  lf::Compositor comp;
+  GstVideoInfo out;
+  bool have_caps = false;
+};
+constexpr size_t kMaxPending = 16;
+}  // namespace
+
+struct _LfCompositor {
+  GstAggregator parent;
+  gchar* rig;
+  gint viewer_id;
+  gint fps_n, fps_d;
+  State* state;
+};
+
+enum { PROP_0, PROP_RIG, PROP_VIEWER_ID, PROP_FRAMERATE };
+
+G_DEFINE_TYPE(LfCompositor, lf_compositor, GST_TYPE_AGGREGATOR)
+
+static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE(
+    "sink_%u", GST_PAD_SINK, GST_PAD_REQUEST, GST_STATIC_CAPS(LF_FRAGMENT_CAPS));
+static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE(
+    "src", GST_PAD_SRC, GST_PAD_ALWAYS,
+    GST_STATIC_CAPS("video/x-raw, format = (string) { RGBA, RGBx, I420 }, width = (int) [ 2, "
+                    "16384 ], height = (int) [ 2, 16384 ], framerate = (fraction) [ 0/1, MAX ]"));
+
+static void lf_compositor_set_property(GObject* obj, guint id, const GValue* v, GParamSpec* ps) {
+  LfCompositor* self = LF_COMPOSITOR(obj);
+  GST_OBJECT_LOCK(self);
+  switch (id) {
+    case PROP_RIG:
+      g_free(self->rig);
+      self->rig = g_value_dup_string(v);
+      break;
+    case PROP_VIEWER_ID:
+      self->viewer_id = g_value_get_int(v);
+      break;
+    case PROP_FRAMERATE:
+      self->fps_n = gst_value_get_fraction_numerator(v);
+      self->fps_d = gst_value_get_fraction_denominator(v);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
+  }
+  GST_OBJECT_UNLOCK(self);
+}
+
+static void lf_compositor_get_property(GObject* obj, guint id, GValue* v, GParamSpec* ps) {
+  LfCompositor* self = LF_COMPOSITOR(obj);
+  GST_OBJECT_LOCK(self);
+  switch (id) {
+    case PROP_RIG:
+      g_value_set_string(v, self->rig);
+      break;
+    case PROP_VIEWER_ID:
+      g_value_set_int(v, self->viewer_id);
+      break;
+    case PROP_FRAMERATE:
+      gst_value_set_fraction(v, self->fps_n, self->fps_d);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
+  }
+  GST_OBJECT_UNLOCK(self);
+}
+
+static gboolean lf_compositor_start(GstAggregator* agg) {
+  LfCompositor* self = LF_COMPOSITOR(agg);
+  auto* st = new State();
+  if (self->rig && *self->rig) {
+    try {
+      st->rig = lfgst::load_rig_cached(self->rig);
+    } catch (const std::exception& e) {
+      delete st;
+      GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("Cannot load the rig"), ("%s", e.what()));
+      return FALSE;
+    }
+  }
+  delete self->state;
+  self->state = st;
+  return TRUE;
+}
+
+static gboolean lf_compositor_stop(GstAggregator* agg) {
+  LfCompositor* self = LF_COMPOSITOR(agg);
+  delete self->state;
+  self->state = nullptr;
+  return TRUE;
+}
+
+// Number of fragments a complete request has: the rig's cameras, or else one
+// per sink pad.
+static size_t expected_fragments(LfCompositor* self) {
+  if (self->state->rig) return self->state->rig->cameras.size();
+  GST_OBJECT_LOCK(self);
+  const size_t n = GST_ELEMENT(self)->numsinkpads;
+  GST_OBJECT_UNLOCK(self);
+  return n;
+}
+
+static bool ensure_caps(LfCompositor* self, int width, int height) {
+  State* st = self->state;
+  if (st->have_caps && GST_VIDEO_INFO_WIDTH(&st->out) == width &&
+      GST_VIDEO_INFO_HEIGHT(&st->out) == height)
+    return true;
+  GstAggregator* agg = GST_AGGREGATOR(self);
+  GstCaps* peer = gst_pad_peer_query_caps(GST_AGGREGATOR_SRC_PAD(agg), nullptr);
+  GstVideoFormat chosen = GST_VIDEO_FORMAT_UNKNOWN;
+  for (const char* fmt : {"RGBA", "RGBx", "I420"}) {
+    GstCaps* c = gst_caps_new_simple("video/x-raw", "format", G_TYPE_STRING, fmt, "width",
+                                     G_TYPE_INT, width, "height", G_TYPE_INT, height, "framerate",
+                                     GST_TYPE_FRACTION, self->fps_n, self->fps_d, nullptr);
+    const bool ok = !peer || gst_caps_can_intersect(c, peer);
+    gst_caps_unref(c);
+    if (ok) {
+      chosen = gst_video_format_from_string(fmt);
+      break;
+    }
+  }
+  if (peer) gst_caps_unref(peer);
+  if (chosen == GST_VIDEO_FORMAT_UNKNOWN) {
+    GST_ELEMENT_ERROR(self, CORE, NEGOTIATION, ("Downstream accepts none of RGBA, RGBx, I420"),
+                      (nullptr));
+    return false;
+  }
+  gst_video_info_set_format(&st->out, chosen, width, height);
+  GST_VIDEO_INFO_FPS_N(&st->out) = self->fps_n;
+  GST_VIDEO_INFO_FPS_D(&st->out) = self->fps_d;
+  GstCaps* caps = gst_video_info_to_caps(&st->out);
+  gst_aggregator_set_src_caps(agg, caps);
+  gst_caps_unref(caps);
+  st->have_caps = true;
+  return true;
+}
+
+static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g) {
+  State* st = self->state;
+  const lf::Fragment& first = g.fragments.front();
+  const int W = first.out_width, H = first.out_height;
+  if (!ensure_caps(self, W, H)) return GST_FLOW_NOT_NEGOTIATED;
+  st->comp.reset(W, H);
+  for (const lf::Fragment& f : g.fragments) {
+    try {
+      st->comp.add(f);
+    } catch (const std::exception& e) {
+      GST_WARNING_OBJECT(self, "dropping fragment of camera %u: %s", f.camera_id, e.what());
+    }
+  }
+  cv::Mat rgba;
+  st->comp.resolve(rgba);
+  GstBuffer* out = gst_buffer_new_allocate(nullptr, GST_VIDEO_INFO_SIZE(&st->out), nullptr);
+  GstVideoFrame vf;
+  gst_video_frame_map(&vf, &st->out, out, GST_MAP_WRITE);
+  if (GST_VIDEO_INFO_FORMAT(&st->out) == GST_VIDEO_FORMAT_I420) {
+    cv::Mat i420;
+    cv::cvtColor(rgba, i420, cv::COLOR_RGBA2YUV_I420);
+    for (int p = 0; p < 3; ++p) {
+      const int pw = GST_VIDEO_FRAME_COMP_WIDTH(&vf, p), ph = GST_VIDEO_FRAME_COMP_HEIGHT(&vf, p);
+      const uint8_t* src = i420.data + (p == 0 ? 0 : W * H + (p == 2 ? (W / 2) * (H / 2) : 0));
+      const int sstride = p == 0 ? W : W / 2;
+      auto* dst = static_cast<uint8_t*>(GST_VIDEO_FRAME_PLANE_DATA(&vf, p));
+      const int dstride = GST_VIDEO_FRAME_PLANE_STRIDE(&vf, p);
+      for (int y = 0; y < ph; ++y)
+        std::memcpy(dst + y * dstride, src + y * sstride, std::min(pw, sstride));
+    }
+  } else {
+    auto* dst = static_cast<uint8_t*>(GST_VIDEO_FRAME_PLANE_DATA(&vf, 0));
+    const int dstride = GST_VIDEO_FRAME_PLANE_STRIDE(&vf, 0);
+    for (int y = 0; y < H; ++y) std::memcpy(dst + y * dstride, rgba.ptr(y), 4 * W);
+  }
+  gst_video_frame_unmap(&vf);
+  GST_BUFFER_PTS(out) = g.pts;
+  GST_BUFFER_DURATION(out) = g.duration;
+  GST_BUFFER_OFFSET(out) = seq;
+  st->last_emitted = static_cast<int64_t>(seq);
+  GstAggregator* agg = GST_AGGREGATOR(self);
+  if (GST_CLOCK_TIME_IS_VALID(g.pts)) {
+    GstSegment* seg = &GST_AGGREGATOR_PAD(agg->srcpad)->segment;
+    seg->position = g.pts + (GST_CLOCK_TIME_IS_VALID(g.duration) ? g.duration : 0);
+  }
+  GST_LOG_OBJECT(self, "request %" G_GUINT64_FORMAT ": %zu fragments", seq, g.fragments.size());
+  return gst_aggregator_finish_buffer(agg, out);
+}
+
+static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeout) {
+  LfCompositor* self = LF_COMPOSITOR(agg);
+  State* st = self->state;
+  bool all_eos = true;
+  GList* pads;
+  GST_OBJECT_LOCK(self);
+  pads = g_list_copy_deep(GST_ELEMENT(self)->sinkpads, (GCopyFunc)gst_object_ref, nullptr);
+  GST_OBJECT_UNLOCK(self);
+  for (GList* l = pads; l; l = l->next) {
+    GstAggregatorPad* pad = GST_AGGREGATOR_PAD(l->data);
+    GstBuffer* buf;
+    while ((buf = gst_aggregator_pad_pop_buffer(pad))) {
+      GstMapInfo map;
+      if (gst_buffer_map(buf, &map, GST_MAP_READ)) {
+        try {
+          lf::Fragment f = lf::parse_fragment(map.data, map.size);
+          const bool ours =
+              self->viewer_id < 0 || f.viewer_id == static_cast<guint>(self->viewer_id);
+          const bool known = !st->rig || st->rig->index_of(static_cast<int>(f.camera_id)) >= 0;
+          if (!known) {
+            GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Dropping a fragment of an unknown camera"),
+                                ("camera %u is not in the rig", f.camera_id));
+          } else if (ours && static_cast<int64_t>(f.sequence) > st->last_emitted) {
+            Group& g = st->pending[f.sequence];
+            if (g.cameras.insert(f.camera_id).second) {
+              if (!GST_CLOCK_TIME_IS_VALID(g.pts)) {
+                g.pts = GST_BUFFER_PTS(buf);
+                g.duration = GST_BUFFER_DURATION(buf);
+              }
+              g.fragments.push_back(std::move(f));
+            }
+          }
+        } catch (const std::exception& e) {
+          GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Dropping a malformed fragment"),
+                              ("%s", e.what()));
+        }
+        gst_buffer_unmap(buf, &map);
+      }
+      gst_buffer_unref(buf);
+    }
+    if (!gst_aggregator_pad_is_eos(pad)) all_eos = false;
+  }
+  g_list_free_full(pads, gst_object_unref);
+
+  const size_t expected = expected_fragments(self);
+  GstFlowReturn ret = GST_FLOW_OK;
+  // Complete requests, in order; at a deadline (or end of stream), also the
+  // incomplete ones, renormalised; too many pending: the oldest.
+  while (!st->pending.empty() && ret == GST_FLOW_OK) {
+    auto it = st->pending.begin();
+    const bool complete = it->second.cameras.size() >= expected;
+    if (!(complete || timeout || all_eos || st->pending.size() > kMaxPending)) break;
+    if (!complete)
+      GST_DEBUG_OBJECT(self, "request %" G_GUINT64_FORMAT " incomplete: %zu of %zu fragments",
+                       it->first, it->second.cameras.size(), expected);
+    ret = emit(self, it->first, it->second);
+    st->pending.erase(it);
+  }
+  if (ret == GST_FLOW_OK && all_eos && st->pending.empty()) return GST_FLOW_EOS;
+  return ret;
+}
+
+static void lf_compositor_finalize(GObject* obj) {
+  LfCompositor* self = LF_COMPOSITOR(obj);
+  g_free(self->rig);
+  delete self->state;
+  G_OBJECT_CLASS(lf_compositor_parent_class)->finalize(obj);
+}
+
+static void lf_compositor_init(LfCompositor* self) {
+  self->viewer_id = -1;
+  self->fps_n = 30;
+  self->fps_d = 1;
+}
+
+static void lf_compositor_class_init(LfCompositorClass* klass) {
+  GObjectClass* oc = G_OBJECT_CLASS(klass);
+  GstElementClass* ec = GST_ELEMENT_CLASS(klass);
+  GstAggregatorClass* ac = GST_AGGREGATOR_CLASS(klass);
+  oc->set_property = lf_compositor_set_property;
+  oc->get_property = lf_compositor_get_property;
+  oc->finalize = lf_compositor_finalize;
+  const auto rw = static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
+                                           GST_PARAM_MUTABLE_READY);
+  g_object_class_install_property(
+      oc, PROP_RIG,
+      g_param_spec_string("rig", "Rig",
+                          "Rig file or dataset folder: a request is complete when every camera "
+                          "of the rig has answered (unset: one fragment per sink pad)",
+                          nullptr, rw));
+  g_object_class_install_property(
+      oc, PROP_VIEWER_ID,
+      g_param_spec_int("viewer-id", "Viewer id", "Composite only this viewer's requests (-1: any)",
+                       -1, G_MAXINT, -1, rw));
+  g_object_class_install_property(
+      oc, PROP_FRAMERATE,
+      gst_param_spec_fraction("framerate", "Frame rate", "Frame rate announced in the output caps",
+                              0, 1, 1000, 1, 30, 1, rw));
+  gst_element_class_add_static_pad_template_with_gtype(ec, &sink_template, GST_TYPE_AGGREGATOR_PAD);
+  gst_element_class_add_static_pad_template_with_gtype(ec, &src_template, GST_TYPE_AGGREGATOR_PAD);
+  gst_element_class_set_static_metadata(
+      ec, "Light field compositor", "Filter/Editor/Video/Compositor",
+      "Adds the image fragments of each view request into the output frame, renormalised; "
+      "composites incomplete requests at the deadline (property 'latency', ns) in live "
+      "pipelines (Yang et al. 2002, 4.3)",
+      "lightfield-gst");
+  ac->start = lf_compositor_start;
+  ac->stop = lf_compositor_stop;
+  ac->aggregate = lf_compositor_aggregate;
+  ac->get_next_time = gst_aggregator_simple_get_next_time;
+  GST_DEBUG_CATEGORY_INIT(lf_compositor_debug, "lfcompositor", 0, "light field compositor");
+}
+
+gboolean lf_compositor_register(GstPlugin* plugin) {
+  return gst_element_register(plugin, "lfcompositor", GST_RANK_NONE, LF_TYPE_COMPOSITOR);
+}

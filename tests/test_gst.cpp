@@ -1,0 +1,325 @@
+// GStreamer elements: documentation (properties, pads), pipeline output vs
+// the offline renderer, malformed input, a camera dying in a live pipeline.
+#include <gst/app/gstappsink.h>
+#include <gst/app/gstappsrc.h>
+#include <gst/gst.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <opencv2/imgproc.hpp>
+
+#include "helpers.h"
+#include "lf/datasets.h"
+#include "lf/renderer.h"
+#include "lf/wire.h"
+
+namespace {
+
+using testing_lf::data_path;
+
+class Gst : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    g_setenv("GST_PLUGIN_PATH", LF_PLUGIN_DIR, TRUE);
+    g_setenv("GST_REGISTRY",
+             (std::filesystem::temp_directory_path() / "lf-test-registry.bin").c_str(), TRUE);
+    gst_init(nullptr, nullptr);
+    // A 2x2 block of the real Chess light field at half resolution.
+    rig_path_ = (std::filesystem::temp_directory_path() / "lf-test-chess4.json").string();
+    lf::Rig rig = lf::scale_rig(
+        lf::grid_block(lf::import_dataset(data_path("stanford-chess")), 3, 3, 2, 2), 0.5);
+    lf::save_rig(rig, rig_path_);
+  }
+  static std::string rig_path_;
+
+  // Builds lfviewrequest ! tee, per camera lfcamsrc -> lffragment, -> lfcompositor ! appsink.
+  static std::string pipeline(const std::string& request_props,
+                              const std::string& extra_fragment = "",
+                              const std::string& comp_props = "", bool live = false) {
+    const lf::Rig rig = lf::load_rig(rig_path_);
+    std::string d = "lfviewrequest name=req rig=" + rig_path_ + " " + request_props +
+                    (live ? " is-live=true" : "") +
+                    " ! tee name=t lfcompositor name=comp rig=" + rig_path_ + " " + comp_props +
+                    " ! video/x-raw,format=RGBA ! appsink name=out sync=false";
+    for (size_t i = 0; i < rig.cameras.size(); ++i) {
+      const std::string id = std::to_string(rig.cameras[i].id), n = std::to_string(i);
+      d += " lfcamsrc rig=" + rig_path_ + " camera-id=" + id +
+           (live ? " is-live=true framerate=30/1" : " num-buffers=1") + " ! f" + n + ".sink";
+      d += " t. ! queue ! lffragment name=f" + n + " rig=" + rig_path_ + " camera-id=" + id + " " +
+           extra_fragment + " ! " + (i == 0 ? "valve name=v0 ! " : "") + "comp.sink_" + n;
+    }
+    return d;
+  }
+
+  // Runs a pipeline to EOS (or `max_frames`), collecting RGBA frames.
+  static std::vector<cv::Mat> run(const std::string& desc, int max_frames = 1000,
+                                  std::vector<std::string>* warnings = nullptr,
+                                  std::string* error = nullptr) {
+    GError* err = nullptr;
+    GstElement* p = gst_parse_launch(desc.c_str(), &err);
+    if (!p) {
+      if (error) *error = err ? err->message : "parse failed";
+      g_clear_error(&err);
+      return {};
+    }
+    GstElement* sink = gst_bin_get_by_name(GST_BIN(p), "out");
+    std::vector<cv::Mat> frames;
+    gst_element_set_state(p, GST_STATE_PLAYING);
+    GstBus* bus = gst_element_get_bus(p);
+    bool done = false;
+    while (!done && static_cast<int>(frames.size()) < max_frames) {
+      GstSample* s =
+          sink ? gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 20 * GST_MSECOND) : nullptr;
+      if (!sink) g_usleep(20000);
+      if (s) {
+        GstCaps* caps = gst_sample_get_caps(s);
+        GstStructure* st = gst_caps_get_structure(caps, 0);
+        int w = 0, h = 0;
+        gst_structure_get_int(st, "width", &w);
+        gst_structure_get_int(st, "height", &h);
+        GstMapInfo m;
+        gst_buffer_map(gst_sample_get_buffer(s), &m, GST_MAP_READ);
+        frames.push_back(cv::Mat(h, w, CV_8UC4, m.data).clone());
+        gst_buffer_unmap(gst_sample_get_buffer(s), &m);
+        gst_sample_unref(s);
+      }
+      while (GstMessage* msg = gst_bus_pop(bus)) {
+        if (GST_MESSAGE_TYPE(msg) == GST_MESSAGE_EOS) done = true;
+        if (GST_MESSAGE_TYPE(msg) == GST_MESSAGE_ERROR) {
+          GError* e = nullptr;
+          gst_message_parse_error(msg, &e, nullptr);
+          if (error && error->empty()) *error = e->message;
+          g_clear_error(&e);
+          done = true;
+        }
+        if (GST_MESSAGE_TYPE(msg) == GST_MESSAGE_WARNING && warnings) {
+          GError* e = nullptr;
+          gchar* dbg = nullptr;
+          gst_message_parse_warning(msg, &e, &dbg);
+          warnings->push_back(std::string(e->message) + ": " + (dbg ? dbg : ""));
+          g_clear_error(&e);
+          g_free(dbg);
+        }
+        gst_message_unref(msg);
+      }
+      if (sink && gst_app_sink_is_eos(GST_APP_SINK(sink))) done = true;
+    }
+    gst_element_set_state(p, GST_STATE_NULL);
+    gst_object_unref(bus);
+    if (sink) gst_object_unref(sink);
+    gst_object_unref(p);
+    return frames;
+  }
+};
+std::string Gst::rig_path_;
+
+TEST_F(Gst, ElementsAreDocumented) {
+  struct E {
+    const char* name;
+    std::vector<const char*> props;
+    std::vector<const char*> pads;
+  };
+  for (const E& e : std::vector<E>{
+           {"lfcamsrc",
+            {"rig", "camera-id", "row", "col", "framerate", "phase", "is-live"},
+            {"src"}},
+           {"lffragment",
+            {"rig", "camera-id", "encoding", "jpeg-quality"},
+            {"sink", "request", "src"}},
+           {"lfcompositor", {"rig", "viewer-id", "framerate", "latency"}, {"sink_%u", "src"}},
+           {"lfviewrequest",
+            {"rig", "viewer-id", "width", "height", "position", "look-at", "vfov", "focal-plane",
+             "path", "orbit", "dolly", "framerate", "is-live"},
+            {"src"}}}) {
+    GstElementFactory* f = gst_element_factory_find(e.name);
+    ASSERT_NE(f, nullptr) << e.name;
+    GstElement* el = gst_element_factory_create(f, nullptr);
+    for (const char* p : e.props) {
+      GParamSpec* ps = g_object_class_find_property(G_OBJECT_GET_CLASS(el), p);
+      ASSERT_NE(ps, nullptr) << e.name << "." << p;
+      EXPECT_GT(std::strlen(g_param_spec_get_blurb(ps)), 10u) << e.name << "." << p;
+    }
+    for (const char* pad : e.pads)
+      EXPECT_NE(gst_element_class_get_pad_template(GST_ELEMENT_GET_CLASS(el), pad), nullptr)
+          << e.name << " pad " << pad;
+    EXPECT_NE(gst_element_factory_get_metadata(f, GST_ELEMENT_METADATA_DESCRIPTION), nullptr);
+    gst_object_unref(el);
+    gst_object_unref(f);
+  }
+}
+
+TEST_F(Gst, PipelineOutputEqualsOfflineRenderer) {
+  const lf::Rig rig = lf::load_rig(rig_path_);
+  const auto images = lf::load_images(rig);  // BGRA; the elements use RGBA
+  const cv::Vec3d c = rig.plane().origin;
+  for (const std::string& focal : {"param:-0.2", "infinity"}) {
+    for (const cv::Vec3d eye : {c + cv::Vec3d(1.5, -2.0, 0), c + cv::Vec3d(-2.0, 1.0, 6.0)}) {
+      char pos[128];
+      std::snprintf(pos, sizeof pos, "%.17g,%.17g,%.17g", eye[0], eye[1], eye[2]);
+      std::string err;
+      const auto frames = run(pipeline(std::string("num-buffers=2 width=320 height=240 position=") +
+                                       pos + " focal-plane=" + focal),
+                              100, nullptr, &err);
+      ASSERT_EQ(frames.size(), 2u) << err;
+      lf::ViewRequest req;
+      req.view = lf::view_between_cameras(rig, eye, 320, 240);
+      req.focal_plane = lf::parse_focal_plane(focal, rig);
+      cv::Mat ref = lf::render_view(rig, images, req);
+      cv::cvtColor(ref, ref, cv::COLOR_BGRA2RGBA);
+      for (const cv::Mat& f : frames) {
+        cv::Mat diff;
+        cv::absdiff(f, ref, diff);
+        const cv::Scalar mad = cv::mean(diff);
+        EXPECT_LE((mad[0] + mad[1] + mad[2]) / 3, 1.0) << focal;
+        EXPECT_EQ(cv::countNonZero(diff.reshape(1)), 0) << "expected bit-identical output";
+      }
+    }
+  }
+}
+
+TEST_F(Gst, JpegFragmentsStayClose) {
+  const auto raw = run(pipeline("num-buffers=1 width=320 height=240 focal-plane=param:-0.2"));
+  const auto jpg = run(pipeline("num-buffers=1 width=320 height=240 focal-plane=param:-0.2",
+                                "encoding=jpeg jpeg-quality=90"));
+  ASSERT_EQ(raw.size(), 1u);
+  ASSERT_EQ(jpg.size(), 1u);
+  cv::Mat a, b;
+  cv::cvtColor(raw[0], a, cv::COLOR_RGBA2RGB);
+  cv::cvtColor(jpg[0], b, cv::COLOR_RGBA2RGB);
+  EXPECT_GT(cv::PSNR(a, b), 36.0);
+}
+
+TEST_F(Gst, BadPropertiesGiveClearErrors) {
+  std::string err;
+  run("lfviewrequest num-buffers=1 ! fakesink", 1, nullptr, &err);
+  EXPECT_NE(err.find("rig"), std::string::npos) << err;
+  err.clear();
+  run("lfviewrequest rig=" + rig_path_ + " focal-plane=sideways num-buffers=1 ! fakesink", 1,
+      nullptr, &err);
+  EXPECT_NE(err.find("settings"), std::string::npos) << err;
+  err.clear();
+  run("lfcamsrc rig=/nonexistent.json camera-id=0 num-buffers=1 ! fakesink", 1, nullptr, &err);
+  EXPECT_FALSE(err.empty());
+  err.clear();
+  run("lfcamsrc rig=" + rig_path_ + " camera-id=999999 num-buffers=1 ! fakesink", 1, nullptr, &err);
+  EXPECT_NE(err.find("camera"), std::string::npos) << err;
+}
+
+TEST_F(Gst, MalformedRequestsAndFragmentsAreDroppedWithAWarning) {
+  // Garbage view requests into lffragment, then a valid one.
+  const lf::Rig rig = lf::load_rig(rig_path_);
+  GstElement* p = gst_parse_launch(
+      ("appsrc name=in caps=application/x-lf-view-request format=time ! f.request lffragment rig=" +
+       rig_path_ + " camera-id=" + std::to_string(rig.cameras[0].id) +
+       " name=f ! appsink name=out sync=false  lfcamsrc rig=" + rig_path_ +
+       " camera-id=" + std::to_string(rig.cameras[0].id) + " num-buffers=1 ! f.sink")
+          .c_str(),
+      nullptr);
+  ASSERT_NE(p, nullptr);
+  GstElement* in = gst_bin_get_by_name(GST_BIN(p), "in");
+  GstElement* out = gst_bin_get_by_name(GST_BIN(p), "out");
+  gst_element_set_state(p, GST_STATE_PLAYING);
+  std::vector<uint8_t> garbage(144, 0x41);
+  std::memcpy(garbage.data(), "LFVR", 4);
+  gst_app_src_push_buffer(GST_APP_SRC(in), gst_buffer_new_memdup(garbage.data(), garbage.size()));
+  gst_app_src_push_buffer(GST_APP_SRC(in), gst_buffer_new_memdup("x", 1));
+  lf::ViewRequest req;
+  req.sequence = 7;
+  req.view = lf::view_between_cameras(rig, rig.plane().origin, 160, 120);
+  req.focal_plane = lf::FocalPlane::infinity();
+  const auto good = lf::serialize_request(req);
+  gst_app_src_push_buffer(GST_APP_SRC(in), gst_buffer_new_memdup(good.data(), good.size()));
+  gst_app_src_end_of_stream(GST_APP_SRC(in));
+  GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(out), 5 * GST_SECOND);
+  ASSERT_NE(s, nullptr) << "the valid request after the malformed ones must be answered";
+  GstMapInfo m;
+  gst_buffer_map(gst_sample_get_buffer(s), &m, GST_MAP_READ);
+  const lf::Fragment f = lf::parse_fragment(m.data, m.size);
+  EXPECT_EQ(f.sequence, 7u);
+  gst_buffer_unmap(gst_sample_get_buffer(s), &m);
+  gst_sample_unref(s);
+  int warnings = 0;
+  GstBus* bus = gst_element_get_bus(p);
+  while (GstMessage* msg = gst_bus_pop_filtered(bus, GST_MESSAGE_WARNING)) {
+    ++warnings;
+    gst_message_unref(msg);
+  }
+  EXPECT_EQ(warnings, 2);
+  gst_object_unref(bus);
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(in);
+  gst_object_unref(out);
+  gst_object_unref(p);
+
+  // Garbage fragments into lfcompositor next to real ones: output continues.
+  std::vector<std::string> warns;
+  const std::string desc =
+      pipeline("num-buffers=3 width=160 height=120 focal-plane=param:-0.2") +
+      " appsrc name=junk caps=application/x-lf-fragment,encoding=raw format=time ! comp.sink_9";
+  GstElement* q = gst_parse_launch(desc.c_str(), nullptr);
+  ASSERT_NE(q, nullptr);
+  GstElement* junk = gst_bin_get_by_name(GST_BIN(q), "junk");
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(q), "out");
+  gst_element_set_state(q, GST_STATE_PLAYING);
+  for (int k = 0; k < 3; ++k) {
+    GstBuffer* b = gst_buffer_new_memdup("LFFRgarbage-garbage-garbage", 27);
+    GST_BUFFER_PTS(b) = k * GST_SECOND / 30;
+    gst_app_src_push_buffer(GST_APP_SRC(junk), b);
+  }
+  gst_app_src_end_of_stream(GST_APP_SRC(junk));
+  int frames = 0;
+  while (GstSample* s2 = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 5 * GST_SECOND)) {
+    ++frames;
+    gst_sample_unref(s2);
+    if (frames == 3) break;
+  }
+  EXPECT_EQ(frames, 3);
+  gst_element_set_state(q, GST_STATE_NULL);
+  gst_object_unref(junk);
+  gst_object_unref(sink);
+  gst_object_unref(q);
+}
+
+TEST_F(Gst, DeadCameraDoesNotStopLiveOutput) {
+  // Live pipeline at 30 requests/s; after 10 frames camera 0's fragments
+  // stop (valve). The compositor's deadline (latency 50 ms) keeps frames
+  // coming, renormalised from the remaining cameras.
+  GError* err = nullptr;
+  const std::string desc = pipeline("width=160 height=120 focal-plane=param:-0.2 framerate=30/1",
+                                    "", "latency=50000000", true);
+  GstElement* p = gst_parse_launch(desc.c_str(), &err);
+  ASSERT_NE(p, nullptr) << (err ? err->message : "");
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(p), "out");
+  GstElement* valve = gst_bin_get_by_name(GST_BIN(p), "v0");
+  gst_element_set_state(p, GST_STATE_PLAYING);
+  std::vector<cv::Mat> before, after;
+  const gint64 t0 = g_get_monotonic_time();
+  while (g_get_monotonic_time() - t0 < 3 * G_USEC_PER_SEC && after.size() < 30) {
+    GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 200 * GST_MSECOND);
+    if (!s) continue;
+    GstMapInfo m;
+    gst_buffer_map(gst_sample_get_buffer(s), &m, GST_MAP_READ);
+    cv::Mat f = cv::Mat(120, 160, CV_8UC4, m.data).clone();
+    gst_buffer_unmap(gst_sample_get_buffer(s), &m);
+    gst_sample_unref(s);
+    if (before.size() < 10) {
+      before.push_back(f);
+      if (before.size() == 10) g_object_set(valve, "drop", TRUE, nullptr);
+    } else {
+      after.push_back(f);
+    }
+  }
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(valve);
+  gst_object_unref(sink);
+  gst_object_unref(p);
+  ASSERT_EQ(before.size(), 10u);
+  EXPECT_GE(after.size(), 30u) << "output must keep coming after a camera dies";
+  // Where neighbours cover the region it stays filled (alpha 255).
+  std::vector<cv::Mat> ch;
+  cv::split(after.back(), ch);
+  EXPECT_GT(cv::countNonZero(ch[3]), 0.95 * 160 * 120);
+}
+
+}  // namespace
