@@ -224,12 +224,15 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
   bool all_eos = true;
   GList* pads;
   GST_OBJECT_LOCK(self);
-  pads = g_list_copy_deep(GST_ELEMENT(self)->sinkpads, (GCopyFunc)gst_object_ref, nullptr);
+  pads = g_list_copy(GST_ELEMENT(self)->sinkpads);
+  g_list_foreach(
+      pads, [](gpointer p, gpointer) { gst_object_ref(p); }, nullptr);
   GST_OBJECT_UNLOCK(self);
   for (GList* l = pads; l; l = l->next) {
     GstAggregatorPad* pad = GST_AGGREGATOR_PAD(l->data);
-    GstBuffer* buf;
-    while ((buf = gst_aggregator_pad_pop_buffer(pad))) {
+    // One buffer per pad per call: pads stay in step (a pop unblocks the
+    // upstream push, so popping in a loop would race ahead on fast pads).
+    if (GstBuffer* buf = gst_aggregator_pad_pop_buffer(pad)) {
       GstMapInfo map;
       if (gst_buffer_map(buf, &map, GST_MAP_READ)) {
         try {

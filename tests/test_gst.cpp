@@ -153,8 +153,8 @@ TEST_F(Gst, PipelineOutputEqualsOfflineRenderer) {
   const lf::Rig rig = lf::load_rig(rig_path_);
   const auto images = lf::load_images(rig);  // BGRA; the elements use RGBA
   const cv::Vec3d c = rig.plane().origin;
-  for (const std::string& focal : {"param:-0.2", "infinity"}) {
-    for (const cv::Vec3d eye : {c + cv::Vec3d(1.5, -2.0, 0), c + cv::Vec3d(-2.0, 1.0, 6.0)}) {
+  for (const std::string focal : {"param:-0.2", "infinity"}) {
+    for (const cv::Vec3d& eye : {c + cv::Vec3d(1.5, -2.0, 0), c + cv::Vec3d(-2.0, 1.0, 6.0)}) {
       char pos[128];
       std::snprintf(pos, sizeof pos, "%.17g,%.17g,%.17g", eye[0], eye[1], eye[2]);
       std::string err;

@@ -1,0 +1,197 @@
+// lf-gst-bench: throughput and request->frame latency of the single-machine
+// GStreamer pipeline (lfviewrequest ! tee ! N x (queue ! lffragment) !
+// lfcompositor ! appsink), in process.
+//  * throughput: non-live, requests as fast as the pipeline takes them;
+//    output frames per second after a warm-up.
+//  * latency: a live request source at a fixed rate; for each request, the
+//    time from the request leaving lfviewrequest to its frame reaching the
+//    sink (pad probes, matched by sequence number); median and 95th
+//    percentile.
+#include <gst/app/gstappsink.h>
+#include <gst/gst.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <mutex>
+#include <sstream>
+#include <thread>
+
+#include "cli.h"
+#include "lf/datasets.h"
+
+namespace {
+
+const char* kHelp = R"(lf-gst-bench: throughput and latency of the GStreamer pipeline.
+
+usage: lf-gst-bench [--input PATH] [--block R0,C0,R,C] [--sizes 640x480,320x240]
+                    [--encodings raw,jpeg90] [--frames N] [--latency-rate HZ]
+  --input PATH      dataset folder or rig file (default ../shared/data/stanford-chess)
+  --block ...       grid block (default 0,0,8,8: 64 cameras)
+  --frames N        requests per throughput run (default 300)
+  --latency-rate F  request rate of the live latency run (default 30)
+)";
+
+struct Probe {
+  std::mutex m;
+  std::map<guint64, gint64> sent;
+  std::vector<double> latency_ms;
+};
+
+GstPadProbeReturn on_request(GstPad*, GstPadProbeInfo* info, gpointer data) {
+  auto* p = static_cast<Probe*>(data);
+  GstBuffer* b = GST_PAD_PROBE_INFO_BUFFER(info);
+  std::lock_guard<std::mutex> l(p->m);
+  p->sent[GST_BUFFER_OFFSET(b)] = g_get_monotonic_time();
+  return GST_PAD_PROBE_OK;
+}
+
+GstPadProbeReturn on_frame(GstPad*, GstPadProbeInfo* info, gpointer data) {
+  auto* p = static_cast<Probe*>(data);
+  GstBuffer* b = GST_PAD_PROBE_INFO_BUFFER(info);
+  const gint64 now = g_get_monotonic_time();
+  std::lock_guard<std::mutex> l(p->m);
+  auto it = p->sent.find(GST_BUFFER_OFFSET(b));
+  if (it != p->sent.end()) p->latency_ms.push_back((now - it->second) / 1000.0);
+  return GST_PAD_PROBE_OK;
+}
+
+std::string pipeline(const std::string& rig, const lf::Rig& r, int W, int H, const std::string& enc,
+                     bool live, int frames, int rate) {
+  std::string fr;
+  if (enc == "raw") {
+    fr = "encoding=raw";
+  } else if (enc.rfind("jpeg", 0) == 0) {
+    fr = "encoding=jpeg jpeg-quality=" + enc.substr(4);
+  } else {
+    throw std::invalid_argument("encoding '" + enc + "': use raw or jpegQ");
+  }
+  std::ostringstream d;
+  d << "lfviewrequest name=req rig=" << rig << " width=" << W << " height=" << H
+    << " orbit=0.5 path-frames=120 focal-plane=param:-0.2 framerate=" << rate << "/1"
+    << (live ? " is-live=true" : "") << " num-buffers=" << frames
+    << " ! tee name=t lfcompositor name=comp rig=" << rig << (live ? " latency=100000000" : "")
+    << " ! appsink name=out sync=false max-buffers=4";
+  for (size_t i = 0; i < r.cameras.size(); ++i)
+    d << " lfcamsrc rig=" << rig << " camera-id=" << r.cameras[i].id << " num-buffers=1 ! f" << i
+      << ".sink t. ! queue max-size-buffers=8 ! lffragment name=f" << i << " rig=" << rig
+      << " camera-id=" << r.cameras[i].id << " " << fr << " ! comp.sink_" << i;
+  return d.str();
+}
+
+// Runs to EOS; returns output frame times (s, monotonic).
+std::vector<double> run(const std::string& desc, Probe* probe) {
+  GError* err = nullptr;
+  GstElement* p = gst_parse_launch(desc.c_str(), &err);
+  if (!p) throw std::runtime_error(std::string("pipeline: ") + (err ? err->message : "?"));
+  GstElement* req = gst_bin_get_by_name(GST_BIN(p), "req");
+  GstElement* out = gst_bin_get_by_name(GST_BIN(p), "out");
+  if (probe) {
+    GstPad* rp = gst_element_get_static_pad(req, "src");
+    gst_pad_add_probe(rp, GST_PAD_PROBE_TYPE_BUFFER, on_request, probe, nullptr);
+    gst_object_unref(rp);
+    GstPad* op = gst_element_get_static_pad(out, "sink");
+    gst_pad_add_probe(op, GST_PAD_PROBE_TYPE_BUFFER, on_frame, probe, nullptr);
+    gst_object_unref(op);
+  }
+  std::vector<double> times;
+  gst_element_set_state(p, GST_STATE_PLAYING);
+  GstBus* bus = gst_element_get_bus(p);
+  std::string error;
+  while (true) {
+    GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(out), 50 * GST_MSECOND);
+    if (s) {
+      times.push_back(g_get_monotonic_time() / 1e6);
+      gst_sample_unref(s);
+    }
+    GstMessage* m = gst_bus_pop_filtered(bus, static_cast<GstMessageType>(GST_MESSAGE_ERROR));
+    if (m) {
+      GError* e = nullptr;
+      gst_message_parse_error(m, &e, nullptr);
+      error = e->message;
+      g_clear_error(&e);
+      gst_message_unref(m);
+      break;
+    }
+    if (gst_app_sink_is_eos(GST_APP_SINK(out))) break;
+  }
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(bus);
+  gst_object_unref(req);
+  gst_object_unref(out);
+  gst_object_unref(p);
+  if (!error.empty()) throw std::runtime_error("pipeline error: " + error);
+  return times;
+}
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5))];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i)
+    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
+      std::cout << kHelp;
+      return 0;
+    }
+  try {
+    cli::Args args(argc, argv,
+                   {"--input", "--block", "--sizes", "--encodings", "--frames", "--latency-rate"},
+                   {});
+    gst_init(nullptr, nullptr);
+    lf::Rig rig = lf::load_rig_or_dataset(args.get("--input", "../shared/data/stanford-chess"));
+    const auto b =
+        args.has("--block") ? args.numbers("--block", 4, 4) : std::vector<double>{0, 0, 8, 8};
+    if (!rig.grid.empty()) rig = lf::grid_block(rig, int(b[0]), int(b[1]), int(b[2]), int(b[3]));
+    const std::string rig_path =
+        (std::filesystem::temp_directory_path() / "lf-gst-bench-rig.json").string();
+    lf::save_rig(rig, rig_path);
+    const int frames = args.integer("--frames", 300);
+    const int rate = args.integer("--latency-rate", 30);
+    std::vector<std::pair<int, int>> sizes;
+    std::vector<std::string> encodings;
+    {
+      std::stringstream ss(args.get("--sizes", "640x480,320x240"));
+      std::string t;
+      while (std::getline(ss, t, ',')) {
+        int w, h;
+        cli::parse_size(t, w, h);
+        sizes.emplace_back(w, h);
+      }
+      std::stringstream es(args.get("--encodings", "raw,jpeg90"));
+      while (std::getline(es, t, ',')) encodings.push_back(t);
+    }
+    std::printf("## GStreamer pipeline, %zu cameras, one machine (%d cores)\n\n",
+                rig.cameras.size(), static_cast<int>(std::thread::hardware_concurrency()));
+    std::printf(
+        "| output | encoding | throughput fps (non-live, %d requests) | latency median ms "
+        "| latency p95 ms (live, %d requests/s) |\n|---|---|---|---|---|\n",
+        frames, rate);
+    for (const auto& [W, H] : sizes)
+      for (const auto& enc : encodings) {
+        const auto t = run(pipeline(rig_path, rig, W, H, enc, false, frames, 1000), nullptr);
+        const int warm = std::min<int>(20, static_cast<int>(t.size()) / 4);
+        const double fps = t.size() > static_cast<size_t>(warm + 1)
+                               ? (t.size() - 1 - warm) / (t.back() - t[warm])
+                               : 0;
+        Probe probe;
+        run(pipeline(rig_path, rig, W, H, enc, true, std::max(60, rate * 4), rate), &probe);
+        std::vector<double> lat(
+            probe.latency_ms.begin() + std::min<size_t>(10, probe.latency_ms.size()),
+            probe.latency_ms.end());
+        std::printf("| %dx%d | %s | %.1f | %.1f | %.1f |\n", W, H, enc.c_str(), fps,
+                    percentile(lat, 0.5), percentile(lat, 0.95));
+        std::fflush(stdout);
+      }
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "lf-gst-bench: error: %s\n", e.what());
+    return 1;
+  }
+}
