@@ -7,6 +7,7 @@
 #include <gst/video/video.h>
 
 #include <memory>
+#include <opencv2/imgproc.hpp>
 
 #include "lf/fragment.h"
 #include "lf/plan.h"
@@ -36,6 +37,10 @@ namespace {
 struct State {
   std::shared_ptr<const lf::Rig> rig;
   int index = -1;
+  // Colour-corrected copy of the newest frame (only when the camera has a
+  // correction), made once per frame, not once per request.
+  GstBuffer* corrected_of = nullptr;  // the frame it was made from (not owned, compared only)
+  cv::Mat corrected;
 };
 }  // namespace
 
@@ -276,9 +281,32 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
     const cv::Mat image(GST_VIDEO_FRAME_HEIGHT(&vf), GST_VIDEO_FRAME_WIDTH(&vf), CV_8UC4,
                         GST_VIDEO_FRAME_PLANE_DATA(&vf, 0), GST_VIDEO_FRAME_PLANE_STRIDE(&vf, 0));
     cv::Mat rgba = image;
-    if (GST_VIDEO_INFO_FORMAT(&info) == GST_VIDEO_FORMAT_RGBx) {
-      rgba = image.clone();  // force alpha = 255 (x is undefined)
-      rgba.forEach<cv::Vec4b>([](cv::Vec4b& p, const int*) { p[3] = 255; });
+    const lf::Camera& cam = rig.cameras[st->index];
+    const bool rgbx = GST_VIDEO_INFO_FORMAT(&info) == GST_VIDEO_FORMAT_RGBx;
+    if (rgbx || cam.has_colour_correction()) {
+      g_mutex_lock(&self->lock);
+      if (st->corrected_of != frame || st->corrected.empty()) {
+        cv::Mat out;
+        if (cam.has_colour_correction()) {
+          cv::Mat m(cam.colour), rgb;
+          cv::cvtColor(image, rgb, cv::COLOR_RGBA2RGB);
+          cv::transform(rgb, rgb, m);                  // saturating
+          cv::cvtColor(rgb, out, cv::COLOR_RGB2RGBA);  // alpha 255
+          if (!rgbx) {
+            std::vector<cv::Mat> ch;
+            cv::split(out, ch);
+            cv::extractChannel(image, ch[3], 3);
+            cv::merge(ch, out);
+          }
+        } else {
+          cv::cvtColor(image, out, cv::COLOR_RGBA2RGB);  // x is undefined: alpha 255
+          cv::cvtColor(out, out, cv::COLOR_RGB2RGBA);
+        }
+        st->corrected = out;
+        st->corrected_of = frame;
+      }
+      rgba = st->corrected;
+      g_mutex_unlock(&self->lock);
     }
     const lf::ViewGeometry g(rig, req);
     lf::Fragment f;

@@ -178,6 +178,33 @@ TEST_F(Gst, PipelineOutputEqualsOfflineRenderer) {
   }
 }
 
+TEST_F(Gst, ColourCorrectionFromTheRigIsApplied) {
+  lf::Rig rig = lf::load_rig(rig_path_);
+  for (auto& c : rig.cameras) c.colour = {0.5, 0, 0, 0, 0, 1, 0, 10, 0, 0, 1, 0};
+  const std::string corrected =
+      (std::filesystem::temp_directory_path() / "lf-test-chess4-colour.json").string();
+  lf::save_rig(rig, corrected);
+  std::string desc = pipeline("num-buffers=1 width=160 height=120 focal-plane=param:-0.2");
+  const auto plain = run(desc);
+  for (size_t at = desc.find(rig_path_); at != std::string::npos; at = desc.find(rig_path_, at))
+    desc.replace(at, rig_path_.size(), corrected);
+  const auto fixed = run(desc);
+  ASSERT_EQ(plain.size(), 1u);
+  ASSERT_EQ(fixed.size(), 1u);
+  std::vector<cv::Mat> a, b;
+  cv::split(plain[0], a);
+  cv::split(fixed[0], b);
+  cv::Mat half, diff;
+  a[0].convertTo(half, CV_32F, 0.5);
+  b[0].convertTo(diff, CV_32F);
+  // Red halved: rounded to 8 bits before warping, then blended: <= 2 LSB.
+  EXPECT_LE(cv::norm(diff - half, cv::NORM_INF), 2.0);
+  EXPECT_LT(cv::mean(cv::abs(diff - half))[0], 0.5);
+  a[1].convertTo(half, CV_32F);
+  b[1].convertTo(diff, CV_32F);
+  EXPECT_NEAR(cv::mean(diff - half)[0], 10.0, 0.3);  // green + 10 (saturating)
+}
+
 TEST_F(Gst, JpegFragmentsStayClose) {
   const auto raw = run(pipeline("num-buffers=1 width=320 height=240 focal-plane=param:-0.2"));
   const auto jpg = run(pipeline("num-buffers=1 width=320 height=240 focal-plane=param:-0.2",

@@ -71,8 +71,8 @@ TEST(RealData, StanfordChessLeaveOneOut) {
     q.focal_plane = lf::FocalPlane::infinity();
     const double p_auto = psnr_at(h, lf::AutofocusContext(h.rig, h.images).run(q).plane);
     const double p_near = nearest_psnr(h, fixed);
-    std::printf("chess r%dc%d: fixed a=-0.2 %.2f dB, sweep best %.2f, auto %.2f, nearest %.2f\n",
-                r, c, p_fixed, best, p_auto, p_near);
+    std::printf("chess r%dc%d: fixed a=-0.2 %.2f dB, sweep best %.2f, auto %.2f, nearest %.2f\n", r,
+                c, p_fixed, best, p_auto, p_near);
     // Measured 30.9 .. 31.6 dB at a = -0.2 (the dataset's dominant depth).
     EXPECT_GT(p_fixed, 30.0);
     // Measured 34.0 .. 34.3 dB for the best plane; auto-focus 34.1 .. 34.6.

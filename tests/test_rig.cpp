@@ -123,6 +123,7 @@ TEST(Rig, FileRoundTrip) {
   lf::Rig rig = lf::synthetic_grid_rig(3, 4, 0.1, 320, 240, 45, 2.0, 5);
   rig.cameras[3].intrinsics.k1 = -0.2;
   rig.cameras[3].image = "/nonexistent/cam3.png";
+  rig.cameras[3].colour = {1.1, 0.02, 0, -3, 0, 0.9, 0.01, 2, 0, 0, 1.05, 0};
   rig.grid.cells[5] = -1;  // an empty grid position
   rig.cameras.erase(rig.cameras.begin() + 11);
   rig.grid.cells[11] = -1;
@@ -139,6 +140,8 @@ TEST(Rig, FileRoundTrip) {
     EXPECT_EQ(back.cameras[i].extrinsics.t, rig.cameras[i].extrinsics.t);
   }
   EXPECT_EQ(back.cameras[3].image, "/nonexistent/cam3.png");
+  EXPECT_EQ(back.cameras[3].colour, rig.cameras[3].colour);
+  EXPECT_FALSE(back.cameras[2].has_colour_correction());
   EXPECT_EQ(back.triangles, rig.triangles);
   EXPECT_EQ(back.grid.cells, rig.grid.cells);
   std::filesystem::remove(path);

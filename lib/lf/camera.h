@@ -66,6 +66,14 @@ struct Camera {
   Intrinsics intrinsics;
   Extrinsics extrinsics;
   std::string image;  // optional image file (absolute, or relative to the rig file)
+  // Colour correction (paper 4.4.3): corrected = A * [r g b]^T + b, 8-bit
+  // levels, applied to the camera's frames before warping. Row-major 3x4
+  // [A | b]; identity by default. Channel order is the frames' (RGB in the
+  // GStreamer elements).
+  cv::Matx34d colour = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+  bool has_colour_correction() const {
+    return colour != cv::Matx34d(1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0);
+  }
 
   cv::Vec3d center() const { return extrinsics.center(); }
   // Optical axis (camera +z) in world coordinates.

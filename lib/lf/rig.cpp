@@ -418,6 +418,8 @@ std::string rig_to_json(const Rig& rig) {
     jc["R"] = R;
     jc["t"] = t;
     if (!c.image.empty()) jc["image"] = c.image;
+    if (c.has_colour_correction())
+      jc["colour"] = std::vector<double>(c.colour.val, c.colour.val + 12);
     cams.push_back(jc);
   }
   j["cameras"] = cams;
@@ -479,6 +481,14 @@ Rig rig_from_json(const std::string& text, const std::string& origin) {
     for (int k = 0; k < 9; ++k) c.extrinsics.R.val[k] = R[k];
     for (int k = 0; k < 3; ++k) c.extrinsics.t[k] = t[k];
     c.image = jc.value("image", "");
+    if (jc.contains("colour")) {
+      const auto col = get_field<std::vector<double>>(jc, "colour", origin, where);
+      if (col.size() != 12) fail(origin, where + ": colour must have 12 numbers ([A | b], 3x4)");
+      for (int k = 0; k < 12; ++k) {
+        if (!std::isfinite(col[k])) fail(origin, where + ": colour is not finite");
+        c.colour.val[k] = col[k];
+      }
+    }
     rig.cameras.push_back(c);
   }
   if (j.contains("grid")) {
