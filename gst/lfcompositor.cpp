@@ -27,14 +27,14 @@ G_END_DECLS
 namespace {
 struct Group {
   std::vector<lf::Fragment> fragments;
-  std::set<uint32_t> cameras;
+  std::set<uint64_t> cameras;  // (viewer << 32) | camera
   GstClockTime pts = GST_CLOCK_TIME_NONE, duration = GST_CLOCK_TIME_NONE;
 };
 struct State {
   std::shared_ptr<const lf::Rig> rig;
   std::map<uint64_t, Group> pending;  // by request sequence
   int64_t last_emitted = -1;
-  lf::Compositor comp;
+  lf::Compositor comp, comp_right;
   GstVideoInfo out;
   bool have_caps = false;
 };
@@ -46,10 +46,11 @@ struct _LfCompositor {
   gchar* rig;
   gint viewer_id;
   gint fps_n, fps_d;
+  gboolean stereo;
   State* state;
 };
 
-enum { PROP_0, PROP_RIG, PROP_VIEWER_ID, PROP_FRAMERATE };
+enum { PROP_0, PROP_RIG, PROP_VIEWER_ID, PROP_FRAMERATE, PROP_STEREO };
 
 G_DEFINE_TYPE(LfCompositor, lf_compositor, GST_TYPE_AGGREGATOR)
 
@@ -75,6 +76,9 @@ static void lf_compositor_set_property(GObject* obj, guint id, const GValue* v, 
       self->fps_n = gst_value_get_fraction_numerator(v);
       self->fps_d = gst_value_get_fraction_denominator(v);
       break;
+    case PROP_STEREO:
+      self->stereo = g_value_get_boolean(v);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
   }
@@ -93,6 +97,9 @@ static void lf_compositor_get_property(GObject* obj, guint id, GValue* v, GParam
       break;
     case PROP_FRAMERATE:
       gst_value_set_fraction(v, self->fps_n, self->fps_d);
+      break;
+    case PROP_STEREO:
+      g_value_set_boolean(v, self->stereo);
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
@@ -127,7 +134,7 @@ static gboolean lf_compositor_stop(GstAggregator* agg) {
 // Number of fragments a complete request has: the rig's cameras, or else one
 // per sink pad.
 static size_t expected_fragments(LfCompositor* self) {
-  if (self->state->rig) return self->state->rig->cameras.size();
+  if (self->state->rig) return self->state->rig->cameras.size() * (self->stereo ? 2 : 1);
   GST_OBJECT_LOCK(self);
   const size_t n = GST_ELEMENT(self)->numsinkpads;
   GST_OBJECT_UNLOCK(self);
@@ -172,18 +179,26 @@ static bool ensure_caps(LfCompositor* self, int width, int height) {
 static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g) {
   State* st = self->state;
   const lf::Fragment& first = g.fragments.front();
-  const int W = first.out_width, H = first.out_height;
+  const int w = first.out_width, H = first.out_height;
+  const int W = self->stereo ? 2 * w : w;  // stereo: left | right side by side
   if (!ensure_caps(self, W, H)) return GST_FLOW_NOT_NEGOTIATED;
-  st->comp.reset(W, H);
+  const guint left_id = static_cast<guint>(std::max(0, self->viewer_id));
+  st->comp.reset(w, H);
+  if (self->stereo) st->comp_right.reset(w, H);
   for (const lf::Fragment& f : g.fragments) {
     try {
-      st->comp.add(f);
+      (self->stereo && f.viewer_id != left_id ? st->comp_right : st->comp).add(f);
     } catch (const std::exception& e) {
       GST_WARNING_OBJECT(self, "dropping fragment of camera %u: %s", f.camera_id, e.what());
     }
   }
   cv::Mat rgba;
   st->comp.resolve(rgba);
+  if (self->stereo) {
+    cv::Mat right;
+    st->comp_right.resolve(right);
+    cv::hconcat(rgba, right, rgba);
+  }
   GstBuffer* out = gst_buffer_new_allocate(nullptr, GST_VIDEO_INFO_SIZE(&st->out), nullptr);
   GstVideoFrame vf;
   gst_video_frame_map(&vf, &st->out, out, GST_MAP_WRITE);
@@ -237,15 +252,18 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
       if (gst_buffer_map(buf, &map, GST_MAP_READ)) {
         try {
           lf::Fragment f = lf::parse_fragment(map.data, map.size);
-          const bool ours =
-              self->viewer_id < 0 || f.viewer_id == static_cast<guint>(self->viewer_id);
+          const guint v0 = static_cast<guint>(std::max(0, self->viewer_id));
+          const bool ours = self->stereo ? (f.viewer_id == v0 || f.viewer_id == v0 + 1)
+                                         : (self->viewer_id < 0 ||
+                                            f.viewer_id == static_cast<guint>(self->viewer_id));
           const bool known = !st->rig || st->rig->index_of(static_cast<int>(f.camera_id)) >= 0;
           if (!known) {
             GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Dropping a fragment of an unknown camera"),
                                 ("camera %u is not in the rig", f.camera_id));
           } else if (ours && static_cast<int64_t>(f.sequence) > st->last_emitted) {
             Group& g = st->pending[f.sequence];
-            if (g.cameras.insert(f.camera_id).second) {
+            const uint64_t key = (static_cast<uint64_t>(f.viewer_id) << 32) | f.camera_id;
+            if (g.cameras.insert(key).second) {
               if (!GST_CLOCK_TIME_IS_VALID(g.pts)) {
                 g.pts = GST_BUFFER_PTS(buf);
                 g.duration = GST_BUFFER_DURATION(buf);
@@ -274,8 +292,11 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
     const bool complete = it->second.cameras.size() >= expected;
     if (!(complete || timeout || all_eos || st->pending.size() > kMaxPending)) break;
     if (!complete)
-      GST_DEBUG_OBJECT(self, "request %" G_GUINT64_FORMAT " incomplete: %zu of %zu fragments",
-                       it->first, it->second.cameras.size(), expected);
+      GST_DEBUG_OBJECT(self,
+                       "request %" G_GUINT64_FORMAT
+                       " incomplete: %zu of %zu fragments (timeout %d, eos %d, pending %zu)",
+                       it->first, it->second.cameras.size(), expected, timeout, all_eos,
+                       st->pending.size());
     ret = emit(self, it->first, it->second);
     st->pending.erase(it);
   }
@@ -319,6 +340,12 @@ static void lf_compositor_class_init(LfCompositorClass* klass) {
       oc, PROP_FRAMERATE,
       gst_param_spec_fraction("framerate", "Frame rate", "Frame rate announced in the output caps",
                               0, 1, 1000, 1, 30, 1, rw));
+  g_object_class_install_property(
+      oc, PROP_STEREO,
+      g_param_spec_boolean("stereo", "Stereo",
+                           "Composite the requests of viewer-id (left) and viewer-id + 1 (right) "
+                           "side by side (lfviewrequest stereo-baseline), output twice as wide",
+                           FALSE, rw));
   gst_element_class_add_static_pad_template_with_gtype(ec, &sink_template, GST_TYPE_AGGREGATOR_PAD);
   gst_element_class_add_static_pad_template_with_gtype(ec, &src_template, GST_TYPE_AGGREGATOR_PAD);
   gst_element_class_set_static_metadata(

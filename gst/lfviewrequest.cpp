@@ -2,6 +2,7 @@
 // rate, for one viewer: a fixed view from properties, a keyframed camera path
 // or an orbit. Output: application/x-lf-view-request buffers (lib/lf/wire.h).
 #include <gst/base/gstbasesrc.h>
+#include <gst/video/navigation.h>
 
 #include <memory>
 #include <vector>
@@ -25,6 +26,14 @@ struct State {
   std::vector<lf::VirtualView> views;  // one per path frame (size 1 for a fixed view)
   lf::FocalPlane plane;
   guint64 sequence = 0;
+  bool fixed_between_cameras = false;  // fixed view that follows the cameras' look
+  // Interactive state (navigation events), guarded by the element's lock.
+  cv::Vec3d offset = {0, 0, 0};  // added to the eye, rig units
+  double q = 0;                  // focal inverse depth once the wheel was used
+  bool q_active = false;
+  bool dragging = false;
+  double drag_x = 0, drag_y = 0;
+  guint32 last_seqnum = GST_SEQNUM_INVALID;
 };
 }  // namespace
 
@@ -42,6 +51,7 @@ struct _LfViewRequest {
   gint path_frames;
   gint fps_n, fps_d;
   gboolean live;
+  gdouble stereo_baseline;
   GMutex lock;
   GstClockID clock_id;
   gboolean unlocked;
@@ -64,6 +74,7 @@ enum {
   PROP_PATH_FRAMES,
   PROP_FRAMERATE,
   PROP_IS_LIVE,
+  PROP_STEREO_BASELINE,
 };
 
 G_DEFINE_TYPE(LfViewRequest, lf_view_request, GST_TYPE_BASE_SRC)
@@ -123,6 +134,9 @@ static void lf_view_request_set_property(GObject* obj, guint id, const GValue* v
     case PROP_IS_LIVE:
       self->live = g_value_get_boolean(v);
       break;
+    case PROP_STEREO_BASELINE:
+      self->stereo_baseline = g_value_get_double(v);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
   }
@@ -178,6 +192,9 @@ static void lf_view_request_get_property(GObject* obj, guint id, GValue* v, GPar
     case PROP_IS_LIVE:
       g_value_set_boolean(v, self->live);
       break;
+    case PROP_STEREO_BASELINE:
+      g_value_set_double(v, self->stereo_baseline);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
   }
@@ -224,6 +241,7 @@ static gboolean lf_view_request_start(GstBaseSrc* src) {
       } else {
         st->views.push_back(lf::view_between_cameras(rig, eye, W, H));
         if (self->vfov > 0) st->views.back().vfov_deg = self->vfov;
+        st->fixed_between_cameras = self->vfov <= 0;
       }
     }
     lf::ViewRequest probe;
@@ -264,11 +282,109 @@ static gboolean lf_view_request_unlock_stop(GstBaseSrc* src) {
   return TRUE;
 }
 
+// Inverse depth of a focal plane along the camera-plane normal (0: infinity
+// or parallel to the normal).
+static double inverse_depth_of(const lf::Rig& rig, const lf::FocalPlane& p) {
+  if (p.at_infinity()) return 0.0;
+  const lf::CameraPlane& P = rig.plane();
+  const double nn = p.n.dot(P.normal), off = p.n.dot(P.origin) + p.d;
+  if (nn == 0 || off == 0) return 0.0;
+  return std::max(0.0, -nn / off);
+}
+
+static void handle_navigation(LfViewRequest* self, GstEvent* event) {
+  State* st = self->state;
+  if (!st) return;
+  const lf::Rig& rig = *st->rig;
+  const double step = rig.typical_spacing();
+  const lf::CameraPlane& P = rig.plane();
+  double x = 0, y = 0, dx = 0, dy = 0;
+  gint button = 0;
+  const gchar* key = nullptr;
+  g_mutex_lock(&self->lock);
+  // Every camera branch forwards the same event upstream: apply it once.
+  const guint32 seq = gst_event_get_seqnum(event);
+  if (seq == st->last_seqnum) {
+    g_mutex_unlock(&self->lock);
+    return;
+  }
+  st->last_seqnum = seq;
+  switch (gst_navigation_event_get_type(event)) {
+    case GST_NAVIGATION_EVENT_MOUSE_BUTTON_PRESS:
+      if (gst_navigation_event_parse_mouse_button_event(event, &button, &x, &y) && button == 1)
+        st->dragging = true, st->drag_x = x, st->drag_y = y;
+      break;
+    case GST_NAVIGATION_EVENT_MOUSE_BUTTON_RELEASE:
+      if (gst_navigation_event_parse_mouse_button_event(event, &button, &x, &y) && button == 1)
+        st->dragging = false;
+      break;
+    case GST_NAVIGATION_EVENT_MOUSE_MOVE:
+      if (st->dragging && gst_navigation_event_parse_mouse_move_event(event, &x, &y)) {
+        // Drag: move the eye on the camera plane, 1/40 camera spacing per pixel.
+        st->offset -= (P.u * (x - st->drag_x) + P.v * (y - st->drag_y)) * (step / 40.0);
+        st->drag_x = x, st->drag_y = y;
+      }
+      break;
+    case GST_NAVIGATION_EVENT_MOUSE_SCROLL:
+      if (gst_navigation_event_parse_mouse_scroll_event(event, &x, &y, &dx, &dy)) {
+        // Wheel: focal plane nearer/farther by 0.25 px of parallax between
+        // neighbouring cameras per notch.
+        if (!st->q_active) st->q = inverse_depth_of(rig, st->plane), st->q_active = true;
+        const double f = rig.cameras[0].intrinsics.fx;
+        st->q = std::max(0.0, st->q + dy * 0.25 / (f * step));
+      }
+      break;
+    case GST_NAVIGATION_EVENT_KEY_PRESS:
+      if (gst_navigation_event_parse_key_event(event, &key) && key) {
+        const std::string k = key;
+        if (k == "Left")
+          st->offset -= P.u * (step / 4);
+        else if (k == "Right")
+          st->offset += P.u * (step / 4);
+        else if (k == "Up")
+          st->offset -= P.v * (step / 4);
+        else if (k == "Down")
+          st->offset += P.v * (step / 4);
+        else if (k == "Page_Up" || k == "plus")
+          st->offset += P.normal * step;
+        else if (k == "Page_Down" || k == "minus")
+          st->offset -= P.normal * step;
+        else if (k == "r")
+          st->offset = {0, 0, 0}, st->q_active = false;
+      }
+      break;
+    default:
+      break;
+  }
+  GST_DEBUG_OBJECT(self, "navigation: eye offset (%g, %g, %g), focal q %g", st->offset[0],
+                   st->offset[1], st->offset[2], st->q_active ? st->q : -1.0);
+  g_mutex_unlock(&self->lock);
+}
+
+static gboolean lf_view_request_event(GstBaseSrc* src, GstEvent* event) {
+  if (GST_EVENT_TYPE(event) == GST_EVENT_NAVIGATION) {
+    handle_navigation(LF_VIEW_REQUEST(src), event);
+    return TRUE;
+  }
+  return GST_BASE_SRC_CLASS(lf_view_request_parent_class)->event(src, event);
+}
+
+static GstBuffer* request_buffer(const lf::ViewRequest& req, GstClockTime pts,
+                                 GstClockTime period) {
+  const std::vector<uint8_t> bytes = lf::serialize_request(req);
+  GstBuffer* buf = gst_buffer_new_memdup(bytes.data(), bytes.size());
+  GST_BUFFER_PTS(buf) = pts;
+  GST_BUFFER_DTS(buf) = pts;
+  GST_BUFFER_DURATION(buf) = period;
+  GST_BUFFER_OFFSET(buf) = req.sequence;
+  return buf;
+}
+
 static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, GstBuffer** out) {
   LfViewRequest* self = LF_VIEW_REQUEST(src);
   State* st = self->state;
-  const guint64 k = st->sequence;
   const GstClockTime period = gst_util_uint64_scale_int(GST_SECOND, self->fps_d, self->fps_n);
+  const guint64 k = st->sequence;
   const GstClockTime pts = k * period;
   if (self->live) {
     // Emit at running time k * period on the pipeline clock.
@@ -295,23 +411,44 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   lf::ViewRequest req;
   req.viewer_id = self->viewer_id;
   req.sequence = k;
-  req.view = st->views[k % st->views.size()];
-  req.focal_plane = st->plane;
-  std::vector<uint8_t> bytes;
   try {
-    bytes = lf::serialize_request(req);
+    const lf::Rig& rig = *st->rig;
+    g_mutex_lock(&self->lock);
+    const cv::Vec3d offset = st->offset;
+    const bool q_active = st->q_active;
+    const double q = st->q;
+    g_mutex_unlock(&self->lock);
+    req.view = st->views[k % st->views.size()];
+    if (offset != cv::Vec3d(0, 0, 0)) {
+      if (st->fixed_between_cameras)
+        req.view = lf::view_between_cameras(rig, req.view.position + offset, req.view.width,
+                                            req.view.height);
+      else
+        req.view.position += offset;
+    }
+    req.focal_plane = q_active ? lf::plane_at_inverse_depth(rig, q) : st->plane;
+    if (self->stereo_baseline > 0) {
+      // Left and right eyes along the view's x axis (viewer ids v, v + 1).
+      const cv::Vec3d x(req.view.R(0, 0), req.view.R(0, 1), req.view.R(0, 2));
+      lf::ViewRequest right = req;
+      right.viewer_id = self->viewer_id + 1;
+      right.view.position += x * (0.5 * self->stereo_baseline);
+      req.view.position -= x * (0.5 * self->stereo_baseline);
+      // One tick = one buffer list (num-buffers counts ticks).
+      GstBufferList* list = gst_buffer_list_new_sized(2);
+      gst_buffer_list_add(list, request_buffer(req, pts, period));
+      gst_buffer_list_add(list, request_buffer(right, pts, period));
+      gst_base_src_submit_buffer_list(src, list);
+      *out = nullptr;
+    } else {
+      *out = request_buffer(req, pts, period);
+    }
   } catch (const std::exception& e) {
     GST_ELEMENT_ERROR(self, LIBRARY, FAILED, ("Cannot build view request %" G_GUINT64_FORMAT, k),
                       ("%s", e.what()));
     return GST_FLOW_ERROR;
   }
-  GstBuffer* buf = gst_buffer_new_memdup(bytes.data(), bytes.size());
-  GST_BUFFER_PTS(buf) = pts;
-  GST_BUFFER_DTS(buf) = pts;
-  GST_BUFFER_DURATION(buf) = period;
-  GST_BUFFER_OFFSET(buf) = k;
   st->sequence++;
-  *out = buf;
   return GST_FLOW_OK;
 }
 
@@ -420,11 +557,20 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
       oc, PROP_IS_LIVE,
       g_param_spec_boolean("is-live", "Live", "Emit requests in real time on the pipeline clock",
                            FALSE, rw));
+  g_object_class_install_property(
+      oc, PROP_STEREO_BASELINE,
+      g_param_spec_double("stereo-baseline", "Stereo baseline",
+                          "Eye separation in rig units; > 0 emits a left (viewer-id) and a right "
+                          "(viewer-id + 1) request per tick, for lfcompositor stereo=true",
+                          0, 1e12, 0, rw));
   gst_element_class_add_static_pad_template(ec, &src_template);
   gst_element_class_set_static_metadata(
       ec, "Light field view requests", "Source/Metadata",
       "Produces view requests (virtual view + focal plane) for the light field cameras "
-      "(Yang et al. 2002, 4.3)",
+      "(Yang et al. 2002, 4.3). Navigation events from the video sink steer the view: drag "
+      "(button 1) moves the eye on the camera plane, the wheel moves the focal plane (0.25 px "
+      "of neighbour parallax per notch), arrow keys move the eye by 1/4 camera spacing, "
+      "Page_Up/Page_Down (or +/-) move it along the camera-plane normal, r resets",
       "lightfield-gst");
   bc->start = lf_view_request_start;
   bc->stop = lf_view_request_stop;
@@ -432,6 +578,7 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
   bc->unlock = lf_view_request_unlock;
   bc->unlock_stop = lf_view_request_unlock_stop;
   bc->query = lf_view_request_query;
+  bc->event = lf_view_request_event;
   GST_DEBUG_CATEGORY_INIT(lf_view_request_debug, "lfviewrequest", 0, "light field view requests");
 }
 
