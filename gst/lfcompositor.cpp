@@ -304,6 +304,23 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
   return ret;
 }
 
+// Navigation events from the video sink go to every camera branch (and on
+// to lfviewrequest, which applies each once); GstAggregator drops them.
+static gboolean lf_compositor_src_event(GstAggregator* agg, GstEvent* event) {
+  if (GST_EVENT_TYPE(event) != GST_EVENT_NAVIGATION)
+    return GST_AGGREGATOR_CLASS(lf_compositor_parent_class)->src_event(agg, event);
+  GST_OBJECT_LOCK(agg);
+  GList* pads = g_list_copy(GST_ELEMENT(agg)->sinkpads);
+  g_list_foreach(pads, [](gpointer p, gpointer) { gst_object_ref(p); }, nullptr);
+  GST_OBJECT_UNLOCK(agg);
+  gboolean any = FALSE;
+  for (GList* l = pads; l; l = l->next)
+    any |= gst_pad_push_event(GST_PAD(l->data), gst_event_ref(event));
+  g_list_free_full(pads, gst_object_unref);
+  gst_event_unref(event);
+  return any;
+}
+
 static void lf_compositor_finalize(GObject* obj) {
   LfCompositor* self = LF_COMPOSITOR(obj);
   g_free(self->rig);
@@ -357,6 +374,7 @@ static void lf_compositor_class_init(LfCompositorClass* klass) {
   ac->start = lf_compositor_start;
   ac->stop = lf_compositor_stop;
   ac->aggregate = lf_compositor_aggregate;
+  ac->src_event = lf_compositor_src_event;
   ac->get_next_time = gst_aggregator_simple_get_next_time;
   GST_DEBUG_CATEGORY_INIT(lf_compositor_debug, "lfcompositor", 0, "light field compositor");
 }

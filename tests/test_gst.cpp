@@ -7,12 +7,14 @@
 
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <opencv2/imgproc.hpp>
 
 #include "helpers.h"
 #include "lf/datasets.h"
 #include "lf/renderer.h"
 #include "lf/wire.h"
+#include <gst/video/navigation.h>
 
 namespace {
 
@@ -203,6 +205,101 @@ TEST_F(Gst, ColourCorrectionFromTheRigIsApplied) {
   a[1].convertTo(half, CV_32F);
   b[1].convertTo(diff, CV_32F);
   EXPECT_NEAR(cv::mean(diff - half)[0], 10.0, 0.3);  // green + 10 (saturating)
+}
+
+TEST_F(Gst, StereoPairIsSideBySide) {
+  const lf::Rig rig = lf::load_rig(rig_path_);
+  const cv::Vec3d eye = rig.plane().origin + cv::Vec3d(0.5, -1.0, 0);
+  char pos[128];
+  std::snprintf(pos, sizeof pos, "%.17g,%.17g,%.17g", eye[0], eye[1], eye[2]);
+  std::string desc = pipeline(std::string("num-buffers=2 width=160 height=120 stereo-baseline=2 "
+                                          "focal-plane=param:-0.2 position=") + pos,
+                              "", "stereo=true viewer-id=0");
+  const auto frames = run(desc);
+  ASSERT_EQ(frames.size(), 2u);
+  ASSERT_EQ(frames[0].cols, 320);
+  // Each half equals the offline render from that eye (1 unit left/right
+  // along the view's x axis).
+  const auto images = lf::load_images(rig);
+  for (int side = 0; side < 2; ++side) {
+    lf::ViewRequest req;
+    req.view = lf::view_between_cameras(rig, eye, 160, 120);
+    const cv::Vec3d x(req.view.R(0, 0), req.view.R(0, 1), req.view.R(0, 2));
+    req.view.position += x * (side == 0 ? -1.0 : 1.0);
+    req.focal_plane = lf::parse_focal_plane("param:-0.2", rig);
+    cv::Mat ref = lf::render_view(rig, images, req);
+    cv::cvtColor(ref, ref, cv::COLOR_BGRA2RGBA);
+    cv::Mat diff;
+    cv::absdiff(frames[1].colRange(160 * side, 160 * side + 160), ref, diff);
+    EXPECT_EQ(cv::countNonZero(diff.reshape(1)), 0) << "side " << side;
+  }
+  // The two eyes differ (parallax).
+  cv::Mat d;
+  cv::absdiff(frames[0].colRange(0, 160), frames[0].colRange(160, 320), d);
+  EXPECT_GT(cv::mean(d)[0], 1.0);
+}
+
+TEST_F(Gst, NavigationEventsSteerTheViewOnce) {
+  // Events sent from the sink travel upstream through the compositor and
+  // every camera branch; lfviewrequest applies each one once.
+  const lf::Rig rig = lf::load_rig(rig_path_);
+  const std::string desc =
+      pipeline("width=160 height=120 focal-plane=infinity framerate=30/1", "", "", true);
+  GstElement* p = gst_parse_launch(desc.c_str(), nullptr);
+  ASSERT_NE(p, nullptr);
+  GstElement* req = gst_bin_get_by_name(GST_BIN(p), "req");
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(p), "out");
+  struct Seen {
+    std::mutex m;
+    std::vector<lf::ViewRequest> reqs;
+  } seen;
+  GstPad* rp = gst_element_get_static_pad(req, "src");
+  gst_pad_add_probe(
+      rp, GST_PAD_PROBE_TYPE_BUFFER,
+      [](GstPad*, GstPadProbeInfo* info, gpointer data) {
+        auto* s = static_cast<Seen*>(data);
+        GstMapInfo m;
+        GstBuffer* b = GST_PAD_PROBE_INFO_BUFFER(info);
+        gst_buffer_map(b, &m, GST_MAP_READ);
+        std::lock_guard<std::mutex> l(s->m);
+        s->reqs.push_back(lf::parse_request(m.data, m.size));
+        gst_buffer_unmap(b, &m);
+        return GST_PAD_PROBE_OK;
+      },
+      &seen, nullptr);
+  gst_object_unref(rp);
+  gst_element_set_state(p, GST_STATE_PLAYING);
+  auto pull = [&](int n) {
+    for (int k = 0; k < n; ++k)
+      if (GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), GST_SECOND))
+        gst_sample_unref(s);
+  };
+  pull(3);
+  auto last = [&] {
+    std::lock_guard<std::mutex> l(seen.m);
+    return seen.reqs.back();
+  };
+  const lf::ViewRequest before = last();
+  gst_element_send_event(sink, gst_navigation_event_new_mouse_scroll(80, 60, 0, 1, GST_NAVIGATION_MODIFIER_NONE));
+  gst_element_send_event(sink, gst_navigation_event_new_mouse_button_press(1, 80, 60, GST_NAVIGATION_MODIFIER_NONE));
+  gst_element_send_event(sink, gst_navigation_event_new_mouse_move(120, 60, GST_NAVIGATION_MODIFIER_NONE));
+  gst_element_send_event(sink, gst_navigation_event_new_mouse_button_release(1, 120, 60, GST_NAVIGATION_MODIFIER_NONE));
+  pull(4);
+  const lf::ViewRequest after = last();
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(req);
+  gst_object_unref(sink);
+  gst_object_unref(p);
+  // One wheel notch: inverse depth 0 -> 0.25 / (f * spacing), once (not once
+  // per camera branch).
+  EXPECT_TRUE(before.focal_plane.at_infinity());
+  const double q = after.focal_plane.n.dot(rig.plane().normal);
+  const double step = 0.25 / (rig.cameras[0].intrinsics.fx * rig.typical_spacing());
+  EXPECT_NEAR(q, step, 1e-6 * step);
+  // Drag 40 px right: the eye moves 40/40 spacing against the drag along u.
+  const cv::Vec3d moved = after.view.position - before.view.position;
+  EXPECT_NEAR(moved.dot(rig.plane().u), -rig.typical_spacing(), 1e-6 * rig.typical_spacing());
+  EXPECT_NEAR(moved.dot(rig.plane().v), 0.0, 1e-9);
 }
 
 TEST_F(Gst, JpegFragmentsStayClose) {
