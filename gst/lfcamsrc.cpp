@@ -11,6 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "lf/synthetic.h"
 #include "lfcommon.h"
 
 GST_DEBUG_CATEGORY_STATIC(lf_cam_src_debug);
@@ -25,7 +26,9 @@ namespace {
 struct State {
   std::shared_ptr<const lf::Rig> rig;
   int index = -1;
-  cv::Mat rgba;  // the still, RGBA
+  cv::Mat rgba;  // the still, RGBA (dataset mode)
+  bool synthetic = false;
+  lf::SyntheticScene scene;
   guint64 frame = 0;
 };
 }  // namespace
@@ -37,6 +40,7 @@ struct _LfCamSrc {
   gint fps_n, fps_d;
   guint64 phase;
   gboolean live;
+  gint mode;
   GMutex lock;
   GstClockID clock_id;
   gboolean unlocked;
@@ -51,10 +55,26 @@ enum {
   PROP_COL,
   PROP_FRAMERATE,
   PROP_PHASE,
-  PROP_IS_LIVE
+  PROP_IS_LIVE,
+  PROP_MODE
 };
 
 G_DEFINE_TYPE(LfCamSrc, lf_cam_src, GST_TYPE_PUSH_SRC)
+
+#define LF_TYPE_CAM_SRC_MODE (lf_cam_src_mode_get_type())
+static GType lf_cam_src_mode_get_type() {
+  static GType type = 0;
+  static const GEnumValue values[] = {
+      {0, "The camera's image from the rig (dataset), repeated as video", "dataset"},
+      {1,
+       "Synthetic dynamic scene rendered from the camera's calibration: a textured disc "
+       "moving at a known depth over a textured background plane (lf::SyntheticScene)",
+       "synthetic"},
+      {0, nullptr, nullptr}};
+  if (g_once_init_enter(&type))
+    g_once_init_leave(&type, g_enum_register_static("LfCamSrcMode", values));
+  return type;
+}
 
 static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE(
     "src", GST_PAD_SRC, GST_PAD_ALWAYS,
@@ -87,6 +107,9 @@ static void lf_cam_src_set_property(GObject* obj, guint id, const GValue* v, GPa
       break;
     case PROP_IS_LIVE:
       self->live = g_value_get_boolean(v);
+      break;
+    case PROP_MODE:
+      self->mode = g_value_get_enum(v);
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
@@ -122,6 +145,9 @@ static void lf_cam_src_get_property(GObject* obj, guint id, GValue* v, GParamSpe
     case PROP_IS_LIVE:
       g_value_set_boolean(v, self->live);
       break;
+    case PROP_MODE:
+      g_value_set_enum(v, self->mode);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
   }
@@ -154,13 +180,20 @@ static gboolean lf_cam_src_start(GstBaseSrc* src) {
       throw std::invalid_argument("set camera-id, or row and col");
     }
     const lf::Camera& cam = rig.cameras[st->index];
-    if (cam.image.empty())
-      throw std::invalid_argument("camera " + std::to_string(cam.id) + " has no image file");
-    cv::Mat bgr = cv::imread(cam.image, cv::IMREAD_COLOR);
-    if (bgr.empty()) throw std::runtime_error("image " + cam.image + ": missing or unreadable");
-    if (bgr.cols != cam.width || bgr.rows != cam.height)
-      cv::resize(bgr, bgr, cv::Size(cam.width, cam.height), 0, 0, cv::INTER_AREA);
-    cv::cvtColor(bgr, st->rgba, cv::COLOR_BGR2RGBA);
+    if (self->mode == 1) {
+      st->synthetic = true;
+      st->scene = lf::SyntheticScene::for_rig(rig);
+      st->rgba = cv::Mat(cam.height, cam.width, CV_8UC4);  // size for caps
+    } else {
+      if (cam.image.empty())
+        throw std::invalid_argument("camera " + std::to_string(cam.id) +
+                                    " has no image file (use mode=synthetic)");
+      cv::Mat bgr = cv::imread(cam.image, cv::IMREAD_COLOR);
+      if (bgr.empty()) throw std::runtime_error("image " + cam.image + ": missing or unreadable");
+      if (bgr.cols != cam.width || bgr.rows != cam.height)
+        cv::resize(bgr, bgr, cv::Size(cam.width, cam.height), 0, 0, cv::INTER_AREA);
+      cv::cvtColor(bgr, st->rgba, cv::COLOR_BGR2RGBA);
+    }
   } catch (const std::exception& e) {
     delete st;
     GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("Cannot open the camera"), ("%s", e.what()));
@@ -243,8 +276,10 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
       if (r == GST_CLOCK_UNSCHEDULED) return GST_FLOW_FLUSHING;
     }
   }
-  // Zero-copy: the buffer shares the still (read-only).
-  auto* ref = new cv::Mat(st->rgba);
+  // Dataset: zero-copy, the buffer shares the still (read-only). Synthetic:
+  // the scene at the capture time.
+  auto* ref = new cv::Mat(st->synthetic ? st->scene.render(st->rig->cameras[st->index], pts / 1e9)
+                                        : st->rgba);
   GstBuffer* buf = gst_buffer_new_wrapped_full(GST_MEMORY_FLAG_READONLY, ref->data,
                                                ref->total() * ref->elemSize(), 0,
                                                ref->total() * ref->elemSize(), ref, free_mat);
@@ -321,11 +356,14 @@ static void lf_cam_src_class_init(LfCamSrcClass* klass) {
       oc, PROP_IS_LIVE,
       g_param_spec_boolean("is-live", "Live",
                            "Capture in real time on the pipeline clock's schedule", FALSE, rw));
+  g_object_class_install_property(
+      oc, PROP_MODE,
+      g_param_spec_enum("mode", "Mode", "Where frames come from", LF_TYPE_CAM_SRC_MODE, 0, rw));
   gst_element_class_add_static_pad_template(ec, &src_template);
   gst_element_class_set_static_metadata(
       ec, "Light field camera source", "Source/Video",
-      "One camera of a light field rig (dataset stills as video), captured on a clock-aligned "
-      "schedule",
+      "One camera of a light field rig (dataset stills as video, or a synthetic dynamic scene), "
+      "captured on a clock-aligned schedule",
       "lightfield-gst");
   bc->start = lf_cam_src_start;
   bc->stop = lf_cam_src_stop;

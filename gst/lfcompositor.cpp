@@ -311,7 +311,8 @@ static gboolean lf_compositor_src_event(GstAggregator* agg, GstEvent* event) {
     return GST_AGGREGATOR_CLASS(lf_compositor_parent_class)->src_event(agg, event);
   GST_OBJECT_LOCK(agg);
   GList* pads = g_list_copy(GST_ELEMENT(agg)->sinkpads);
-  g_list_foreach(pads, [](gpointer p, gpointer) { gst_object_ref(p); }, nullptr);
+  g_list_foreach(
+      pads, [](gpointer p, gpointer) { gst_object_ref(p); }, nullptr);
   GST_OBJECT_UNLOCK(agg);
   gboolean any = FALSE;
   for (GList* l = pads; l; l = l->next)

@@ -10,6 +10,8 @@
 #   SINK ...          e.g. "videoconvert ! jpegenc ! avimux ! filesink location=out.avi"
 #   CAMSRC ...        lfcamsrc properties (default: num-buffers=1, a still)
 #   FRAGMENT ...      lffragment properties, e.g. "encoding=jpeg jpeg-quality=90"
+# COMPOSITOR: lfcompositor properties (default "latency=50000000": in live
+#   pipelines a request is composited with what arrived 50 ms after its time).
 # Set PRINT=1 to print the description instead of running it.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
@@ -17,7 +19,7 @@ root="$(dirname "$here")"
 rig="$1"; request="$2"; sink="$3"; camsrc="${4:-num-buffers=1}"; fragment="${5:-}"
 export GST_PLUGIN_PATH="$root/build/gst${GST_PLUGIN_PATH:+:$GST_PLUGIN_PATH}"
 ids=$("$root/build/tools/lf-rig" --input "$rig" --ids)
-desc="lfviewrequest rig=$rig $request ! tee name=t  lfcompositor name=comp rig=$rig ! $sink"
+desc="lfviewrequest rig=$rig $request ! tee name=t  lfcompositor name=comp rig=$rig ${COMPOSITOR:-latency=50000000} ! $sink"
 i=0
 for id in $ids; do
   desc+="  lfcamsrc rig=$rig camera-id=$id $camsrc ! f$i.sink"

@@ -3,6 +3,7 @@
 #include <gst/app/gstappsink.h>
 #include <gst/app/gstappsrc.h>
 #include <gst/gst.h>
+#include <gst/video/navigation.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -13,8 +14,8 @@
 #include "helpers.h"
 #include "lf/datasets.h"
 #include "lf/renderer.h"
+#include "lf/synthetic.h"
 #include "lf/wire.h"
-#include <gst/video/navigation.h>
 
 namespace {
 
@@ -213,7 +214,8 @@ TEST_F(Gst, StereoPairIsSideBySide) {
   char pos[128];
   std::snprintf(pos, sizeof pos, "%.17g,%.17g,%.17g", eye[0], eye[1], eye[2]);
   std::string desc = pipeline(std::string("num-buffers=2 width=160 height=120 stereo-baseline=2 "
-                                          "focal-plane=param:-0.2 position=") + pos,
+                                          "focal-plane=param:-0.2 position=") +
+                                  pos,
                               "", "stereo=true viewer-id=0");
   const auto frames = run(desc);
   ASSERT_EQ(frames.size(), 2u);
@@ -280,10 +282,14 @@ TEST_F(Gst, NavigationEventsSteerTheViewOnce) {
     return seen.reqs.back();
   };
   const lf::ViewRequest before = last();
-  gst_element_send_event(sink, gst_navigation_event_new_mouse_scroll(80, 60, 0, 1, GST_NAVIGATION_MODIFIER_NONE));
-  gst_element_send_event(sink, gst_navigation_event_new_mouse_button_press(1, 80, 60, GST_NAVIGATION_MODIFIER_NONE));
-  gst_element_send_event(sink, gst_navigation_event_new_mouse_move(120, 60, GST_NAVIGATION_MODIFIER_NONE));
-  gst_element_send_event(sink, gst_navigation_event_new_mouse_button_release(1, 120, 60, GST_NAVIGATION_MODIFIER_NONE));
+  gst_element_send_event(
+      sink, gst_navigation_event_new_mouse_scroll(80, 60, 0, 1, GST_NAVIGATION_MODIFIER_NONE));
+  gst_element_send_event(
+      sink, gst_navigation_event_new_mouse_button_press(1, 80, 60, GST_NAVIGATION_MODIFIER_NONE));
+  gst_element_send_event(
+      sink, gst_navigation_event_new_mouse_move(120, 60, GST_NAVIGATION_MODIFIER_NONE));
+  gst_element_send_event(sink, gst_navigation_event_new_mouse_button_release(
+                                   1, 120, 60, GST_NAVIGATION_MODIFIER_NONE));
   pull(4);
   const lf::ViewRequest after = last();
   gst_element_set_state(p, GST_STATE_NULL);
@@ -300,6 +306,29 @@ TEST_F(Gst, NavigationEventsSteerTheViewOnce) {
   const cv::Vec3d moved = after.view.position - before.view.position;
   EXPECT_NEAR(moved.dot(rig.plane().u), -rig.typical_spacing(), 1e-6 * rig.typical_spacing());
   EXPECT_NEAR(moved.dot(rig.plane().v), 0.0, 1e-9);
+}
+
+TEST_F(Gst, SyntheticCameraRendersTheSceneAtCaptureTime) {
+  const lf::Rig rig = lf::synthetic_grid_rig(3, 3, 0.05, 96, 72, 40);
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "lf-test-synthetic.json").string();
+  lf::save_rig(rig, path);
+  const auto frames = run("lfcamsrc rig=" + path +
+                          " camera-id=4 mode=synthetic framerate=10/1 num-buffers=6 ! appsink "
+                          "name=out sync=false");
+  ASSERT_EQ(frames.size(), 6u);
+  const lf::SyntheticScene scene = lf::SyntheticScene::for_rig(rig);
+  for (int k : {0, 5}) {
+    cv::Mat diff;
+    cv::absdiff(frames[k], scene.render(rig.cameras[4], k / 10.0), diff);
+    EXPECT_EQ(cv::countNonZero(diff.reshape(1)), 0) << "frame " << k;
+  }
+  cv::Mat d;
+  cv::absdiff(frames[0], frames[5], d);
+  EXPECT_GT(cv::mean(d)[0], 2.0) << "the disc moves";
+  // Ground truth: the disc sits at near_depth, the background at far_depth.
+  EXPECT_NEAR(scene.near_depth, 25 * 0.05, 1e-12);
+  EXPECT_NEAR(scene.far_depth, 60 * 0.05, 1e-12);
 }
 
 TEST_F(Gst, JpegFragmentsStayClose) {

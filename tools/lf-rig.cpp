@@ -5,12 +5,17 @@
 
 #include "cli.h"
 #include "lf/datasets.h"
+#include "lf/synthetic.h"
 
 int main(int argc, char** argv) {
   const char* help = R"(lf-rig: make a rig file for the elements and tools.
 
-usage: lf-rig --input PATH [--block R0,C0,ROWS,COLS] [--input-scale S] [--out RIG.json] [--ids]
+usage: lf-rig (--input PATH | --synthetic RxC) [options] [--out RIG.json] [--ids]
   --input PATH     dataset folder or rig file
+  --synthetic RxC  a synthetic grid rig (no images; for lfcamsrc mode=synthetic)
+  --spacing S      synthetic: camera spacing, rig units (default 0.05)
+  --size WxH       synthetic: image size (default 320x240)
+  --vfov DEG       synthetic: vertical field of view (default 40)
   --block ...      keep only this block of the grid
   --input-scale S  cameras' images resized by S (intrinsics scaled)
   --out FILE       write the rig file (image paths relative to it)
@@ -22,9 +27,22 @@ usage: lf-rig --input PATH [--block R0,C0,ROWS,COLS] [--input-scale S] [--out RI
       return 0;
     }
   try {
-    cli::Args args(argc, argv, {"--input", "--block", "--input-scale", "--out"}, {"--ids"});
-    if (!args.has("--input")) throw std::invalid_argument("--input is required (see --help)");
-    lf::Rig rig = lf::load_rig_or_dataset(args.get("--input"));
+    cli::Args args(argc, argv,
+                   {"--input", "--synthetic", "--spacing", "--size", "--vfov", "--block",
+                    "--input-scale", "--out"},
+                   {"--ids"});
+    lf::Rig rig;
+    if (args.has("--synthetic")) {
+      int rows, cols, w = 320, h = 240;
+      cli::parse_size(args.get("--synthetic"), cols, rows);
+      if (args.has("--size")) cli::parse_size(args.get("--size"), w, h);
+      rig = lf::synthetic_grid_rig(rows, cols, args.number("--spacing", 0.05), w, h,
+                                   args.number("--vfov", 40));
+    } else if (args.has("--input")) {
+      rig = lf::load_rig_or_dataset(args.get("--input"));
+    } else {
+      throw std::invalid_argument("--input or --synthetic is required (see --help)");
+    }
     for (const auto& w : rig.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     if (args.has("--block")) {
       const auto b = args.numbers("--block", 4, 4);

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/core/utility.hpp>
 #include <random>
 
 namespace lf {
@@ -64,6 +65,57 @@ cv::Mat render_textured_plane(const Camera& cam, double depth, double period) {
       auto& px = img.at<cv::Vec4b>(y, x);
       for (int ch = 0; ch < 3; ++ch) px[ch] = cv::saturate_cast<uchar>(col[ch]);
     }
+  return img;
+}
+
+SyntheticScene SyntheticScene::for_rig(const Rig& rig) {
+  SyntheticScene sc;
+  const CameraPlane& P = rig.plane();
+  sc.origin = P.origin, sc.u = P.u, sc.v = P.v, sc.normal = P.normal;
+  const double s = rig.typical_spacing();
+  sc.far_depth = 60 * s;
+  sc.near_depth = 25 * s;
+  sc.disc_radius = 5 * s;
+  sc.orbit_radius = 4 * s;
+  sc.far_period = 6 * s;
+  sc.near_period = 1.5 * s;
+  return sc;
+}
+
+cv::Vec3d SyntheticScene::disc_centre(double t) const {
+  const double a = 2 * CV_PI * t / period_s;
+  return origin + normal * near_depth + u * (orbit_radius * std::cos(a)) +
+         v * (orbit_radius * std::sin(a));
+}
+
+cv::Mat SyntheticScene::render(const Camera& cam, double t, bool rgba) const {
+  cv::Mat img(cam.height, cam.width, CV_8UC4, cv::Scalar(0, 0, 0, 255));
+  const cv::Vec3d C = cam.center(), D0 = disc_centre(t);
+  const double cn = (C - origin).dot(normal);
+  cv::parallel_for_(cv::Range(0, cam.height), [&](const cv::Range& rows) {
+    for (int y = rows.start; y < rows.end; ++y)
+      for (int x = 0; x < cam.width; ++x) {
+        const auto d = cam.unproject({double(x), double(y)});
+        if (!d) continue;
+        const double dn = d->dot(normal);
+        if (!(dn > 1e-12)) continue;
+        cv::Vec3d col;
+        const double tn = (near_depth - cn) / dn;
+        const cv::Vec3d Xn = C + *d * tn;
+        const cv::Vec3d r = Xn - D0;
+        if (tn > 0 && r.dot(r) <= disc_radius * disc_radius) {
+          const cv::Vec3d c = texture_colour(r.dot(u), r.dot(v), near_period);
+          col = {255 - c[0], c[2], 0.5 * (c[1] + 255)};  // distinct from the background
+        } else {
+          const double tf = (far_depth - cn) / dn;
+          if (!(tf > 0)) continue;
+          const cv::Vec3d Xf = C + *d * tf - origin;
+          col = texture_colour(Xf.dot(u), Xf.dot(v), far_period);
+        }
+        auto& px = img.at<cv::Vec4b>(y, x);
+        for (int ch = 0; ch < 3; ++ch) px[rgba ? ch : 2 - ch] = cv::saturate_cast<uchar>(col[ch]);
+      }
+  });
   return img;
 }
 

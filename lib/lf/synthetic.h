@@ -24,4 +24,25 @@ cv::Vec3d texture_colour(double x, double y, double period);
 // included), CV_8UC4, alpha 255. Pixels whose ray misses the plane are black.
 cv::Mat render_textured_plane(const Camera& cam, double depth, double period);
 
+// A dynamic scene with ground truth, scaled to a rig: a textured background
+// plane parallel to the camera plane at depth `far_depth`, and a textured
+// disc of radius `disc_radius` at depth `near_depth` whose centre moves on a
+// circle of radius `orbit_radius` about the array's axis, one turn per
+// `period_s` seconds. Depths are along the camera-plane normal from its
+// origin (rig units). Defaults from the rig's camera spacing s: far 60 s,
+// near 25 s, disc 5 s, orbit 4 s, period 4 s.
+struct SyntheticScene {
+  cv::Vec3d origin, u, v, normal;  // the rig's camera plane
+  double far_depth = 0, near_depth = 0, disc_radius = 0, orbit_radius = 0;
+  double period_s = 4.0;
+  double far_period = 0, near_period = 0;  // texture wavelengths, rig units
+
+  static SyntheticScene for_rig(const Rig& rig);
+  // Image of the scene at time t (seconds) from `cam` (distortion included),
+  // CV_8UC4 with the channel order given by `rgba` (else BGRA), alpha 255.
+  cv::Mat render(const Camera& cam, double t, bool rgba = true) const;
+  // Centre of the disc at time t.
+  cv::Vec3d disc_centre(double t) const;
+};
+
 }  // namespace lf
