@@ -4,6 +4,7 @@
 // running time k * period + phase (Yang et al. 2002, 4.4.4), so all cameras
 // that share a clock capture within one frame of each other. Buffer PTS is
 // the capture time (running time); OFFSET is the frame number.
+#include <gst/app/gstappsink.h>
 #include <gst/base/gstpushsrc.h>
 #include <gst/video/video.h>
 
@@ -30,6 +31,18 @@ struct State {
   bool synthetic = false;
   lf::SyntheticScene scene;
   guint64 frame = 0;
+  // file / v4l2 modes: an internal decoding pipeline ending in an appsink.
+  GstElement* decoder = nullptr;
+  GstElement* appsink = nullptr;
+  GstSample* last = nullptr;  // newest decoded frame
+  ~State() {
+    if (last) gst_sample_unref(last);
+    if (decoder) {
+      gst_element_set_state(decoder, GST_STATE_NULL);
+      gst_object_unref(appsink);
+      gst_object_unref(decoder);
+    }
+  }
 };
 }  // namespace
 
@@ -41,6 +54,9 @@ struct _LfCamSrc {
   guint64 phase;
   gboolean live;
   gint mode;
+  gchar* location;
+  gchar* device;
+  gboolean loop;
   GMutex lock;
   GstClockID clock_id;
   gboolean unlocked;
@@ -56,7 +72,10 @@ enum {
   PROP_FRAMERATE,
   PROP_PHASE,
   PROP_IS_LIVE,
-  PROP_MODE
+  PROP_MODE,
+  PROP_LOCATION,
+  PROP_DEVICE,
+  PROP_LOOP
 };
 
 G_DEFINE_TYPE(LfCamSrc, lf_cam_src, GST_TYPE_PUSH_SRC)
@@ -70,6 +89,12 @@ static GType lf_cam_src_mode_get_type() {
        "Synthetic dynamic scene rendered from the camera's calibration: a textured disc "
        "moving at a known depth over a textured background plane (lf::SyntheticScene)",
        "synthetic"},
+      {2,
+       "A video file or an image sequence (location; GStreamer's decoders), scaled to the "
+       "rig's image size",
+       "file"},
+      {3, "A V4L2 capture device (device; through v4l2src), scaled to the rig's image size",
+       "v4l2"},
       {0, nullptr, nullptr}};
   if (g_once_init_enter(&type))
     g_once_init_leave(&type, g_enum_register_static("LfCamSrcMode", values));
@@ -111,6 +136,17 @@ static void lf_cam_src_set_property(GObject* obj, guint id, const GValue* v, GPa
     case PROP_MODE:
       self->mode = g_value_get_enum(v);
       break;
+    case PROP_LOCATION:
+      g_free(self->location);
+      self->location = g_value_dup_string(v);
+      break;
+    case PROP_DEVICE:
+      g_free(self->device);
+      self->device = g_value_dup_string(v);
+      break;
+    case PROP_LOOP:
+      self->loop = g_value_get_boolean(v);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
   }
@@ -148,6 +184,15 @@ static void lf_cam_src_get_property(GObject* obj, guint id, GValue* v, GParamSpe
     case PROP_MODE:
       g_value_set_enum(v, self->mode);
       break;
+    case PROP_LOCATION:
+      g_value_set_string(v, self->location);
+      break;
+    case PROP_DEVICE:
+      g_value_set_string(v, self->device);
+      break;
+    case PROP_LOOP:
+      g_value_set_boolean(v, self->loop);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
   }
@@ -180,7 +225,48 @@ static gboolean lf_cam_src_start(GstBaseSrc* src) {
       throw std::invalid_argument("set camera-id, or row and col");
     }
     const lf::Camera& cam = rig.cameras[st->index];
-    if (self->mode == 1) {
+    if (self->mode == 2 || self->mode == 3) {
+      gchar* scaled = g_strdup_printf(
+          "videoconvert ! videoscale ! video/x-raw,format=RGBA,width=%d,height=%d,"
+          "pixel-aspect-ratio=1/1 ! appsink name=frames sync=false max-buffers=2 drop=%s",
+          cam.width, cam.height, self->mode == 3 ? "true" : "false");
+      std::string desc;
+      if (self->mode == 3) {
+        desc = std::string("v4l2src device=") + (self->device ? self->device : "/dev/video0");
+      } else {
+        if (!self->location || !*self->location)
+          throw std::invalid_argument(
+              "mode=file needs 'location' (a file, or a printf "
+              "pattern such as frames/%04d.png for an image sequence)");
+        const std::string loc = self->location;
+        if (loc.find('%') != std::string::npos) {
+          desc = "multifilesrc location=\"" + loc + "\"" + (self->loop ? " loop=true" : "") +
+                 " ! decodebin";
+        } else {
+          gchar* uri = gst_uri_is_valid(loc.c_str()) ? g_strdup(loc.c_str())
+                                                     : gst_filename_to_uri(loc.c_str(), nullptr);
+          if (!uri) throw std::invalid_argument("location '" + loc + "' is not a file or URI");
+          desc = std::string("uridecodebin uri=\"") + uri + "\"";
+          g_free(uri);
+        }
+      }
+      desc += std::string(" ! ") + scaled;
+      g_free(scaled);
+      GError* err = nullptr;
+      st->decoder = gst_parse_launch(desc.c_str(), &err);
+      if (!st->decoder) {
+        const std::string msg = err ? err->message : "cannot build the decoding pipeline";
+        g_clear_error(&err);
+        throw std::runtime_error(msg);
+      }
+      g_clear_error(&err);
+      st->appsink = gst_bin_get_by_name(GST_BIN(st->decoder), "frames");
+      if (gst_element_set_state(st->decoder, GST_STATE_PLAYING) == GST_STATE_CHANGE_FAILURE)
+        throw std::runtime_error(
+            "cannot open " + std::string(self->mode == 3 ? "device " : "") +
+            (self->mode == 3 ? (self->device ? self->device : "/dev/video0") : self->location));
+      st->rgba = cv::Mat(cam.height, cam.width, CV_8UC4);  // size for caps
+    } else if (self->mode == 1) {
       st->synthetic = true;
       st->scene = lf::SyntheticScene::for_rig(rig);
       st->rgba = cv::Mat(cam.height, cam.width, CV_8UC4);  // size for caps
@@ -276,6 +362,44 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
       if (r == GST_CLOCK_UNSCHEDULED) return GST_FLOW_FLUSHING;
     }
   }
+  if (st->decoder) {
+    // File: the next decoded frame (looping a plain file on EOS if asked);
+    // V4L2 (live): the newest frame at the capture instant.
+    GstAppSink* sink = GST_APP_SINK(st->appsink);
+    GstSample* s = nullptr;
+    if (self->mode == 3) {
+      while (GstSample* n = gst_app_sink_try_pull_sample(sink, 0)) {
+        if (s) gst_sample_unref(s);
+        s = n;
+      }
+      if (!s && !st->last) s = gst_app_sink_try_pull_sample(sink, 5 * GST_SECOND);
+    } else {
+      s = gst_app_sink_try_pull_sample(sink, 30 * GST_SECOND);
+      if (!s && gst_app_sink_is_eos(sink) && self->loop &&
+          gst_element_seek_simple(st->decoder, GST_FORMAT_TIME, GST_SEEK_FLAG_FLUSH, 0))
+        s = gst_app_sink_try_pull_sample(sink, 30 * GST_SECOND);
+      if (!s) {
+        if (gst_app_sink_is_eos(sink)) return GST_FLOW_EOS;
+      }
+    }
+    if (s) {
+      if (st->last) gst_sample_unref(st->last);
+      st->last = s;
+    }
+    if (!st->last) {
+      GST_ELEMENT_ERROR(self, RESOURCE, READ, ("No frame from the camera input"),
+                        ("decoding pipeline delivered nothing"));
+      return GST_FLOW_ERROR;
+    }
+    GstBuffer* buf = gst_buffer_copy_deep(gst_sample_get_buffer(st->last));
+    GST_BUFFER_PTS(buf) = pts;
+    GST_BUFFER_DTS(buf) = pts;
+    GST_BUFFER_DURATION(buf) = period;
+    GST_BUFFER_OFFSET(buf) = st->frame;
+    st->frame++;
+    *out = buf;
+    return GST_FLOW_OK;
+  }
   // Dataset: zero-copy, the buffer shares the still (read-only). Synthetic:
   // the scene at the capture time.
   auto* ref = new cv::Mat(st->synthetic ? st->scene.render(st->rig->cameras[st->index], pts / 1e9)
@@ -304,6 +428,8 @@ static gboolean lf_cam_src_query(GstBaseSrc* src, GstQuery* q) {
 static void lf_cam_src_finalize(GObject* obj) {
   LfCamSrc* self = LF_CAM_SRC(obj);
   g_free(self->rig);
+  g_free(self->location);
+  g_free(self->device);
   delete self->state;
   g_mutex_clear(&self->lock);
   G_OBJECT_CLASS(lf_cam_src_parent_class)->finalize(obj);
@@ -312,6 +438,7 @@ static void lf_cam_src_finalize(GObject* obj) {
 static void lf_cam_src_init(LfCamSrc* self) {
   self->camera_id = -1;
   self->row = self->col = -1;
+  self->device = g_strdup("/dev/video0");
   self->fps_n = 30;
   self->fps_d = 1;
   g_mutex_init(&self->lock);
@@ -359,6 +486,18 @@ static void lf_cam_src_class_init(LfCamSrcClass* klass) {
   g_object_class_install_property(
       oc, PROP_MODE,
       g_param_spec_enum("mode", "Mode", "Where frames come from", LF_TYPE_CAM_SRC_MODE, 0, rw));
+  g_object_class_install_property(
+      oc, PROP_LOCATION,
+      g_param_spec_string("location", "Location",
+                          "mode=file: a video file or URI, or a printf pattern of an image "
+                          "sequence (frames/%04d.png)",
+                          nullptr, rw));
+  g_object_class_install_property(
+      oc, PROP_DEVICE,
+      g_param_spec_string("device", "Device", "mode=v4l2: the capture device", "/dev/video0", rw));
+  g_object_class_install_property(
+      oc, PROP_LOOP,
+      g_param_spec_boolean("loop", "Loop", "mode=file: start again at the end", FALSE, rw));
   gst_element_class_add_static_pad_template(ec, &src_template);
   gst_element_class_set_static_metadata(
       ec, "Light field camera source", "Source/Video",

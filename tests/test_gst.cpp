@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "helpers.h"
@@ -329,6 +330,57 @@ TEST_F(Gst, SyntheticCameraRendersTheSceneAtCaptureTime) {
   // Ground truth: the disc sits at near_depth, the background at far_depth.
   EXPECT_NEAR(scene.near_depth, 25 * 0.05, 1e-12);
   EXPECT_NEAR(scene.far_depth, 60 * 0.05, 1e-12);
+}
+
+TEST_F(Gst, CameraFromImageSequenceAndVideoFile) {
+  const lf::Rig rig = lf::synthetic_grid_rig(2, 2, 0.05, 96, 72, 40);
+  const auto dir = std::filesystem::temp_directory_path() / "lf-test-seq";
+  std::filesystem::create_directories(dir);
+  const std::string rig_file = (dir / "rig.json").string();
+  lf::save_rig(rig, rig_file);
+  const lf::SyntheticScene scene = lf::SyntheticScene::for_rig(rig);
+  std::vector<cv::Mat> truth;
+  for (int k = 0; k < 3; ++k) {
+    truth.push_back(scene.render(rig.cameras[1], 0.3 * k));  // RGBA
+    cv::Mat bgr;
+    cv::cvtColor(truth.back(), bgr, cv::COLOR_RGBA2BGR);
+    char name[32];
+    std::snprintf(name, sizeof name, "%03d.png", k);
+    ASSERT_TRUE(cv::imwrite((dir / name).string(), bgr));
+  }
+  // Image sequence, in order, exactly.
+  std::string err;
+  const auto frames = run("lfcamsrc rig=" + rig_file + " camera-id=1 mode=file location=" +
+                              (dir / "%03d.png").string() + " ! appsink name=out sync=false",
+                          100, nullptr, &err);
+  ASSERT_EQ(frames.size(), 3u) << err;
+  for (int k = 0; k < 3; ++k) {
+    cv::Mat diff;
+    cv::absdiff(frames[k], truth[k], diff);
+    EXPECT_EQ(cv::countNonZero(diff.reshape(1)), 0) << "frame " << k;
+  }
+  // A video file (Motion JPEG AVI made by GStreamer), scaled to the rig's
+  // size; ends with the file, or loops.
+  const std::string avi = (dir / "clip.avi").string();
+  run("videotestsrc num-buffers=10 ! video/x-raw,width=160,height=120 ! jpegenc ! avimux ! "
+      "filesink location=" +
+      avi);
+  ASSERT_TRUE(std::filesystem::exists(avi));
+  const auto clip = run("lfcamsrc rig=" + rig_file + " camera-id=0 mode=file location=" + avi +
+                        " ! appsink name=out sync=false");
+  ASSERT_EQ(clip.size(), 10u);
+  EXPECT_EQ(clip[0].cols, 96);
+  EXPECT_EQ(clip[0].rows, 72);
+  const auto looped =
+      run("lfcamsrc rig=" + rig_file + " camera-id=0 mode=file loop=true location=" + avi +
+          " num-buffers=15 ! appsink name=out sync=false");
+  EXPECT_EQ(looped.size(), 15u);
+  // A missing file is a clear error.
+  err.clear();
+  run("lfcamsrc rig=" + rig_file + " camera-id=0 mode=file location=/nonexistent.avi ! fakesink",
+      10, nullptr, &err);
+  EXPECT_FALSE(err.empty());
+  std::filesystem::remove_all(dir);
 }
 
 TEST_F(Gst, JpegFragmentsStayClose) {
