@@ -396,6 +396,7 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
     GST_BUFFER_DTS(buf) = pts;
     GST_BUFFER_DURATION(buf) = period;
     GST_BUFFER_OFFSET(buf) = st->frame;
+    lfgst::add_capture_meta(buf, st->rig->cameras[st->index].id, pts);
     st->frame++;
     *out = buf;
     return GST_FLOW_OK;
@@ -411,6 +412,7 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
   GST_BUFFER_DTS(buf) = pts;
   GST_BUFFER_DURATION(buf) = period;
   GST_BUFFER_OFFSET(buf) = st->frame;
+  lfgst::add_capture_meta(buf, st->rig->cameras[st->index].id, pts);
   st->frame++;
   *out = buf;
   return GST_FLOW_OK;

@@ -22,4 +22,11 @@ std::shared_ptr<const lf::Rig> load_rig_cached(const std::string& path);
 // "x,y,z" -> vector; false on malformed input.
 bool parse_vec3(const gchar* s, cv::Vec3d& out);
 
+// Capture meta on camera frames (lfcamsrc): a GstCustomMeta "LfCaptureMeta"
+// with fields camera-id (int) and capture-time (guint64, running time in ns).
+// In-process only (metas do not cross the network; fragments carry the same
+// in their header).
+void add_capture_meta(GstBuffer* buf, int camera_id, guint64 capture_time);
+bool read_capture_meta(GstBuffer* buf, int* camera_id, guint64* capture_time);
+
 }  // namespace lfgst

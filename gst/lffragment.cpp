@@ -312,8 +312,17 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
     lf::Fragment f;
     f.viewer_id = req.viewer_id;
     f.sequence = req.sequence;
-    f.capture_time_ns =
-        GST_BUFFER_PTS_IS_VALID(frame) ? static_cast<int64_t>(GST_BUFFER_PTS(frame)) : -1;
+    int meta_cam = -1;
+    guint64 meta_time = 0;
+    if (lfgst::read_capture_meta(frame, &meta_cam, &meta_time)) {
+      if (meta_cam != rig.cameras[st->index].id)
+        GST_WARNING_OBJECT(self, "frames come from camera %d, this is camera %d", meta_cam,
+                           rig.cameras[st->index].id);
+      f.capture_time_ns = static_cast<int64_t>(meta_time);
+    } else {
+      f.capture_time_ns =
+          GST_BUFFER_PTS_IS_VALID(frame) ? static_cast<int64_t>(GST_BUFFER_PTS(frame)) : -1;
+    }
     lf::render_fragment(lf::plan_fragment(g, st->index), rig.cameras[st->index], rgba, f);
     bytes = lf::serialize_fragment(
         f, self->encoding == 1 ? lf::Encoding::kJpeg : lf::Encoding::kRaw, self->quality);
@@ -335,7 +344,7 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
 
 static GstStateChangeReturn lf_fragment_change_state(GstElement* el, GstStateChange t) {
   LfFragment* self = LF_FRAGMENT(el);
-  if (t == GST_STATE_CHANGE_NULL_TO_READY) {
+  if (t == GST_STATE_CHANGE_READY_TO_PAUSED) {
     if (!self->rig || !*self->rig) {
       GST_ELEMENT_ERROR(self, RESOURCE, NOT_FOUND, ("No rig given"),
                         ("set the 'rig' property to a rig file or dataset folder"));

@@ -1,0 +1,203 @@
+// GstHarness tests of each element on its own: caps, properties, bad input.
+#include <gst/check/gstharness.h>
+#include <gst/gst.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "lf/fragment.h"
+#include "lf/renderer.h"
+#include "lf/synthetic.h"
+#include "lf/wire.h"
+
+namespace {
+
+class Harness : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    g_setenv("GST_PLUGIN_PATH", LF_PLUGIN_DIR, TRUE);
+    g_setenv("GST_REGISTRY",
+             (std::filesystem::temp_directory_path() / "lf-test-registry.bin").c_str(), TRUE);
+    gst_init(nullptr, nullptr);
+    rig_ = lf::synthetic_grid_rig(2, 2, 0.05, 64, 48, 40);
+    rig_path_ = (std::filesystem::temp_directory_path() / "lf-harness-rig.json").string();
+    lf::save_rig(rig_, rig_path_);
+  }
+  static lf::Rig rig_;
+  static std::string rig_path_;
+
+  static lf::ViewRequest request(uint64_t seq) {
+    lf::ViewRequest r;
+    r.viewer_id = 3;
+    r.sequence = seq;
+    r.view =
+        lf::view_between_cameras(rig_, rig_.plane().origin + cv::Vec3d(0.01, 0.005, 0), 80, 60);
+    r.focal_plane = lf::plane_at_depth(rig_, 1.25);
+    return r;
+  }
+  static GstBuffer* bytes(const std::vector<uint8_t>& b, GstClockTime pts) {
+    GstBuffer* buf = gst_buffer_new_memdup(b.data(), b.size());
+    GST_BUFFER_PTS(buf) = pts;
+    GST_BUFFER_DURATION(buf) = GST_SECOND / 30;
+    return buf;
+  }
+};
+lf::Rig Harness::rig_;
+std::string Harness::rig_path_;
+
+TEST_F(Harness, CamSrcCapsAndCaptureTime) {
+  GstHarness* h = gst_harness_new("lfcamsrc");
+  g_object_set(h->element, "rig", rig_path_.c_str(), "camera-id", 2, "mode", 1, "framerate", 30, 1,
+               "phase", static_cast<guint64>(5 * GST_MSECOND), nullptr);
+  gst_harness_play(h);
+  GstBuffer* b0 = gst_harness_pull(h);
+  GstBuffer* b1 = gst_harness_pull(h);
+  ASSERT_NE(b1, nullptr);
+  GstCaps* caps = gst_pad_get_current_caps(h->sinkpad);
+  GstStructure* s = gst_caps_get_structure(caps, 0);
+  int w = 0, hh = 0;
+  gst_structure_get_int(s, "width", &w);
+  gst_structure_get_int(s, "height", &hh);
+  EXPECT_STREQ(gst_structure_get_string(s, "format"), "RGBA");
+  EXPECT_EQ(w, 64);
+  EXPECT_EQ(hh, 48);
+  // Capture schedule: k * period + phase.
+  EXPECT_EQ(GST_BUFFER_PTS(b0), 5 * GST_MSECOND);
+  EXPECT_EQ(GST_BUFFER_PTS(b1), GST_SECOND / 30 + 5 * GST_MSECOND);
+  GstCustomMeta* m = gst_buffer_get_custom_meta(b1, "LfCaptureMeta");
+  ASSERT_NE(m, nullptr);
+  int cam = -1;
+  guint64 t = 0;
+  gst_structure_get_int(gst_custom_meta_get_structure(m), "camera-id", &cam);
+  gst_structure_get_uint64(gst_custom_meta_get_structure(m), "capture-time", &t);
+  EXPECT_EQ(cam, 2);
+  EXPECT_EQ(t, GST_BUFFER_PTS(b1));
+  gst_caps_unref(caps);
+  gst_buffer_unref(b0);
+  gst_buffer_unref(b1);
+  gst_harness_teardown(h);
+}
+
+TEST_F(Harness, ViewRequestProperties) {
+  GstHarness* h = gst_harness_new("lfviewrequest");
+  g_object_set(h->element, "rig", rig_path_.c_str(), "viewer-id", 7u, "width", 320, "height", 200,
+               "focal-plane", "depth:1.25", "look-at", "0,0,10", "position", "0.01,0.02,-0.1",
+               "vfov", 33.0, nullptr);
+  gst_harness_play(h);
+  GstBuffer* b = gst_harness_pull(h);
+  ASSERT_NE(b, nullptr);
+  GstMapInfo map;
+  gst_buffer_map(b, &map, GST_MAP_READ);
+  const lf::ViewRequest r = lf::parse_request(map.data, map.size);
+  gst_buffer_unmap(b, &map);
+  EXPECT_EQ(r.viewer_id, 7u);
+  EXPECT_EQ(r.view.width, 320);
+  EXPECT_EQ(r.view.height, 200);
+  EXPECT_NEAR(r.view.vfov_deg, 33.0, 1e-12);
+  EXPECT_NEAR(r.view.position[2], -0.1, 1e-12);
+  GstCaps* caps = gst_pad_get_current_caps(h->sinkpad);
+  EXPECT_TRUE(
+      gst_structure_has_name(gst_caps_get_structure(caps, 0), "application/x-lf-view-request"));
+  gst_caps_unref(caps);
+  gst_buffer_unref(b);
+  gst_harness_teardown(h);
+  // A bad position is refused when starting.
+  GstHarness* bad = gst_harness_new("lfviewrequest");
+  g_object_set(bad->element, "rig", rig_path_.c_str(), "position", "1,2", nullptr);
+  EXPECT_EQ(gst_element_set_state(bad->element, GST_STATE_PLAYING), GST_STATE_CHANGE_FAILURE);
+  gst_harness_teardown(bad);
+}
+
+TEST_F(Harness, FragmentFromFrameAndRequest) {
+  // Configure first: the harness sets its element playing when it is made.
+  GstElement* el = gst_element_factory_make("lffragment", nullptr);
+  g_object_set(el, "rig", rig_path_.c_str(), "camera-id", 1, nullptr);
+  GstHarness* h = gst_harness_new_with_element(el, "request", "src");
+  GstHarness* video = gst_harness_new_with_element(el, "sink", nullptr);
+  gst_object_unref(el);
+  gst_harness_set_src_caps_str(video, "video/x-raw,format=RGBA,width=64,height=48,framerate=30/1");
+  const lf::SyntheticScene scene = lf::SyntheticScene::for_rig(rig_);
+  cv::Mat frame = scene.render(rig_.cameras[1], 0.0);
+  GstBuffer* fb = gst_buffer_new_memdup(frame.data, frame.total() * 4);
+  GST_BUFFER_PTS(fb) = 123;
+  ASSERT_EQ(gst_harness_push(video, fb), GST_FLOW_OK);
+  gst_harness_set_src_caps_str(h, "application/x-lf-view-request");
+  // Garbage first: dropped with a warning, the stream goes on.
+  EXPECT_EQ(gst_harness_push(h, bytes({1, 2, 3}, 0)), GST_FLOW_OK);
+  ASSERT_EQ(gst_harness_push(h, bytes(lf::serialize_request(request(42)), GST_SECOND)),
+            GST_FLOW_OK);
+  GstBuffer* out = gst_harness_pull(h);
+  ASSERT_NE(out, nullptr);
+  EXPECT_EQ(GST_BUFFER_PTS(out), GST_SECOND);
+  GstMapInfo map;
+  gst_buffer_map(out, &map, GST_MAP_READ);
+  const lf::Fragment f = lf::parse_fragment(map.data, map.size);
+  gst_buffer_unmap(out, &map);
+  EXPECT_EQ(f.camera_id, 1u);
+  EXPECT_EQ(f.viewer_id, 3u);
+  EXPECT_EQ(f.sequence, 42u);
+  EXPECT_EQ(f.capture_time_ns, 123);
+  // Same pixels as the library.
+  const lf::ViewGeometry g(rig_, request(42));
+  lf::Fragment ref;
+  lf::render_fragment(lf::plan_fragment(g, 1), rig_.cameras[1], frame, ref);
+  EXPECT_EQ(f.pixels, ref.pixels);
+  EXPECT_EQ(gst_harness_buffers_in_queue(h), 0u);  // nothing for the garbage
+  GstCaps* caps = gst_pad_get_current_caps(h->sinkpad);
+  EXPECT_STREQ(gst_structure_get_string(gst_caps_get_structure(caps, 0), "encoding"), "raw");
+  gst_caps_unref(caps);
+  gst_buffer_unref(out);
+  gst_harness_teardown(video);
+  gst_harness_teardown(h);
+}
+
+TEST_F(Harness, CompositorCapsAndBadInput) {
+  const lf::Rig one = rig_.subset({0});
+  const std::string one_path =
+      (std::filesystem::temp_directory_path() / "lf-harness-one.json").string();
+  lf::save_rig(one, one_path);
+  GstElement* el = gst_element_factory_make("lfcompositor", nullptr);
+  g_object_set(el, "rig", one_path.c_str(), nullptr);
+  GstHarness* h = gst_harness_new_with_element(el, "sink_0", "src");
+  gst_object_unref(el);
+  gst_harness_set_live(h, FALSE);
+  gst_harness_set_src_caps_str(h, "application/x-lf-fragment,encoding=raw");
+  // Garbage: dropped with a warning.
+  EXPECT_EQ(gst_harness_push(h, bytes({'L', 'F', 'F', 'R', 0, 1}, 0)), GST_FLOW_OK);
+  // A real fragment of the one camera: composited alone, renormalised.
+  const lf::ViewRequest req = request(5);
+  const lf::ViewGeometry g(one, req);
+  const cv::Mat img = lf::SyntheticScene::for_rig(one).render(one.cameras[0], 0.0);
+  lf::Fragment f;
+  f.viewer_id = req.viewer_id;
+  f.sequence = 5;
+  lf::render_fragment(lf::plan_fragment(g, 0), one.cameras[0], img, f);
+  ASSERT_FALSE(f.empty());
+  ASSERT_EQ(gst_harness_push(h, bytes(lf::serialize_fragment(f, lf::Encoding::kRaw), GST_SECOND)),
+            GST_FLOW_OK);
+  GstBuffer* out = gst_harness_pull(h);
+  ASSERT_NE(out, nullptr);
+  EXPECT_EQ(GST_BUFFER_PTS(out), GST_SECOND);
+  GstCaps* caps = gst_pad_get_current_caps(h->sinkpad);
+  GstStructure* s = gst_caps_get_structure(caps, 0);
+  int w = 0, hh = 0;
+  gst_structure_get_int(s, "width", &w);
+  gst_structure_get_int(s, "height", &hh);
+  EXPECT_EQ(w, 80);
+  EXPECT_EQ(hh, 60);
+  EXPECT_STREQ(gst_structure_get_string(s, "format"), "RGBA");
+  lf::Compositor c;
+  c.reset(80, 60);
+  c.add(f);
+  cv::Mat ref;
+  c.resolve(ref);
+  GstMapInfo map;
+  gst_buffer_map(out, &map, GST_MAP_READ);
+  EXPECT_EQ(std::memcmp(map.data, ref.data, 80 * 60 * 4), 0);
+  gst_buffer_unmap(out, &map);
+  gst_caps_unref(caps);
+  gst_buffer_unref(out);
+  gst_harness_teardown(h);
+}
+
+}  // namespace
