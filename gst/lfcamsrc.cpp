@@ -34,9 +34,9 @@ struct State {
   // file / v4l2 modes: an internal decoding pipeline ending in an appsink.
   GstElement* decoder = nullptr;
   GstElement* appsink = nullptr;
-  GstSample* last = nullptr;  // newest decoded frame
+  GstBuffer* last = nullptr;  // newest decoded frame (not the sample: appsink reuses those)
   ~State() {
-    if (last) gst_sample_unref(last);
+    if (last) gst_buffer_unref(last);
     if (decoder) {
       gst_element_set_state(decoder, GST_STATE_NULL);
       gst_object_unref(appsink);
@@ -57,9 +57,7 @@ struct _LfCamSrc {
   gchar* location;
   gchar* device;
   gboolean loop;
-  GMutex lock;
-  GstClockID clock_id;
-  gboolean unlocked;
+  lfgst::ClockWaiter* waiter;
   State* state;
 };
 
@@ -316,19 +314,12 @@ static GstCaps* lf_cam_src_get_caps(GstBaseSrc* src, GstCaps* filter) {
 }
 
 static gboolean lf_cam_src_unlock(GstBaseSrc* src) {
-  LfCamSrc* self = LF_CAM_SRC(src);
-  g_mutex_lock(&self->lock);
-  self->unlocked = TRUE;
-  if (self->clock_id) gst_clock_id_unschedule(self->clock_id);
-  g_mutex_unlock(&self->lock);
+  LF_CAM_SRC(src)->waiter->unlock();
   return TRUE;
 }
 
 static gboolean lf_cam_src_unlock_stop(GstBaseSrc* src) {
-  LfCamSrc* self = LF_CAM_SRC(src);
-  g_mutex_lock(&self->lock);
-  self->unlocked = FALSE;
-  g_mutex_unlock(&self->lock);
+  LF_CAM_SRC(src)->waiter->unlock_stop();
   return TRUE;
 }
 
@@ -341,27 +332,17 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
   State* st = self->state;
   const GstClockTime period = gst_util_uint64_scale_int(GST_SECOND, self->fps_d, self->fps_n);
   const GstClockTime pts = st->frame * period + self->phase;
-  if (self->live) {
-    GstClock* clock = gst_element_get_clock(GST_ELEMENT(src));
-    if (clock) {
-      g_mutex_lock(&self->lock);
-      if (self->unlocked) {
-        g_mutex_unlock(&self->lock);
-        gst_object_unref(clock);
-        return GST_FLOW_FLUSHING;
-      }
-      self->clock_id =
-          gst_clock_new_single_shot_id(clock, gst_element_get_base_time(GST_ELEMENT(src)) + pts);
-      g_mutex_unlock(&self->lock);
-      const GstClockReturn r = gst_clock_id_wait(self->clock_id, nullptr);
-      g_mutex_lock(&self->lock);
-      gst_clock_id_unref(self->clock_id);
-      self->clock_id = nullptr;
-      g_mutex_unlock(&self->lock);
-      gst_object_unref(clock);
-      if (r == GST_CLOCK_UNSCHEDULED) return GST_FLOW_FLUSHING;
-    }
-  }
+  // Capture time, frame number and the capture meta on every frame.
+  auto stamp = [&](GstBuffer* buf) {
+    GST_BUFFER_PTS(buf) = pts;
+    GST_BUFFER_DTS(buf) = pts;
+    GST_BUFFER_DURATION(buf) = period;
+    GST_BUFFER_OFFSET(buf) = st->frame++;
+    lfgst::add_capture_meta(buf, st->rig->cameras[st->index].id, pts);
+    return buf;
+  };
+  // Live: emit at running time pts on the pipeline clock.
+  if (self->live && !self->waiter->wait_until(GST_ELEMENT(src), pts)) return GST_FLOW_FLUSHING;
   if (st->decoder) {
     // File: the next decoded frame (looping a plain file on EOS if asked);
     // V4L2 (live): the newest frame at the capture instant.
@@ -383,22 +364,15 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
       }
     }
     if (s) {
-      if (st->last) gst_sample_unref(st->last);
-      st->last = s;
+      gst_buffer_replace(&st->last, gst_sample_get_buffer(s));
+      gst_sample_unref(s);
     }
     if (!st->last) {
       GST_ELEMENT_ERROR(self, RESOURCE, READ, ("No frame from the camera input"),
                         ("decoding pipeline delivered nothing"));
       return GST_FLOW_ERROR;
     }
-    GstBuffer* buf = gst_buffer_copy_deep(gst_sample_get_buffer(st->last));
-    GST_BUFFER_PTS(buf) = pts;
-    GST_BUFFER_DTS(buf) = pts;
-    GST_BUFFER_DURATION(buf) = period;
-    GST_BUFFER_OFFSET(buf) = st->frame;
-    lfgst::add_capture_meta(buf, st->rig->cameras[st->index].id, pts);
-    st->frame++;
-    *out = buf;
+    *out = stamp(gst_buffer_copy_deep(st->last));
     return GST_FLOW_OK;
   }
   // Dataset: zero-copy, the buffer shares the still (read-only). Synthetic:
@@ -408,13 +382,7 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
   GstBuffer* buf = gst_buffer_new_wrapped_full(GST_MEMORY_FLAG_READONLY, ref->data,
                                                ref->total() * ref->elemSize(), 0,
                                                ref->total() * ref->elemSize(), ref, free_mat);
-  GST_BUFFER_PTS(buf) = pts;
-  GST_BUFFER_DTS(buf) = pts;
-  GST_BUFFER_DURATION(buf) = period;
-  GST_BUFFER_OFFSET(buf) = st->frame;
-  lfgst::add_capture_meta(buf, st->rig->cameras[st->index].id, pts);
-  st->frame++;
-  *out = buf;
+  *out = stamp(buf);
   return GST_FLOW_OK;
 }
 
@@ -433,7 +401,7 @@ static void lf_cam_src_finalize(GObject* obj) {
   g_free(self->location);
   g_free(self->device);
   delete self->state;
-  g_mutex_clear(&self->lock);
+  delete self->waiter;
   G_OBJECT_CLASS(lf_cam_src_parent_class)->finalize(obj);
 }
 
@@ -443,7 +411,7 @@ static void lf_cam_src_init(LfCamSrc* self) {
   self->device = g_strdup("/dev/video0");
   self->fps_n = 30;
   self->fps_d = 1;
-  g_mutex_init(&self->lock);
+  self->waiter = new lfgst::ClockWaiter();
   gst_base_src_set_format(GST_BASE_SRC(self), GST_FORMAT_TIME);
 }
 

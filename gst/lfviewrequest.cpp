@@ -53,8 +53,7 @@ struct _LfViewRequest {
   gboolean live;
   gdouble stereo_baseline;
   GMutex lock;
-  GstClockID clock_id;
-  gboolean unlocked;
+  lfgst::ClockWaiter* waiter;
   State* state;
 };
 
@@ -266,19 +265,12 @@ static gboolean lf_view_request_stop(GstBaseSrc* src) {
 }
 
 static gboolean lf_view_request_unlock(GstBaseSrc* src) {
-  LfViewRequest* self = LF_VIEW_REQUEST(src);
-  g_mutex_lock(&self->lock);
-  self->unlocked = TRUE;
-  if (self->clock_id) gst_clock_id_unschedule(self->clock_id);
-  g_mutex_unlock(&self->lock);
+  LF_VIEW_REQUEST(src)->waiter->unlock();
   return TRUE;
 }
 
 static gboolean lf_view_request_unlock_stop(GstBaseSrc* src) {
-  LfViewRequest* self = LF_VIEW_REQUEST(src);
-  g_mutex_lock(&self->lock);
-  self->unlocked = FALSE;
-  g_mutex_unlock(&self->lock);
+  LF_VIEW_REQUEST(src)->waiter->unlock_stop();
   return TRUE;
 }
 
@@ -386,28 +378,8 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   const GstClockTime period = gst_util_uint64_scale_int(GST_SECOND, self->fps_d, self->fps_n);
   const guint64 k = st->sequence;
   const GstClockTime pts = k * period;
-  if (self->live) {
-    // Emit at running time k * period on the pipeline clock.
-    GstClock* clock = gst_element_get_clock(GST_ELEMENT(src));
-    if (clock) {
-      const GstClockTime base = gst_element_get_base_time(GST_ELEMENT(src));
-      g_mutex_lock(&self->lock);
-      if (self->unlocked) {
-        g_mutex_unlock(&self->lock);
-        gst_object_unref(clock);
-        return GST_FLOW_FLUSHING;
-      }
-      self->clock_id = gst_clock_new_single_shot_id(clock, base + pts);
-      g_mutex_unlock(&self->lock);
-      const GstClockReturn r = gst_clock_id_wait(self->clock_id, nullptr);
-      g_mutex_lock(&self->lock);
-      gst_clock_id_unref(self->clock_id);
-      self->clock_id = nullptr;
-      g_mutex_unlock(&self->lock);
-      gst_object_unref(clock);
-      if (r == GST_CLOCK_UNSCHEDULED) return GST_FLOW_FLUSHING;
-    }
-  }
+  // Live: emit at running time pts on the pipeline clock.
+  if (self->live && !self->waiter->wait_until(GST_ELEMENT(src), pts)) return GST_FLOW_FLUSHING;
   lf::ViewRequest req;
   req.viewer_id = self->viewer_id;
   req.sequence = k;
@@ -467,6 +439,7 @@ static void lf_view_request_finalize(GObject* obj) {
     g_free(s);
   delete self->state;
   g_mutex_clear(&self->lock);
+  delete self->waiter;
   G_OBJECT_CLASS(lf_view_request_parent_class)->finalize(obj);
 }
 
@@ -478,6 +451,7 @@ static void lf_view_request_init(LfViewRequest* self) {
   self->fps_n = 30;
   self->fps_d = 1;
   g_mutex_init(&self->lock);
+  self->waiter = new lfgst::ClockWaiter();
   gst_base_src_set_format(GST_BASE_SRC(self), GST_FORMAT_TIME);
 }
 

@@ -8,6 +8,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "lf/datasets.h"
+
 namespace cli {
 
 Args::Args(int argc, char** argv, const std::vector<std::string>& with_value,
@@ -52,24 +54,29 @@ std::vector<double> Args::numbers(const std::string& k, size_t n_min, size_t n_m
   return v;
 }
 
-std::vector<double> parse_numbers(const std::string& s, const std::string& what) {
-  std::vector<double> out;
-  std::stringstream ss(s);
-  std::string tok;
-  while (std::getline(ss, tok, ',')) {
-    size_t used = 0;
-    double v;
-    try {
-      v = std::stod(tok, &used);
-    } catch (const std::exception&) {
-      used = 0;
+bool help_requested(int argc, char** argv, const char* help) {
+  for (int i = 1; i < argc; ++i)
+    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
+      std::fputs(help, stdout);
+      return true;
     }
-    if (used == 0 || used != tok.size() || !std::isfinite(v))
-      throw std::invalid_argument(what + ": '" + tok + "' is not a number");
-    out.push_back(v);
+  return false;
+}
+
+lf::Rig select_cameras(lf::Rig rig, const Args& args, bool default_8x8) {
+  for (const auto& w : rig.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
+  if (args.has("--block")) {
+    const auto b = args.numbers("--block", 4, 4);
+    rig = lf::grid_block(rig, int(b[0]), int(b[1]), int(b[2]), int(b[3]));
+  } else if (default_8x8 && rig.grid.rows >= 8 && rig.grid.cols >= 8) {
+    rig = lf::grid_block(rig, 0, 0, 8, 8);
   }
-  if (out.empty()) throw std::invalid_argument(what + ": no value");
-  return out;
+  if (args.has("--input-scale")) rig = lf::scale_rig(rig, args.number("--input-scale", 1));
+  return rig;
+}
+
+std::vector<double> parse_numbers(const std::string& s, const std::string& what) {
+  return lf::parse_number_list(s, what);
 }
 
 void parse_size(const std::string& s, int& w, int& h) {

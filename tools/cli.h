@@ -26,6 +26,14 @@ class Args {
   std::map<std::string, std::string> values_;
 };
 
+// True (after printing `help` on stdout) when the arguments ask for help.
+bool help_requested(int argc, char** argv, const char* help);
+
+// Applies --block (or, when absent and `default_8x8` is set and the grid is
+// large enough, the 8x8 block at 0,0) and --input-scale to a rig, and prints
+// the rig's import warnings on stderr.
+lf::Rig select_cameras(lf::Rig rig, const Args& args, bool default_8x8 = false);
+
 std::vector<double> parse_numbers(const std::string& s, const std::string& what);
 void parse_size(const std::string& s, int& w, int& h);
 

@@ -154,25 +154,15 @@ struct SettingStats {
 }  // namespace
 
 int main(int argc, char** argv) {
-  for (int i = 1; i < argc; ++i)
-    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
-      std::cout << kHelp;
-      return 0;
-    }
+  if (cli::help_requested(argc, argv, kHelp)) return 0;
   try {
     cli::Args args(argc, argv,
                    {"--input", "--block", "--input-scale", "--sizes", "--encodings", "--focal",
                     "--loo", "--sweep-steps", "--plot"},
                    {"--skip-quality", "--skip-bandwidth", "--skip-speed"});
     cv::setNumThreads(1);
-    lf::Rig rig = lf::load_rig_or_dataset(args.get("--input", "../shared/data/stanford-chess"));
-    if (args.has("--block")) {
-      const auto b = args.numbers("--block", 4, 4);
-      rig = lf::grid_block(rig, int(b[0]), int(b[1]), int(b[2]), int(b[3]));
-    } else if (rig.grid.rows >= 8 && rig.grid.cols >= 8) {
-      rig = lf::grid_block(rig, 0, 0, 8, 8);
-    }
-    if (args.has("--input-scale")) rig = lf::scale_rig(rig, args.number("--input-scale", 1));
+    const lf::Rig rig = cli::select_cameras(
+        lf::load_rig_or_dataset(args.get("--input", "../shared/data/stanford-chess")), args, true);
     std::fprintf(stderr, "rig '%s': %zu cameras; loading images\n", rig.name.c_str(),
                  rig.cameras.size());
     const auto images = lf::load_images(rig, [](int k, int n) { cli::progress("images", k, n); });

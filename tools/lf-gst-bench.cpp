@@ -135,20 +135,14 @@ double percentile(std::vector<double> v, double q) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  for (int i = 1; i < argc; ++i)
-    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
-      std::cout << kHelp;
-      return 0;
-    }
+  if (cli::help_requested(argc, argv, kHelp)) return 0;
   try {
     cli::Args args(argc, argv,
                    {"--input", "--block", "--sizes", "--encodings", "--frames", "--latency-rate"},
                    {});
     gst_init(nullptr, nullptr);
-    lf::Rig rig = lf::load_rig_or_dataset(args.get("--input", "../shared/data/stanford-chess"));
-    const auto b =
-        args.has("--block") ? args.numbers("--block", 4, 4) : std::vector<double>{0, 0, 8, 8};
-    if (!rig.grid.empty()) rig = lf::grid_block(rig, int(b[0]), int(b[1]), int(b[2]), int(b[3]));
+    const lf::Rig rig = cli::select_cameras(
+        lf::load_rig_or_dataset(args.get("--input", "../shared/data/stanford-chess")), args, true);
     const std::string rig_path =
         (std::filesystem::temp_directory_path() / "lf-gst-bench-rig.json").string();
     lf::save_rig(rig, rig_path);

@@ -59,11 +59,7 @@ output
 }  // namespace
 
 int main(int argc, char** argv) {
-  for (int i = 1; i < argc; ++i)
-    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
-      std::cout << kHelp;
-      return 0;
-    }
+  if (cli::help_requested(argc, argv, kHelp)) return 0;
   try {
     cli::Args args(argc, argv,
                    {"--input", "--block", "--input-scale", "--save-rig", "--at", "--eye",
@@ -73,14 +69,7 @@ int main(int argc, char** argv) {
     if (!args.has("--input")) throw std::invalid_argument("--input is required (see --help)");
     if (!args.has("--out")) throw std::invalid_argument("--out is required (see --help)");
     const bool quiet = args.has("--quiet");
-    lf::Rig rig = lf::load_rig_or_dataset(args.get("--input"));
-    if (!quiet)
-      for (const auto& w : rig.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
-    if (args.has("--block")) {
-      const auto b = args.numbers("--block", 4, 4);
-      rig = lf::grid_block(rig, int(b[0]), int(b[1]), int(b[2]), int(b[3]));
-    }
-    if (args.has("--input-scale")) rig = lf::scale_rig(rig, args.number("--input-scale", 1));
+    lf::Rig rig = cli::select_cameras(lf::load_rig_or_dataset(args.get("--input")), args);
     if (args.has("--save-rig")) lf::save_rig(rig, args.get("--save-rig"));
     int W = 640, H = 480;
     if (args.has("--size")) cli::parse_size(args.get("--size"), W, H);

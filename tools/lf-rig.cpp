@@ -21,11 +21,7 @@ usage: lf-rig (--input PATH | --synthetic RxC) [options] [--out RIG.json] [--ids
   --out FILE       write the rig file (image paths relative to it)
   --ids            print the camera ids, one per line (for scripts)
 )";
-  for (int i = 1; i < argc; ++i)
-    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") {
-      std::cout << help;
-      return 0;
-    }
+  if (cli::help_requested(argc, argv, help)) return 0;
   try {
     cli::Args args(argc, argv,
                    {"--input", "--synthetic", "--spacing", "--size", "--vfov", "--block",
@@ -43,12 +39,7 @@ usage: lf-rig (--input PATH | --synthetic RxC) [options] [--out RIG.json] [--ids
     } else {
       throw std::invalid_argument("--input or --synthetic is required (see --help)");
     }
-    for (const auto& w : rig.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
-    if (args.has("--block")) {
-      const auto b = args.numbers("--block", 4, 4);
-      rig = lf::grid_block(rig, int(b[0]), int(b[1]), int(b[2]), int(b[3]));
-    }
-    if (args.has("--input-scale")) rig = lf::scale_rig(rig, args.number("--input-scale", 1));
+    rig = cli::select_cameras(rig, args);
     if (args.has("--out")) lf::save_rig(rig, args.get("--out"));
     if (args.has("--ids"))
       for (const auto& c : rig.cameras) std::printf("%d\n", c.id);

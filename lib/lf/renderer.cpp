@@ -102,8 +102,7 @@ double focal_param_from_inverse_depth(const Rig& rig, double q) {
   return rig.focal_param_infinity - q * rig.focal_param_f_px;
 }
 
-namespace {
-std::vector<double> numbers(const std::string& s, const std::string& what) {
+std::vector<double> parse_number_list(const std::string& s, const std::string& what) {
   std::vector<double> out;
   size_t pos = 0;
   while (pos <= s.size()) {
@@ -125,15 +124,15 @@ std::vector<double> numbers(const std::string& s, const std::string& what) {
   }
   return out;
 }
-}  // namespace
 
 FocalPlane parse_focal_plane(const std::string& s, const Rig& rig) {
   if (s == "infinity") return FocalPlane::infinity();
-  if (s.rfind("depth:", 0) == 0) return plane_at_depth(rig, numbers(s.substr(6), "focal depth")[0]);
+  if (s.rfind("depth:", 0) == 0)
+    return plane_at_depth(rig, parse_number_list(s.substr(6), "focal depth")[0]);
   if (s.rfind("param:", 0) == 0)
-    return plane_from_focal_param(rig, numbers(s.substr(6), "focal parameter")[0]);
+    return plane_from_focal_param(rig, parse_number_list(s.substr(6), "focal parameter")[0]);
   if (s.rfind("plane:", 0) == 0) {
-    const auto v = numbers(s.substr(6), "focal plane");
+    const auto v = parse_number_list(s.substr(6), "focal plane");
     if (v.size() != 4) throw std::invalid_argument("focal plane needs nx,ny,nz,d");
     const FocalPlane p{{v[0], v[1], v[2]}, v[3]};
     if (p.at_infinity() && p.d == 0) throw std::invalid_argument("focal plane (0,0,0,0)");

@@ -36,6 +36,10 @@ FocalPlane plane_at_inverse_depth(const Rig& rig, double q);
 FocalPlane plane_from_focal_param(const Rig& rig, double a);
 double focal_param_from_inverse_depth(const Rig& rig, double q);
 
+// Parses "a,b,c" into finite numbers; throws std::invalid_argument naming
+// `what` and the bad token.
+std::vector<double> parse_number_list(const std::string& s, const std::string& what);
+
 // Parses a focal-plane specification: "infinity", "depth:Z" (rig units from
 // the camera plane), "param:A" (light-slab focal parameter) or
 // "plane:nx,ny,nz,d". Throws std::invalid_argument naming the problem.
