@@ -29,6 +29,7 @@ struct Group {
   std::vector<lf::Fragment> fragments;
   std::set<uint64_t> cameras;  // (viewer << 32) | camera
   GstClockTime pts = GST_CLOCK_TIME_NONE, duration = GST_CLOCK_TIME_NONE;
+  GstClockTime running_time = GST_CLOCK_TIME_NONE;  // of its first fragment
 };
 struct State {
   std::shared_ptr<const lf::Rig> rig;
@@ -267,6 +268,9 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
               if (!GST_CLOCK_TIME_IS_VALID(g.pts)) {
                 g.pts = GST_BUFFER_PTS(buf);
                 g.duration = GST_BUFFER_DURATION(buf);
+                if (GST_CLOCK_TIME_IS_VALID(g.pts))
+                  g.running_time =
+                      gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, g.pts);
               }
               g.fragments.push_back(std::move(f));
             }
@@ -302,6 +306,32 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
   }
   if (ret == GST_FLOW_OK && all_eos && st->pending.empty()) return GST_FLOW_EOS;
   return ret;
+}
+
+// Live deadline: the running time of the oldest pending request (the
+// aggregator adds its latency). With nothing pending, wait for data: a
+// deadline in the past would make the aggregator spin.
+static GstClockTime lf_compositor_get_next_time(GstAggregator* agg) {
+  LfCompositor* self = LF_COMPOSITOR(agg);
+  GstClockTime t = GST_CLOCK_TIME_NONE;
+  auto earliest = [&t](GstClockTime rt) {
+    if (GST_CLOCK_TIME_IS_VALID(rt) && (t == GST_CLOCK_TIME_NONE || rt < t)) t = rt;
+  };
+  // Requests already collected (aggregate() runs on this same thread)...
+  if (self->state)
+    for (const auto& entry : self->state->pending) earliest(entry.second.running_time);
+  // ... and fragments still waiting in the pads.
+  GST_OBJECT_LOCK(self);
+  for (GList* l = GST_ELEMENT(self)->sinkpads; l; l = l->next) {
+    GstAggregatorPad* pad = GST_AGGREGATOR_PAD(l->data);
+    if (GstBuffer* b = gst_aggregator_pad_peek_buffer(pad)) {
+      if (GST_BUFFER_PTS_IS_VALID(b))
+        earliest(gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, GST_BUFFER_PTS(b)));
+      gst_buffer_unref(b);
+    }
+  }
+  GST_OBJECT_UNLOCK(self);
+  return t;
 }
 
 // Navigation events from the video sink go to every camera branch (and on
@@ -376,7 +406,7 @@ static void lf_compositor_class_init(LfCompositorClass* klass) {
   ac->stop = lf_compositor_stop;
   ac->aggregate = lf_compositor_aggregate;
   ac->src_event = lf_compositor_src_event;
-  ac->get_next_time = gst_aggregator_simple_get_next_time;
+  ac->get_next_time = lf_compositor_get_next_time;
   GST_DEBUG_CATEGORY_INIT(lf_compositor_debug, "lfcompositor", 0, "light field compositor");
 }
 

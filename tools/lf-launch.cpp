@@ -1,0 +1,167 @@
+// lf-launch: runs a gst-launch-style pipeline description on a clock shared
+// across machines (gst-launch-1.0 cannot select a network clock).
+//  * --clock-server PORT: the pipeline runs on this machine's system clock,
+//    which is published with GstNetTimeProvider on PORT (UDP).
+//  * --clock-client HOST:PORT: the pipeline runs on a GstNetClientClock
+//    slaved to that provider, after it has synchronised.
+// All hosts must use the same --base-time (ns on the shared clock): then
+// running time k * period is the same instant everywhere and the capture
+// schedules of lfcamsrc align within the clock error (paper 4.4.4). With
+// --base-time now+MS the server picks "now + MS ms" and prints it
+// (`base-time NS`) for the clients.
+#include <gst/gst.h>
+#include <gst/net/gstnet.h>
+
+#include <cstdio>
+#include <cstring>
+#include <iostream>
+#include <string>
+
+namespace {
+
+const char* kHelp = R"(lf-launch: run a pipeline on a network-shared clock.
+
+usage: lf-launch (--clock-server PORT | --clock-client HOST:PORT) --base-time NS|now+MS
+                 [--sync-timeout S] [--duration S] [--check-clock] -- PIPELINE DESCRIPTION...
+  --clock-server PORT      publish this machine's clock (GstNetTimeProvider, UDP PORT)
+  --clock-client HOST:PORT slave to a provider (GstNetClientClock); waits until synchronised
+  --base-time NS           base time shared by every host, ns on the shared clock
+  --base-time now+MS       (server) now + MS milliseconds; printed as "base-time NS"
+  --sync-timeout S         client: give up if not synchronised after S seconds (default 10)
+  --duration S             stop after S seconds (default: run to end of stream)
+  --check-clock            client: print "clock-offset-ms X" (client clock - local system
+                           clock right after sync) and exit without running a pipeline
+)";
+
+GstClockTime parse_base(const std::string& s, GstClock* clock) {
+  if (s.rfind("now+", 0) == 0)
+    return gst_clock_get_time(clock) + std::stoull(s.substr(4)) * GST_MSECOND;
+  return std::stoull(s);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  gst_init(nullptr, nullptr);  // not argv: GOption would eat the "--" separator
+  std::string server_port, client, base = "now+500", description;
+  double sync_timeout = 10, duration = -1;
+  bool check = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
+      return argv[++i];
+    };
+    try {
+      if (a == "--help" || a == "-h") {
+        std::cout << kHelp;
+        return 0;
+      } else if (a == "--clock-server") {
+        server_port = value();
+      } else if (a == "--clock-client") {
+        client = value();
+      } else if (a == "--base-time") {
+        base = value();
+      } else if (a == "--sync-timeout") {
+        sync_timeout = std::stod(value());
+      } else if (a == "--duration") {
+        duration = std::stod(value());
+      } else if (a == "--check-clock") {
+        check = true;
+      } else if (a == "--") {
+        for (++i; i < argc; ++i) description += std::string(argv[i]) + " ";
+      } else {
+        throw std::invalid_argument("unknown option '" + a + "' (see --help)");
+      }
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "lf-launch: error: %s\n", e.what());
+      return 2;
+    }
+  }
+  if (server_port.empty() == client.empty()) {
+    std::fprintf(stderr, "lf-launch: error: give exactly one of --clock-server, --clock-client\n");
+    return 2;
+  }
+  GstClock* clock = nullptr;
+  GstNetTimeProvider* provider = nullptr;
+  if (!server_port.empty()) {
+    clock = gst_system_clock_obtain();
+    provider = gst_net_time_provider_new(clock, nullptr, std::stoi(server_port));
+    if (!provider) {
+      std::fprintf(stderr, "lf-launch: error: cannot publish the clock on UDP port %s\n",
+                   server_port.c_str());
+      return 1;
+    }
+  } else {
+    const auto colon = client.rfind(':');
+    if (colon == std::string::npos) {
+      std::fprintf(stderr, "lf-launch: error: --clock-client needs HOST:PORT\n");
+      return 2;
+    }
+    clock = gst_net_client_clock_new("lf-net-clock", client.substr(0, colon).c_str(),
+                                     std::stoi(client.substr(colon + 1)), 0);
+    if (!gst_clock_wait_for_sync(clock, static_cast<GstClockTime>(sync_timeout * GST_SECOND))) {
+      std::fprintf(stderr, "lf-launch: error: clock %s not synchronised after %.0f s\n",
+                   client.c_str(), sync_timeout);
+      return 1;
+    }
+    if (check) {
+      GstClock* sys = gst_system_clock_obtain();
+      const double off = (static_cast<double>(gst_clock_get_time(clock)) -
+                          static_cast<double>(gst_clock_get_time(sys))) /
+                         1e6;
+      std::printf("clock-offset-ms %.3f\n", off);
+      gst_object_unref(sys);
+      gst_object_unref(clock);
+      return 0;
+    }
+  }
+  GstClockTime base_time;
+  try {
+    base_time = parse_base(base, clock);
+  } catch (const std::exception&) {
+    std::fprintf(stderr, "lf-launch: error: --base-time '%s' is not NS or now+MS\n", base.c_str());
+    return 2;
+  }
+  std::printf("base-time %" G_GUINT64_FORMAT "\n", base_time);
+  std::fflush(stdout);
+  if (description.empty()) {
+    std::fprintf(stderr, "lf-launch: error: no pipeline description after --\n");
+    return 2;
+  }
+  GError* err = nullptr;
+  GstElement* pipeline = gst_parse_launch(description.c_str(), &err);
+  if (!pipeline) {
+    std::fprintf(stderr, "lf-launch: error: %s\n", err ? err->message : "bad description");
+    return 1;
+  }
+  if (err) g_clear_error(&err);
+  // Same clock and base time everywhere; never redistribute the base time.
+  gst_pipeline_use_clock(GST_PIPELINE(pipeline), clock);
+  gst_element_set_start_time(pipeline, GST_CLOCK_TIME_NONE);
+  gst_element_set_base_time(pipeline, base_time);
+  gst_element_set_state(pipeline, GST_STATE_PLAYING);
+  GstBus* bus = gst_element_get_bus(pipeline);
+  int rc = 0;
+  const GstClockTime timeout =
+      duration >= 0 ? static_cast<GstClockTime>(duration * GST_SECOND) : GST_CLOCK_TIME_NONE;
+  GstMessage* msg = gst_bus_timed_pop_filtered(
+      bus, timeout, static_cast<GstMessageType>(GST_MESSAGE_EOS | GST_MESSAGE_ERROR));
+  if (msg && GST_MESSAGE_TYPE(msg) == GST_MESSAGE_ERROR) {
+    GError* e = nullptr;
+    gchar* dbg = nullptr;
+    gst_message_parse_error(msg, &e, &dbg);
+    std::fprintf(stderr, "lf-launch: error from %s: %s\n%s\n", GST_OBJECT_NAME(msg->src),
+                 e->message, dbg ? dbg : "");
+    g_clear_error(&e);
+    g_free(dbg);
+    rc = 1;
+  }
+  if (msg) gst_message_unref(msg);
+  gst_element_set_state(pipeline, GST_STATE_NULL);
+  gst_object_unref(bus);
+  gst_object_unref(pipeline);
+  if (provider) gst_object_unref(provider);
+  gst_object_unref(clock);
+  return rc;
+}
