@@ -308,7 +308,7 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
       rgba = st->corrected;
       g_mutex_unlock(&self->lock);
     }
-    const lf::ViewGeometry g(rig, req);
+    const lf::ViewGeometry g(rig, req, st->index);  // only this camera's homography
     lf::Fragment f;
     f.viewer_id = req.viewer_id;
     f.sequence = req.sequence;

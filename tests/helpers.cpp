@@ -81,7 +81,9 @@ void expect_valid(const WeightCheck& c, const std::string& what, bool all_visibl
   }
   EXPECT_LE(c.max_sum_error, 1e-9);
   EXPECT_EQ(c.max_unseen_sum, 0.0);
-  if (all_visible) EXPECT_EQ(c.invisible, 0u);
+  if (all_visible) {
+    EXPECT_EQ(c.invisible, 0u);
+  }
 }
 
 }  // namespace testing_lf

@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "gst_init.h"
 #include "helpers.h"
 #include "lf/datasets.h"
 #include "lf/renderer.h"
@@ -25,10 +26,7 @@ using testing_lf::data_path;
 class Gst : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    g_setenv("GST_PLUGIN_PATH", LF_PLUGIN_DIR, TRUE);
-    g_setenv("GST_REGISTRY",
-             (std::filesystem::temp_directory_path() / "lf-test-registry.bin").c_str(), TRUE);
-    gst_init(nullptr, nullptr);
+    testing_lf::init_gstreamer_with_plugin();
     // A 2x2 block of the real Chess light field at half resolution.
     rig_path_ = (std::filesystem::temp_directory_path() / "lf-test-chess4.json").string();
     lf::Rig rig = lf::scale_rig(

@@ -5,6 +5,7 @@
 
 #include <filesystem>
 
+#include "gst_init.h"
 #include "lf/fragment.h"
 #include "lf/renderer.h"
 #include "lf/synthetic.h"
@@ -15,10 +16,7 @@ namespace {
 class Harness : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    g_setenv("GST_PLUGIN_PATH", LF_PLUGIN_DIR, TRUE);
-    g_setenv("GST_REGISTRY",
-             (std::filesystem::temp_directory_path() / "lf-test-registry.bin").c_str(), TRUE);
-    gst_init(nullptr, nullptr);
+    testing_lf::init_gstreamer_with_plugin();
     rig_ = lf::synthetic_grid_rig(2, 2, 0.05, 64, 48, 40);
     rig_path_ = (std::filesystem::temp_directory_path() / "lf-harness-rig.json").string();
     lf::save_rig(rig_, rig_path_);

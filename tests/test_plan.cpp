@@ -60,6 +60,23 @@ TEST(Plan, HomographyMatchesRayCasting) {
   EXPECT_LE(worst, 1e-6) << "double-precision homography should be far better than 0.01 px";
 }
 
+TEST(Plan, SingleCameraGeometryPlansTheSameFragment) {
+  lf::Rig rig = lf::synthetic_grid_rig(4, 4, 0.5, 160, 120, 45, 2.0, 11);
+  std::mt19937_64 rng(12);
+  for (int v = 0; v < 6; ++v) {
+    const lf::ViewRequest req = random_request(rig, rng, 96, 72, v % 2 == 0);
+    const lf::ViewGeometry all(rig, req);
+    for (int i : {0, 5, 15}) {
+      const lf::ViewGeometry one(rig, req, i);
+      EXPECT_EQ(one.homography(i), all.homography(i));
+      const auto a = lf::plan_fragment(all, i), b = lf::plan_fragment(one, i);
+      EXPECT_EQ(a.rect, b.rect);
+      EXPECT_EQ(a.runs.size(), b.runs.size());
+      EXPECT_EQ(a.pixel_count(), b.pixel_count());
+    }
+  }
+}
+
 TEST(Plan, WeightsPartitionUnityOnRandomViews) {
   lf::Rig rig = lf::synthetic_grid_rig(4, 5, 0.5, 160, 120, 45, 2.0, 3);
   std::mt19937_64 rng(7);

@@ -11,7 +11,8 @@ PixelForm form_from(const cv::Vec3d& coeffs) {
 }
 }  // namespace
 
-ViewGeometry::ViewGeometry(const Rig& rig, const ViewRequest& request) : rig_(&rig), req_(request) {
+ViewGeometry::ViewGeometry(const Rig& rig, const ViewRequest& request, int only_camera)
+    : rig_(&rig), req_(request) {
   validate(req_);
   const VirtualView& v = req_.view;
   const cv::Matx33d Kinv = v.intrinsics().K().inv();
@@ -33,8 +34,10 @@ ViewGeometry::ViewGeometry(const Rig& rig, const ViewRequest& request) : rig_(&r
   }
   const FocalPlane& fp = req_.focal_plane;
   fw_ = form_from(Mt * fp.n);
-  H_.reserve(rig.cameras.size());
-  for (const Camera& c : rig.cameras) {
+  H_.assign(rig.cameras.size(), cv::Matx33d::zeros());
+  for (size_t i = 0; i < rig.cameras.size(); ++i) {
+    if (only_camera >= 0 && static_cast<int>(i) != only_camera) continue;
+    const Camera& c = rig.cameras[i];
     const cv::Matx33d& R = c.extrinsics.R;
     cv::Matx33d A;
     if (fp.at_infinity()) {
@@ -46,7 +49,7 @@ ViewGeometry::ViewGeometry(const Rig& rig, const ViewRequest& request) : rig_(&r
                       q[2] * fp.n[2]) -
           R * (fp.n.dot(E) + fp.d);
     }
-    H_.push_back(c.intrinsics.K() * A * M_);
+    H_[i] = c.intrinsics.K() * A * M_;
   }
 }
 

@@ -69,7 +69,10 @@ struct ApertureSample {
 class ViewGeometry {
  public:
   // Validates the request (throws std::invalid_argument) and precomputes.
-  ViewGeometry(const Rig& rig, const ViewRequest& request);
+  // With `only_camera` >= 0, only that camera's homography is computed (a
+  // random access camera needs just its own); homography(i) of any other
+  // camera is then the zero matrix.
+  ViewGeometry(const Rig& rig, const ViewRequest& request, int only_camera = -1);
 
   const Rig& rig() const { return *rig_; }
   const ViewRequest& request() const { return req_; }
