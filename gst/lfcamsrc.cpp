@@ -331,6 +331,8 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
   LfCamSrc* self = LF_CAM_SRC(src);
   State* st = self->state;
   const GstClockTime period = gst_util_uint64_scale_int(GST_SECOND, self->fps_d, self->fps_n);
+  if (self->live)
+    st->frame = lfgst::first_current_tick(GST_ELEMENT(src), st->frame, period, self->phase);
   const GstClockTime pts = st->frame * period + self->phase;
   // Capture time, frame number and the capture meta on every frame.
   auto stamp = [&](GstBuffer* buf) {
@@ -339,6 +341,8 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
     GST_BUFFER_DURATION(buf) = period;
     GST_BUFFER_OFFSET(buf) = st->frame++;
     lfgst::add_capture_meta(buf, st->rig->cameras[st->index].id, pts);
+    lfgst::trace(GST_ELEMENT(src), "capture", 0, GST_BUFFER_OFFSET(buf),
+                 st->rig->cameras[st->index].id, static_cast<gint64>(pts));
     return buf;
   };
   // Live: emit at running time pts on the pipeline clock.

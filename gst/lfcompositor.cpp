@@ -6,6 +6,7 @@
 // output. Output: ordinary raw video.
 #include <gst/base/gstaggregator.h>
 #include <gst/video/video.h>
+#include <zlib.h>
 
 #include <map>
 #include <memory>
@@ -179,6 +180,7 @@ static bool ensure_caps(LfCompositor* self, int width, int height) {
 
 static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g) {
   State* st = self->state;
+  const gint64 t0 = g_get_monotonic_time();
   const lf::Fragment& first = g.fragments.front();
   const int w = first.out_width, H = first.out_height;
   const int W = self->stereo ? 2 * w : w;  // stereo: left | right side by side
@@ -221,6 +223,12 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g) {
     for (int y = 0; y < H; ++y) std::memcpy(dst + y * dstride, rgba.ptr(y), 4 * W);
   }
   gst_video_frame_unmap(&vf);
+  if (lfgst::trace_enabled()) {
+    const uLong sum = crc32(0L, rgba.data, static_cast<uInt>(rgba.total() * rgba.elemSize()));
+    lfgst::trace(GST_ELEMENT(self), "composited", first.viewer_id, seq, -1,
+                 static_cast<gint64>(g.fragments.size()), static_cast<gint64>(sum),
+                 (g_get_monotonic_time() - t0) * 1000);
+  }
   GST_BUFFER_PTS(out) = g.pts;
   GST_BUFFER_DURATION(out) = g.duration;
   GST_BUFFER_OFFSET(out) = seq;
@@ -232,6 +240,58 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g) {
   }
   GST_LOG_OBJECT(self, "request %" G_GUINT64_FORMAT ": %zu fragments", seq, g.fragments.size());
   return gst_aggregator_finish_buffer(agg, out);
+}
+
+// Parses one fragment buffer and files it under its request.
+static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
+  State* st = self->state;
+  GstMapInfo map;
+  if (!gst_buffer_map(buf, &map, GST_MAP_READ)) return;
+  try {
+    const gint64 t0 = g_get_monotonic_time();
+    lf::Fragment f = lf::parse_fragment(map.data, map.size);
+    lfgst::trace(GST_ELEMENT(self), "decoded", f.viewer_id, f.sequence,
+                 static_cast<gint>(f.camera_id), (g_get_monotonic_time() - t0) * 1000);
+    const guint v0 = static_cast<guint>(std::max(0, self->viewer_id));
+    const bool ours =
+        self->stereo ? (f.viewer_id == v0 || f.viewer_id == v0 + 1)
+                     : (self->viewer_id < 0 || f.viewer_id == static_cast<guint>(self->viewer_id));
+    const bool known = !st->rig || st->rig->index_of(static_cast<int>(f.camera_id)) >= 0;
+    if (!known) {
+      GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Dropping a fragment of an unknown camera"),
+                          ("camera %u is not in the rig", f.camera_id));
+    } else if (ours && static_cast<int64_t>(f.sequence) > st->last_emitted) {
+      Group& g = st->pending[f.sequence];
+      const uint64_t key = (static_cast<uint64_t>(f.viewer_id) << 32) | f.camera_id;
+      if (g.cameras.insert(key).second) {
+        if (!GST_CLOCK_TIME_IS_VALID(g.pts)) {
+          g.pts = GST_BUFFER_PTS(buf);
+          g.duration = GST_BUFFER_DURATION(buf);
+          if (GST_CLOCK_TIME_IS_VALID(g.pts))
+            g.running_time = gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, g.pts);
+        }
+        g.fragments.push_back(std::move(f));
+      }
+    }
+  } catch (const std::exception& e) {
+    GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Dropping a malformed fragment"), ("%s", e.what()));
+  }
+  gst_buffer_unmap(buf, &map);
+}
+
+// Request sequence of a queued fragment buffer (-1 if unreadable).
+static int64_t queued_sequence(GstBuffer* buf) {
+  GstMapInfo map;
+  int64_t seq = -1;
+  if (gst_buffer_map(buf, &map, GST_MAP_READ)) {
+    try {
+      seq = static_cast<int64_t>(lf::peek_fragment_header(map.data, map.size).sequence);
+    } catch (const std::exception&) {
+      seq = -1;  // malformed: absorb() reports it
+    }
+    gst_buffer_unmap(buf, &map);
+  }
+  return seq;
 }
 
 static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeout) {
@@ -249,42 +309,30 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
     // One buffer per pad per call: pads stay in step (a pop unblocks the
     // upstream push, so popping in a loop would race ahead on fast pads).
     if (GstBuffer* buf = gst_aggregator_pad_pop_buffer(pad)) {
-      GstMapInfo map;
-      if (gst_buffer_map(buf, &map, GST_MAP_READ)) {
-        try {
-          lf::Fragment f = lf::parse_fragment(map.data, map.size);
-          const guint v0 = static_cast<guint>(std::max(0, self->viewer_id));
-          const bool ours = self->stereo ? (f.viewer_id == v0 || f.viewer_id == v0 + 1)
-                                         : (self->viewer_id < 0 ||
-                                            f.viewer_id == static_cast<guint>(self->viewer_id));
-          const bool known = !st->rig || st->rig->index_of(static_cast<int>(f.camera_id)) >= 0;
-          if (!known) {
-            GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Dropping a fragment of an unknown camera"),
-                                ("camera %u is not in the rig", f.camera_id));
-          } else if (ours && static_cast<int64_t>(f.sequence) > st->last_emitted) {
-            Group& g = st->pending[f.sequence];
-            const uint64_t key = (static_cast<uint64_t>(f.viewer_id) << 32) | f.camera_id;
-            if (g.cameras.insert(key).second) {
-              if (!GST_CLOCK_TIME_IS_VALID(g.pts)) {
-                g.pts = GST_BUFFER_PTS(buf);
-                g.duration = GST_BUFFER_DURATION(buf);
-                if (GST_CLOCK_TIME_IS_VALID(g.pts))
-                  g.running_time =
-                      gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, g.pts);
-              }
-              g.fragments.push_back(std::move(f));
-            }
-          }
-        } catch (const std::exception& e) {
-          GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Dropping a malformed fragment"),
-                              ("%s", e.what()));
-        }
-        gst_buffer_unmap(buf, &map);
-      }
+      absorb(self, pad, buf);
       gst_buffer_unref(buf);
     }
-    if (!gst_aggregator_pad_is_eos(pad)) all_eos = false;
   }
+  // At the deadline (a silent pad: a dead host), also take every queued
+  // fragment of the requests up to the one due, so the live pads' fragments
+  // all make it into the frame (a pad may carry many cameras' fragments).
+  if (timeout && !st->pending.empty()) {
+    const int64_t due = static_cast<int64_t>(st->pending.begin()->first);
+    for (GList* l = pads; l; l = l->next) {
+      GstAggregatorPad* pad = GST_AGGREGATOR_PAD(l->data);
+      while (GstBuffer* peek = gst_aggregator_pad_peek_buffer(pad)) {
+        const int64_t seq = queued_sequence(peek);
+        gst_buffer_unref(peek);
+        if (seq > due) break;
+        if (GstBuffer* buf = gst_aggregator_pad_pop_buffer(pad)) {
+          absorb(self, pad, buf);
+          gst_buffer_unref(buf);
+        }
+      }
+    }
+  }
+  for (GList* l = pads; l; l = l->next)
+    if (!gst_aggregator_pad_is_eos(GST_AGGREGATOR_PAD(l->data))) all_eos = false;
   g_list_free_full(pads, gst_object_unref);
 
   const size_t expected = expected_fragments(self);
@@ -332,6 +380,38 @@ static GstClockTime lf_compositor_get_next_time(GstAggregator* agg) {
   }
   GST_OBJECT_UNLOCK(self);
   return t;
+}
+
+// Tracing (LF_TRACE): a fragment's arrival at a sink pad, before any
+// queueing in the aggregator.
+static GstPadProbeReturn trace_arrival(GstPad* pad, GstPadProbeInfo* info, gpointer) {
+  GstBuffer* buf = GST_PAD_PROBE_INFO_BUFFER(info);
+  GstMapInfo map;
+  if (buf && gst_buffer_map(buf, &map, GST_MAP_READ)) {
+    try {
+      const lf::FragmentHeader h = lf::peek_fragment_header(map.data, map.size);
+      GstObject* parent = gst_pad_get_parent(pad);
+      if (parent) {
+        lfgst::trace(GST_ELEMENT(parent), "fragment-in", h.viewer_id, h.sequence,
+                     static_cast<gint>(h.camera_id), static_cast<gint64>(map.size),
+                     h.capture_time_ns);
+        gst_object_unref(parent);
+      }
+    } catch (const std::exception&) {
+      // malformed: reported when aggregated
+    }
+    gst_buffer_unmap(buf, &map);
+  }
+  return GST_PAD_PROBE_OK;
+}
+
+static GstPad* lf_compositor_request_new_pad(GstElement* el, GstPadTemplate* templ,
+                                             const gchar* name, const GstCaps* caps) {
+  GstPad* pad =
+      GST_ELEMENT_CLASS(lf_compositor_parent_class)->request_new_pad(el, templ, name, caps);
+  if (pad && lfgst::trace_enabled())
+    gst_pad_add_probe(pad, GST_PAD_PROBE_TYPE_BUFFER, trace_arrival, nullptr, nullptr);
+  return pad;
 }
 
 // Navigation events from the video sink go to every camera branch (and on
@@ -402,6 +482,7 @@ static void lf_compositor_class_init(LfCompositorClass* klass) {
       "composites incomplete requests at the deadline (property 'latency', ns) in live "
       "pipelines (Yang et al. 2002, 4.3)",
       "lightfield-gst");
+  ec->request_new_pad = lf_compositor_request_new_pad;
   ac->start = lf_compositor_start;
   ac->stop = lf_compositor_stop;
   ac->aggregate = lf_compositor_aggregate;

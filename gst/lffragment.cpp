@@ -249,6 +249,8 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
     }
     gst_buffer_unmap(buf, &map);
   }
+  const gint cam_id = self->state->rig->cameras[self->state->index].id;
+  lfgst::trace(GST_ELEMENT(self), "request-in", req.viewer_id, req.sequence, cam_id);
   // Wait for a camera frame.
   g_mutex_lock(&self->lock);
   while (!self->frame && !self->flushing && !self->video_eos) g_cond_wait(&self->cond, &self->lock);
@@ -324,8 +326,12 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
           GST_BUFFER_PTS_IS_VALID(frame) ? static_cast<int64_t>(GST_BUFFER_PTS(frame)) : -1;
     }
     lf::render_fragment(lf::plan_fragment(g, st->index), rig.cameras[st->index], rgba, f);
+    lfgst::trace(GST_ELEMENT(self), "warped", req.viewer_id, req.sequence, cam_id,
+                 static_cast<gint64>(f.pixel_count()));
     bytes = lf::serialize_fragment(
         f, self->encoding == 1 ? lf::Encoding::kJpeg : lf::Encoding::kRaw, self->quality);
+    lfgst::trace(GST_ELEMENT(self), "encoded", req.viewer_id, req.sequence, cam_id,
+                 static_cast<gint64>(bytes.size()));
   } catch (const std::exception& e) {
     gst_video_frame_unmap(&vf);
     gst_buffer_unref(frame);

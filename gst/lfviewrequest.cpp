@@ -361,8 +361,10 @@ static gboolean lf_view_request_event(GstBaseSrc* src, GstEvent* event) {
   return GST_BASE_SRC_CLASS(lf_view_request_parent_class)->event(src, event);
 }
 
-static GstBuffer* request_buffer(const lf::ViewRequest& req, GstClockTime pts,
+static GstBuffer* request_buffer(GstBaseSrc* src, const lf::ViewRequest& req, GstClockTime pts,
                                  GstClockTime period) {
+  lfgst::trace(GST_ELEMENT(src), "issue", req.viewer_id, req.sequence, -1,
+               static_cast<gint64>(pts));
   const std::vector<uint8_t> bytes = lf::serialize_request(req);
   GstBuffer* buf = gst_buffer_new_memdup(bytes.data(), bytes.size());
   GST_BUFFER_PTS(buf) = pts;
@@ -376,6 +378,8 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   LfViewRequest* self = LF_VIEW_REQUEST(src);
   State* st = self->state;
   const GstClockTime period = gst_util_uint64_scale_int(GST_SECOND, self->fps_d, self->fps_n);
+  if (self->live)  // a viewer joining late starts at the current tick
+    st->sequence = lfgst::first_current_tick(GST_ELEMENT(src), st->sequence, period, 0);
   const guint64 k = st->sequence;
   const GstClockTime pts = k * period;
   // Live: emit at running time pts on the pipeline clock.
@@ -408,12 +412,12 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
       req.view.position -= x * (0.5 * self->stereo_baseline);
       // One tick = one buffer list (num-buffers counts ticks).
       GstBufferList* list = gst_buffer_list_new_sized(2);
-      gst_buffer_list_add(list, request_buffer(req, pts, period));
-      gst_buffer_list_add(list, request_buffer(right, pts, period));
+      gst_buffer_list_add(list, request_buffer(src, req, pts, period));
+      gst_buffer_list_add(list, request_buffer(src, right, pts, period));
       gst_base_src_submit_buffer_list(src, list);
       *out = nullptr;
     } else {
-      *out = request_buffer(req, pts, period);
+      *out = request_buffer(src, req, pts, period);
     }
   } catch (const std::exception& e) {
     GST_ELEMENT_ERROR(self, LIBRARY, FAILED, ("Cannot build view request %" G_GUINT64_FORMAT, k),

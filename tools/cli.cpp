@@ -71,6 +71,7 @@ lf::Rig select_cameras(lf::Rig rig, const Args& args, bool default_8x8) {
   } else if (default_8x8 && rig.grid.rows >= 8 && rig.grid.cols >= 8) {
     rig = lf::grid_block(rig, 0, 0, 8, 8);
   }
+  if (args.has("--spread")) rig = lf::grid_spread(rig, args.integer("--spread", 0));
   if (args.has("--input-scale")) rig = lf::scale_rig(rig, args.number("--input-scale", 1));
   return rig;
 }

@@ -394,12 +394,6 @@ int main(int argc, char** argv) {
           "| cameras | fragment px / output px | raw bytes/frame | JPEG q90 bytes/frame | "
           "vs 64 (px) |\n|---|---|---|---|---|\n");
       const int R = rig.grid.rows, C = rig.grid.cols;
-      auto spread = [](int n, int k) {
-        std::vector<int> v;
-        for (int i = 0; i < k; ++i)
-          v.push_back(static_cast<int>(std::lround(i * (n - 1.0) / (k - 1))));
-        return v;
-      };
       std::vector<std::pair<std::string, double>> ratios;
       double ref = 0;
       auto measure = [&](const lf::Rig& r, const std::vector<cv::Mat>& im, bool real) {
@@ -418,11 +412,9 @@ int main(int argc, char** argv) {
       std::vector<std::string> names;
       for (int k : {2, 4, 8}) {
         if (k > std::min(R, C)) continue;
+        const lf::Rig sub = lf::grid_spread(rig, k);
         std::vector<int> keep;
-        for (int r : spread(R, k))
-          for (int c : spread(C, k))
-            if (rig.grid.at(r, c) >= 0) keep.push_back(rig.grid.at(r, c));
-        const lf::Rig sub = rig.subset(keep);
+        for (const auto& c : sub.cameras) keep.push_back(rig.index_of(c.id));
         std::vector<cv::Mat> im;
         for (int i : keep) im.push_back(images[i]);
         rows.push_back(measure(sub, im, true));

@@ -17,6 +17,7 @@ usage: lf-rig (--input PATH | --synthetic RxC) [options] [--out RIG.json] [--ids
   --size WxH       synthetic: image size (default 320x240)
   --vfov DEG       synthetic: vertical field of view (default 40)
   --block ...      keep only this block of the grid
+  --spread K       then keep a K x K sub-grid spread evenly over it (first, last included)
   --input-scale S  cameras' images resized by S (intrinsics scaled)
   --out FILE       write the rig file (image paths relative to it)
   --ids            print the camera ids, one per line (for scripts)
@@ -25,7 +26,7 @@ usage: lf-rig (--input PATH | --synthetic RxC) [options] [--out RIG.json] [--ids
   try {
     cli::Args args(argc, argv,
                    {"--input", "--synthetic", "--spacing", "--size", "--vfov", "--block",
-                    "--input-scale", "--out"},
+                    "--spread", "--input-scale", "--out"},
                    {"--ids"});
     lf::Rig rig;
     if (args.has("--synthetic")) {

@@ -322,6 +322,25 @@ Rig grid_block(const Rig& rig, int r0, int c0, int rows, int cols) {
   return rig.subset(keep);
 }
 
+Rig grid_spread(const Rig& rig, int k) {
+  if (rig.grid.empty())
+    throw std::invalid_argument("grid_spread: rig '" + rig.name + "' has no grid");
+  if (k < 2 || k > rig.grid.rows || k > rig.grid.cols)
+    throw std::invalid_argument("grid_spread: " + std::to_string(k) + "x" + std::to_string(k) +
+                                " does not fit the " + std::to_string(rig.grid.rows) + "x" +
+                                std::to_string(rig.grid.cols) + " grid (k >= 2)");
+  auto spread = [k](int n) {
+    std::vector<int> v;
+    for (int i = 0; i < k; ++i) v.push_back(static_cast<int>(std::lround(i * (n - 1.0) / (k - 1))));
+    return v;
+  };
+  std::vector<int> keep;
+  for (int r : spread(rig.grid.rows))
+    for (int c : spread(rig.grid.cols))
+      if (rig.grid.at(r, c) >= 0) keep.push_back(rig.grid.at(r, c));
+  return rig.subset(keep);
+}
+
 Rig scale_rig(const Rig& rig, double scale) {
   if (!(scale > 0) || scale > 16) throw std::invalid_argument("scale_rig: scale out of range");
   Rig out = rig;

@@ -163,7 +163,7 @@ std::vector<uint8_t> serialize_fragment(const Fragment& f, Encoding enc, int qua
   return out;
 }
 
-Fragment parse_fragment(const uint8_t* data, size_t size, Encoding* enc_out) {
+FragmentHeader peek_fragment_header(const uint8_t* data, size_t size) {
   if (data == nullptr && size > 0) bad_fragment("null buffer");
   if (size < kFragmentHeaderSize)
     bad_fragment("truncated header (" + std::to_string(size) + " of " +
@@ -175,11 +175,25 @@ Fragment parse_fragment(const uint8_t* data, size_t size, Encoding* enc_out) {
   if (version != 1) bad_fragment("unsupported version " + std::to_string(version));
   const uint16_t hsize = r.u16();
   if (hsize != kFragmentHeaderSize) bad_fragment("bad header size " + std::to_string(hsize));
+  FragmentHeader h;
+  h.viewer_id = r.u32();
+  h.sequence = r.u64();
+  h.camera_id = r.u32();
+  h.capture_time_ns = static_cast<int64_t>(r.u64());
+  h.encoding = static_cast<Encoding>(data[44]);
+  h.payload_size = (uint32_t{data[48]} << 24) | (uint32_t{data[49]} << 16) |
+                   (uint32_t{data[50]} << 8) | uint32_t{data[51]};
+  return h;
+}
+
+Fragment parse_fragment(const uint8_t* data, size_t size, Encoding* enc_out) {
+  const FragmentHeader head = peek_fragment_header(data, size);
+  Reader r(data + 32, size - 32, "fragment");
   Fragment f;
-  f.viewer_id = r.u32();
-  f.sequence = r.u64();
-  f.camera_id = r.u32();
-  f.capture_time_ns = static_cast<int64_t>(r.u64());
+  f.viewer_id = head.viewer_id;
+  f.sequence = head.sequence;
+  f.camera_id = head.camera_id;
+  f.capture_time_ns = head.capture_time_ns;
   f.out_width = r.u16();
   f.out_height = r.u16();
   const int x = r.u16(), y = r.u16(), w = r.u16(), h = r.u16();

@@ -59,6 +59,19 @@ std::vector<uint8_t> serialize_fragment(const Fragment& f, Encoding encoding,
 // receives the payload's encoding if not null.
 Fragment parse_fragment(const uint8_t* data, size_t size, Encoding* encoding = nullptr);
 
+// The identifying header fields of a serialized fragment, read without
+// checking the CRC or decoding the payload (for routing and tracing).
+// Throws WireError on a truncated buffer, bad magic, version or header size.
+struct FragmentHeader {
+  uint32_t viewer_id = 0;
+  uint64_t sequence = 0;
+  uint32_t camera_id = 0;
+  int64_t capture_time_ns = -1;
+  Encoding encoding = Encoding::kEmpty;
+  uint32_t payload_size = 0;
+};
+FragmentHeader peek_fragment_header(const uint8_t* data, size_t size);
+
 std::vector<uint8_t> serialize_request(const ViewRequest& r);
 // Parses and validates (including lf::validate()).
 ViewRequest parse_request(const uint8_t* data, size_t size);

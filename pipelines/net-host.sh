@@ -1,0 +1,123 @@
+#!/usr/bin/env bash
+# One host of the distributed light field camera (Yang et al. 2002, Figure 2,
+# Section 4.4): camera hosts, a compositor host and a viewer, joined by RTP
+# over UDP (rtpgstpay/rtpgstdepay: fragments and view requests cross as
+# buffers tagged in band), on one shared network clock and base time
+# (tools/lf-launch: GstNetTimeProvider on the compositor host,
+# GstNetClientClock elsewhere).
+#
+# usage: net-host.sh compositor | camera K | viewer
+# Settings (environment; defaults in brackets):
+#   RIG          rig file, the same on every host (tools/lf-rig makes one)   [required]
+#   HOSTS        number of camera hosts; camera i of the rig (rig order) is
+#                served by camera host i % HOSTS                             [4]
+#   COMPOSITOR   compositor host's address (fragments, clock)               [127.0.0.1]
+#   VIEWER       viewer's address (output video)                            [127.0.0.1]
+#   REQUESTS     where view requests go: a multicast group (224-239.x.x.x),
+#                joined by every camera host, or a unicast fan-out list
+#                "IP,IP,..." of the camera hosts                            [239.255.42.1]
+#   IFACE        multicast interface (camera hosts, viewer)                 [system default]
+#   BASE_TIME    base time on the shared clock (ns), printed by the compositor
+#                host as "base-time NS"; there: now+MS                      [now+3000]
+#   CLOCK_PORT   UDP port of the clock provider                             [5300]
+#   REQUEST_PORT / FRAGMENT_PORT / VIDEO_PORT: UDP ports; camera host K sends
+#                its fragments to FRAGMENT_PORT + K                         [5000/5200/5100]
+#   FPS          request and capture rate                                   [15]
+#   ENCODING     fragment encoding raw | jpeg; QUALITY JPEG quality         [jpeg/90]
+#   LATENCY_MS   compositor deadline after a request's time                 [40]
+#   VIEW         lfviewrequest properties (viewer)
+#                [orbit=0.6 dolly=15 path-frames=120 width=640 height=480]
+#   PHASE_NS     capture phase: cameras capture at k / FPS + PHASE_NS, requests
+#                are issued at k / FPS; half a period apart, every fragment of
+#                a request uses the same capture instant        [half a period]
+#   OUTPUT       viewer: sink for the decoded output video                  [fakesink]
+#   DURATION     stop after this many seconds (default: run until killed)
+#   LOSS         probability (0..1) to drop each outgoing RTP packet, for tests
+#                on networks without tc netem                               [0]
+#   PRINT=1      print the lf-launch command instead of running it
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+role="${1:-}"
+: "${RIG:?RIG must name the rig file}"
+HOSTS="${HOSTS:-4}"; COMPOSITOR="${COMPOSITOR:-127.0.0.1}"; VIEWER="${VIEWER:-127.0.0.1}"
+REQUESTS="${REQUESTS:-239.255.42.1}"; CLOCK_PORT="${CLOCK_PORT:-5300}"
+REQUEST_PORT="${REQUEST_PORT:-5000}"; FRAGMENT_PORT="${FRAGMENT_PORT:-5200}"
+VIDEO_PORT="${VIDEO_PORT:-5100}"; FPS="${FPS:-15}"; ENCODING="${ENCODING:-jpeg}"
+QUALITY="${QUALITY:-90}"; LATENCY_MS="${LATENCY_MS:-40}"; LOSS="${LOSS:-0}"
+VIEW="${VIEW:-orbit=0.6 dolly=15 path-frames=120 width=640 height=480}"
+PHASE_NS="${PHASE_NS:-$((500000000 / FPS))}"; OUTPUT="${OUTPUT:-fakesink}"
+export GST_PLUGIN_PATH="$root/build/gst${GST_PLUGIN_PATH:+:$GST_PLUGIN_PATH}"
+rtp_caps="application/x-rtp,media=application,clock-rate=90000,encoding-name=X-GST"
+# Sender side of an RTP stream: optional emulated loss, never clock-synced
+# (buffers leave when ready; the receivers' deadlines do the scheduling).
+loss=""
+if [ "$LOSS" != 0 ]; then loss="identity drop-probability=$LOSS silent=true ! "; fi
+sender="sync=false async=false"
+iface=""
+if [ -n "${IFACE:-}" ]; then iface="multicast-iface=$IFACE"; fi
+multicast=0
+if [[ "$REQUESTS" =~ ^2(2[4-9]|3[0-9])\. ]]; then multicast=1; fi
+
+case "$role" in
+  compositor)
+    clock=(--clock-server "$CLOCK_PORT" --base-time "${BASE_TIME:-now+3000}")
+    desc="lfcompositor name=comp rig=$RIG latency=$((LATENCY_MS * 1000000)) framerate=$FPS/1"
+    desc+=" ! videoconvert ! jpegenc quality=$QUALITY ! rtpjpegpay ! $loss"
+    desc+="udpsink host=$VIEWER port=$VIDEO_PORT $sender"
+    for ((k = 0; k < HOSTS; k++)); do
+      desc+="  udpsrc port=$((FRAGMENT_PORT + k)) buffer-size=16777216 caps=\"$rtp_caps\""
+      desc+=" ! rtpgstdepay ! queue max-size-buffers=0 max-size-bytes=0 max-size-time=1000000000"
+      desc+=" ! comp.sink_$k"
+    done
+    ;;
+  camera)
+    host="${2:?camera needs the host index K (0..HOSTS-1)}"
+    clock=(--clock-client "$COMPOSITOR:$CLOCK_PORT" --base-time "${BASE_TIME:?BASE_TIME from the compositor host}")
+    if [ "$multicast" = 1 ]; then
+      src="udpsrc address=$REQUESTS port=$REQUEST_PORT auto-multicast=true $iface"
+    else
+      src="udpsrc port=$REQUEST_PORT"
+    fi
+    desc="$src caps=\"$rtp_caps\" ! rtpgstdepay ! tee name=requests"
+    desc+="  funnel name=fragments ! rtpgstpay config-interval=1 ! $loss"
+    desc+="udpsink host=$COMPOSITOR port=$((FRAGMENT_PORT + host)) $sender"
+    i=0; n=0
+    for id in $("$root/build/tools/lf-rig" --input "$RIG" --ids); do
+      if [ $((i % HOSTS)) = "$host" ]; then
+        desc+="  lfcamsrc rig=$RIG camera-id=$id is-live=true framerate=$FPS/1 phase=$PHASE_NS ! f$id.sink"
+        desc+="  requests. ! queue max-size-buffers=2 leaky=downstream"
+        desc+=" ! lffragment name=f$id rig=$RIG camera-id=$id encoding=$ENCODING jpeg-quality=$QUALITY"
+        desc+=" ! fragments."
+        n=$((n + 1))
+      fi
+      i=$((i + 1))
+    done
+    if [ "$n" = 0 ]; then echo "net-host.sh: camera host $host serves no camera of $RIG" >&2; exit 2; fi
+    ;;
+  viewer)
+    clock=(--clock-client "$COMPOSITOR:$CLOCK_PORT" --base-time "${BASE_TIME:?BASE_TIME from the compositor host}")
+    if [ "$multicast" = 1 ]; then
+      dest="udpsink host=$REQUESTS port=$REQUEST_PORT auto-multicast=true ttl-mc=1 $iface $sender"
+    else
+      clients=""
+      for ip in ${REQUESTS//,/ }; do clients+="${clients:+,}$ip:$REQUEST_PORT"; done
+      dest="multiudpsink clients=$clients $sender"
+    fi
+    desc="lfviewrequest rig=$RIG is-live=true framerate=$FPS/1 $VIEW"
+    desc+=" ! rtpgstpay config-interval=1 ! $loss$dest"
+    desc+="  udpsrc port=$VIDEO_PORT buffer-size=4194304"
+    desc+=" caps=\"application/x-rtp,media=video,clock-rate=90000,encoding-name=JPEG,payload=26\""
+    desc+=" ! rtpjpegdepay ! jpegdec ! $OUTPUT"
+    ;;
+  *)
+    echo "usage: net-host.sh compositor | camera K | viewer   (settings: see the script's header)" >&2
+    exit 2
+    ;;
+esac
+cmd=("$root/build/tools/lf-launch" "${clock[@]}")
+if [ -n "${DURATION:-}" ]; then cmd+=(--duration "$DURATION"); fi
+if [ "${PRINT:-0}" = 1 ]; then
+  printf '%q ' "${cmd[@]}" --; echo "$desc"
+  exit 0
+fi
+exec "${cmd[@]}" -- "$desc"

@@ -1,0 +1,87 @@
+#!/usr/bin/env bash
+# Emulated 6-host deployment (tools/lf-netem.sh: network namespaces joined by
+# veth links): 4 camera hosts x 16 cameras of the real Chess light field, a
+# compositor host, a viewer; RTP transport, multicast view requests, shared
+# network clock. Checks, from the hosts' event traces (tools/lf-trace):
+#  1. normal run: every request composited, the frames bit-identical (CRC-32)
+#     to the single-machine pipeline's for the same requests; clocks agree
+#     within 5 ms; capture instants of one frame within one frame period, and
+#     all fragments of a frame from the same capture instant;
+#  2. camera host 1 killed at 1/3, restarted at 2/3: output keeps flowing
+#     within the compositor deadline with the other 48 cameras, and the host
+#     rejoins (complete frames again);
+#  3. 5 % packet loss on every link: output keeps flowing, nothing hangs.
+# usage: net-deploy-check.sh BUILD_DIR SHARED_DATA_DIR
+set -euo pipefail
+build="$(cd "$1" && pwd)"; data="$2"
+root="$(dirname "$build")"
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+export RIG="$work/rig.json" FPS=15 LATENCY_MS=40 ENCODING=jpeg QUALITY=90
+view="orbit=0.6 dolly=15 path-frames=120 width=640 height=480"
+export VIEW="$view"
+"$build/tools/lf-rig" --input "$data/stanford-chess" --block 0,0,8,8 --input-scale 0.5 --out "$RIG"
+period=$(awk -v f=$FPS 'BEGIN{print 1000 / f}')
+fail=0
+check() {  # check DESCRIPTION AWK-CONDITION  (over the summary's key value pairs)
+  local file="$1" what="$2" cond="$3"
+  if awk -v what="$what" '/^## summary/{s=1; next} s{v[$1]=$2} END{exit !('"$cond"')}' "$file"; then
+    echo "ok: $what"
+  else
+    echo "FAIL: $what"; fail=1
+  fi
+}
+summary() { sed -n '/^## summary/,$p' "$1" | tr '\n' ' '; echo; }
+
+echo "== single-machine reference (same requests, same rig, JPEG q$QUALITY)"
+LF_TRACE="$work/ref.trace" "$root/pipelines/lf-pipeline.sh" "$RIG" "$view num-buffers=200" \
+  fakesink "num-buffers=1" "encoding=$ENCODING jpeg-quality=$QUALITY"
+
+echo "== 1. normal run"
+"$root/tools/lf-netem.sh" run "$work/normal" 6 normal
+"$build/tools/lf-trace" --cameras 64 --fps $FPS --reference "$work/ref.trace" "$work"/normal/*.trace \
+  > "$work/normal.txt"
+cat "$work/normal.txt"
+cat "$work/normal/clock-offsets"
+summary "$work/normal.txt"
+check "$work/normal.txt" "at least 70 requests issued" 'v["issued"] >= 70'
+check "$work/normal.txt" "every request composited" 'v["composited"] >= v["issued"] - 1'
+check "$work/normal.txt" "frames complete (64 fragments)" 'v["complete"] >= 0.95 * v["composited"]'
+check "$work/normal.txt" "frames identical to the single-machine pipeline" \
+  'v["compared"] >= 0.95 * v["composited"] && v["identical"] == v["compared"]'
+check "$work/normal.txt" "capture instants of a frame within one period" \
+  'v["capture-spread-max-ms"] >= 0 && v["capture-spread-max-ms"] < '"$period"
+check "$work/normal.txt" "fragments of a frame from one capture instant" \
+  'v["used-capture-spread-max-ms"] == 0'
+if awk '{x = $3 < 0 ? -$3 : $3; if (x >= 5) bad = 1} END{exit bad || NR != 4}' "$work/normal/clock-offsets"; then
+  echo "ok: 4 camera hosts' clocks within 5 ms of the compositor host's"
+else
+  echo "FAIL: clock offsets"; fail=1
+fi
+
+echo "== 2. camera host killed and restarted"
+"$root/tools/lf-netem.sh" run "$work/kill" 9 kill
+"$build/tools/lf-trace" --cameras 64 --fps $FPS --timeline "$work"/kill/*.trace > "$work/kill.txt"
+cat "$work/kill.txt"
+summary "$work/kill.txt"
+check "$work/kill.txt" "output flowing while the host is down" 'v["composited"] >= 0.9 * v["issued"]'
+# 48 fragments: the other three hosts' cameras, composited at the deadline.
+if grep -o ' 48:[0-9]*' "$work/kill.txt" | awk -F: '{exit !($2 >= 25)}'; then
+  echo "ok: frames from the remaining 48 cameras during the outage"
+else
+  echo "FAIL: no run of 48-fragment frames during the outage"; fail=1
+fi
+check "$work/kill.txt" "no gap longer than period + deadline + 50 ms" \
+  'v["max-gap-ms"] < '"$period"' + '"$LATENCY_MS"' + 50'
+check "$work/kill.txt" "the restarted host rejoins (last frames complete)" 'v["last-15-complete"] >= 12'
+
+echo "== 3. 5 % packet loss"
+LOSS=0.05 "$root/tools/lf-netem.sh" run "$work/loss" 6 loss
+cat "$work/loss/loss"
+"$build/tools/lf-trace" --cameras 64 --fps $FPS "$work"/loss/*.trace > "$work/loss.txt"
+cat "$work/loss.txt"
+summary "$work/loss.txt"
+check "$work/loss.txt" "output keeps flowing under loss" \
+  'v["composited"] >= 0.85 * v["issued"] && v["issued"] >= 70'
+check "$work/loss.txt" "no gap longer than 4 periods" 'v["max-gap-ms"] < 4 * '"$period"
+exit $fail

@@ -1,0 +1,122 @@
+#!/usr/bin/env bash
+# Emulated deployment of the distributed light field camera on one machine
+# (root): one network namespace per host, joined by veth links to a bridge
+# in a namespace of its own, so nothing touches the machine's own network.
+# Runs pipelines/net-host.sh on each host: HOSTS camera hosts (cam0..), one
+# compositor host (comp) and one viewer (view), with LF_TRACE event traces
+# per host for tools/lf-trace.
+#
+# usage: lf-netem.sh run OUTDIR SECONDS [SCENARIO]
+#   SCENARIO: normal | kill (camera host 1 killed at 1/3 of the run,
+#             restarted at 2/3) | loss (LOSS, default 0.05, per RTP packet on
+#             every link: tc netem where the kernel has it, else dropped by the
+#             senders)
+# Environment: RIG (required), HOSTS [4], and net-host.sh's settings (FPS,
+# ENCODING, VIEW, LATENCY_MS, ...). Writes OUTDIR/{comp,view,cam*}.trace,
+# .log, base-time, clock-offsets.
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+cmd="${1:-}"; out="${2:-}"; seconds="${3:-}"; scenario="${4:-normal}"
+if [ "$cmd" != run ] || [ -z "$out" ] || [ -z "$seconds" ]; then
+  sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'
+  exit 2
+fi
+: "${RIG:?RIG must name the rig file}"
+if [ "$(id -u)" != 0 ]; then echo "lf-netem.sh: needs root (ip netns)" >&2; exit 2; fi
+export HOSTS="${HOSTS:-4}"
+mkdir -p "$out"
+out="$(cd "$out" && pwd)"
+tag="lf$$"
+sw="${tag}sw"
+hosts=(comp view)
+for ((k = 0; k < HOSTS; k++)); do hosts+=("cam$k"); done
+declare -A ip pid
+ip[comp]=10.77.0.2; ip[view]=10.77.0.3
+for ((k = 0; k < HOSTS; k++)); do ip[cam$k]=10.77.0.$((10 + k)); done
+
+cleanup() {
+  for h in "${!pid[@]}"; do kill "${pid[$h]}" 2>/dev/null || true; done
+  sleep 0.3
+  for h in "${!pid[@]}"; do kill -9 "${pid[$h]}" 2>/dev/null || true; done
+  for h in "${hosts[@]}"; do ip netns del "$tag$h" 2>/dev/null || true; done
+  ip netns del "$sw" 2>/dev/null || true
+}
+trap cleanup EXIT
+
+# Topology: a bridge in namespace $sw; each host's eth0 is a veth into it.
+ip netns add "$sw"
+ip -n "$sw" link add br0 type bridge
+ip -n "$sw" link set br0 type bridge mcast_snooping 0
+ip -n "$sw" link set br0 up
+netem=0
+LOSS="${LOSS:-0.05}"
+for h in "${hosts[@]}"; do
+  ns="$tag$h"
+  ip netns add "$ns"
+  ip -n "$sw" link add "${tag}$h" type veth peer name eth0 netns "$ns"
+  ip -n "$sw" link set "${tag}$h" master br0 up
+  ip -n "$ns" addr add "${ip[$h]}/24" dev eth0
+  ip -n "$ns" link set eth0 up
+  ip -n "$ns" link set lo up
+  ip -n "$ns" route add 224.0.0.0/4 dev eth0
+  if [ "$scenario" = loss ]; then
+    if ip netns exec "$ns" tc qdisc add dev eth0 root netem loss "$(awk "BEGIN{print $LOSS*100}")%" 2>/dev/null; then
+      netem=1
+    fi
+  fi
+done
+send_loss=0
+if [ "$scenario" = loss ] && [ "$netem" = 0 ]; then send_loss="$LOSS"; fi
+echo "loss: scenario=$scenario netem=$netem sender-drop=$send_loss" > "$out/loss"
+
+export COMPOSITOR="${ip[comp]}" VIEWER="${ip[view]}" IFACE=eth0
+launch() {  # launch HOST ROLE [K]
+  local h="$1"; shift
+  LF_TRACE="$out/$h.trace" LOSS="$send_loss" ip netns exec "$tag$h" \
+    "$root/pipelines/net-host.sh" "$@" >> "$out/$h.log" 2>&1 &
+  pid[$h]=$!
+}
+rm -f "$out"/*.trace "$out"/*.log
+# The compositor host publishes the clock and picks the base time.
+BASE_TIME="now+${START_MS:-4000}" launch comp compositor
+for _ in $(seq 100); do
+  if grep -q '^base-time ' "$out/comp.log" 2>/dev/null; then break; fi
+  sleep 0.1
+done
+BASE_TIME="$(awk '/^base-time /{print $2; exit}' "$out/comp.log")"
+if [ -z "$BASE_TIME" ]; then echo "lf-netem.sh: the compositor host did not start:" >&2; cat "$out/comp.log" >&2; exit 1; fi
+export BASE_TIME
+echo "$BASE_TIME" > "$out/base-time"
+: > "$out/clock-offsets"
+for ((k = 0; k < HOSTS; k++)); do
+  ip netns exec "$tag"cam$k "$root/build/tools/lf-launch" --clock-client "${ip[comp]}:${CLOCK_PORT:-5300}" \
+    --check-clock | sed "s/^/cam$k /" >> "$out/clock-offsets" || true
+  launch "cam$k" camera "$k"
+done
+launch view viewer
+echo "lf-netem.sh: $HOSTS camera hosts, compositor, viewer; base time $BASE_TIME; $scenario run of ${seconds}s" >&2
+start=$(date +%s.%N)
+sleep "$(awk "BEGIN{print (${START_MS:-4000})/1000}")"
+case "$scenario" in
+  kill)
+    third=$(awk "BEGIN{print $seconds/3}")
+    sleep "$third"
+    kill -9 "${pid[cam1]}" 2>/dev/null || true
+    echo "killed cam1 at $(date +%s.%N)" >> "$out/events"
+    sleep "$third"
+    launch cam1 camera 1
+    echo "restarted cam1 at $(date +%s.%N)" >> "$out/events"
+    sleep "$third"
+    ;;
+  *) sleep "$seconds" ;;
+esac
+# Still running? (A host that died early is an error.)
+status=0
+for h in "${!pid[@]}"; do
+  if ! kill -0 "${pid[$h]}" 2>/dev/null; then
+    echo "lf-netem.sh: host $h exited early:" >&2; tail -5 "$out/$h.log" >&2; status=1
+  fi
+done
+elapsed=$(awk "BEGIN{print $(date +%s.%N) - $start}")
+echo "lf-netem.sh: done after ${elapsed}s" >&2
+exit $status
