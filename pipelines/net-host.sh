@@ -34,6 +34,10 @@
 #   DURATION     stop after this many seconds (default: run until killed)
 #   LOSS         probability (0..1) to drop each outgoing RTP packet, for tests
 #                on networks without tc netem                               [0]
+#   BASELINE=DIR the all-viewpoints baseline (paper 3.1) instead: every camera
+#                streams its JPEG video (stock jpegenc quality=QUALITY, rtpjpegpay)
+#                to the compositor host, which stores the received JPEG frames
+#                as DIR/cam<ID>-<N>.jpg (camera i uses port BASELINE_PORT + i) [6000]
 #   PRINT=1      print the lf-launch command instead of running it
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -58,17 +62,30 @@ if [ -n "${IFACE:-}" ]; then iface="multicast-iface=$IFACE"; fi
 multicast=0
 if [[ "$REQUESTS" =~ ^2(2[4-9]|3[0-9])\. ]]; then multicast=1; fi
 
+BASELINE_PORT="${BASELINE_PORT:-6000}"
+ids=$("$root/build/tools/lf-rig" --input "$RIG" --ids)
+jpeg_caps="application/x-rtp,media=video,clock-rate=90000,encoding-name=JPEG,payload=26"
 case "$role" in
   compositor)
     clock=(--clock-server "$CLOCK_PORT" --base-time "${BASE_TIME:-now+3000}")
-    desc="lfcompositor name=comp rig=$RIG latency=$((LATENCY_MS * 1000000)) framerate=$FPS/1"
-    desc+=" ! videoconvert ! jpegenc quality=$QUALITY ! rtpjpegpay ! $loss"
-    desc+="udpsink host=$VIEWER port=$VIDEO_PORT $sender"
-    for ((k = 0; k < HOSTS; k++)); do
-      desc+="  udpsrc port=$((FRAGMENT_PORT + k)) buffer-size=16777216 caps=\"$rtp_caps\""
-      desc+=" ! rtpgstdepay ! queue max-size-buffers=0 max-size-bytes=0 max-size-time=1000000000"
-      desc+=" ! comp.sink_$k"
-    done
+    if [ -n "${BASELINE:-}" ]; then
+      mkdir -p "$BASELINE"
+      desc=""; i=0
+      for id in $ids; do
+        desc+="  udpsrc port=$((BASELINE_PORT + i)) buffer-size=4194304 caps=\"$jpeg_caps\""
+        desc+=" ! rtpjpegdepay ! multifilesink location=$BASELINE/cam$id-%05d.jpg"
+        i=$((i + 1))
+      done
+    else
+      desc="lfcompositor name=comp rig=$RIG latency=$((LATENCY_MS * 1000000)) framerate=$FPS/1"
+      desc+=" ! videoconvert ! video/x-raw,format=I420 ! jpegenc quality=$QUALITY ! rtpjpegpay ! $loss"
+      desc+="udpsink host=$VIEWER port=$VIDEO_PORT $sender"
+      for ((k = 0; k < HOSTS; k++)); do
+        desc+="  udpsrc port=$((FRAGMENT_PORT + k)) buffer-size=16777216 caps=\"$rtp_caps\""
+        desc+=" ! rtpgstdepay ! queue max-size-buffers=0 max-size-bytes=0 max-size-time=1000000000"
+        desc+=" ! comp.sink_$k"
+      done
+    fi
     ;;
   camera)
     host="${2:?camera needs the host index K (0..HOSTS-1)}"
@@ -82,8 +99,14 @@ case "$role" in
     desc+="  funnel name=fragments ! rtpgstpay config-interval=1 ! $loss"
     desc+="udpsink host=$COMPOSITOR port=$((FRAGMENT_PORT + host)) $sender"
     i=0; n=0
-    for id in $("$root/build/tools/lf-rig" --input "$RIG" --ids); do
-      if [ $((i % HOSTS)) = "$host" ]; then
+    if [ -n "${BASELINE:-}" ]; then desc=""; fi
+    for id in $ids; do
+      if [ $((i % HOSTS)) = "$host" ] && [ -n "${BASELINE:-}" ]; then
+        desc+="  lfcamsrc rig=$RIG camera-id=$id is-live=true framerate=$FPS/1 phase=$PHASE_NS"
+        desc+=" ! videoconvert ! video/x-raw,format=I420 ! jpegenc quality=$QUALITY ! rtpjpegpay ! $loss"
+        desc+="udpsink host=$COMPOSITOR port=$((BASELINE_PORT + i)) $sender"
+        n=$((n + 1))
+      elif [ $((i % HOSTS)) = "$host" ]; then
         desc+="  lfcamsrc rig=$RIG camera-id=$id is-live=true framerate=$FPS/1 phase=$PHASE_NS ! f$id.sink"
         desc+="  requests. ! queue max-size-buffers=2 leaky=downstream"
         desc+=" ! lffragment name=f$id rig=$RIG camera-id=$id encoding=$ENCODING jpeg-quality=$QUALITY"
@@ -105,8 +128,7 @@ case "$role" in
     fi
     desc="lfviewrequest rig=$RIG is-live=true framerate=$FPS/1 $VIEW"
     desc+=" ! rtpgstpay config-interval=1 ! $loss$dest"
-    desc+="  udpsrc port=$VIDEO_PORT buffer-size=4194304"
-    desc+=" caps=\"application/x-rtp,media=video,clock-rate=90000,encoding-name=JPEG,payload=26\""
+    desc+="  udpsrc port=$VIDEO_PORT buffer-size=4194304 caps=\"$jpeg_caps\""
     desc+=" ! rtpjpegdepay ! jpegdec ! $OUTPUT"
     ;;
   *)

@@ -53,6 +53,12 @@ check "$work/normal.txt" "capture instants of a frame within one period" \
   'v["capture-spread-max-ms"] >= 0 && v["capture-spread-max-ms"] < '"$period"
 check "$work/normal.txt" "fragments of a frame from one capture instant" \
   'v["used-capture-spread-max-ms"] == 0'
+last=$(ls "$work"/normal/view-*.png 2>/dev/null | sed 's/.*view-0*\([0-9]*\)\.png/\1/' | sort -n | tail -1)
+if [ -n "$last" ] && awk -v n="$last" '/^## summary/{s=1; next} s && $1=="issued"{exit !(n + 1 >= 0.8 * $2)}' "$work/normal.txt"; then
+  echo "ok: the viewer received $((last + 1)) output frames (JPEG over RTP)"
+else
+  echo "FAIL: the viewer received ${last:-no} output frames"; fail=1
+fi
 if awk '{x = $3 < 0 ? -$3 : $3; if (x >= 5) bad = 1} END{exit bad || NR != 4}' "$work/normal/clock-offsets"; then
   echo "ok: 4 camera hosts' clocks within 5 ms of the compositor host's"
 else

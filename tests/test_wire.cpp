@@ -88,6 +88,80 @@ TEST(Wire, JpegFragmentRoundTrip) {
   EXPECT_LE(alpha_err, 6.0);  // the weight channel survives q90 closely
 }
 
+// Alpha error (max) and flags byte of a JPEG round trip.
+std::pair<double, uint8_t> jpeg_alpha_error(const lf::Fragment& f, size_t* size = nullptr) {
+  const auto b = lf::serialize_fragment(f, lf::Encoding::kJpeg, 90);
+  if (size) *size = b.size();
+  const lf::Fragment g = lf::parse_fragment(b.data(), b.size());
+  double worst = 0;
+  for (size_t i = 3; i < f.pixels.size(); i += 4)
+    worst = std::max(worst, std::abs(double(g.pixels[i]) - f.pixels[i]));
+  return {worst, b[lf::kFragmentHeaderSize + 4 * f.rect.height]};
+}
+
+TEST(Wire, JpegWeightResolutionFollowsItsSmoothness) {
+  // A smooth weight (the sample: a fragment inside its camera's image) goes
+  // at half resolution and comes back within 5 levels (2 %; creases are
+  // smoothed by the 2x2 means); the standard tables
+  // are left out.
+  lf::Fragment f = sample_fragment();
+  size_t smooth_size = 0;
+  const auto [smooth_err, smooth_flags] = jpeg_alpha_error(f, &smooth_size);
+  EXPECT_EQ(smooth_flags, 3);  // tables omitted | half-resolution weight
+  EXPECT_LE(smooth_err, 5.0);
+  // A step (the camera's image border crossing the fragment) forces full
+  // resolution: the weight then stays within JPEG's error at q90.
+  size_t n = 0;
+  for (int r = 0; r < f.rect.height; ++r)
+    for (int x = f.spans[r][0]; x < f.spans[r][1]; ++x, ++n)
+      if (x < f.rect.x + f.rect.width / 2) f.pixels[4 * n + 3] = 0;
+  const auto [step_err, step_flags] = jpeg_alpha_error(f);
+  EXPECT_EQ(step_flags, 1);
+  EXPECT_LE(step_err, 8.0);
+}
+
+TEST(Wire, JpegTablesAreLeftOutAndPutBack) {
+  // About 570 bytes of DQT/DHT per fragment do not travel.
+  const lf::Fragment f = sample_fragment();
+  const auto b = lf::serialize_fragment(f, lf::Encoding::kJpeg, 75);
+  const size_t at = lf::kFragmentHeaderSize + 4 * f.rect.height;
+  ASSERT_EQ(b[at] & 1, 1);
+  const uint32_t csize = (uint32_t{b[at + 1]} << 24) | (uint32_t{b[at + 2]} << 16) |
+                         (uint32_t{b[at + 3]} << 8) | b[at + 4];
+  int dqt = 0, dht = 0;  // no table markers in the colour stream's header
+  for (size_t i = at + 5; i + 1 < at + 5 + std::min<uint32_t>(csize, 40); ++i)
+    dqt += b[i] == 0xFF && b[i + 1] == 0xDB, dht += b[i] == 0xFF && b[i + 1] == 0xC4;
+  EXPECT_EQ(dqt + dht, 0);
+  const lf::Fragment g = lf::parse_fragment(b.data(), b.size());
+  EXPECT_EQ(g.pixels.size(), f.pixels.size());
+  // A colour stream longer than the payload is an error naming it.
+  auto bad = b;
+  bad[at + 1] = 0x7f;
+  resign_fragment(bad);
+  try {
+    lf::parse_fragment(bad.data(), bad.size());
+    FAIL() << "accepted";
+  } catch (const lf::WireError& e) {
+    EXPECT_NE(std::string(e.what()).find("colour JPEG"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Wire, FragmentHeaderCanBePeeked) {
+  const lf::Fragment f = sample_fragment();
+  const auto b = lf::serialize_fragment(f, lf::Encoding::kJpeg);
+  const lf::FragmentHeader h = lf::peek_fragment_header(b.data(), b.size());
+  EXPECT_EQ(h.viewer_id, f.viewer_id);
+  EXPECT_EQ(h.sequence, f.sequence);
+  EXPECT_EQ(h.camera_id, f.camera_id);
+  EXPECT_EQ(h.capture_time_ns, f.capture_time_ns);
+  EXPECT_EQ(h.encoding, lf::Encoding::kJpeg);
+  EXPECT_EQ(h.payload_size, b.size() - lf::kFragmentHeaderSize);
+  EXPECT_THROW(lf::peek_fragment_header(b.data(), 20), lf::WireError);
+  auto bad = b;
+  bad[1] = 'X';
+  EXPECT_THROW(lf::peek_fragment_header(bad.data(), bad.size()), lf::WireError);
+}
+
 TEST(Wire, EmptyFragmentRoundTrip) {
   lf::Fragment f;
   f.camera_id = 9;

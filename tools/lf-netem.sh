@@ -13,7 +13,8 @@
 #             senders)
 # Environment: RIG (required), HOSTS [4], and net-host.sh's settings (FPS,
 # ENCODING, VIEW, LATENCY_MS, ...). Writes OUTDIR/{comp,view,cam*}.trace,
-# .log, base-time, clock-offsets.
+# .log, base-time, clock-offsets, and the viewer's last output frames
+# OUTDIR/view-N.png.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 cmd="${1:-}"; out="${2:-}"; seconds="${3:-}"; scenario="${4:-normal}"
@@ -70,13 +71,15 @@ if [ "$scenario" = loss ] && [ "$netem" = 0 ]; then send_loss="$LOSS"; fi
 echo "loss: scenario=$scenario netem=$netem sender-drop=$send_loss" > "$out/loss"
 
 export COMPOSITOR="${ip[comp]}" VIEWER="${ip[view]}" IFACE=eth0
+# The viewer keeps its last 3 output frames as PNG (the file index counts them).
+export OUTPUT="${OUTPUT:-videoconvert ! pngenc compression-level=1 ! multifilesink location=$out/view-%05d.png max-files=3}"
 launch() {  # launch HOST ROLE [K]
   local h="$1"; shift
   LF_TRACE="$out/$h.trace" LOSS="$send_loss" ip netns exec "$tag$h" \
     "$root/pipelines/net-host.sh" "$@" >> "$out/$h.log" 2>&1 &
   pid[$h]=$!
 }
-rm -f "$out"/*.trace "$out"/*.log
+rm -f "$out"/*.trace "$out"/*.log "$out"/view-*.png
 # The compositor host publishes the clock and picks the base time.
 BASE_TIME="now+${START_MS:-4000}" launch comp compositor
 for _ in $(seq 100); do

@@ -15,6 +15,7 @@
 // All times come from the hosts' shared pipeline clock (tools/lf-launch).
 // Ends with machine-readable "key value" lines after "## summary".
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <map>
@@ -39,6 +40,10 @@ usage: lf-trace [options] TRACE...
   --reference TRACE  compare composited frames (CRC-32) with this trace's
   --plot FILE        write the latency breakdown as a PNG
   --timeline         print output frames and fragments per second
+
+usage: lf-trace --bandwidth-plot FILE SERIES...
+  writes the paper's Figure 6 as a PNG: bytes per output frame (log scale)
+  against the number of cameras; SERIES is LABEL=CAMERAS:BYTES,CAMERAS:BYTES,...
 )";
 
 struct Event {
@@ -112,10 +117,78 @@ std::map<Key, Request> collect(const std::vector<Event>& events) {
   return req;
 }
 
+// Grouped bars, log-scale bytes, one group per camera count.
+void bandwidth_plot(const std::string& file, const std::vector<std::string>& series) {
+  std::vector<std::string> labels;
+  std::map<int, std::map<int, double>> value;  // cameras -> series -> bytes
+  for (size_t i = 0; i < series.size(); ++i) {
+    const auto eq = series[i].find('=');
+    if (eq == std::string::npos) throw std::invalid_argument("series '" + series[i] + "' has no '='");
+    labels.push_back(series[i].substr(0, eq));
+    std::stringstream ss(series[i].substr(eq + 1));
+    std::string item;
+    while (std::getline(ss, item, ',')) {
+      const auto colon = item.find(':');
+      if (colon == std::string::npos) throw std::invalid_argument("bad item '" + item + "'");
+      value[std::stoi(item.substr(0, colon))][static_cast<int>(i)] = std::stod(item.substr(colon + 1));
+    }
+  }
+  double lo = 1e300, hi = 0;
+  for (const auto& [n, m] : value)
+    for (const auto& [i, v] : m) lo = std::min(lo, v), hi = std::max(hi, v);
+  if (!(hi > 0)) throw std::invalid_argument("nothing to plot");
+  const double l0 = std::floor(std::log10(std::max(lo * 0.5, 1.0))), l1 = std::ceil(std::log10(hi));
+  const int W = 760, H = 420, left = 80, right = 20, top = 50, bottom = 70;
+  cv::Mat img(H, W, CV_8UC3, cv::Scalar(255, 255, 255));
+  auto ypix = [&](double v) {
+    return top + (H - top - bottom) * (1 - (std::log10(v) - l0) / std::max(l1 - l0, 1.0));
+  };
+  for (double e = l0; e <= l1; ++e) {
+    const int y = static_cast<int>(ypix(std::pow(10, e)));
+    cv::line(img, {left, y}, {W - right, y}, cv::Scalar(220, 220, 220));
+    char t[32];
+    std::snprintf(t, sizeof t, "1e%d B", static_cast<int>(e));
+    cv::putText(img, t, {8, y + 4}, cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0), 1,
+                cv::LINE_AA);
+  }
+  const cv::Scalar colours[] = {{180, 119, 31}, {14, 127, 255}, {40, 39, 214}, {44, 160, 44}};
+  const int groups = static_cast<int>(value.size()), nser = static_cast<int>(labels.size());
+  const double gw = (W - left - right) / static_cast<double>(std::max(groups, 1));
+  int g = 0;
+  for (const auto& [n, m] : value) {
+    const double bw = gw * 0.8 / nser;
+    for (const auto& [i, v] : m) {
+      const int x = static_cast<int>(left + g * gw + gw * 0.1 + i * bw);
+      cv::rectangle(img, {x, static_cast<int>(ypix(v))}, {static_cast<int>(x + bw - 3), H - bottom},
+                    colours[i % 4], cv::FILLED);
+    }
+    cv::putText(img, std::to_string(n) + " cameras",
+                {static_cast<int>(left + g * gw + gw * 0.3), H - bottom + 22},
+                cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+    ++g;
+  }
+  for (int i = 0; i < nser; ++i)
+    cv::putText(img, labels[i], {left + 10 + i * 220, H - 15}, cv::FONT_HERSHEY_SIMPLEX, 0.5,
+                colours[i % 4], 1, cv::LINE_AA);
+  cv::putText(img, "Bytes entering the compositor per output frame (Figure 6)", {left, 30},
+              cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  if (!cv::imwrite(file, img)) throw std::runtime_error("cannot write " + file);
+  std::printf("plot: %s\n", file.c_str());
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   if (cli::help_requested(argc, argv, kHelp)) return 0;
+  if (argc >= 3 && std::string(argv[1]) == "--bandwidth-plot") {
+    try {
+      bandwidth_plot(argv[2], std::vector<std::string>(argv + 3, argv + argc));
+      return 0;
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "lf-trace: error: %s\n", e.what());
+      return 1;
+    }
+  }
   try {
     std::vector<std::string> files, rest;
     std::vector<char*> opt_argv{argv[0]};

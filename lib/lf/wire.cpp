@@ -3,9 +3,13 @@
 #include <turbojpeg.h>
 #include <zlib.h>
 
+#include <array>
 #include <cmath>
 #include <cstring>
+#include <map>
 #include <memory>
+#include <mutex>
+#include <opencv2/imgproc.hpp>
 #include <string>
 
 namespace lf {
@@ -97,6 +101,166 @@ tjhandle decompressor() {
   throw WireError("fragment: " + what);
 }
 
+// JPEG payload (encoding 2): the colour as a 3-component 4:2:0 JPEG and the
+// blending weight as a greyscale JPEG. The weight is a piecewise-linear ramp
+// (1 at the camera, 0 at its neighbours); where it has no steps (the
+// fragment lies inside the camera's image: adjacent weights differ by at
+// most kMaxHalfStep) it goes at half resolution, 2x2 means, restored by
+// bilinear upsampling (exact where the ramp is linear, within a level or two
+// at its creases), at a quarter of the blocks. Its JPEG cost grows as
+// fragments shrink and ramps steepen; at half resolution that growth no
+// longer makes the bytes per output frame grow with the number of cameras.
+// Both streams leave out their DQT and DHT segments when they are libjpeg's
+// standard tables for the quality (ITU T.81 Annex K, scaled as
+// jpeg_set_quality), which the receiver puts back, as RTP/JPEG (RFC 2435)
+// does: about 570 bytes per fragment otherwise.
+constexpr uint8_t kTablesOmitted = 1, kHalfResolutionWeight = 2;
+constexpr int kMaxHalfStep = 16;
+
+// True if no two adjacent span pixels' weights differ by more than kMaxHalfStep.
+bool weight_is_smooth(const cv::Mat& alpha, const std::vector<std::array<uint16_t, 2>>& spans,
+                      int x0) {
+  for (int r = 0; r < alpha.rows; ++r) {
+    const int b = spans[r][0] - x0, e = spans[r][1] - x0;
+    const uint8_t* a = alpha.ptr<uint8_t>(r);
+    for (int c = b; c + 1 < e; ++c)
+      if (std::abs(a[c + 1] - a[c]) > kMaxHalfStep) return false;
+    if (r + 1 < alpha.rows) {
+      const uint8_t* n = alpha.ptr<uint8_t>(r + 1);
+      const int lo = std::max(b, spans[r + 1][0] - x0), hi = std::min(e, spans[r + 1][1] - x0);
+      for (int c = lo; c < hi; ++c)
+        if (std::abs(n[c] - a[c]) > kMaxHalfStep) return false;
+    }
+  }
+  return true;
+}
+
+enum class JpegKind { kColour, kGrey };
+
+// Splits a JPEG into its DQT + DHT segments and everything else (SOI first).
+// False if the stream is not laid out as expected.
+bool split_tables(const uint8_t* j, size_t n, std::vector<uint8_t>& tables,
+                  std::vector<uint8_t>& rest) {
+  tables.clear();
+  rest.clear();
+  if (n < 4 || j[0] != 0xFF || j[1] != 0xD8) return false;
+  rest.insert(rest.end(), j, j + 2);
+  size_t pos = 2;
+  while (pos + 4 <= n) {
+    if (j[pos] != 0xFF) return false;
+    const uint8_t m = j[pos + 1];
+    if (m == 0xDA) {  // start of scan: the rest is entropy-coded data
+      rest.insert(rest.end(), j + pos, j + n);
+      return true;
+    }
+    const size_t len = (size_t{j[pos + 2]} << 8) | j[pos + 3];
+    if (len < 2 || pos + 2 + len > n) return false;
+    auto& to = (m == 0xDB || m == 0xC4) ? tables : rest;
+    to.insert(to.end(), j + pos, j + pos + 2 + len);
+    pos += 2 + len;
+  }
+  return false;
+}
+
+// Compresses `pixels` (RGBX for kColour, 8-bit grey for kGrey) with
+// TurboJPEG; 4:2:0 for colour.
+std::vector<uint8_t> compress(const uint8_t* pixels, int w, int h, JpegKind kind, int quality) {
+  unsigned char* jpeg = nullptr;
+  unsigned long jsize = 0;
+  const bool colour = kind == JpegKind::kColour;
+  if (tjCompress2(compressor(), pixels, w, w * (colour ? 4 : 1), h, colour ? TJPF_RGBX : TJPF_GRAY,
+                  &jpeg, &jsize, colour ? TJSAMP_420 : TJSAMP_GRAY, quality, 0) != 0) {
+    const std::string err = tjGetErrorStr2(compressor());
+    tjFree(jpeg);
+    throw std::runtime_error("fragment JPEG compression failed: " + err);
+  }
+  std::vector<uint8_t> out(jpeg, jpeg + jsize);
+  tjFree(jpeg);
+  return out;
+}
+
+// The DQT + DHT segments TurboJPEG writes at `quality`, from a tiny
+// reference image; cached.
+const std::vector<uint8_t>& standard_tables(JpegKind kind, int quality) {
+  static std::mutex m;
+  static std::map<std::pair<int, int>, std::vector<uint8_t>> cache;
+  std::lock_guard<std::mutex> lock(m);
+  const std::pair<int, int> key(static_cast<int>(kind), quality);
+  auto it = cache.find(key);
+  if (it != cache.end()) return it->second;
+  const std::vector<uint8_t> img(16 * 16 * 4, 128);
+  const std::vector<uint8_t> j = compress(img.data(), 16, 16, kind, quality);
+  std::vector<uint8_t> tables, rest;
+  if (!split_tables(j.data(), j.size(), tables, rest) || tables.empty())
+    throw std::runtime_error("TurboJPEG: unexpected reference stream");
+  return cache[key] = tables;
+}
+
+// Leaves the tables out of `j` if they are the standard ones.
+bool abbreviate(std::vector<uint8_t>& j, JpegKind kind, int quality) {
+  std::vector<uint8_t> tables, rest;
+  if (!split_tables(j.data(), j.size(), tables, rest) || tables != standard_tables(kind, quality))
+    return false;
+  j.swap(rest);
+  return true;
+}
+
+// Puts the standard tables back after SOI.
+std::vector<uint8_t> complete(const uint8_t* j, size_t n, JpegKind kind, int quality) {
+  if (n < 2 || j[0] != 0xFF || j[1] != 0xD8) bad_fragment("JPEG has no SOI marker");
+  const std::vector<uint8_t>& t = standard_tables(kind, quality);
+  std::vector<uint8_t> out;
+  out.reserve(n + t.size());
+  out.insert(out.end(), j, j + 2);
+  out.insert(out.end(), t.begin(), t.end());
+  out.insert(out.end(), j + 2, j + n);
+  return out;
+}
+
+// Fills the pixels outside the spans (ignored by the receiver) by repeating
+// the nearest span pixel along the row, and empty rows from the nearest
+// non-empty row, so the JPEG spends no bits on edges between the fragment
+// and a black surround.
+void pad_outside_spans(uint8_t* rgba, int w, int h,
+                       const std::vector<std::array<uint16_t, 2>>& spans, int x0) {
+  auto px = [&](int r, int c) { return rgba + (static_cast<size_t>(r) * w + c) * 4; };
+  int last_full = -1;
+  for (int r = 0; r < h; ++r) {
+    const int b = spans[r][0] - x0, e = spans[r][1] - x0;
+    if (e <= b) continue;
+    for (int c = 0; c < b; ++c) std::memcpy(px(r, c), px(r, b), 4);
+    for (int c = e; c < w; ++c) std::memcpy(px(r, c), px(r, e - 1), 4);
+    // Rows without pixels since the last row with some: the nearer one.
+    for (int q = last_full + 1; q < r; ++q)
+      std::memcpy(px(q, 0), px(last_full >= 0 && q - last_full <= r - q ? last_full : r, 0),
+                  static_cast<size_t>(w) * 4);
+    last_full = r;
+  }
+  if (last_full >= 0)
+    for (int q = last_full + 1; q < h; ++q)
+      std::memcpy(px(q, 0), px(last_full, 0), static_cast<size_t>(w) * 4);
+}
+
+// Decompresses a w x h JPEG of the given kind into `out` (RGBX or grey).
+void decompress(const uint8_t* j, size_t n, int w, int h, JpegKind kind, std::vector<uint8_t>& out,
+                const char* what) {
+  int jw = 0, jh = 0, sub = 0, cs = 0;
+  if (tjDecompressHeader3(decompressor(), j, static_cast<unsigned long>(n), &jw, &jh, &sub, &cs) !=
+      0)
+    bad_fragment(std::string(what) + " JPEG header: " + tjGetErrorStr2(decompressor()));
+  if (jw != w || jh != h)
+    bad_fragment(std::string(what) + " JPEG is " + std::to_string(jw) + "x" + std::to_string(jh) +
+                 ", expected " + std::to_string(w) + "x" + std::to_string(h));
+  const bool colour = kind == JpegKind::kColour;
+  if (colour ? cs != TJCS_YCbCr : cs != TJCS_GRAY)
+    bad_fragment(std::string(what) + " JPEG has the wrong colour space");
+  out.resize(static_cast<size_t>(w) * h * (colour ? 4 : 1));
+  if (tjDecompress2(decompressor(), j, static_cast<unsigned long>(n), out.data(), w,
+                    w * (colour ? 4 : 1), h, colour ? TJPF_RGBX : TJPF_GRAY,
+                    TJFLAG_STOPONWARNING) != 0)
+    bad_fragment(std::string(what) + " JPEG data: " + tjGetErrorStr2(decompressor()));
+}
+
 }  // namespace
 
 std::vector<uint8_t> serialize_fragment(const Fragment& f, Encoding enc, int quality) {
@@ -123,16 +287,27 @@ std::vector<uint8_t> serialize_fragment(const Fragment& f, Encoding enc, int qua
                     n);
         src += n;
       }
-      unsigned char* jpeg = nullptr;
-      unsigned long jsize = 0;
-      if (tjCompress2(compressor(), full.data(), w, w * 4, h, TJPF_CMYK, &jpeg, &jsize, TJSAMP_420,
-                      quality, 0) != 0) {
-        const std::string err = tjGetErrorStr2(compressor());
-        tjFree(jpeg);
-        throw std::runtime_error("fragment JPEG compression failed: " + err);
-      }
-      p.bytes(jpeg, jsize);
-      tjFree(jpeg);
+      pad_outside_spans(full.data(), w, h, f.spans, f.rect.x);
+      std::vector<uint8_t> colour = compress(full.data(), w, h, JpegKind::kColour, quality);
+      cv::Mat alpha(h, w, CV_8U), weight_img;
+      const cv::Mat rgba(h, w, CV_8UC4, full.data());
+      cv::extractChannel(rgba, alpha, 3);
+      // Spans-only check: the padding outside them repeats edge values.
+      const bool half = weight_is_smooth(alpha, f.spans, f.rect.x);
+      if (half)
+        cv::resize(alpha, weight_img, cv::Size((w + 1) / 2, (h + 1) / 2), 0, 0, cv::INTER_AREA);
+      else
+        weight_img = alpha;
+      std::vector<uint8_t> weight =
+          compress(weight_img.data, weight_img.cols, weight_img.rows, JpegKind::kGrey, quality);
+      std::vector<uint8_t> c2 = colour, w2 = weight;
+      const bool omit =
+          abbreviate(c2, JpegKind::kColour, quality) && abbreviate(w2, JpegKind::kGrey, quality);
+      if (omit) colour.swap(c2), weight.swap(w2);
+      p.u8(static_cast<uint8_t>((omit ? kTablesOmitted : 0) | (half ? kHalfResolutionWeight : 0)));
+      p.u32(static_cast<uint32_t>(colour.size()));
+      p.bytes(colour.data(), colour.size());
+      p.bytes(weight.data(), weight.size());
     } else {
       throw std::invalid_argument("serialize_fragment: unknown encoding");
     }
@@ -198,7 +373,7 @@ Fragment parse_fragment(const uint8_t* data, size_t size, Encoding* enc_out) {
   f.out_height = r.u16();
   const int x = r.u16(), y = r.u16(), w = r.u16(), h = r.u16();
   const uint8_t enc = r.u8();
-  r.u8();  // quality, informational
+  const uint8_t quality = r.u8();
   const uint16_t reserved = r.u16();
   const uint32_t psize = r.u32();
   const uint32_t sum = r.u32();
@@ -216,6 +391,8 @@ Fragment parse_fragment(const uint8_t* data, size_t size, Encoding* enc_out) {
   if (crc(data, kFragmentHeaderSize - 4, payload, psize) != sum)
     bad_fragment("CRC mismatch (corrupt data)");
   if (enc > 2) bad_fragment("unknown encoding " + std::to_string(enc));
+  if (enc == 2 && (quality < 1 || quality > 100))
+    bad_fragment("JPEG quality " + std::to_string(quality) + " out of range 1..100");
   if (enc_out) *enc_out = static_cast<Encoding>(enc);
   if (enc == 0) {
     if (x || y || w || h || psize) bad_fragment("empty fragment with a rectangle or payload");
@@ -245,23 +422,40 @@ Fragment parse_fragment(const uint8_t* data, size_t size, Encoding* enc_out) {
                    std::to_string(4 * npix));
     f.pixels.assign(body, body + rest);
   } else {
-    int jw = 0, jh = 0, sub = 0, cs = 0;
-    if (tjDecompressHeader3(decompressor(), body, rest, &jw, &jh, &sub, &cs) != 0)
-      bad_fragment(std::string("JPEG header: ") + tjGetErrorStr2(decompressor()));
-    if (jw != w || jh != h)
-      bad_fragment("JPEG is " + std::to_string(jw) + "x" + std::to_string(jh) + ", rectangle is " +
-                   std::to_string(w) + "x" + std::to_string(h));
-    if (cs != TJCS_YCCK && cs != TJCS_CMYK) bad_fragment("JPEG is not a 4-component image");
-    std::vector<uint8_t> full(static_cast<size_t>(w) * h * 4);
-    if (tjDecompress2(decompressor(), body, rest, full.data(), w, w * 4, h, TJPF_CMYK,
-                      TJFLAG_STOPONWARNING) != 0)
-      bad_fragment(std::string("JPEG data: ") + tjGetErrorStr2(decompressor()));
+    const uint8_t flags = p.u8();
+    const uint32_t csize = p.u32();
+    if (flags & ~(kTablesOmitted | kHalfResolutionWeight))
+      bad_fragment("unknown JPEG flags " + std::to_string(flags));
+    const size_t left = psize - p.pos();
+    if (csize > left)
+      bad_fragment("colour JPEG of " + std::to_string(csize) + " bytes exceeds the payload");
+    const uint8_t* cj = payload + p.pos();
+    const uint8_t* wj = cj + csize;
+    const size_t wsize = left - csize;
+    std::vector<uint8_t> c_whole, w_whole, colour, weight;
+    if (flags & kTablesOmitted) {
+      c_whole = complete(cj, csize, JpegKind::kColour, quality);
+      w_whole = complete(wj, wsize, JpegKind::kGrey, quality);
+      cj = c_whole.data(), wj = w_whole.data();
+    }
+    decompress(cj, c_whole.empty() ? csize : c_whole.size(), w, h, JpegKind::kColour, colour,
+               "colour");
+    const bool half = flags & kHalfResolutionWeight;
+    const int hw = half ? (w + 1) / 2 : w, hh = half ? (h + 1) / 2 : h;
+    decompress(wj, w_whole.empty() ? wsize : w_whole.size(), hw, hh, JpegKind::kGrey, weight,
+               "weight");
+    cv::Mat alpha(hh, hw, CV_8U, weight.data());
+    if (half) cv::resize(cv::Mat(alpha), alpha, cv::Size(w, h), 0, 0, cv::INTER_LINEAR);
     f.pixels.resize(4 * npix);
     uint8_t* dst = f.pixels.data();
     for (int row = 0; row < h; ++row) {
-      const int n = 4 * (f.spans[row][1] - f.spans[row][0]);
-      std::memcpy(dst, full.data() + (static_cast<size_t>(row) * w + f.spans[row][0] - x) * 4, n);
-      dst += n;
+      const int b = f.spans[row][0] - x, e = f.spans[row][1] - x;
+      const uint8_t* src = colour.data() + (static_cast<size_t>(row) * w + b) * 4;
+      const uint8_t* a = alpha.ptr<uint8_t>(row);
+      for (int c = b; c < e; ++c, src += 4, dst += 4) {
+        dst[0] = src[0], dst[1] = src[1], dst[2] = src[2];
+        dst[3] = a[c];
+      }
     }
   }
   check_fragment(f);

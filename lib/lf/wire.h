@@ -13,14 +13,20 @@
 //   8  viewer_id u32, 12 sequence u64, 20 camera_id u32, 24 capture_time_ns i64
 //  32  out_width u16, 34 out_height u16 (the output frame, 1..16384)
 //  36  rect x, y, w, h  u16 x 4 (inside the output frame; all 0 when empty)
-//  44  encoding u8 (0 empty, 1 raw, 2 jpeg), 45 jpeg quality u8, 46 reserved u16 (0)
+//  44  encoding u8 (0 empty, 1 raw, 2 jpeg, 3 jpeg with its tables left out),
+//  45  jpeg quality u8 (1..100 with encoding 3), 46 reserved u16 (0)
 //  48  payload_size u32 (<= 64 MiB), 52 crc32 u32 (bytes 0..51, then payload)
 // Payload: rect.h row spans (u16 begin, u16 end, relative to rect.x, begin <=
 // end <= w), then
 //   raw:  the span pixels, 4 bytes each, row after row;
 //   jpeg: a 4-component (YCCK, via TurboJPEG's CMYK path: 4:2:0 chroma,
 //         full-resolution 4th channel) JPEG of the w x h rectangle; pixels
-//         outside the spans are ignored.
+//         outside the spans are ignored (the sender fills them from the
+//         nearest span pixels). Encoding 3 leaves out the DQT and DHT
+//         segments, which are then libjpeg's standard tables for the quality
+//         in byte 45 (ITU T.81 Annex K; as RTP/JPEG, RFC 2435, does): the
+//         receiver puts them back after SOI. Senders use 3 whenever their
+//         tables are the standard ones, else 2.
 //
 // View request, version 1: 144 bytes
 //   0 "LFVR", 4 version u16 = 1, 6 size u16 = 144, 8 viewer_id u32, 12 sequence u64,

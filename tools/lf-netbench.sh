@@ -1,0 +1,91 @@
+#!/usr/bin/env bash
+# Measurements of the distributed system in the emulated deployment
+# (tools/lf-netem.sh; root): prints markdown tables and writes plots.
+#  (a) the paper's Figure 6: fragment bytes entering the compositor per
+#      output frame for 4, 16 and 64 cameras spread over the 8x8 Chess array
+#      (lf-rig --spread), raw and JPEG;
+#  (b) the all-viewpoints baseline (paper 3.1): every camera streams its JPEG
+#      video (stock jpegenc at the same quality, rtpjpegpay) to the
+#      compositor host; bytes per output frame = one frame of every camera;
+#  (c) the paper's Figure 5: round-trip latency and its components, 64
+#      cameras, JPEG and raw fragments.
+# usage: lf-netbench.sh [OUTDIR] [SECONDS per run]   (default out/netbench, 8)
+# Environment: FPS [15], QUALITY [90], WIDTH x HEIGHT [640x480], INPUT_SCALE
+# of the camera images [0.5: 700x400], DATA [../shared/data].
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+out="${1:-$root/out/netbench}"; seconds="${2:-8}"
+mkdir -p "$out"; out="$(cd "$out" && pwd)"
+data="${DATA:-$root/../shared/data}"
+export FPS="${FPS:-15}" QUALITY="${QUALITY:-90}" LATENCY_MS="${LATENCY_MS:-40}"
+W="${WIDTH:-640}"; H="${HEIGHT:-480}"; scale="${INPUT_SCALE:-0.5}"
+export VIEW="orbit=0.6 dolly=15 path-frames=120 width=$W height=$H"
+trace="$root/build/tools/lf-trace"
+key() { awk -v k="$2" '/^## summary/{s=1; next} s && $1==k {print $2}' "$1"; }
+
+declare -A bytes
+for k in 2 4 8; do
+  n=$((k * k))
+  rig="$out/rig$n.json"
+  "$root/build/tools/lf-rig" --input "$data/stanford-chess" --block 0,0,8,8 --spread "$k" \
+    --input-scale "$scale" --out "$rig"
+  for enc in raw jpeg; do
+    run="$out/$enc$n"
+    echo "== $n cameras, $enc fragments ($seconds s)" >&2
+    RIG="$rig" HOSTS=$((n < 4 ? n : 4)) ENCODING=$enc "$root/tools/lf-netem.sh" run "$run" "$seconds" normal
+    "$trace" --cameras "$n" --fps "$FPS" "$run"/*.trace --plot "$out/latency-$enc$n.png" > "$run.txt"
+    bytes[$enc$n]=$(key "$run.txt" bytes-per-frame)
+  done
+done
+
+echo "== all-viewpoints baseline, 64 cameras, jpegenc quality=$QUALITY ($seconds s)" >&2
+rm -rf "$out/baseline-frames"
+RIG="$out/rig64.json" HOSTS=4 BASELINE="$out/baseline-frames" \
+  "$root/tools/lf-netem.sh" run "$out/baseline" "$seconds" normal
+if ! ls "$out"/baseline-frames/cam*-*.jpg > /dev/null 2>&1; then
+  echo "lf-netbench.sh: the baseline run delivered no JPEG frames (see $out/baseline/*.log)" >&2
+  exit 1
+fi
+# Mean JPEG bytes per camera frame, summed over the cameras (first frames skipped).
+base=$(for f in "$out"/baseline-frames/cam*-*.jpg; do
+  n="${f##*-}"; n="${n%.jpg}"; [ "$((10#$n))" -ge 3 ] && stat -c '%s %n' "$f"; done |
+  awk '{split($2, p, "/cam"); split(p[2], q, "-"); s[q[1]] += $1; c[q[1]]++}
+       END{for (k in s) {t += s[k] / c[k]; n++} printf "%.0f %d", t, n}')
+base_bytes=${base% *}; base_cams=${base#* }
+
+{
+  echo "# Distributed light field camera: emulated deployment measurements"
+  echo
+  echo "$(date -u +%F), $(nproc) cores, ${W}x${H} output, $FPS requests/s, camera images scaled by $scale,"
+  echo "JPEG quality $QUALITY, compositor deadline $LATENCY_MS ms, ${seconds} s per run."
+  echo "Command: tools/lf-netbench.sh $*"
+  echo
+  echo "## (a) Fragment bytes per output frame (paper Figure 6)"
+  echo
+  echo "| cameras (spread over the 8x8 array) | raw bytes/frame | JPEG bytes/frame | raw vs 64 | JPEG vs 64 |"
+  echo "|---|---|---|---|---|"
+  for n in 4 16 64; do
+    awk -v n=$n -v r="${bytes[raw$n]}" -v j="${bytes[jpeg$n]}" -v r64="${bytes[raw64]}" -v j64="${bytes[jpeg64]}" \
+      'BEGIN{printf "| %d | %.0f | %.0f | %.3f | %.3f |\n", n, r, j, r / r64, j / j64}'
+  done
+  echo
+  echo "## (b) All-viewpoints baseline (paper 3.1), same JPEG quality"
+  echo
+  awk -v b="$base_bytes" -v c="$base_cams" -v j="${bytes[jpeg64]}" -v r="${bytes[raw64]}" 'BEGIN{
+    printf "| design | bytes per output frame | ratio |\n|---|---|---|\n";
+    printf "| all-viewpoints: %d cameras stream JPEG video | %.0f | 1 |\n", c, b;
+    printf "| fragments, JPEG (64 cameras) | %.0f | %.1fx less |\n", j, b / j;
+    printf "| fragments, raw (64 cameras) | %.0f | %.1fx less |\n", r, b / r}'
+  for enc in jpeg raw; do
+    echo
+    echo "## (c) Round-trip latency, 64 cameras, $enc fragments (paper Figure 5)"
+    echo
+    sed -n '/^## Latency/,/^## Capture/p' "$out/${enc}64.txt" | sed '1d;$d'
+  done
+} > "$out/report.md"
+"$trace" --bandwidth-plot "$out/figure6.png" \
+  "raw fragments=4:${bytes[raw4]},16:${bytes[raw16]},64:${bytes[raw64]}" \
+  "JPEG fragments=4:${bytes[jpeg4]},16:${bytes[jpeg16]},64:${bytes[jpeg64]}" \
+  "all-viewpoints JPEG=64:$base_bytes" >&2
+cat "$out/report.md"
+echo "report: $out/report.md; plots: $out/figure6.png, $out/latency-jpeg64.png, $out/latency-raw64.png" >&2
