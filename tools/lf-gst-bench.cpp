@@ -85,7 +85,13 @@ std::string pipeline(const std::string& rig, const lf::Rig& r, int W, int H, con
 std::vector<double> run(const std::string& desc, Probe* probe) {
   GError* err = nullptr;
   GstElement* p = gst_parse_launch(desc.c_str(), &err);
-  if (!p) throw std::runtime_error(std::string("pipeline: ") + (err ? err->message : "?"));
+  if (!p || err) {  // a missing element is an error too, not a pipeline that never ends
+    const std::string msg = std::string("pipeline: ") + (err ? err->message : "?") +
+                            " (is GST_PLUGIN_PATH set to build/gst?)";
+    g_clear_error(&err);
+    if (p) gst_object_unref(p);
+    throw std::runtime_error(msg);
+  }
   GstElement* req = gst_bin_get_by_name(GST_BIN(p), "req");
   GstElement* out = gst_bin_get_by_name(GST_BIN(p), "out");
   if (probe) {
@@ -140,6 +146,13 @@ int main(int argc, char** argv) {
     cli::Args args(argc, argv,
                    {"--input", "--block", "--sizes", "--encodings", "--frames", "--latency-rate"},
                    {});
+    // The plugin next to this program (build/gst) unless GST_PLUGIN_PATH says otherwise.
+    if (!g_getenv("GST_PLUGIN_PATH")) {
+      const auto exe = std::filesystem::read_symlink("/proc/self/exe");
+      const auto dir = exe.parent_path().parent_path() / "gst";
+      if (std::filesystem::exists(dir / "libgstlightfield.so"))
+        g_setenv("GST_PLUGIN_PATH", dir.c_str(), TRUE);
+    }
     gst_init(nullptr, nullptr);
     const lf::Rig rig = cli::select_cameras(
         lf::load_rig_or_dataset(args.get("--input", "../shared/data/stanford-chess")), args, true);

@@ -131,11 +131,12 @@ int main(int argc, char** argv) {
   }
   GError* err = nullptr;
   GstElement* pipeline = gst_parse_launch(description.c_str(), &err);
-  if (!pipeline) {
+  if (!pipeline || err) {  // a missing element too: never run half a pipeline
     std::fprintf(stderr, "lf-launch: error: %s\n", err ? err->message : "bad description");
+    g_clear_error(&err);
+    if (pipeline) gst_object_unref(pipeline);
     return 1;
   }
-  if (err) g_clear_error(&err);
   // Same clock and base time everywhere; never redistribute the base time.
   gst_pipeline_use_clock(GST_PIPELINE(pipeline), clock);
   gst_element_set_start_time(pipeline, GST_CLOCK_TIME_NONE);

@@ -75,12 +75,12 @@ base_bytes=${base% *}; base_cams=${base#* }
     printf "| design | bytes per output frame | ratio |\n|---|---|---|\n";
     printf "| all-viewpoints: %d cameras stream JPEG video | %.0f | 1 |\n", c, b;
     printf "| fragments, JPEG (64 cameras) | %.0f | %.1fx less |\n", j, b / j;
-    printf "| fragments, raw (64 cameras) | %.0f | %.1fx less |\n", r, b / r}'
+    printf "| fragments, raw (64 cameras) | %.0f | %.2fx of it |\n", r, r / b}'
   for enc in jpeg raw; do
     echo
     echo "## (c) Round-trip latency, 64 cameras, $enc fragments (paper Figure 5)"
     echo
-    sed -n '/^## Latency/,/^## Capture/p' "$out/${enc}64.txt" | sed '1d;$d'
+    sed -n '/^## Latency/,/^## Capture/p' "$out/${enc}64.txt" | sed '1,2d;$d'
   done
 } > "$out/report.md"
 "$trace" --bandwidth-plot "$out/figure6.png" \

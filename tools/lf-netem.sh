@@ -11,7 +11,8 @@
 #             restarted at 2/3) | loss (LOSS, default 0.05, per RTP packet on
 #             every link: tc netem where the kernel has it, else dropped by the
 #             senders)
-# Environment: RIG (required), HOSTS [4], and net-host.sh's settings (FPS,
+# Environment: RIG (required), HOSTS [4], REQUESTS=unicast for a unicast
+# fan-out of the view requests (default: multicast), and net-host.sh's settings (FPS,
 # ENCODING, VIEW, LATENCY_MS, ...). Writes OUTDIR/{comp,view,cam*}.trace,
 # .log, base-time, clock-offsets, and the viewer's last output frames
 # OUTDIR/view-N.png.
@@ -19,7 +20,7 @@ set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 cmd="${1:-}"; out="${2:-}"; seconds="${3:-}"; scenario="${4:-normal}"
 if [ "$cmd" != run ] || [ -z "$out" ] || [ -z "$seconds" ]; then
-  sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'
+  sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'
   exit 2
 fi
 : "${RIG:?RIG must name the rig file}"
@@ -71,6 +72,13 @@ if [ "$scenario" = loss ] && [ "$netem" = 0 ]; then send_loss="$LOSS"; fi
 echo "loss: scenario=$scenario netem=$netem sender-drop=$send_loss" > "$out/loss"
 
 export COMPOSITOR="${ip[comp]}" VIEWER="${ip[view]}" IFACE=eth0
+# REQUESTS=unicast: the viewer sends each request to every camera host
+# (multiudpsink fan-out) instead of to the multicast group.
+if [ "${REQUESTS:-}" = unicast ]; then
+  REQUESTS=""
+  for ((k = 0; k < HOSTS; k++)); do REQUESTS+="${REQUESTS:+,}${ip[cam$k]}"; done
+  export REQUESTS
+fi
 # The viewer keeps its last 3 output frames as PNG (the file index counts them).
 export OUTPUT="${OUTPUT:-videoconvert ! pngenc compression-level=1 ! multifilesink location=$out/view-%05d.png max-files=3}"
 launch() {  # launch HOST ROLE [K]

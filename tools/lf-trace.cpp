@@ -123,14 +123,16 @@ void bandwidth_plot(const std::string& file, const std::vector<std::string>& ser
   std::map<int, std::map<int, double>> value;  // cameras -> series -> bytes
   for (size_t i = 0; i < series.size(); ++i) {
     const auto eq = series[i].find('=');
-    if (eq == std::string::npos) throw std::invalid_argument("series '" + series[i] + "' has no '='");
+    if (eq == std::string::npos)
+      throw std::invalid_argument("series '" + series[i] + "' has no '='");
     labels.push_back(series[i].substr(0, eq));
     std::stringstream ss(series[i].substr(eq + 1));
     std::string item;
     while (std::getline(ss, item, ',')) {
       const auto colon = item.find(':');
       if (colon == std::string::npos) throw std::invalid_argument("bad item '" + item + "'");
-      value[std::stoi(item.substr(0, colon))][static_cast<int>(i)] = std::stod(item.substr(colon + 1));
+      value[std::stoi(item.substr(0, colon))][static_cast<int>(i)] =
+          std::stod(item.substr(colon + 1));
     }
   }
   double lo = 1e300, hi = 0;
