@@ -7,7 +7,8 @@ cd "$(dirname "$0")/.."
 PACKAGES=(g++ meson ninja-build pkg-config libopencv-dev libturbojpeg0-dev
           nlohmann-json3-dev zlib1g-dev libgtest-dev
           libgstreamer1.0-dev libgstreamer-plugins-base1.0-dev gstreamer1.0-tools
-          gstreamer1.0-plugins-base gstreamer1.0-plugins-good valgrind iproute2)
+          gstreamer1.0-plugins-base gstreamer1.0-plugins-good valgrind iproute2
+          libceres-dev cmake)
 missing=()
 for p in "${PACKAGES[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

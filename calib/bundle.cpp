@@ -1,0 +1,111 @@
+#include "calib/bundle.h"
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+namespace lf::calib {
+
+namespace {
+
+struct ReprojectionError {
+  ReprojectionError(double x, double y, bool bal) : x_(x), y_(y), sign_(bal ? -1.0 : 1.0) {}
+  template <typename T>
+  bool operator()(const T* camera, const T* point, T* residual) const {
+    T P[3];
+    ceres::AngleAxisRotatePoint(camera, point, P);
+    P[0] += camera[3], P[1] += camera[4], P[2] += camera[5];
+    const T px = sign_ * P[0] / P[2], py = sign_ * P[1] / P[2];
+    const T r2 = px * px + py * py;
+    const T d = T(1) + r2 * (camera[7] + camera[8] * r2);
+    residual[0] = camera[6] * d * px - x_;
+    residual[1] = camera[6] * d * py - y_;
+    return true;
+  }
+  double x_, y_, sign_;
+};
+
+}  // namespace
+
+BundleProblem read_bal(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("read_bal: cannot open '" + path + "'");
+  BundleProblem p;
+  size_t nobs = 0;
+  auto fail = [&](const std::string& what) -> void {
+    throw std::runtime_error("read_bal: " + path + ": " + what);
+  };
+  if (!(in >> p.num_cameras >> p.num_points >> nobs) || p.num_cameras <= 0 || p.num_points <= 0 ||
+      nobs == 0 || nobs > 100000000)
+    fail("bad header (expected: cameras points observations, all > 0)");
+  p.observations.resize(nobs);
+  for (size_t i = 0; i < nobs; ++i) {
+    auto& o = p.observations[i];
+    if (!(in >> o.camera >> o.point >> o.x >> o.y))
+      fail("observation " + std::to_string(i) + " is truncated or not numeric");
+    if (o.camera < 0 || o.camera >= p.num_cameras || o.point < 0 || o.point >= p.num_points)
+      fail("observation " + std::to_string(i) + " names camera " + std::to_string(o.camera) +
+           " / point " + std::to_string(o.point) + ", out of range");
+    if (!std::isfinite(o.x) || !std::isfinite(o.y))
+      fail("observation " + std::to_string(i) + " is not finite");
+  }
+  p.cameras.resize(9 * static_cast<size_t>(p.num_cameras));
+  p.points.resize(3 * static_cast<size_t>(p.num_points));
+  for (double& v : p.cameras)
+    if (!(in >> v) || !std::isfinite(v)) fail("camera parameters truncated or not finite");
+  for (double& v : p.points)
+    if (!(in >> v) || !std::isfinite(v)) fail("point coordinates truncated or not finite");
+  return p;
+}
+
+BundleReport bundle_adjust(BundleProblem& p, const BundleOptions& opt) {
+  if (p.cameras.size() != 9 * static_cast<size_t>(p.num_cameras) ||
+      p.points.size() != 3 * static_cast<size_t>(p.num_points))
+    throw std::invalid_argument("bundle_adjust: parameter arrays do not match the counts");
+  ceres::Problem problem;
+  for (const auto& o : p.observations) {
+    ceres::CostFunction* cost = new ceres::AutoDiffCostFunction<ReprojectionError, 2, 9, 3>(
+        new ReprojectionError(o.x, o.y, p.bal_sign));
+    ceres::LossFunction* loss = opt.huber_px > 0 ? new ceres::HuberLoss(opt.huber_px) : nullptr;
+    problem.AddResidualBlock(cost, loss, &p.cameras[9 * static_cast<size_t>(o.camera)],
+                             &p.points[3 * static_cast<size_t>(o.point)]);
+  }
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::SPARSE_SCHUR;
+  so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  so.max_num_iterations = opt.max_iterations;
+  so.num_threads = std::max(1, opt.threads);
+  so.minimizer_progress_to_stdout = opt.progress;
+  auto* ordering = new ceres::ParameterBlockOrdering;
+  for (int i = 0; i < p.num_points; ++i)
+    ordering->AddElementToGroup(&p.points[3 * static_cast<size_t>(i)], 0);
+  for (int i = 0; i < p.num_cameras; ++i)
+    ordering->AddElementToGroup(&p.cameras[9 * static_cast<size_t>(i)], 1);
+  so.linear_solver_ordering.reset(ordering);
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  BundleReport r;
+  r.initial_cost = summary.initial_cost;
+  r.final_cost = summary.final_cost;
+  const double n = 2.0 * static_cast<double>(p.observations.size());
+  r.initial_rms_px = std::sqrt(2 * summary.initial_cost / n);  // robustified if huber_px > 0
+  double plain = summary.final_cost;
+  if (opt.huber_px > 0) {  // the RMS of the residuals themselves
+    ceres::Problem::EvaluateOptions eo;
+    eo.apply_loss_function = false;
+    problem.Evaluate(eo, &plain, nullptr, nullptr, nullptr);
+  }
+  r.final_rms_px = std::sqrt(2 * plain / n);
+  r.iterations = static_cast<int>(summary.iterations.size()) - 1;
+  r.converged = summary.termination_type == ceres::CONVERGENCE;
+  r.summary = summary.BriefReport();
+  if (!summary.IsSolutionUsable())
+    throw std::runtime_error("bundle_adjust: Ceres failed: " + summary.message);
+  return r;
+}
+
+}  // namespace lf::calib
