@@ -11,6 +11,7 @@
 
 #include "calib/bundle.h"
 #include "calib/intrinsics.h"
+#include "calib/selfcal.h"
 #include "helpers.h"
 
 namespace {
@@ -176,3 +177,132 @@ TEST(Bundle, MalformedBalFilesAreClearErrors) {
 }
 
 }  // namespace
+
+namespace {
+
+// Similarity (s, Q, T) with dst ~ s Q src + T (Umeyama 1991).
+void umeyama(const std::vector<cv::Vec3d>& src, const std::vector<cv::Vec3d>& dst, double& s,
+             cv::Matx33d& Q, cv::Vec3d& T) {
+  cv::Vec3d ms(0, 0, 0), md(0, 0, 0);
+  for (size_t i = 0; i < src.size(); ++i) ms += src[i], md += dst[i];
+  ms /= static_cast<double>(src.size());
+  md /= static_cast<double>(src.size());
+  cv::Matx33d S = cv::Matx33d::zeros();
+  double vs = 0;
+  for (size_t i = 0; i < src.size(); ++i) {
+    const cv::Vec3d a = src[i] - ms, b = dst[i] - md;
+    S += cv::Matx33d(b[0] * a[0], b[0] * a[1], b[0] * a[2], b[1] * a[0], b[1] * a[1], b[1] * a[2],
+                     b[2] * a[0], b[2] * a[1], b[2] * a[2]);
+    vs += a.dot(a);
+  }
+  cv::Mat w, u, vt;
+  cv::SVD::compute(cv::Mat(S), w, u, vt);
+  cv::Mat D = cv::Mat::eye(3, 3, CV_64F);
+  if (cv::determinant(u * vt) < 0) D.at<double>(2, 2) = -1;
+  Q = cv::Matx33d(cv::Mat(u * D * vt));
+  s = cv::trace(cv::Mat(cv::Mat::diag(w)) * D)[0] / vs;
+  T = md - s * (Q * ms);
+}
+
+struct RigErrors {
+  double centre_max = 0, rot_max_deg = 0, f_max_rel = 0;
+};
+
+RigErrors compare(const lf::Rig& est, const lf::Rig& truth) {
+  std::vector<cv::Vec3d> a, b;
+  std::vector<const lf::Camera*> t;
+  for (const auto& c : est.cameras) {
+    const int k = truth.index_of(c.id);
+    a.push_back(c.center());
+    b.push_back(truth.cameras[k].center());
+    t.push_back(&truth.cameras[k]);
+  }
+  double s;
+  cv::Matx33d Q;
+  cv::Vec3d T;
+  umeyama(a, b, s, Q, T);
+  RigErrors e;
+  for (size_t i = 0; i < a.size(); ++i) {
+    e.centre_max = std::max(e.centre_max, cv::norm(s * (Q * a[i]) + T - b[i]));
+    // World rotation Q: R_true ~ R_est Q^T.
+    const cv::Matx33d D = t[i]->extrinsics.R.t() * est.cameras[i].extrinsics.R * Q.t();
+    const double c = std::clamp((cv::trace(D) - 1) / 2, -1.0, 1.0);
+    e.rot_max_deg = std::max(e.rot_max_deg, std::acos(c) * 180 / CV_PI);
+    e.f_max_rel =
+        std::max(e.f_max_rel, std::abs(est.cameras[i].intrinsics.fx / t[i]->intrinsics.fx - 1));
+  }
+  return e;
+}
+
+}  // namespace
+
+TEST(SelfCal, Synthetic8x8RigIsRecovered) {
+  // 8x8 grid, 10 cm pitch, +-2 degree jitter, 200 light positions 1.5-4 m
+  // away, 0.3 px noise, 3 % outliers, 5 % dropouts; identical lenses (the
+  // Zhang camera's f measured 0.05 % off).
+  lf::calib::SyntheticPointLightOptions so;
+  so.f_spread = std::getenv("LF_F_SPREAD") ? std::atof(std::getenv("LF_F_SPREAD")) : 0.0;
+  const auto data = lf::calib::make_synthetic_point_light(so);
+  lf::calib::SelfCalOptions opt;
+  opt.pitch = so.pitch;
+  const auto r =
+      lf::calib::self_calibrate(data.truth.cameras, 0, data.zhang, data.observations, opt);
+  std::printf("%s", r.log.c_str());
+  ASSERT_FALSE(r.degenerate) << r.degenerate_reason;
+  EXPECT_EQ(r.rig.cameras.size(), 64u);
+  // RMS at the noise floor (within 10 %).
+  const double floor = so.noise_px * r.noise_floor_factor;
+  std::printf("RMS %.4f px, noise floor %.4f px\n", r.rms_px, floor);
+  EXPECT_NEAR(r.rms_px, floor, 0.1 * floor);
+  // Outliers flagged.
+  size_t truly = 0, caught = 0, false_alarms = 0;
+  for (size_t i = 0; i < data.observations.size(); ++i) {
+    truly += data.is_outlier[i];
+    caught += data.is_outlier[i] && r.outlier[i];
+    false_alarms += !data.is_outlier[i] && r.outlier[i];
+  }
+  std::printf("outliers: %zu of %zu flagged, %zu false alarms\n", caught, truly, false_alarms);
+  EXPECT_GE(caught, 0.95 * truly);
+  EXPECT_LE(false_alarms, 0.01 * data.observations.size());
+  // The rig after similarity alignment.
+  const RigErrors e = compare(r.rig, data.truth);
+  std::printf("centres within %.3f mm, rotations within %.4f deg, f within %.3f %%\n",
+              1000 * e.centre_max, e.rot_max_deg, 100 * e.f_max_rel);
+  EXPECT_LT(e.centre_max, 0.002);
+  EXPECT_LT(e.rot_max_deg, 0.05);
+  EXPECT_LT(e.f_max_rel, 0.003);
+  for (double sf : r.f_sigma) EXPECT_GT(sf, 0.0);  // uncertainties reported
+}
+
+TEST(SelfCal, SharedFreeFocalLengthOnAParallelGridIsDegenerate) {
+  lf::calib::SyntheticPointLightOptions so;
+  so.f_spread = 0;
+  const auto data = lf::calib::make_synthetic_point_light(so);
+  lf::calib::SelfCalOptions opt;
+  opt.f_prior = 0;  // one shared, free focal length
+  const auto r =
+      lf::calib::self_calibrate(data.truth.cameras, 0, data.zhang, data.observations, opt);
+  std::printf("%s", r.log.c_str());
+  EXPECT_TRUE(r.degenerate);
+  EXPECT_NE(r.degenerate_reason.find("focal length"), std::string::npos) << r.degenerate_reason;
+}
+
+TEST(SelfCal, LightSweptInOnePlaneIsDegenerate) {
+  lf::calib::SyntheticPointLightOptions so;
+  so.z_min = so.z_max = 2.5;
+  const auto data = lf::calib::make_synthetic_point_light(so);
+  const auto r = lf::calib::self_calibrate(data.truth.cameras, 0, data.zhang, data.observations);
+  std::printf("%s", r.log.c_str());
+  EXPECT_TRUE(r.degenerate);
+  EXPECT_NE(r.degenerate_reason.find("plane"), std::string::npos) << r.degenerate_reason;
+}
+
+TEST(SelfCal, TooFewPointsIsDegenerate) {
+  lf::calib::SyntheticPointLightOptions so;
+  so.lights = 12;
+  const auto data = lf::calib::make_synthetic_point_light(so);
+  const auto r = lf::calib::self_calibrate(data.truth.cameras, 0, data.zhang, data.observations);
+  EXPECT_TRUE(r.degenerate);
+  EXPECT_THROW(lf::calib::self_calibrate(data.truth.cameras, 0, data.zhang, {}),
+               std::invalid_argument);
+}

@@ -1,0 +1,550 @@
+#include "calib/selfcal.h"
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numeric>
+#include <opencv2/calib3d.hpp>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+
+#include "lf/synthetic.h"
+
+namespace lf::calib {
+
+namespace {
+
+struct Pose {
+  cv::Matx33d R = cv::Matx33d::eye();
+  cv::Vec3d t;
+};
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+// Pixel residual of the paper's camera model (OpenCV convention): pose =
+// angle-axis (3) + t (3); intrinsics = f, k1, k2; principal point fixed.
+struct PixelError {
+  PixelError(const cv::Vec2d& obs, double cx, double cy) : u(obs[0]), v(obs[1]), cx(cx), cy(cy) {}
+  template <typename T>
+  bool operator()(const T* pose, const T* intr, const T* X, T* r) const {
+    T P[3];
+    ceres::AngleAxisRotatePoint(pose, X, P);
+    P[0] += pose[3], P[1] += pose[4], P[2] += pose[5];
+    const T x = P[0] / P[2], y = P[1] / P[2];
+    const T r2 = x * x + y * y;
+    const T d = T(1) + r2 * (intr[1] + intr[2] * r2);
+    r[0] = intr[0] * d * x + T(cx) - T(u);
+    r[1] = intr[0] * d * y + T(cy) - T(v);
+    return true;
+  }
+  double u, v, cx, cy;
+};
+
+// Prior on a camera's intrinsics around the Zhang camera's.
+struct IntrinsicsPrior {
+  IntrinsicsPrior(const Intrinsics& z, double sf, double sk) : z(z), sf(sf), sk(sk) {}
+  template <typename T>
+  bool operator()(const T* intr, T* r) const {
+    r[0] = (intr[0] - T(z.fx)) / T(sf);
+    r[1] = (intr[1] - T(z.k1)) / T(sk);
+    r[2] = (intr[2] - T(z.k2)) / T(sk);
+    return true;
+  }
+  Intrinsics z;
+  double sf, sk;
+};
+
+std::array<double, 6> to_block(const Pose& p) {
+  cv::Vec3d aa;
+  cv::Rodrigues(cv::Mat(p.R), aa);
+  return {aa[0], aa[1], aa[2], p.t[0], p.t[1], p.t[2]};
+}
+Pose from_block(const std::array<double, 6>& b) {
+  Pose p;
+  cv::Rodrigues(cv::Vec3d(b[0], b[1], b[2]), p.R);
+  p.t = {b[3], b[4], b[5]};
+  return p;
+}
+
+// Linear triangulation from normalized observations in several views; false
+// if a view sees it behind or off by more than `thr` (normalized units).
+bool triangulate(const std::vector<Pose>& poses, const std::vector<int>& cams,
+                 const std::vector<cv::Vec2d>& xs, double thr, cv::Vec3d& X) {
+  if (cams.size() < 2) return false;
+  cv::Mat A(static_cast<int>(2 * cams.size()), 4, CV_64F);
+  for (size_t k = 0; k < cams.size(); ++k) {
+    const Pose& p = poses[cams[k]];
+    for (int j = 0; j < 4; ++j) {
+      const double P0 = j < 3 ? p.R(0, j) : p.t[0], P1 = j < 3 ? p.R(1, j) : p.t[1],
+                   P2 = j < 3 ? p.R(2, j) : p.t[2];
+      A.at<double>(static_cast<int>(2 * k), j) = xs[k][0] * P2 - P0;
+      A.at<double>(static_cast<int>(2 * k + 1), j) = xs[k][1] * P2 - P1;
+    }
+  }
+  cv::Mat w, u, vt;
+  cv::SVD::compute(A, w, u, vt);
+  const double h = vt.at<double>(3, 3);
+  if (std::abs(h) < 1e-12) return false;
+  X = {vt.at<double>(3, 0) / h, vt.at<double>(3, 1) / h, vt.at<double>(3, 2) / h};
+  for (size_t k = 0; k < cams.size(); ++k) {
+    const Pose& p = poses[cams[k]];
+    const cv::Vec3d P = p.R * X + p.t;
+    if (P[2] <= 0) return false;
+    if (cv::norm(cv::Vec2d(P[0] / P[2], P[1] / P[2]) - xs[k]) > thr) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+SelfCalResult self_calibrate(const std::vector<Camera>& cameras, int zc, const Intrinsics& zhang,
+                             const std::vector<PointObservation>& obs, const SelfCalOptions& o) {
+  const int nc = static_cast<int>(cameras.size());
+  if (nc < 2) throw std::invalid_argument("self_calibrate: need at least 2 cameras");
+  if (zc < 0 || zc >= nc) throw std::invalid_argument("self_calibrate: zhang_camera out of range");
+  if (obs.empty()) throw std::invalid_argument("self_calibrate: no observations");
+  int np = 0;
+  for (const auto& ob : obs) {
+    if (ob.camera < 0 || ob.camera >= nc || ob.point < 0)
+      throw std::invalid_argument("self_calibrate: observation with camera " +
+                                  std::to_string(ob.camera) + ", point " +
+                                  std::to_string(ob.point) + " out of range");
+    if (!std::isfinite(ob.pixel[0]) || !std::isfinite(ob.pixel[1]))
+      throw std::invalid_argument("self_calibrate: non-finite observation");
+    np = std::max(np, ob.point + 1);
+  }
+  SelfCalResult res;
+  std::ostringstream log;
+  res.outlier.assign(obs.size(), false);
+  res.registered.assign(nc, false);
+  res.points.assign(np, cv::Vec3d());
+  res.point_valid.assign(np, false);
+  res.camera_rms_px.assign(nc, 0);
+  res.camera_observations.assign(nc, 0);
+  res.f_sigma.assign(nc, -1);
+  auto degenerate = [&](const std::string& why) {
+    res.degenerate = true;
+    res.degenerate_reason = why;
+    log << "DEGENERATE: " << why << "\n";
+    res.log = log.str();
+    return res;
+  };
+
+  // Normalized, undistorted observations with the Zhang camera's intrinsics.
+  std::vector<cv::Vec2d> xn(obs.size());
+  std::vector<bool> usable(obs.size(), true);
+  std::vector<std::vector<int>> at(nc, std::vector<int>(np, -1));  // camera, point -> obs
+  for (size_t i = 0; i < obs.size(); ++i) {
+    const auto u = undistort_normalized(
+        zhang, {(obs[i].pixel[0] - zhang.cx) / zhang.fx, (obs[i].pixel[1] - zhang.cy) / zhang.fy});
+    if (!u || at[obs[i].camera][obs[i].point] >= 0) {
+      usable[i] = false;  // not invertible, or a second spot for the same instant
+      continue;
+    }
+    xn[i] = *u;
+    at[obs[i].camera][obs[i].point] = static_cast<int>(i);
+  }
+  const double thr = o.ransac_px / zhang.fx;
+
+  // ---- initial pair: many common points, wide parallax -----------------------
+  int a = -1, b = -1;
+  double best = 0;
+  for (int i = 0; i < nc; ++i)
+    for (int j = i + 1; j < nc; ++j) {
+      std::vector<double> disp;
+      for (int p = 0; p < np; ++p)
+        if (at[i][p] >= 0 && at[j][p] >= 0) disp.push_back(cv::norm(xn[at[i][p]] - xn[at[j][p]]));
+      if (static_cast<int>(disp.size()) < o.min_points) continue;
+      const double score = disp.size() * median(disp);
+      if (score > best) best = score, a = i, b = j;
+    }
+  if (a < 0)
+    return degenerate("no camera pair shares " + std::to_string(o.min_points) +
+                      " light positions (too few points, or tracks not overlapping)");
+  std::vector<cv::Point2d> pa, pb;
+  std::vector<int> common;
+  for (int p = 0; p < np; ++p)
+    if (at[a][p] >= 0 && at[b][p] >= 0) {
+      pa.emplace_back(xn[at[a][p]][0], xn[at[a][p]][1]);
+      pb.emplace_back(xn[at[b][p]][0], xn[at[b][p]][1]);
+      common.push_back(p);
+    }
+  cv::Mat emask, hmask;
+  const cv::Mat E =
+      cv::findEssentialMat(pa, pb, 1.0, cv::Point2d(0, 0), cv::RANSAC, 0.9999, thr, emask);
+  if (E.empty() || E.rows != 3) return degenerate("no essential matrix for the initial pair");
+  cv::findHomography(pa, pb, cv::RANSAC, thr, hmask);
+  const int e_in = cv::countNonZero(emask), h_in = hmask.empty() ? 0 : cv::countNonZero(hmask);
+  log << "initial pair: cameras " << cameras[a].id << " and " << cameras[b].id << ", " << pa.size()
+      << " common points, essential inliers " << e_in << ", homography inliers " << h_in << "\n";
+  if (h_in >= 0.9 * e_in)
+    return degenerate(
+        "the initial pair's tracks fit a homography as well as an essential matrix (" +
+        std::to_string(h_in) + " vs " + std::to_string(e_in) +
+        " inliers): the light moved in one plane, or there is no parallax; sweep it through depth");
+  cv::Mat Rm, tm;
+  cv::recoverPose(E, pa, pb, Rm, tm, 1.0, cv::Point2d(0, 0), emask);
+  std::vector<Pose> poses(nc);
+  poses[b].R = cv::Matx33d(Rm);
+  poses[b].t = cv::Vec3d(tm);
+  res.registered[a] = res.registered[b] = true;
+
+  auto triangulate_all = [&]() {
+    int added = 0;
+    for (int p = 0; p < np; ++p) {
+      if (res.point_valid[p]) continue;
+      std::vector<int> cams;
+      std::vector<cv::Vec2d> xs;
+      for (int c = 0; c < nc; ++c)
+        if (res.registered[c] && at[c][p] >= 0 && !res.outlier[at[c][p]])
+          cams.push_back(c), xs.push_back(xn[at[c][p]]);
+      cv::Vec3d X;
+      while (cams.size() >= 2) {
+        if (triangulate(poses, cams, xs, thr, X)) {
+          res.points[p] = X;
+          res.point_valid[p] = true;
+          ++added;
+          break;
+        }
+        // Drop the view that disagrees most with the others' estimate.
+        size_t worst = 0;
+        double werr = -1;
+        for (size_t k = 0; k < cams.size(); ++k) {
+          std::vector<int> c2 = cams;
+          std::vector<cv::Vec2d> x2 = xs;
+          c2.erase(c2.begin() + static_cast<long>(k));
+          x2.erase(x2.begin() + static_cast<long>(k));
+          cv::Vec3d Y;
+          if (c2.size() >= 2 && triangulate(poses, c2, x2, 1e9, Y)) {
+            const cv::Vec3d P = poses[cams[k]].R * Y + poses[cams[k]].t;
+            const double e = P[2] > 0 ? cv::norm(cv::Vec2d(P[0] / P[2], P[1] / P[2]) - xs[k]) : 1e9;
+            if (e > werr) werr = e, worst = k;
+          }
+        }
+        cams.erase(cams.begin() + static_cast<long>(worst));
+        xs.erase(xs.begin() + static_cast<long>(worst));
+      }
+    }
+    return added;
+  };
+  triangulate_all();
+
+  // Bundle adjustment of poses and points (intrinsics fixed, normalized
+  // observations scaled to pixels), Huber loss.
+  auto refine_structure = [&](int fixed) {
+    ceres::Problem pr;
+    std::vector<std::array<double, 6>> blocks(nc);
+    for (int c = 0; c < nc; ++c) blocks[c] = to_block(poses[c]);
+    std::array<double, 3> pinhole = {zhang.fx, 0, 0};  // normalized data: no distortion
+    for (size_t i = 0; i < obs.size(); ++i) {
+      const int c = obs[i].camera, p = obs[i].point;
+      if (!usable[i] || res.outlier[i] || !res.registered[c] || !res.point_valid[p]) continue;
+      const cv::Vec2d px(xn[i][0] * zhang.fx, xn[i][1] * zhang.fx);
+      pr.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<PixelError, 2, 6, 3, 3>(new PixelError(px, 0, 0)),
+          new ceres::HuberLoss(o.huber_px), blocks[c].data(), pinhole.data(), res.points[p].val);
+      pr.SetParameterBlockConstant(pinhole.data());
+    }
+    if (pr.NumResidualBlocks() == 0) return;
+    pr.SetParameterBlockConstant(blocks[fixed].data());
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::SPARSE_SCHUR;
+    so.max_num_iterations = 50;
+    so.num_threads = o.threads;
+    ceres::Solver::Summary s;
+    ceres::Solve(so, &pr, &s);
+    for (int c = 0; c < nc; ++c)
+      if (res.registered[c]) poses[c] = from_block(blocks[c]);
+  };
+  refine_structure(a);
+
+  // ---- register the other cameras by PnP ---------------------------------------
+  for (int round = 0;; ++round) {
+    int next = -1, most = 0;
+    for (int c = 0; c < nc; ++c) {
+      if (res.registered[c]) continue;
+      int n = 0;
+      for (int p = 0; p < np; ++p) n += at[c][p] >= 0 && res.point_valid[p];
+      if (n > most) most = n, next = c;
+    }
+    if (next < 0 || most < o.min_camera_points) break;
+    std::vector<cv::Point3d> X;
+    std::vector<cv::Point2d> x;
+    std::vector<int> which;
+    for (int p = 0; p < np; ++p)
+      if (at[next][p] >= 0 && res.point_valid[p]) {
+        X.emplace_back(res.points[p][0], res.points[p][1], res.points[p][2]);
+        x.emplace_back(xn[at[next][p]][0], xn[at[next][p]][1]);
+        which.push_back(at[next][p]);
+      }
+    cv::Mat rvec, tvec;
+    std::vector<int> inl;
+    const bool ok = cv::solvePnPRansac(X, x, cv::Mat::eye(3, 3, CV_64F), cv::Mat(), rvec, tvec,
+                                       false, 500, thr, 0.999, inl, cv::SOLVEPNP_EPNP);
+    if (!ok || static_cast<int>(inl.size()) < o.min_camera_points) {
+      res.warnings.push_back("camera " + std::to_string(cameras[next].id) +
+                             ": PnP failed; not registered");
+      at[next].assign(np, -1);  // do not try again
+      continue;
+    }
+    std::vector<cv::Point3d> Xi;
+    std::vector<cv::Point2d> xi;
+    for (int k : inl) Xi.push_back(X[k]), xi.push_back(x[k]);
+    cv::solvePnP(Xi, xi, cv::Mat::eye(3, 3, CV_64F), cv::Mat(), rvec, tvec, true,
+                 cv::SOLVEPNP_ITERATIVE);
+    cv::Matx33d R;
+    cv::Rodrigues(rvec, R);
+    poses[next].R = R;
+    poses[next].t = cv::Vec3d(tvec);
+    res.registered[next] = true;
+    triangulate_all();
+    if (round % 8 == 7) refine_structure(a);
+  }
+  refine_structure(a);
+  int nreg = 0, npts = 0;
+  for (int c = 0; c < nc; ++c) nreg += res.registered[c];
+  for (int p = 0; p < np; ++p) npts += res.point_valid[p];
+  log << "registered " << nreg << " of " << nc << " cameras, " << npts << " of " << np
+      << " light positions triangulated\n";
+  for (int c = 0; c < nc; ++c)
+    if (!res.registered[c])
+      res.warnings.push_back("camera " + std::to_string(cameras[c].id) + " (" + cameras[c].name +
+                             ") sees too few light positions: not calibrated");
+  if (npts < o.min_points)
+    return degenerate("only " + std::to_string(npts) + " light positions reconstructed (need " +
+                      std::to_string(o.min_points) + ")");
+  {  // The light swept in one plane (caught late if the pair check passed).
+    cv::Mat pts(npts, 3, CV_64F);
+    int k = 0;
+    for (int p = 0; p < np; ++p) {
+      if (!res.point_valid[p]) continue;
+      for (int j = 0; j < 3; ++j) pts.at<double>(k, j) = res.points[p][j];
+      ++k;
+    }
+    cv::PCA pca(pts, cv::Mat(), cv::PCA::DATA_AS_ROW);
+    const double ratio = std::sqrt(pca.eigenvalues.at<double>(2) / pca.eigenvalues.at<double>(0));
+    log << "light positions: thinnest / widest extent " << ratio << "\n";
+    if (ratio < 0.02) return degenerate("the light positions lie in one plane");
+  }
+
+  // ---- refinement: poses, intrinsics, points -------------------------------------
+  const bool shared = o.f_prior <= 0;
+  std::vector<std::array<double, 6>> pblocks(nc);
+  std::vector<std::array<double, 3>> iblocks(shared ? 1 : nc);
+  for (int c = 0; c < nc; ++c) pblocks[c] = to_block(poses[c]);
+  for (auto& ib : iblocks) ib = {zhang.fx, zhang.k1, zhang.k2};
+  // Gauge: camera a fixed; scale: the largest translation component of the
+  // registered camera farthest from a.
+  int far = b;
+  for (int c = 0; c < nc; ++c)
+    if (res.registered[c] && cv::norm(poses[c].t) > cv::norm(poses[far].t)) far = c;
+  int comp = 0;
+  for (int j = 1; j < 3; ++j)
+    if (std::abs(poses[far].t[j]) > std::abs(poses[far].t[comp])) comp = j;
+  std::vector<bool> active(obs.size(), false);
+  for (size_t i = 0; i < obs.size(); ++i)
+    active[i] = usable[i] && res.registered[obs[i].camera] && res.point_valid[obs[i].point];
+  std::vector<double> resid(obs.size(), -1);
+  double prior_count = 0;
+  auto solve = [&](bool robust, const std::vector<bool>& use, ceres::Problem* keep) {
+    ceres::Problem local;
+    ceres::Problem& pr = keep ? *keep : local;
+    std::vector<ceres::ResidualBlockId> ids(obs.size());
+    for (size_t i = 0; i < obs.size(); ++i) {
+      if (!use[i]) continue;
+      const int c = obs[i].camera;
+      ids[i] = pr.AddResidualBlock(new ceres::AutoDiffCostFunction<PixelError, 2, 6, 3, 3>(
+                                       new PixelError(obs[i].pixel, zhang.cx, zhang.cy)),
+                                   robust ? new ceres::HuberLoss(o.huber_px) : nullptr,
+                                   pblocks[c].data(), iblocks[shared ? 0 : c].data(),
+                                   res.points[obs[i].point].val);
+    }
+    prior_count = 0;
+    if (!shared)
+      for (int c = 0; c < nc; ++c)
+        if (res.registered[c]) {
+          pr.AddResidualBlock(new ceres::AutoDiffCostFunction<IntrinsicsPrior, 3, 3>(
+                                  new IntrinsicsPrior(zhang, o.f_prior * zhang.fx, o.k_prior)),
+                              nullptr, iblocks[c].data());
+          prior_count += 3;
+        }
+    pr.SetParameterBlockConstant(pblocks[a].data());
+    pr.SetManifold(pblocks[far].data(), new ceres::SubsetManifold(6, {3 + comp}));
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::SPARSE_SCHUR;
+    so.max_num_iterations = 100;
+    so.function_tolerance = 1e-10;
+    so.num_threads = o.threads;
+    ceres::Solver::Summary s;
+    ceres::Solve(so, &pr, &s);
+    log << (robust ? "refinement (Huber " : "final least squares (") << o.huber_px
+        << " px): " << s.BriefReport() << "\n";
+    for (size_t i = 0; i < obs.size(); ++i) {
+      if (!active[i]) continue;
+      const int c = obs[i].camera;
+      const PixelError e(obs[i].pixel, zhang.cx, zhang.cy);
+      double r[2];
+      e(pblocks[c].data(), iblocks[shared ? 0 : c].data(), res.points[obs[i].point].val, r);
+      resid[i] = std::hypot(r[0], r[1]);
+    }
+  };
+  solve(true, active, nullptr);
+  // Outliers: residual norm above the threshold (robust sigma from the MAD).
+  std::vector<double> comps;
+  for (size_t i = 0; i < obs.size(); ++i)
+    if (active[i]) comps.push_back(resid[i]);
+  // The norm of a 2-D Gaussian error is Rayleigh: median = sigma sqrt(2 ln 2).
+  const double sigma = median(comps) / std::sqrt(2 * std::log(2.0));
+  const double cut = o.outlier_px > 0 ? o.outlier_px : std::max(1.5, 5 * sigma);
+  std::vector<bool> inlier = active;
+  int nout = 0;
+  for (size_t i = 0; i < obs.size(); ++i)
+    if (active[i] && resid[i] > cut) inlier[i] = false, res.outlier[i] = true, ++nout;
+  log << "outliers: " << nout << " observations with residual > " << cut << " px (robust sigma "
+      << sigma << " px)\n";
+  ceres::Problem final_problem;
+  solve(false, inlier, &final_problem);
+  // Residuals after the final solve.
+  double se = 0;
+  size_t n_in = 0;
+  std::vector<double> cam_se(nc, 0);
+  for (size_t i = 0; i < obs.size(); ++i) {
+    if (!active[i]) continue;
+    res.outlier[i] = resid[i] > cut;
+    if (res.outlier[i]) continue;
+    se += resid[i] * resid[i];
+    cam_se[obs[i].camera] += resid[i] * resid[i];
+    res.camera_observations[obs[i].camera]++;
+    ++n_in;
+  }
+  res.rms_px = std::sqrt(se / (2.0 * n_in));
+  for (int c = 0; c < nc; ++c)
+    if (res.camera_observations[c])
+      res.camera_rms_px[c] = std::sqrt(cam_se[c] / (2.0 * res.camera_observations[c]));
+  const double params = 6.0 * nreg + 3.0 * npts - 7 + (shared ? 3 : 0);
+  res.noise_floor_factor = std::sqrt(std::max(0.0, (2.0 * n_in - params) / (2.0 * n_in)));
+  log << "reprojection RMS " << res.rms_px << " px per coordinate over " << n_in
+      << " observations (noise floor factor " << res.noise_floor_factor << ")\n";
+
+  // Uncertainty of the focal lengths (Ceres covariance).
+  {
+    ceres::Covariance::Options co;
+    co.num_threads = o.threads;
+    ceres::Covariance cov(co);
+    std::vector<std::pair<const double*, const double*>> blocks;
+    for (auto& ib : iblocks) blocks.emplace_back(ib.data(), ib.data());
+    bool ok = cov.Compute(blocks, &final_problem);
+    for (size_t k = 0; k < iblocks.size() && ok; ++k) {
+      double C[9];
+      ok = cov.GetCovarianceBlock(iblocks[k].data(), iblocks[k].data(), C);
+      const double sf = ok ? std::sqrt(std::max(0.0, C[0])) : -1;
+      if (shared) {
+        res.f_sigma.assign(nc, sf);
+      } else {
+        res.f_sigma[k] = sf;
+      }
+    }
+    if (shared) {
+      const double rel = res.f_sigma[0] > 0 ? res.f_sigma[0] / iblocks[0][0] : -1;
+      log << "shared focal length " << iblocks[0][0] << " px, sigma "
+          << (ok ? std::to_string(res.f_sigma[0]) : std::string("undetermined (rank deficient)"))
+          << "\n";
+      if (!ok || rel > o.max_f_sigma)
+        return degenerate(
+            "the tracks do not determine the focal length (shared f sigma " +
+            (ok ? std::to_string(100 * rel) + " %" : std::string("unbounded")) +
+            "): a planar, parallel grid leaves (f, Z) -> (s f, s Z) nearly free; hold the Zhang "
+            "camera's intrinsics or give them a prior");
+    }
+  }
+
+  // ---- output: camera a's frame -> camera zc's frame, scaled to the pitch -----------
+  for (int c = 0; c < nc; ++c) poses[c] = from_block(pblocks[c]);
+  const Pose ref = poses[zc];  // camera zc's pose in camera a's frame
+  std::vector<cv::Vec3d> centres;
+  for (int c = 0; c < nc; ++c)
+    if (res.registered[c]) centres.push_back(-(poses[c].R.t() * poses[c].t));
+  std::vector<double> nn;
+  for (size_t i = 0; i < centres.size(); ++i) {
+    double d = 1e300;
+    for (size_t j = 0; j < centres.size(); ++j)
+      if (i != j) d = std::min(d, cv::norm(centres[i] - centres[j]));
+    nn.push_back(d);
+  }
+  const double s = o.pitch / median(nn);
+  res.rig.name = "self-calibrated";
+  for (int c = 0; c < nc; ++c) {
+    Camera cam = cameras[c];
+    const auto& ib = iblocks[shared ? 0 : c];
+    cam.intrinsics = zhang;
+    cam.intrinsics.fx = cam.intrinsics.fy = ib[0];
+    cam.intrinsics.k1 = ib[1];
+    cam.intrinsics.k2 = ib[2];
+    // X_zc = R_ref X_a + t_ref; camera c: X_c = R_c X_a + t_c = R_c R_ref^T (X_zc - t_ref) + t_c
+    const cv::Matx33d R = poses[c].R * ref.R.t();
+    const cv::Vec3d t = poses[c].t - R * ref.t;
+    cam.extrinsics.R = R;
+    cam.extrinsics.t = s * t;
+    if (res.registered[c]) res.rig.cameras.push_back(cam);
+  }
+  for (int p = 0; p < np; ++p)
+    if (res.point_valid[p]) res.points[p] = s * (ref.R * res.points[p] + ref.t);
+  res.log = log.str();
+  return res;
+}
+
+SyntheticPointLight make_synthetic_point_light(const SyntheticPointLightOptions& o) {
+  SyntheticPointLight s;
+  const double vfov = 2 * std::atan(0.5 * o.height / o.f) * 180 / CV_PI;
+  s.truth = synthetic_grid_rig(o.rows, o.cols, o.pitch, o.width, o.height, vfov, o.rot_jitter_deg,
+                               o.seed);
+  s.truth.unit = "m";
+  std::mt19937_64 rng(o.seed * 7919 + 1);
+  std::uniform_real_distribution<double> uni(-1, 1), u01(0, 1);
+  std::normal_distribution<double> noise(0, o.noise_px);
+  for (Camera& c : s.truth.cameras) {
+    c.intrinsics.fx = c.intrinsics.fy = o.f * (1 + o.f_spread * uni(rng));
+    c.intrinsics.k1 = o.k1;
+    c.intrinsics.k2 = o.k2;
+  }
+  s.zhang = s.truth.cameras[0].intrinsics;
+  s.zhang.fx = s.zhang.fy = s.zhang.fx * (1 + o.zhang_f_error);
+  // Lights inside the common field of view, spread in depth.
+  const double half_w = 0.5 * (o.cols - 1) * o.pitch, half_h = 0.5 * (o.rows - 1) * o.pitch;
+  while (static_cast<int>(s.lights.size()) < o.lights) {
+    const double z = o.z_min + (o.z_max - o.z_min) * u01(rng);
+    const double ex = 0.8 * z * 0.5 * o.width / o.f, ey = 0.8 * z * 0.5 * o.height / o.f;
+    s.lights.emplace_back(uni(rng) * (ex - half_w * 0.2), uni(rng) * (ey - half_h * 0.2), z);
+  }
+  for (int p = 0; p < o.lights; ++p)
+    for (size_t c = 0; c < s.truth.cameras.size(); ++c) {
+      const auto px = s.truth.cameras[c].project(s.lights[p]);
+      if (!px || (*px)[0] < 0 || (*px)[1] < 0 || (*px)[0] > o.width - 1 || (*px)[1] > o.height - 1)
+        continue;
+      if (u01(rng) < o.dropout) continue;
+      PointObservation ob;
+      ob.camera = static_cast<int>(c);
+      ob.point = p;
+      const bool out = u01(rng) < o.outlier_fraction;
+      if (out) {  // a stray detection: anywhere at least 5 px away
+        do {
+          ob.pixel = {u01(rng) * (o.width - 1), u01(rng) * (o.height - 1)};
+        } while (cv::norm(ob.pixel - *px) < 5);
+      } else {
+        ob.pixel = *px + cv::Vec2d(noise(rng), noise(rng));
+      }
+      s.observations.push_back(ob);
+      s.is_outlier.push_back(out);
+    }
+  return s;
+}
+
+}  // namespace lf::calib

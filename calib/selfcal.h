@@ -1,0 +1,108 @@
+// Point-light self-calibration of a camera array (Yang et al. 2002, 4.4.2,
+// steps 2-4; after Svoboda et al., MultiCamSelfCal, PRESENCE 2005): a point
+// light moved through the scene is seen by the cameras; from its tracks,
+//  1. initial structure: all cameras share the intrinsics of the one camera
+//     calibrated by Zhang's method; a widely separated pair gives the first
+//     poses (essential matrix, RANSAC) and points; the other cameras are
+//     registered by PnP (RANSAC) and points triangulated as they become
+//     visible in two registered cameras;
+//  2. refinement: a Ceres bundle adjustment over every camera's pose and
+//     intrinsics (f, k1, k2; principal point held at the Zhang camera's)
+//     and the points, Huber loss, then outliers flagged and removed and a
+//     final least-squares solve; gauge: camera 0 fixed, scale fixed by one
+//     translation component of the farthest camera, then scaled to `pitch`.
+// The planar, parallel grid cannot determine the focal length from tracks
+// alone ((f, Z) -> (s f, s Z) leaves observations unchanged): per-camera f,
+// k1, k2 get priors at the Zhang camera's values. A shared, free focal length
+// is accepted only if the data determines it (Ceres covariance); otherwise
+// the result is marked degenerate. Degenerate data (too few points, the
+// light swept in one plane, cameras seeing too few points) is reported, never
+// returned as a confident rig.
+//
+// Frames: world = camera 0's frame scaled so the median distance between grid
+// neighbours is `pitch` (rig units); pixels with (0, 0) at the centre of the
+// top-left pixel; the lf::Camera model (fx = fy = f, k1, k2).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "lf/rig.h"
+
+namespace lf::calib {
+
+struct PointObservation {
+  int camera = 0;  // index into the cameras
+  int point = 0;   // light position index (capture instant)
+  cv::Vec2d pixel;
+};
+
+struct SelfCalOptions {
+  double ransac_px = 2.0;      // RANSAC threshold (essential matrix, PnP)
+  double huber_px = 1.0;       // robust loss scale in the first refinement
+  double outlier_px = 0;       // residual norm above which an observation is an
+                               // outlier; 0: 5 x the robust sigma, at least 1.5 px
+  double f_prior = 0.001;      // relative sigma of each camera's f around the Zhang
+                               // camera's; 0: one shared focal length, free
+  double k_prior = 0.005;      // sigma of k1, k2 around the Zhang camera's
+  double max_f_sigma = 0.003;  // shared free f: relative sigma above which the
+                               // focal length counts as undetermined
+  double pitch = 1.0;          // median grid-neighbour distance in the output (rig units)
+  int min_points = 30;         // fewer reconstructed points: degenerate
+  int min_camera_points = 12;  // a camera seeing fewer: not registered
+  int threads = 2;
+};
+
+struct SelfCalResult {
+  Rig rig;                        // the input cameras with poses and intrinsics
+  std::vector<cv::Vec3d> points;  // per light position (valid where point_valid)
+  std::vector<bool> point_valid;
+  std::vector<bool> outlier;      // per observation
+  std::vector<bool> registered;   // per camera
+  double rms_px = 0;              // RMS per residual coordinate, inliers
+  double noise_floor_factor = 1;  // sqrt((N - p) / N) for the final solve
+  std::vector<double> camera_rms_px;
+  std::vector<int> camera_observations;
+  std::vector<double> f_sigma;  // per camera (pixels; Ceres covariance; -1 if not computed)
+  bool degenerate = false;
+  std::string degenerate_reason;
+  std::vector<std::string> warnings;
+  std::string log;  // progress and decisions, one line each
+};
+
+// cameras: the array's cameras (id, name, size; the rest is ignored);
+// zhang_camera: index of the camera whose intrinsics `zhang` were measured by
+// Zhang's method; observations: the tracks. Throws std::invalid_argument on
+// malformed input (indices out of range, no observations).
+SelfCalResult self_calibrate(const std::vector<Camera>& cameras, int zhang_camera,
+                             const Intrinsics& zhang,
+                             const std::vector<PointObservation>& observations,
+                             const SelfCalOptions& options = {});
+
+// Synthetic point-light data for tests and benchmarks: the true rig, the
+// light positions and the (noisy, partly outlying) observations.
+struct SyntheticPointLight {
+  Rig truth;
+  std::vector<cv::Vec3d> lights;
+  std::vector<PointObservation> observations;
+  std::vector<bool> is_outlier;  // per observation, the truth
+  Intrinsics zhang;              // the Zhang camera's (0) intrinsics as measured
+};
+struct SyntheticPointLightOptions {
+  int rows = 8, cols = 8;
+  double pitch = 0.1;  // metres
+  double rot_jitter_deg = 2;
+  int width = 640, height = 480;
+  double f = 600, k1 = -0.12, k2 = 0.03;
+  double f_spread = 0.002;  // relative spread of per-camera f (uniform +-)
+  int lights = 200;
+  double z_min = 1.5, z_max = 4.0;  // light depth range (metres); equal: one plane
+  double noise_px = 0.3;
+  double outlier_fraction = 0.03;
+  double dropout = 0.05;          // observations missing at random
+  double zhang_f_error = 0.0005;  // relative error of the Zhang camera's f
+  uint64_t seed = 1;
+};
+SyntheticPointLight make_synthetic_point_light(const SyntheticPointLightOptions& o);
+
+}  // namespace lf::calib
