@@ -103,6 +103,42 @@ bool triangulate(const std::vector<Pose>& poses, const std::vector<int>& cams,
   return true;
 }
 
+// Rows and columns from the camera centres in the reference camera's frame
+// (its x and y axes run along the grid): coordinates cluster where the gaps
+// between sorted values exceed half the pitch.
+void assign_grid(Rig& rig, double pitch, std::vector<std::string>& warnings) {
+  const int n = static_cast<int>(rig.cameras.size());
+  auto clusters = [&](int axis, std::vector<int>& label) {
+    std::vector<int> order(n);
+    std::iota(order.begin(), order.end(), 0);
+    auto coord = [&](int i) { return rig.cameras[i].center()[axis]; };
+    std::sort(order.begin(), order.end(), [&](int x, int y) { return coord(x) < coord(y); });
+    label.assign(n, 0);
+    int k = 0;
+    for (int i = 1; i < n; ++i) {
+      if (coord(order[i]) - coord(order[i - 1]) > 0.5 * pitch) ++k;
+      label[order[i]] = k;
+    }
+    return k + 1;
+  };
+  std::vector<int> row, col;
+  const int rows = clusters(1, row), cols = clusters(0, col);
+  std::vector<int> cells(static_cast<size_t>(rows) * cols, -1);
+  for (int i = 0; i < n; ++i) {
+    int& cell = cells[static_cast<size_t>(row[i]) * cols + col[i]];
+    if (cell >= 0) {
+      warnings.push_back("cameras " + std::to_string(rig.cameras[cell].id) + " and " +
+                         std::to_string(rig.cameras[i].id) +
+                         " fall into the same grid cell: no grid topology written");
+      return;
+    }
+    cell = i;
+  }
+  rig.grid.rows = rows;
+  rig.grid.cols = cols;
+  rig.grid.cells = cells;
+}
+
 }  // namespace
 
 SelfCalResult self_calibrate(const std::vector<Camera>& cameras, int zc, const Intrinsics& zhang,
@@ -426,6 +462,7 @@ SelfCalResult self_calibrate(const std::vector<Camera>& cameras, int zc, const I
     ++n_in;
   }
   res.rms_px = std::sqrt(se / (2.0 * n_in));
+  res.residual_px = resid;
   for (int c = 0; c < nc; ++c)
     if (res.camera_observations[c])
       res.camera_rms_px[c] = std::sqrt(cam_se[c] / (2.0 * res.camera_observations[c]));
@@ -497,6 +534,13 @@ SelfCalResult self_calibrate(const std::vector<Camera>& cameras, int zc, const I
   }
   for (int p = 0; p < np; ++p)
     if (res.point_valid[p]) res.points[p] = s * (ref.R * res.points[p] + ref.t);
+  assign_grid(res.rig, o.pitch, res.warnings);
+  res.rig.finalize();
+  log << "topology: "
+      << (res.rig.grid.empty() ? std::string("no regular grid")
+                               : std::to_string(res.rig.grid.rows) + " x " +
+                                     std::to_string(res.rig.grid.cols) + " grid")
+      << "\n";
   res.log = log.str();
   return res;
 }

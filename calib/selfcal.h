@@ -57,10 +57,11 @@ struct SelfCalResult {
   Rig rig;                        // the input cameras with poses and intrinsics
   std::vector<cv::Vec3d> points;  // per light position (valid where point_valid)
   std::vector<bool> point_valid;
-  std::vector<bool> outlier;      // per observation
-  std::vector<bool> registered;   // per camera
-  double rms_px = 0;              // RMS per residual coordinate, inliers
-  double noise_floor_factor = 1;  // sqrt((N - p) / N) for the final solve
+  std::vector<bool> outlier;        // per observation
+  std::vector<double> residual_px;  // per observation: reprojection error norm (-1: unused)
+  std::vector<bool> registered;     // per camera
+  double rms_px = 0;                // RMS per residual coordinate, inliers
+  double noise_floor_factor = 1;    // sqrt((N - p) / N) for the final solve
   std::vector<double> camera_rms_px;
   std::vector<int> camera_observations;
   std::vector<double> f_sigma;  // per camera (pixels; Ceres covariance; -1 if not computed)
