@@ -10,8 +10,10 @@
 #include <fstream>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
+#include <random>
 
 #include "calib/bundle.h"
+#include "calib/colour.h"
 #include "calib/intrinsics.h"
 #include "calib/selfcal.h"
 #include "calib/tracking.h"
@@ -385,13 +387,32 @@ TEST(SelfCal, EndToEndFromSimulatedVideosToRenders) {
       w.write(lf::calib::render_point_light(data.truth.cameras[c], data.lights[p], 1.2, 200, 1,
                                             c * 1000 + p + 1));
   }
+  // Colour samples of a shared target: random gains and offsets; camera 3's
+  // red control stuck (gain 0.3).
+  {
+    std::ofstream csv(dir / "colour.csv");
+    std::mt19937_64 rng(9);
+    std::uniform_real_distribution<double> u(0, 1);
+    std::vector<cv::Vec3d> target;
+    for (int k = 0; k < 40; ++k)
+      target.push_back({30 + 190 * u(rng), 30 + 190 * u(rng), 30 + 190 * u(rng)});
+    for (int c = 0; c < 16; ++c) {
+      cv::Vec3d g(0.85 + 0.3 * u(rng), 0.85 + 0.3 * u(rng), 0.85 + 0.3 * u(rng));
+      if (c == 3) g[0] = 0.3;
+      const cv::Vec3d b(-10 + 20 * u(rng), -10 + 20 * u(rng), -10 + 20 * u(rng));
+      for (const auto& t : target)
+        csv << c << "," << g[0] * t[0] + b[0] << "," << g[1] * t[1] + b[1] << ","
+            << g[2] * t[2] + b[2] << "\n";
+    }
+  }
   const lf::Intrinsics& z = data.zhang;
   char cmd[1024];
   std::snprintf(cmd, sizeof cmd,
                 "%s/lf-calibrate --tracks %s --zhang-intrinsics %.9g,%.9g,%.9g,%.9g,%.9g "
-                "--pitch %g --unit m --out %s > %s 2>&1",
+                "--pitch %g --unit m --colour-samples %s --out %s > %s 2>&1",
                 LF_TOOLS_DIR, (dir / "tracks").c_str(), z.fx, z.cx, z.cy, z.k1, z.k2, so.pitch,
-                (dir / "rig.json").c_str(), (dir / "log.txt").c_str());
+                (dir / "colour.csv").c_str(), (dir / "rig.json").c_str(),
+                (dir / "log.txt").c_str());
   const int rc = std::system(cmd);
   {
     std::ifstream log(dir / "log.txt");
@@ -402,6 +423,8 @@ TEST(SelfCal, EndToEndFromSimulatedVideosToRenders) {
     EXPECT_TRUE(std::filesystem::exists(dir / f)) << f;
   lf::Rig est = lf::load_rig((dir / "rig.json").string());
   ASSERT_EQ(est.cameras.size(), 16u);
+  for (const auto& c : est.cameras)  // colour corrections in the rig, the defective camera left out
+    EXPECT_EQ(c.has_colour_correction(), c.id != 3) << c.id;
   // Into the true rig's frame (the calibrated frame is camera 0's, scaled to
   // the pitch).
   double s;
@@ -437,4 +460,53 @@ TEST(SelfCal, EndToEndFromSimulatedVideosToRenders) {
   EXPECT_GT(p_true, 25.0);
   EXPECT_GT(p_est, p_true - 0.5);
   std::filesystem::remove_all(dir);
+}
+
+TEST(Colour, DeltaE2000MatchesSharmasTestData) {
+  // Sharma, Wu, Dalal (2005), Table 1, pairs 1, 7, 14, 17.
+  EXPECT_NEAR(lf::calib::delta_e2000({50, 2.6772, -79.7751}, {50, 0, -82.7485}), 2.0425, 1e-4);
+  EXPECT_NEAR(lf::calib::delta_e2000({50, 0, 0}, {50, -1, 2}), 2.3669, 1e-4);
+  EXPECT_NEAR(lf::calib::delta_e2000({50, 2.5, 0}, {61, -5, 29}), 22.8977, 1e-4);
+  EXPECT_NEAR(lf::calib::delta_e2000({50, 2.5, 0}, {73, 25, -18}), 27.1492, 1e-4);
+  const cv::Vec3d white = lf::calib::srgb_to_lab({255, 255, 255});
+  EXPECT_NEAR(white[0], 100.0, 1e-3);
+  EXPECT_NEAR(white[1], 0.0, 1e-2);
+}
+
+TEST(Colour, CamerasAreCorrectedAndADefectiveOneIsFlagged) {
+  // 16 cameras see 64 shared colour samples through random gains (+-15 %),
+  // offsets (+-12 levels) and channel crosstalk (+-6 %), with 0.5 levels of
+  // noise; camera 5's blue control is stuck (gain 0.35).
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::normal_distribution<double> noise(0, 0.5);
+  std::vector<cv::Vec3d> truth;
+  for (int k = 0; k < 64; ++k)
+    truth.push_back({25 + 205 * u(rng), 25 + 205 * u(rng), 25 + 205 * u(rng)});
+  std::vector<std::vector<cv::Vec3d>> samples(16);
+  for (int c = 0; c < 16; ++c) {
+    cv::Matx33d A;
+    cv::Vec3d b;
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) A(i, j) = i == j ? 0.85 + 0.3 * u(rng) : -0.06 + 0.12 * u(rng);
+      b[i] = -12 + 24 * u(rng);
+    }
+    if (c == 5) A(2, 2) = 0.35;
+    for (const auto& t : truth) {
+      cv::Vec3d m = A * t + b;
+      for (int i = 0; i < 3; ++i) m[i] = std::clamp(std::round(m[i] + noise(rng)), 0.0, 255.0);
+      samples[c].push_back(m);
+    }
+  }
+  const auto r = lf::calib::calibrate_colours(samples);
+  std::printf("%s", r.report.c_str());
+  for (int c = 0; c < 16; ++c)
+    EXPECT_EQ(r.cameras[c].defective, c == 5) << c << ": " << r.cameras[c].why;
+  EXPECT_GT(r.mean_delta_e_before, 3.0);
+  EXPECT_LT(r.mean_delta_e_after, 1.0);
+  // Crosstalk is present: the affine model is chosen for most cameras.
+  int affine = 0;
+  for (const auto& cc : r.cameras) affine += cc.model == lf::calib::ColourModel::kAffine;
+  EXPECT_GE(affine, 12);
+  EXPECT_THROW(lf::calib::calibrate_colours({{{1, 2, 3}}}), std::invalid_argument);
 }

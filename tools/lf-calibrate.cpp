@@ -11,6 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "calib/colour.h"
 #include "calib/intrinsics.h"
 #include "calib/selfcal.h"
 #include "calib/tracking.h"
@@ -37,6 +38,10 @@ usage: lf-calibrate --tracks DIR (--zhang DIR --square S | --zhang-intrinsics F,
   --unit NAME           length unit written to the rig file (default "unit")
   --f-prior REL         sigma of each camera's f around the Zhang camera's, relative
                         (default 0.001; 0: one shared free f, accepted only if determined)
+  --colour-samples CSV  colour calibration: lines "camera,r,g,b" (8-bit RGB of shared target
+                        patches or scene points, in the same sample order for every camera);
+                        corrections against the array median go into the rig file, cameras
+                        with implausible corrections are flagged and left uncorrected
   --report DIR          report.txt, residuals.png, histogram.png, layout.png (default: next
                         to the rig file)
   --out FILE            the rig file
@@ -99,10 +104,11 @@ void layout_plot(const std::string& file, const lf::Rig& rig) {
 int main(int argc, char** argv) {
   if (cli::help_requested(argc, argv, kHelp)) return 0;
   try {
-    const cli::Args args(argc, argv,
-                         {"--tracks", "--zhang", "--square", "--pattern", "--zhang-intrinsics",
-                          "--zhang-camera", "--pitch", "--unit", "--f-prior", "--report", "--out"},
-                         {});
+    const cli::Args args(
+        argc, argv,
+        {"--tracks", "--zhang", "--square", "--pattern", "--zhang-intrinsics", "--zhang-camera",
+         "--pitch", "--unit", "--f-prior", "--report", "--out", "--colour-samples"},
+        {});
     if (!args.has("--tracks") || !args.has("--out"))
       throw std::invalid_argument("--tracks and --out are required (see --help)");
     std::vector<std::string> sources;
@@ -200,6 +206,35 @@ int main(int argc, char** argv) {
     }
     lf::Rig rig = r.rig;
     rig.unit = args.get("--unit", "unit");
+    if (args.has("--colour-samples")) {
+      std::ifstream in(args.get("--colour-samples"));
+      if (!in) throw std::runtime_error("cannot read " + args.get("--colour-samples"));
+      std::vector<std::vector<cv::Vec3d>> samples(cams.size());
+      std::string line;
+      int ln = 0;
+      while (std::getline(in, line)) {
+        ++ln;
+        if (line.empty() || line[0] == '#') continue;
+        const auto v = cli::parse_numbers(line, "colour sample line " + std::to_string(ln));
+        if (v.size() != 4 || v[0] < 0 || v[0] >= cams.size())
+          throw std::invalid_argument("--colour-samples line " + std::to_string(ln) +
+                                      ": expected camera,r,g,b with a camera index < " +
+                                      std::to_string(cams.size()));
+        samples[static_cast<size_t>(v[0])].push_back({v[1], v[2], v[3]});
+      }
+      const auto col = lf::calib::calibrate_colours(samples);
+      rep << "\n## Colour (deltaE2000 against the array median)\n" << col.report;
+      for (auto& cam : rig.cameras) {
+        const auto& cc = col.cameras[static_cast<size_t>(cam.id)];
+        if (cc.defective)
+          std::fprintf(stderr,
+                       "warning: camera %d: implausible colour correction (%s): left "
+                       "uncorrected\n",
+                       cam.id, cc.why.c_str());
+        else
+          cam.colour = cc.correction;
+      }
+    }
     lf::save_rig(rig, out);
     // Plots.
     std::vector<double> hist(30, 0);
