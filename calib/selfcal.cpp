@@ -8,6 +8,7 @@
 #include <map>
 #include <numeric>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <sstream>
 #include <stdexcept>
@@ -369,6 +370,36 @@ SelfCalResult self_calibrate(const std::vector<Camera>& cameras, int zc, const I
     const double ratio = std::sqrt(pca.eigenvalues.at<double>(2) / pca.eigenvalues.at<double>(0));
     log << "light positions: thinnest / widest extent " << ratio << "\n";
     if (ratio < 0.02) return degenerate("the light positions lie in one plane");
+  }
+
+  {  // Coverage: the convex hull of each camera's observations, as a fraction
+     // of its image (distortion is only pinned where the light went).
+    std::vector<double> cover(nc, 0);
+    for (int c = 0; c < nc; ++c) {
+      if (!res.registered[c]) continue;
+      std::vector<cv::Point2f> pts;
+      for (int p = 0; p < np; ++p)
+        if (at[c][p] >= 0 && res.point_valid[p])
+          pts.emplace_back(static_cast<float>(obs[at[c][p]].pixel[0]),
+                           static_cast<float>(obs[at[c][p]].pixel[1]));
+      if (pts.size() < 3) continue;
+      std::vector<cv::Point2f> hull;
+      cv::convexHull(pts, hull);
+      cover[c] =
+          cv::contourArea(hull) / (static_cast<double>(cameras[c].width) * cameras[c].height);
+      if (cover[c] < 0.25)
+        res.warnings.push_back("camera " + std::to_string(cameras[c].id) + ": the light covered " +
+                               std::to_string(static_cast<int>(100 * cover[c])) +
+                               " % of the image (distortion poorly pinned)");
+    }
+    std::vector<double> reg;
+    for (int c = 0; c < nc; ++c)
+      if (res.registered[c]) reg.push_back(cover[c]);
+    const double med = median(reg);
+    log << "image coverage of the tracks: median " << static_cast<int>(100 * med) << " %\n";
+    if (med < 0.1)
+      return degenerate("the tracks cover a median " + std::to_string(static_cast<int>(100 * med)) +
+                        " % of the images: move the light through the whole field of view");
   }
 
   // ---- refinement: poses, intrinsics, points -------------------------------------

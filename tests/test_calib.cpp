@@ -316,6 +316,22 @@ TEST(SelfCal, LightSweptInOnePlaneIsDegenerate) {
   EXPECT_NE(r.degenerate_reason.find("plane"), std::string::npos) << r.degenerate_reason;
 }
 
+TEST(SelfCal, TracksNotCoveringTheImagesAreDegenerate) {
+  // The light stays in a narrow cone in front of the array's centre.
+  lf::calib::SyntheticPointLightOptions so;
+  so.lights = 1500;
+  auto data = lf::calib::make_synthetic_point_light(so);
+  std::vector<lf::calib::PointObservation> kept;
+  for (const auto& ob : data.observations) {
+    const cv::Vec3d& L = data.lights[ob.point];
+    if (std::abs(L[0] / L[2]) < 0.06 && std::abs(L[1] / L[2]) < 0.06) kept.push_back(ob);
+  }
+  const auto r = lf::calib::self_calibrate(data.truth.cameras, 0, data.zhang, kept);
+  std::printf("%s", r.log.c_str());
+  EXPECT_TRUE(r.degenerate);
+  EXPECT_NE(r.degenerate_reason.find("cover"), std::string::npos) << r.degenerate_reason;
+}
+
 TEST(SelfCal, TooFewPointsIsDegenerate) {
   lf::calib::SyntheticPointLightOptions so;
   so.lights = 12;
