@@ -167,6 +167,9 @@ SelfCalResult self_calibrate(const std::vector<Camera>& cameras, int zc, const I
   res.camera_rms_px.assign(nc, 0);
   res.camera_observations.assign(nc, 0);
   res.f_sigma.assign(nc, -1);
+  res.intrinsics_sigma.assign(nc, cv::Vec3d(-1, -1, -1));
+  res.rotation_sigma_deg.assign(nc, -1);
+  res.translation_sigma.assign(nc, -1);
   auto degenerate = [&](const std::string& why) {
     res.degenerate = true;
     res.degenerate_reason = why;
@@ -502,23 +505,41 @@ SelfCalResult self_calibrate(const std::vector<Camera>& cameras, int zc, const I
   log << "reprojection RMS " << res.rms_px << " px per coordinate over " << n_in
       << " observations (noise floor factor " << res.noise_floor_factor << ")\n";
 
-  // Uncertainty of the focal lengths (Ceres covariance).
+  // Parameter uncertainties (Ceres covariance, gauge fixed as above):
+  // intrinsics f, k1, k2, and each pose's rotation and translation.
+  std::vector<double> t_sigma(nc, -1);
   {
     ceres::Covariance::Options co;
     co.num_threads = o.threads;
     ceres::Covariance cov(co);
     std::vector<std::pair<const double*, const double*>> blocks;
     for (auto& ib : iblocks) blocks.emplace_back(ib.data(), ib.data());
+    for (int c = 0; c < nc; ++c)
+      if (res.registered[c] && c != a) blocks.emplace_back(pblocks[c].data(), pblocks[c].data());
     bool ok = cov.Compute(blocks, &final_problem);
     for (size_t k = 0; k < iblocks.size() && ok; ++k) {
       double C[9];
       ok = cov.GetCovarianceBlock(iblocks[k].data(), iblocks[k].data(), C);
-      const double sf = ok ? std::sqrt(std::max(0.0, C[0])) : -1;
+      const cv::Vec3d sd(std::sqrt(std::max(0.0, C[0])), std::sqrt(std::max(0.0, C[4])),
+                         std::sqrt(std::max(0.0, C[8])));
       if (shared) {
-        res.f_sigma.assign(nc, sf);
+        res.f_sigma.assign(nc, ok ? sd[0] : -1);
+        res.intrinsics_sigma.assign(nc, sd);
       } else {
-        res.f_sigma[k] = sf;
+        res.f_sigma[k] = ok ? sd[0] : -1;
+        res.intrinsics_sigma[k] = sd;
       }
+    }
+    for (int c = 0; c < nc && ok; ++c) {
+      if (!res.registered[c]) continue;
+      if (c == a) {
+        res.rotation_sigma_deg[c] = 0, t_sigma[c] = 0;  // the gauge
+        continue;
+      }
+      double C[36];
+      if (!cov.GetCovarianceBlock(pblocks[c].data(), pblocks[c].data(), C)) continue;
+      res.rotation_sigma_deg[c] = std::sqrt(std::max(0.0, C[0] + C[7] + C[14])) * 180 / CV_PI;
+      t_sigma[c] = std::sqrt(std::max(0.0, C[21] + C[28] + C[35]));
     }
     if (shared) {
       const double rel = res.f_sigma[0] > 0 ? res.f_sigma[0] / iblocks[0][0] : -1;
@@ -548,6 +569,8 @@ SelfCalResult self_calibrate(const std::vector<Camera>& cameras, int zc, const I
     nn.push_back(d);
   }
   const double s = o.pitch / median(nn);
+  for (int c = 0; c < nc; ++c)
+    if (t_sigma[c] >= 0) res.translation_sigma[c] = s * t_sigma[c];
   res.rig.name = "self-calibrated";
   for (int c = 0; c < nc; ++c) {
     Camera cam = cameras[c];

@@ -64,7 +64,14 @@ struct SelfCalResult {
   double noise_floor_factor = 1;    // sqrt((N - p) / N) for the final solve
   std::vector<double> camera_rms_px;
   std::vector<int> camera_observations;
-  std::vector<double> f_sigma;  // per camera (pixels; Ceres covariance; -1 if not computed)
+  // One standard deviation per camera (Ceres covariance; -1 if not computed),
+  // in the solve's gauge (the initial pair's first camera fixed, scale fixed
+  // by one translation component), so pose sigmas grow with the distance
+  // from that camera:
+  std::vector<double> f_sigma;              // f, pixels
+  std::vector<cv::Vec3d> intrinsics_sigma;  // f (pixels), k1, k2
+  std::vector<double> rotation_sigma_deg;   // of the rotation vector (norm of the 3 sigmas)
+  std::vector<double> translation_sigma;    // of t, output units (norm of the 3 sigmas)
   bool degenerate = false;
   std::string degenerate_reason;
   std::vector<std::string> warnings;

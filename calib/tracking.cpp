@@ -100,7 +100,13 @@ namespace {
 class FrameReader {
  public:
   explicit FrameReader(const std::string& src) : src_(src) {
-    if (std::filesystem::is_directory(src)) {
+    if (src.rfind("gst:", 0) == 0) {  // a live (or any) GStreamer source
+      std::string desc = src.substr(4);
+      if (desc.find("appsink") == std::string::npos)
+        desc += " ! videoconvert ! video/x-raw,format=BGR ! appsink sync=false";
+      if (!cap_.open(desc, cv::CAP_GSTREAMER))
+        throw std::runtime_error("track: cannot start GStreamer source '" + desc + "'");
+    } else if (std::filesystem::is_directory(src)) {
       for (const auto& e : std::filesystem::directory_iterator(src)) {
         const std::string ext = e.path().extension().string();
         if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tif" || ext == ".tiff" ||

@@ -43,10 +43,14 @@ struct TrackStats {
   cv::Size image_size;
 };
 
-// Frame sources: a folder of images (sorted by name) or a video file
-// (OpenCV's VideoCapture). Observations for camera k come from sources[k],
-// point index = frame index. Throws std::runtime_error naming a source that
-// cannot be read or whose frame size changes.
+// Frame sources: a folder of images (sorted by name), a video file (OpenCV's
+// VideoCapture), or "gst:PIPELINE", a GStreamer source description (a live
+// camera, e.g. "gst:v4l2src device=/dev/video0 num-buffers=300"; converted
+// to BGR and read through an appsink). Frame k of every source must be the
+// same capture instant: live cameras need a common capture schedule
+// (hardware trigger, or lfcamsrc on a shared clock). Observations for camera k come from
+// sources[k], point index = frame index. Throws std::runtime_error naming a source that cannot be
+// read or whose frame size changes.
 std::vector<PointObservation> track_point_light(const std::vector<std::string>& sources,
                                                 std::vector<TrackStats>* stats = nullptr,
                                                 const SpotOptions& options = {},

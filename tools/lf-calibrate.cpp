@@ -24,11 +24,14 @@ namespace {
 
 const char* kHelp = R"(lf-calibrate: calibrate a camera array from point-light tracks -> rig file.
 
-usage: lf-calibrate --tracks DIR (--zhang DIR --square S | --zhang-intrinsics F,CX,CY,K1,K2)
+usage: lf-calibrate (--tracks DIR | --sources FILE) (--zhang DIR --square S | --zhang-intrinsics F,CX,CY,K1,K2)
                     [options] --out RIG.json
   --tracks DIR          one entry per camera, in name order: a folder of frames or a video
                         file; frame k of every camera is capture instant k (dark scene, one
                         moving point light)
+  --sources FILE        instead of --tracks: one source per line: a folder, a video file, or
+                        gst:PIPELINE (a live GStreamer source; frame k must be the same
+                        capture instant in every source)
   --zhang DIR           checkerboard images of the Zhang camera (Zhang's method, OpenCV)
   --square S            checkerboard square size (any unit)
   --pattern CxR         inner corners (default: detected)
@@ -104,18 +107,25 @@ void layout_plot(const std::string& file, const lf::Rig& rig) {
 int main(int argc, char** argv) {
   if (cli::help_requested(argc, argv, kHelp)) return 0;
   try {
-    const cli::Args args(
-        argc, argv,
-        {"--tracks", "--zhang", "--square", "--pattern", "--zhang-intrinsics", "--zhang-camera",
-         "--pitch", "--unit", "--f-prior", "--report", "--out", "--colour-samples"},
-        {});
-    if (!args.has("--tracks") || !args.has("--out"))
-      throw std::invalid_argument("--tracks and --out are required (see --help)");
+    const cli::Args args(argc, argv,
+                         {"--tracks", "--sources", "--zhang", "--square", "--pattern",
+                          "--zhang-intrinsics", "--zhang-camera", "--pitch", "--unit", "--f-prior",
+                          "--report", "--out", "--colour-samples"},
+                         {});
+    if ((!args.has("--tracks") && !args.has("--sources")) || !args.has("--out"))
+      throw std::invalid_argument("--tracks or --sources, and --out, are required (see --help)");
     std::vector<std::string> sources;
-    for (const auto& e : fs::directory_iterator(args.get("--tracks")))
-      sources.push_back(e.path().string());
-    std::sort(sources.begin(), sources.end());
-    if (sources.size() < 2) throw std::invalid_argument("--tracks: fewer than 2 cameras");
+    if (args.has("--tracks")) {
+      for (const auto& e : fs::directory_iterator(args.get("--tracks")))
+        sources.push_back(e.path().string());
+      std::sort(sources.begin(), sources.end());
+    } else {
+      std::ifstream in(args.get("--sources"));
+      if (!in) throw std::runtime_error("cannot read --sources " + args.get("--sources"));
+      for (std::string line; std::getline(in, line);)
+        if (!line.empty() && line[0] != '#') sources.push_back(line);
+    }
+    if (sources.size() < 2) throw std::invalid_argument("fewer than 2 cameras (sources)");
     const std::string out = args.get("--out");
     const std::string report_dir =
         args.get("--report",
@@ -194,14 +204,16 @@ int main(int argc, char** argv) {
                    r.degenerate_reason.c_str(), report_dir.c_str());
       return 3;
     }
-    rep << "\n| camera | observations | RMS px | f px | sigma f px | centre "
-           "|\n|---|---|---|---|---|---|\n";
+    rep << "\n| camera | observations | RMS px | f px (sigma) | k1 (sigma) | k2 (sigma) | "
+           "rotation sigma deg | centre (t sigma) |\n|---|---|---|---|---|---|---|---|\n";
     std::vector<double> cam_rms;
     for (const auto& c : r.rig.cameras) {
-      const cv::Vec3d C = c.center();
+      const cv::Vec3d C = c.center(), sd = r.intrinsics_sigma[c.id];
       rep << "| " << c.id << " | " << r.camera_observations[c.id] << " | " << r.camera_rms_px[c.id]
-          << " | " << c.intrinsics.fx << " | " << r.f_sigma[c.id] << " | " << C[0] << ", " << C[1]
-          << ", " << C[2] << " |\n";
+          << " | " << c.intrinsics.fx << " (" << sd[0] << ") | " << c.intrinsics.k1 << " (" << sd[1]
+          << ") | " << c.intrinsics.k2 << " (" << sd[2] << ") | " << r.rotation_sigma_deg[c.id]
+          << " | " << C[0] << ", " << C[1] << ", " << C[2] << " (" << r.translation_sigma[c.id]
+          << ") |\n";
       cam_rms.push_back(r.camera_rms_px[c.id]);
     }
     lf::Rig rig = r.rig;
