@@ -213,4 +213,68 @@ ArrayColour calibrate_colours(const std::vector<std::vector<cv::Vec3d>>& samples
   return r;
 }
 
+std::vector<std::vector<cv::Vec3d>> colour_samples_from_images(const Rig& rig,
+                                                               const std::vector<cv::Mat>& images,
+                                                               const FocalPlane& plane,
+                                                               int reference, int grid) {
+  if (images.size() != rig.cameras.size())
+    throw std::invalid_argument("colour_samples_from_images: " + std::to_string(images.size()) +
+                                " images for " + std::to_string(rig.cameras.size()) + " cameras");
+  if (reference < 0 || reference >= static_cast<int>(rig.cameras.size()) || grid < 2)
+    throw std::invalid_argument("colour_samples_from_images: bad reference or grid");
+  for (size_t c = 0; c < images.size(); ++c)
+    if (images[c].depth() != CV_8U || images[c].channels() < 3 ||
+        images[c].cols != rig.cameras[c].width || images[c].rows != rig.cameras[c].height)
+      throw std::invalid_argument("colour_samples_from_images: image " + std::to_string(c) +
+                                  " is not 8-bit RGB(A) of the camera's size");
+  auto mean5 = [](const cv::Mat& im, double x, double y, cv::Vec3d& out, double& spread) {
+    const int xi = static_cast<int>(std::lround(x)), yi = static_cast<int>(std::lround(y));
+    if (xi < 2 || yi < 2 || xi >= im.cols - 2 || yi >= im.rows - 2) return false;
+    cv::Vec3d s(0, 0, 0), lo(255, 255, 255), hi(0, 0, 0);
+    for (int dy = -2; dy <= 2; ++dy)
+      for (int dx = -2; dx <= 2; ++dx) {
+        const uint8_t* p = im.ptr<uint8_t>(yi + dy) + (xi + dx) * im.channels();
+        for (int k = 0; k < 3; ++k)
+          s[k] += p[k], lo[k] = std::min(lo[k], double(p[k])),
+                        hi[k] = std::max(hi[k], double(p[k]));
+      }
+    out = s / 25.0;
+    spread = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+    return true;
+  };
+  const Camera& ref = rig.cameras[reference];
+  std::vector<std::vector<cv::Vec3d>> samples(rig.cameras.size());
+  for (int gy = 0; gy < grid; ++gy)
+    for (int gx = 0; gx < grid; ++gx) {
+      const double x = (gx + 0.5) * ref.width / grid, y = (gy + 0.5) * ref.height / grid;
+      cv::Vec3d c0;
+      double spread;
+      if (!mean5(images[reference], x, y, c0, spread) || spread > 24) continue;
+      const auto ray = ref.unproject({x, y});
+      if (!ray) continue;
+      // The scene point (or direction, at infinity) on the plane.
+      cv::Vec3d X;
+      bool direction = plane.at_infinity();
+      if (!direction) {
+        const double den = plane.n.dot(*ray);
+        if (std::abs(den) < 1e-12) continue;
+        const double t = -(plane.n.dot(ref.center()) + plane.d) / den;
+        if (t <= 0) continue;
+        X = ref.center() + t * (*ray);
+      }
+      std::vector<cv::Vec3d> got;
+      for (size_t c = 0; c < rig.cameras.size(); ++c) {
+        const Camera& cam = rig.cameras[c];
+        const auto px = direction ? cam.project(cam.center() + 1e6 * (*ray)) : cam.project(X);
+        cv::Vec3d col;
+        double sp;
+        if (!px || !mean5(images[c], (*px)[0], (*px)[1], col, sp)) break;
+        got.push_back(col);
+      }
+      if (got.size() != rig.cameras.size()) continue;
+      for (size_t c = 0; c < got.size(); ++c) samples[c].push_back(got[c]);
+    }
+  return samples;
+}
+
 }  // namespace lf::calib

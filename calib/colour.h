@@ -17,6 +17,9 @@
 #include <string>
 #include <vector>
 
+#include "lf/rig.h"
+#include "lf/view.h"
+
 namespace lf::calib {
 
 // sRGB (8-bit levels, D65) -> CIE L*a*b*.
@@ -57,5 +60,18 @@ struct ArrayColour {
 ArrayColour calibrate_colours(const std::vector<std::vector<cv::Vec3d>>& samples,
                               const std::vector<cv::Vec3d>& reference = {},
                               const ColourOptions& options = {});
+
+// Colour samples from one image per camera of a shared flat target or of
+// the common scene (lying near `plane`; the plane at infinity for a distant
+// scene): points on a grid of `grid` x `grid` over the reference camera's
+// image, kept where its 5x5 neighbourhood is smooth (so small registration
+// errors do not mix colours), are mapped into every camera through the
+// plane, and the 5x5 mean colour there is the sample. Points that leave any
+// camera's image are skipped. images: CV_8UC3/4 in RGB(A) order, one per
+// rig camera. Returns samples[camera][k] for calibrate_colours.
+std::vector<std::vector<cv::Vec3d>> colour_samples_from_images(const Rig& rig,
+                                                               const std::vector<cv::Mat>& images,
+                                                               const FocalPlane& plane,
+                                                               int reference = 0, int grid = 24);
 
 }  // namespace lf::calib

@@ -45,6 +45,9 @@ usage: lf-calibrate (--tracks DIR | --sources FILE) (--zhang DIR --square S | --
                         patches or scene points, in the same sample order for every camera);
                         corrections against the array median go into the rig file, cameras
                         with implausible corrections are flagged and left uncorrected
+  --colour-images DIR   colour calibration from one image per camera (name order) of a shared
+                        flat target or the common scene, at --colour-depth Z (rig units along
+                        the Zhang camera's axis) or inf (a distant scene; default)
   --report DIR          report.txt, residuals.png, histogram.png, layout.png (default: next
                         to the rig file)
   --out FILE            the rig file
@@ -107,11 +110,12 @@ void layout_plot(const std::string& file, const lf::Rig& rig) {
 int main(int argc, char** argv) {
   if (cli::help_requested(argc, argv, kHelp)) return 0;
   try {
-    const cli::Args args(argc, argv,
-                         {"--tracks", "--sources", "--zhang", "--square", "--pattern",
-                          "--zhang-intrinsics", "--zhang-camera", "--pitch", "--unit", "--f-prior",
-                          "--report", "--out", "--colour-samples"},
-                         {});
+    const cli::Args args(
+        argc, argv,
+        {"--tracks", "--sources", "--zhang", "--square", "--pattern", "--zhang-intrinsics",
+         "--zhang-camera", "--pitch", "--unit", "--f-prior", "--report", "--out",
+         "--colour-samples", "--colour-images", "--colour-depth"},
+        {});
     if ((!args.has("--tracks") && !args.has("--sources")) || !args.has("--out"))
       throw std::invalid_argument("--tracks or --sources, and --out, are required (see --help)");
     std::vector<std::string> sources;
@@ -218,6 +222,35 @@ int main(int argc, char** argv) {
     }
     lf::Rig rig = r.rig;
     rig.unit = args.get("--unit", "unit");
+    std::vector<std::vector<cv::Vec3d>> colour_samples;
+    if (args.has("--colour-images")) {
+      std::vector<std::string> files;
+      for (const auto& e : fs::directory_iterator(args.get("--colour-images")))
+        files.push_back(e.path().string());
+      std::sort(files.begin(), files.end());
+      if (files.size() != cams.size())
+        throw std::invalid_argument("--colour-images: " + std::to_string(files.size()) +
+                                    " images for " + std::to_string(cams.size()) + " cameras");
+      std::vector<cv::Mat> images;
+      for (const auto& f : files) {
+        cv::Mat im = cv::imread(f, cv::IMREAD_COLOR);
+        if (im.empty()) throw std::runtime_error("cannot read " + f);
+        cv::cvtColor(im, im, cv::COLOR_BGR2RGB);
+        images.push_back(im);
+      }
+      if (rig.cameras.size() != cams.size())
+        throw std::runtime_error("--colour-images needs every camera calibrated");
+      const std::string z = args.get("--colour-depth", "inf");
+      const lf::FocalPlane plane =
+          z == "inf" ? lf::FocalPlane::infinity()
+                     : lf::FocalPlane::through({0, 0, cli::parse_numbers(z, "--colour-depth")[0]},
+                                               {0, 0, 1});
+      colour_samples = lf::calib::colour_samples_from_images(rig, images, plane,
+                                                             args.integer("--zhang-camera", 0));
+      rep << "\n"
+          << colour_samples[0].size() << " colour samples from " << args.get("--colour-images")
+          << "\n";
+    }
     if (args.has("--colour-samples")) {
       std::ifstream in(args.get("--colour-samples"));
       if (!in) throw std::runtime_error("cannot read " + args.get("--colour-samples"));
@@ -234,7 +267,10 @@ int main(int argc, char** argv) {
                                       std::to_string(cams.size()));
         samples[static_cast<size_t>(v[0])].push_back({v[1], v[2], v[3]});
       }
-      const auto col = lf::calib::calibrate_colours(samples);
+      colour_samples = samples;
+    }
+    if (!colour_samples.empty()) {
+      const auto col = lf::calib::calibrate_colours(colour_samples);
       rep << "\n## Colour (deltaE2000 against the array median)\n" << col.report;
       for (auto& cam : rig.cameras) {
         const auto& cc = col.cameras[static_cast<size_t>(cam.id)];
