@@ -192,7 +192,7 @@ int main(int argc, char** argv) {
     }
   }
   try {
-    std::vector<std::string> files, rest;
+    std::vector<std::string> files;
     std::vector<char*> opt_argv{argv[0]};
     for (int i = 1; i < argc; ++i) {
       const std::string a = argv[i];
