@@ -31,22 +31,22 @@ double median(std::vector<double> v) {
 }
 
 // Pixel residual of the paper's camera model (OpenCV convention): pose =
-// angle-axis (3) + t (3); intrinsics = f, k1, k2; principal point fixed.
+// angle-axis (3) + t (3); intrinsics = f, k1, k2; principal point (2).
 struct PixelError {
-  PixelError(const cv::Vec2d& obs, double cx, double cy) : u(obs[0]), v(obs[1]), cx(cx), cy(cy) {}
+  explicit PixelError(const cv::Vec2d& obs) : u(obs[0]), v(obs[1]) {}
   template <typename T>
-  bool operator()(const T* pose, const T* intr, const T* X, T* r) const {
+  bool operator()(const T* pose, const T* intr, const T* pp, const T* X, T* r) const {
     T P[3];
     ceres::AngleAxisRotatePoint(pose, X, P);
     P[0] += pose[3], P[1] += pose[4], P[2] += pose[5];
     const T x = P[0] / P[2], y = P[1] / P[2];
     const T r2 = x * x + y * y;
     const T d = T(1) + r2 * (intr[1] + intr[2] * r2);
-    r[0] = intr[0] * d * x + T(cx) - T(u);
-    r[1] = intr[0] * d * y + T(cy) - T(v);
+    r[0] = intr[0] * d * x + pp[0] - T(u);
+    r[1] = intr[0] * d * y + pp[1] - T(v);
     return true;
   }
-  double u, v, cx, cy;
+  double u, v;
 };
 
 // Prior on a camera's intrinsics around the Zhang camera's.
@@ -167,6 +167,7 @@ SelfCalResult self_calibrate(const std::vector<Camera>& cameras, int zc, const I
   res.camera_rms_px.assign(nc, 0);
   res.camera_observations.assign(nc, 0);
   res.f_sigma.assign(nc, -1);
+  res.principal_point_sigma.assign(nc, -1);
   res.intrinsics_sigma.assign(nc, cv::Vec3d(-1, -1, -1));
   res.rotation_sigma_deg.assign(nc, -1);
   res.translation_sigma.assign(nc, -1);
@@ -284,14 +285,17 @@ SelfCalResult self_calibrate(const std::vector<Camera>& cameras, int zc, const I
     std::vector<std::array<double, 6>> blocks(nc);
     for (int c = 0; c < nc; ++c) blocks[c] = to_block(poses[c]);
     std::array<double, 3> pinhole = {zhang.fx, 0, 0};  // normalized data: no distortion
+    std::array<double, 2> centre = {0, 0};
     for (size_t i = 0; i < obs.size(); ++i) {
       const int c = obs[i].camera, p = obs[i].point;
       if (!usable[i] || res.outlier[i] || !res.registered[c] || !res.point_valid[p]) continue;
       const cv::Vec2d px(xn[i][0] * zhang.fx, xn[i][1] * zhang.fx);
       pr.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<PixelError, 2, 6, 3, 3>(new PixelError(px, 0, 0)),
-          new ceres::HuberLoss(o.huber_px), blocks[c].data(), pinhole.data(), res.points[p].val);
+          new ceres::AutoDiffCostFunction<PixelError, 2, 6, 3, 2, 3>(new PixelError(px)),
+          new ceres::HuberLoss(o.huber_px), blocks[c].data(), pinhole.data(), centre.data(),
+          res.points[p].val);
       pr.SetParameterBlockConstant(pinhole.data());
+      pr.SetParameterBlockConstant(centre.data());
     }
     if (pr.NumResidualBlocks() == 0) return;
     pr.SetParameterBlockConstant(blocks[fixed].data());
@@ -423,31 +427,36 @@ SelfCalResult self_calibrate(const std::vector<Camera>& cameras, int zc, const I
   for (size_t i = 0; i < obs.size(); ++i)
     active[i] = usable[i] && res.registered[obs[i].camera] && res.point_valid[obs[i].point];
   std::vector<double> resid(obs.size(), -1);
-  double prior_count = 0;
-  auto solve = [&](bool robust, const std::vector<bool>& use, ceres::Problem* keep) {
-    ceres::Problem local;
-    ceres::Problem& pr = keep ? *keep : local;
-    std::vector<ceres::ResidualBlockId> ids(obs.size());
+  // Principal points: the Zhang camera's, freed per camera only where the
+  // data pins them (decided below).
+  std::vector<std::array<double, 2>> ppblocks(nc, {zhang.cx, zhang.cy});
+  std::vector<bool> pp_free(nc, false);
+  auto build = [&](ceres::Problem& pr, bool robust, const std::vector<bool>& use,
+                   const std::vector<bool>& free_pp) {
     for (size_t i = 0; i < obs.size(); ++i) {
       if (!use[i]) continue;
       const int c = obs[i].camera;
-      ids[i] = pr.AddResidualBlock(new ceres::AutoDiffCostFunction<PixelError, 2, 6, 3, 3>(
-                                       new PixelError(obs[i].pixel, zhang.cx, zhang.cy)),
-                                   robust ? new ceres::HuberLoss(o.huber_px) : nullptr,
-                                   pblocks[c].data(), iblocks[shared ? 0 : c].data(),
-                                   res.points[obs[i].point].val);
+      pr.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<PixelError, 2, 6, 3, 2, 3>(new PixelError(obs[i].pixel)),
+          robust ? new ceres::HuberLoss(o.huber_px) : nullptr, pblocks[c].data(),
+          iblocks[shared ? 0 : c].data(), ppblocks[c].data(), res.points[obs[i].point].val);
     }
-    prior_count = 0;
+    for (int c = 0; c < nc; ++c)
+      if (pr.HasParameterBlock(ppblocks[c].data()) && !free_pp[c])
+        pr.SetParameterBlockConstant(ppblocks[c].data());
     if (!shared)
       for (int c = 0; c < nc; ++c)
-        if (res.registered[c]) {
+        if (res.registered[c])
           pr.AddResidualBlock(new ceres::AutoDiffCostFunction<IntrinsicsPrior, 3, 3>(
                                   new IntrinsicsPrior(zhang, o.f_prior * zhang.fx, o.k_prior)),
                               nullptr, iblocks[c].data());
-          prior_count += 3;
-        }
     pr.SetParameterBlockConstant(pblocks[a].data());
     pr.SetManifold(pblocks[far].data(), new ceres::SubsetManifold(6, {3 + comp}));
+  };
+  auto solve = [&](bool robust, const std::vector<bool>& use, ceres::Problem* keep) {
+    ceres::Problem local;
+    ceres::Problem& pr = keep ? *keep : local;
+    build(pr, robust, use, pp_free);
     ceres::Solver::Options so;
     so.linear_solver_type = ceres::SPARSE_SCHUR;
     so.max_num_iterations = 100;
@@ -460,9 +469,10 @@ SelfCalResult self_calibrate(const std::vector<Camera>& cameras, int zc, const I
     for (size_t i = 0; i < obs.size(); ++i) {
       if (!active[i]) continue;
       const int c = obs[i].camera;
-      const PixelError e(obs[i].pixel, zhang.cx, zhang.cy);
+      const PixelError e(obs[i].pixel);
       double r[2];
-      e(pblocks[c].data(), iblocks[shared ? 0 : c].data(), res.points[obs[i].point].val, r);
+      e(pblocks[c].data(), iblocks[shared ? 0 : c].data(), ppblocks[c].data(),
+        res.points[obs[i].point].val, r);
       resid[i] = std::hypot(r[0], r[1]);
     }
   };
@@ -480,6 +490,34 @@ SelfCalResult self_calibrate(const std::vector<Camera>& cameras, int zc, const I
     if (active[i] && resid[i] > cut) inlier[i] = false, res.outlier[i] = true, ++nout;
   log << "outliers: " << nout << " observations with residual > " << cut << " px (robust sigma "
       << sigma << " px)\n";
+  {  // Which principal points do the data pin? Covariance with all of them free.
+    ceres::Problem test;
+    build(test, false, inlier, std::vector<bool>(nc, true));
+    ceres::Covariance::Options co;
+    co.num_threads = o.threads;
+    ceres::Covariance cov(co);
+    std::vector<std::pair<const double*, const double*>> blocks;
+    for (int c = 0; c < nc; ++c)
+      if (res.registered[c]) blocks.emplace_back(ppblocks[c].data(), ppblocks[c].data());
+    const bool ok = cov.Compute(blocks, &test);
+    std::vector<double> sig;
+    int freed = 0;
+    for (int c = 0; c < nc && ok; ++c) {
+      if (!res.registered[c]) continue;
+      double C[4];
+      if (!cov.GetCovarianceBlock(ppblocks[c].data(), ppblocks[c].data(), C)) continue;
+      res.principal_point_sigma[c] = std::sqrt(std::max({0.0, C[0], C[3]}));
+      sig.push_back(res.principal_point_sigma[c]);
+      pp_free[c] = o.pin_principal_px > 0 && res.principal_point_sigma[c] < o.pin_principal_px;
+      freed += pp_free[c];
+    }
+    log << "principal points: "
+        << (ok ? "sigma with all free: median " + std::to_string(median(sig)) + " px; " +
+                     std::to_string(freed) + " pinned (< " + std::to_string(o.pin_principal_px) +
+                     " px) and freed, the others held at the Zhang camera's"
+               : std::string("not determined with all free (rank deficient): held"))
+        << "\n";
+  }
   ceres::Problem final_problem;
   solve(false, inlier, &final_problem);
   // Residuals after the final solve.
@@ -500,7 +538,8 @@ SelfCalResult self_calibrate(const std::vector<Camera>& cameras, int zc, const I
   for (int c = 0; c < nc; ++c)
     if (res.camera_observations[c])
       res.camera_rms_px[c] = std::sqrt(cam_se[c] / (2.0 * res.camera_observations[c]));
-  const double params = 6.0 * nreg + 3.0 * npts - 7 + (shared ? 3 : 0);
+  const double params = 6.0 * nreg + 3.0 * npts - 7 + (shared ? 3 : 0) +
+                        2.0 * static_cast<double>(std::count(pp_free.begin(), pp_free.end(), true));
   res.noise_floor_factor = std::sqrt(std::max(0.0, (2.0 * n_in - params) / (2.0 * n_in)));
   log << "reprojection RMS " << res.rms_px << " px per coordinate over " << n_in
       << " observations (noise floor factor " << res.noise_floor_factor << ")\n";
@@ -579,6 +618,8 @@ SelfCalResult self_calibrate(const std::vector<Camera>& cameras, int zc, const I
     cam.intrinsics.fx = cam.intrinsics.fy = ib[0];
     cam.intrinsics.k1 = ib[1];
     cam.intrinsics.k2 = ib[2];
+    cam.intrinsics.cx = ppblocks[c][0];
+    cam.intrinsics.cy = ppblocks[c][1];
     // X_zc = R_ref X_a + t_ref; camera c: X_c = R_c X_a + t_c = R_c R_ref^T (X_zc - t_ref) + t_c
     const cv::Matx33d R = poses[c].R * ref.R.t();
     const cv::Vec3d t = poses[c].t - R * ref.t;

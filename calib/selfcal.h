@@ -38,18 +38,20 @@ struct PointObservation {
 };
 
 struct SelfCalOptions {
-  double ransac_px = 2.0;      // RANSAC threshold (essential matrix, PnP)
-  double huber_px = 1.0;       // robust loss scale in the first refinement
-  double outlier_px = 0;       // residual norm above which an observation is an
-                               // outlier; 0: 5 x the robust sigma, at least 1.5 px
-  double f_prior = 0.001;      // relative sigma of each camera's f around the Zhang
-                               // camera's; 0: one shared focal length, free
-  double k_prior = 0.005;      // sigma of k1, k2 around the Zhang camera's
-  double max_f_sigma = 0.003;  // shared free f: relative sigma above which the
-                               // focal length counts as undetermined
-  double pitch = 1.0;          // median grid-neighbour distance in the output (rig units)
-  int min_points = 30;         // fewer reconstructed points: degenerate
-  int min_camera_points = 12;  // a camera seeing fewer: not registered
+  double ransac_px = 2.0;         // RANSAC threshold (essential matrix, PnP)
+  double huber_px = 1.0;          // robust loss scale in the first refinement
+  double outlier_px = 0;          // residual norm above which an observation is an
+                                  // outlier; 0: 5 x the robust sigma, at least 1.5 px
+  double f_prior = 0.001;         // relative sigma of each camera's f around the Zhang
+                                  // camera's; 0: one shared focal length, free
+  double k_prior = 0.005;         // sigma of k1, k2 around the Zhang camera's
+  double max_f_sigma = 0.003;     // shared free f: relative sigma above which the
+                                  // focal length counts as undetermined
+  double pin_principal_px = 1.0;  // a camera's principal point is freed when its sigma
+                                  // (with all free) is below this; 0: always held
+  double pitch = 1.0;             // median grid-neighbour distance in the output (rig units)
+  int min_points = 30;            // fewer reconstructed points: degenerate
+  int min_camera_points = 12;     // a camera seeing fewer: not registered
   int threads = 2;
 };
 
@@ -68,10 +70,11 @@ struct SelfCalResult {
   // in the solve's gauge (the initial pair's first camera fixed, scale fixed
   // by one translation component), so pose sigmas grow with the distance
   // from that camera:
-  std::vector<double> f_sigma;              // f, pixels
-  std::vector<cv::Vec3d> intrinsics_sigma;  // f (pixels), k1, k2
-  std::vector<double> rotation_sigma_deg;   // of the rotation vector (norm of the 3 sigmas)
-  std::vector<double> translation_sigma;    // of t, output units (norm of the 3 sigmas)
+  std::vector<double> f_sigma;                // f, pixels
+  std::vector<double> principal_point_sigma;  // cx/cy (larger) with all free, px
+  std::vector<cv::Vec3d> intrinsics_sigma;    // f (pixels), k1, k2
+  std::vector<double> rotation_sigma_deg;     // of the rotation vector (norm of the 3 sigmas)
+  std::vector<double> translation_sigma;      // of t, output units (norm of the 3 sigmas)
   bool degenerate = false;
   std::string degenerate_reason;
   std::vector<std::string> warnings;
