@@ -249,7 +249,7 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
     }
     gst_buffer_unmap(buf, &map);
   }
-  const gint cam_id = self->state->rig->cameras[self->state->index].id;
+  const gint cam_id = st->rig->cameras[st->index].id;
   lfgst::trace(GST_ELEMENT(self), "request-in", req.viewer_id, req.sequence, cam_id);
   // Wait for a camera frame.
   g_mutex_lock(&self->lock);
