@@ -8,6 +8,8 @@
 #include <sstream>
 
 #include "lf/datasets.h"
+#include "lf/rig_file.h"
+#include "lf/rig_ops.h"
 
 namespace lfgst {
 

@@ -13,7 +13,9 @@
 #include <opencv2/imgproc.hpp>
 #include <set>
 
+#include "lf/composite.h"
 #include "lf/fragment.h"
+#include "lf/render.h"
 #include "lf/wire.h"
 #include "lfcommon.h"
 

@@ -9,8 +9,10 @@
 #include <memory>
 #include <opencv2/imgproc.hpp>
 
+#include "lf/composite.h"
 #include "lf/fragment.h"
 #include "lf/plan.h"
+#include "lf/render.h"
 #include "lf/wire.h"
 #include "lfcommon.h"
 

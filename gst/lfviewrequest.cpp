@@ -7,8 +7,14 @@
 #include <memory>
 #include <vector>
 
-#include "lf/path.h"
-#include "lf/renderer.h"
+#include "lf/composite.h"
+#include "lf/focus.h"
+#include "lf/parse.h"
+#include "lf/path_file.h"
+#include "lf/quality.h"
+#include "lf/render.h"
+#include "lf/render_view.h"
+#include "lf/view_builder.h"
 #include "lf/wire.h"
 #include "lfcommon.h"
 
@@ -276,7 +282,7 @@ static gboolean lf_view_request_unlock_stop(GstBaseSrc* src) {
 
 // Inverse depth of a focal plane along the camera-plane normal (0: infinity
 // or parallel to the normal).
-static double inverse_depth_of(const lf::Rig& rig, const lf::FocalPlane& p) {
+static double inverse_depth_of_UNUSED(const lf::Rig& rig, const lf::FocalPlane& p) {
   if (p.at_infinity()) return 0.0;
   const lf::CameraPlane& P = rig.plane();
   const double nn = p.n.dot(P.normal), off = p.n.dot(P.origin) + p.d;
@@ -321,7 +327,7 @@ static void handle_navigation(LfViewRequest* self, GstEvent* event) {
       if (gst_navigation_event_parse_mouse_scroll_event(event, &x, &y, &dx, &dy)) {
         // Wheel: focal plane nearer/farther by 0.25 px of parallax between
         // neighbouring cameras per notch.
-        if (!st->q_active) st->q = inverse_depth_of(rig, st->plane), st->q_active = true;
+        if (!st->q_active) st->q = lf::inverse_depth_of(rig, st->plane), st->q_active = true;
         const double f = rig.cameras[0].intrinsics.fx;
         st->q = std::max(0.0, st->q + dy * 0.25 / (f * step));
       }

@@ -18,8 +18,15 @@
 #include "calib/selfcal.h"
 #include "calib/tracking.h"
 #include "helpers.h"
-#include "lf/renderer.h"
+#include "lf/composite.h"
+#include "lf/rig_file.h"
+#include "lf/focus.h"
+#include "lf/parse.h"
+#include "lf/quality.h"
+#include "lf/render.h"
+#include "lf/render_view.h"
 #include "lf/synthetic.h"
+#include "lf/view_builder.h"
 
 namespace {
 

@@ -6,9 +6,16 @@
 #include <filesystem>
 
 #include "gst_init.h"
+#include "lf/composite.h"
+#include "lf/rig_file.h"
+#include "lf/focus.h"
 #include "lf/fragment.h"
-#include "lf/renderer.h"
+#include "lf/parse.h"
+#include "lf/quality.h"
+#include "lf/render.h"
+#include "lf/render_view.h"
 #include "lf/synthetic.h"
+#include "lf/view_builder.h"
 #include "lf/wire.h"
 
 namespace {

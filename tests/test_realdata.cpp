@@ -8,8 +8,16 @@
 #include <cstdio>
 
 #include "helpers.h"
+#include "lf/composite.h"
 #include "lf/datasets.h"
-#include "lf/renderer.h"
+#include "lf/focus.h"
+#include "lf/parse.h"
+#include "lf/quality.h"
+#include "lf/render.h"
+#include "lf/render_view.h"
+#include "lf/rig_file.h"
+#include "lf/rig_ops.h"
+#include "lf/view_builder.h"
 
 namespace {
 

@@ -7,6 +7,8 @@
 
 #include "helpers.h"
 #include "lf/datasets.h"
+#include "lf/rig_file.h"
+#include "lf/rig_ops.h"
 #include "lf/synthetic.h"
 
 namespace {

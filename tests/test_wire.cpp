@@ -5,8 +5,14 @@
 
 #include <random>
 
-#include "lf/renderer.h"
+#include "lf/composite.h"
+#include "lf/focus.h"
+#include "lf/parse.h"
+#include "lf/quality.h"
+#include "lf/render.h"
+#include "lf/render_view.h"
 #include "lf/synthetic.h"
+#include "lf/view_builder.h"
 #include "lf/wire.h"
 
 namespace {

@@ -6,8 +6,14 @@
 #include <string>
 #include <vector>
 
-#include "lf/path.h"
-#include "lf/renderer.h"
+#include "lf/composite.h"
+#include "lf/focus.h"
+#include "lf/parse.h"
+#include "lf/path_file.h"
+#include "lf/quality.h"
+#include "lf/render.h"
+#include "lf/render_view.h"
+#include "lf/view_builder.h"
 
 namespace cli {
 

@@ -19,6 +19,8 @@
 
 #include "cli.h"
 #include "lf/datasets.h"
+#include "lf/rig_file.h"
+#include "lf/rig_ops.h"
 #include "lf/synthetic.h"
 #include "lf/wire.h"
 

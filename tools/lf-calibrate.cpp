@@ -17,6 +17,7 @@
 #include "calib/tracking.h"
 #include "cli.h"
 #include "lf/rig.h"
+#include "lf/rig_file.h"
 
 namespace fs = std::filesystem;
 

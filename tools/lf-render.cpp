@@ -9,6 +9,8 @@
 
 #include "cli.h"
 #include "lf/datasets.h"
+#include "lf/rig_file.h"
+#include "lf/rig_ops.h"
 
 namespace {
 

@@ -5,6 +5,8 @@
 
 #include "cli.h"
 #include "lf/datasets.h"
+#include "lf/rig_file.h"
+#include "lf/rig_ops.h"
 #include "lf/synthetic.h"
 
 int main(int argc, char** argv) {

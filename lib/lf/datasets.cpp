@@ -1,5 +1,7 @@
 #include "lf/datasets.h"
 
+#include "lf/rig_file.h"
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -304,60 +306,6 @@ Rig load_rig_or_dataset(const std::string& path) {
   if (fs::is_directory(path)) return import_dataset(path);
   if (!fs::exists(path)) throw std::runtime_error("rig " + path + ": no such file or folder");
   return load_rig(path);
-}
-
-Rig grid_block(const Rig& rig, int r0, int c0, int rows, int cols) {
-  if (rig.grid.empty())
-    throw std::invalid_argument("grid_block: rig '" + rig.name + "' has no grid");
-  if (r0 < 0 || c0 < 0 || rows < 1 || cols < 1 || r0 + rows > rig.grid.rows ||
-      c0 + cols > rig.grid.cols)
-    throw std::invalid_argument(
-        "grid_block: block " + std::to_string(rows) + "x" + std::to_string(cols) + " at (" +
-        std::to_string(r0) + ", " + std::to_string(c0) + ") exceeds the " +
-        std::to_string(rig.grid.rows) + "x" + std::to_string(rig.grid.cols) + " grid");
-  std::vector<int> keep;
-  for (int r = r0; r < r0 + rows; ++r)
-    for (int c = c0; c < c0 + cols; ++c)
-      if (rig.grid.at(r, c) >= 0) keep.push_back(rig.grid.at(r, c));
-  return rig.subset(keep);
-}
-
-Rig grid_spread(const Rig& rig, int k) {
-  if (rig.grid.empty())
-    throw std::invalid_argument("grid_spread: rig '" + rig.name + "' has no grid");
-  if (k < 2 || k > rig.grid.rows || k > rig.grid.cols)
-    throw std::invalid_argument("grid_spread: " + std::to_string(k) + "x" + std::to_string(k) +
-                                " does not fit the " + std::to_string(rig.grid.rows) + "x" +
-                                std::to_string(rig.grid.cols) + " grid (k >= 2)");
-  auto spread = [k](int n) {
-    std::vector<int> v;
-    for (int i = 0; i < k; ++i) v.push_back(static_cast<int>(std::lround(i * (n - 1.0) / (k - 1))));
-    return v;
-  };
-  std::vector<int> keep;
-  for (int r : spread(rig.grid.rows))
-    for (int c : spread(rig.grid.cols))
-      if (rig.grid.at(r, c) >= 0) keep.push_back(rig.grid.at(r, c));
-  return rig.subset(keep);
-}
-
-Rig scale_rig(const Rig& rig, double scale) {
-  if (!(scale > 0) || scale > 16) throw std::invalid_argument("scale_rig: scale out of range");
-  Rig out = rig;
-  for (Camera& c : out.cameras) {
-    const int w = std::max(2, static_cast<int>(std::lround(c.width * scale)));
-    const int h = std::max(2, static_cast<int>(std::lround(c.height * scale)));
-    const double sx = static_cast<double>(w) / c.width, sy = static_cast<double>(h) / c.height;
-    Intrinsics& k = c.intrinsics;
-    k.fx *= sx, k.cx = (k.cx + 0.5) * sx - 0.5;
-    k.fy *= sy, k.cy = (k.cy + 0.5) * sy - 0.5;
-    c.width = w;
-    c.height = h;
-  }
-  if (out.has_focal_param) out.focal_param_f_px *= scale, out.focal_param_infinity *= scale;
-  out.triangles.clear();
-  out.finalize();
-  return out;
 }
 
 std::vector<cv::Mat> load_images(const Rig& rig, const std::function<void(int, int)>& progress) {

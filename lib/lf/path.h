@@ -1,13 +1,8 @@
-// Camera paths: keyframed virtual-camera trajectories for offline renders
-// and for the lfviewrequest element.
+// Camera paths: keyframed virtual-camera trajectories (the model). File
+// format: lf/path_file.h; sampling into views: lf/view_builder.h.
 #pragma once
 
 #include <opencv2/core.hpp>
-#include <string>
-#include <vector>
-
-#include "lf/rig.h"
-#include "lf/view.h"
 
 namespace lf {
 
@@ -21,13 +16,5 @@ struct Keyframe {
   cv::Vec3d look_at;
   double vfov = 0;  // 0: derived from the cameras
 };
-std::vector<Keyframe> load_path(const std::string& file);
-// Orbit on the camera plane around its centre: radius = fraction of the
-// array's half-extent, plus an optional dolly (+-dolly rig units along the
-// normal, one period per orbit).
-std::vector<Keyframe> orbit_path(const Rig& rig, double fraction, double dolly, int frames);
-// Samples a keyframed path at `frames` evenly spaced parameters.
-std::vector<VirtualView> sample_path(const Rig& rig, const std::vector<Keyframe>& keys, int frames,
-                                     int width, int height, bool closed);
 
 }  // namespace lf

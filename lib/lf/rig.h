@@ -126,14 +126,4 @@ class Rig {
   double spacing_ = 0.0;
 };
 
-// Rig file (JSON text, "format": "lightfield-gst-rig", "version": 1), read and
-// written with nlohmann::json. Image paths are stored relative to the file's
-// folder when possible. Throws std::runtime_error with the file name and the
-// field on any error; the rig returned is finalized.
-Rig load_rig(const std::string& path);
-void save_rig(const Rig& rig, const std::string& path);
-// (De)serialization to a JSON string (image paths kept as they are).
-std::string rig_to_json(const Rig& rig);
-Rig rig_from_json(const std::string& text, const std::string& origin = "<string>");
-
 }  // namespace lf

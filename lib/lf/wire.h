@@ -82,8 +82,4 @@ std::vector<uint8_t> serialize_request(const ViewRequest& r);
 // Parses and validates (including lf::validate()).
 ViewRequest parse_request(const uint8_t* data, size_t size);
 
-// Rotation matrix <-> unit quaternion (w, x, y, z).
-cv::Vec4d quaternion_from_rotation(const cv::Matx33d& R);
-cv::Matx33d rotation_from_quaternion(const cv::Vec4d& q);
-
 }  // namespace lf

@@ -1,0 +1,52 @@
+#include "lf/composite.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
+namespace lf {
+
+void Compositor::reset(int width, int height) {
+  if (width < 1 || height < 1 || width > 16384 || height > 16384)
+    throw std::invalid_argument("compositor: output size out of range");
+  w_ = width;
+  h_ = height;
+  acc_.assign(static_cast<size_t>(width) * height * 4, 0);
+}
+
+void Compositor::add(const Fragment& f) {
+  if (f.out_width != w_ || f.out_height != h_)
+    throw std::invalid_argument("compositor: fragment from camera " + std::to_string(f.camera_id) +
+                                " is for a " + std::to_string(f.out_width) + "x" +
+                                std::to_string(f.out_height) + " frame, not " + std::to_string(w_) +
+                                "x" + std::to_string(h_));
+  check_fragment(f);
+  const uint8_t* px = f.pixels.data();
+  for (int r = 0; r < f.rect.height; ++r) {
+    const int b = f.spans[r][0], e = f.spans[r][1];
+    uint32_t* acc = acc_.data() + (static_cast<size_t>(f.rect.y + r) * w_ + b) * 4;
+    const int n = 4 * (e - b);
+    for (int i = 0; i < n; ++i) acc[i] += px[i];
+    px += n;
+  }
+}
+
+void Compositor::resolve(cv::Mat& out) const {
+  out.create(h_, w_, CV_8UC4);
+  for (int y = 0; y < h_; ++y) {
+    const uint32_t* a = acc_.data() + static_cast<size_t>(y) * w_ * 4;
+    uint8_t* o = out.ptr<uint8_t>(y);
+    for (int x = 0; x < w_; ++x, a += 4, o += 4) {
+      if (a[3] == 0) {
+        o[0] = o[1] = o[2] = o[3] = 0;
+        continue;
+      }
+      const float s = 255.0f / static_cast<float>(a[3]);
+      for (int ch = 0; ch < 3; ++ch)
+        o[ch] = static_cast<uint8_t>(std::min(255.0f, static_cast<float>(a[ch]) * s + 0.5f));
+      o[3] = 255;
+    }
+  }
+}
+
+}  // namespace lf

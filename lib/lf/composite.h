@@ -1,0 +1,35 @@
+// Compositing of fragments into an output frame (Yang et al. 2002, Section
+// 4.3). Fragments: lf/fragment.h (premultiplied 8-bit pixels in row spans).
+#pragma once
+
+#include <cstdint>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "lf/fragment.h"
+
+namespace lf {
+
+// Additive compositor with renormalisation (Section 4.3: "It then adds the
+// fragment into the frame buffer"). Accumulates premultiplied fragments and
+// divides by the accumulated weight, so missing or partially invalid
+// fragments do not darken the image.
+class Compositor {
+ public:
+  void reset(int width, int height);
+  // Adds a fragment. Throws std::invalid_argument if it does not fit the frame.
+  void add(const Fragment& f);
+  // Writes the normalised frame (CV_8UC4; alpha = 255 where any weight arrived,
+  // 0 elsewhere, where colour is 0).
+  void resolve(cv::Mat& out) const;
+  // Accumulated weight (0..255 per full contribution) at a pixel.
+  uint32_t weight_at(int x, int y) const { return acc_[(static_cast<size_t>(y) * w_ + x) * 4 + 3]; }
+  int width() const { return w_; }
+  int height() const { return h_; }
+
+ private:
+  int w_ = 0, h_ = 0;
+  std::vector<uint32_t> acc_;
+};
+
+}  // namespace lf

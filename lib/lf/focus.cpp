@@ -1,0 +1,183 @@
+#include "lf/focus.h"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+
+#include "lf/plan.h"
+#include "lf/rig_ops.h"
+
+namespace lf {
+
+namespace {
+double median(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+}  // namespace
+
+FocalPlane plane_at_inverse_depth(const Rig& rig, double q) {
+  const CameraPlane& P = rig.plane();
+  if (q == 0) return FocalPlane::infinity();
+  // n . X + d = 0 with n = q N: q N.(X - O) - 1 = 0.
+  return {P.normal * q, -q * P.normal.dot(P.origin) - 1.0};
+}
+
+FocalPlane plane_at_depth(const Rig& rig, double z) {
+  if (std::isinf(z)) return FocalPlane::infinity();
+  if (!(z != 0) || !std::isfinite(z)) throw std::invalid_argument("focal depth must be non-zero");
+  return FocalPlane::through(rig.plane().origin + rig.plane().normal * z, rig.plane().normal);
+}
+
+FocalPlane plane_from_focal_param(const Rig& rig, double a) {
+  if (!rig.has_focal_param)
+    throw std::invalid_argument("rig '" + rig.name + "' has no light-slab focal parameter");
+  // z = f / (a_inf - a)  <=>  q = (a_inf - a) / f
+  return plane_at_inverse_depth(rig, (rig.focal_param_infinity - a) / rig.focal_param_f_px);
+}
+
+double inverse_depth_of(const Rig& rig, const FocalPlane& p) {
+  if (p.at_infinity()) return 0.0;
+  const CameraPlane& P = rig.plane();
+  const double nn = p.n.dot(P.normal), off = p.n.dot(P.origin) + p.d;
+  if (nn == 0 || off == 0) return 0.0;
+  return std::max(0.0, -nn / off);
+}
+
+double focal_param_from_inverse_depth(const Rig& rig, double q) {
+  if (!rig.has_focal_param)
+    throw std::invalid_argument("rig '" + rig.name + "' has no light-slab focal parameter");
+  return rig.focal_param_infinity - q * rig.focal_param_f_px;
+}
+
+// ---------------------------------------------------------------------------
+// Auto-focus
+
+namespace {
+ViewRequest scaled_request(const ViewRequest& req, int width) {
+  ViewRequest r = req;
+  const double s = static_cast<double>(width) / req.view.width;
+  r.view.width = width;
+  r.view.height = std::max(2, static_cast<int>(std::lround(req.view.height * s)));
+  // Keep the field of view of the full-size view.
+  const double f_full = req.view.focal_px();
+  const double f_new = f_full * r.view.height / req.view.height;
+  r.view.vfov_deg = 2.0 * std::atan(0.5 * r.view.height / f_new) * 180.0 / CV_PI;
+  r.view.shift_x = req.view.shift_x * s;
+  r.view.shift_y = req.view.shift_y * s;
+  return r;
+}
+
+float bilinear(const cv::Mat& g, float u, float v) {
+  const int x = static_cast<int>(u), y = static_cast<int>(v);
+  const float fx = u - x, fy = v - y;
+  const float* r0 = g.ptr<float>(y) + x;
+  const float* r1 = g.ptr<float>(y + 1) + x;
+  return (1 - fy) * ((1 - fx) * r0[0] + fx * r0[1]) + fy * ((1 - fx) * r1[0] + fx * r1[1]);
+}
+}  // namespace
+
+AutofocusContext::AutofocusContext(const Rig& rig, const std::vector<cv::Mat>& images,
+                                   AutofocusOptions opt)
+    : rig_(&rig), opt_(opt) {
+  if (images.size() != rig.cameras.size())
+    throw std::invalid_argument("autofocus: image count does not match the rig");
+  std::vector<double> widths;
+  for (const Camera& c : rig.cameras) widths.push_back(c.width);
+  const double w = median(widths);
+  for (int width : {opt.coarse_width, opt.fine_width}) {
+    const double scale = std::min(1.0, 1.5 * width / w);
+    rigs_.push_back(scale_rig(rig, scale));
+    std::vector<cv::Mat> gray(images.size());
+    for (size_t i = 0; i < images.size(); ++i) {
+      cv::Mat small, g;
+      cv::resize(images[i], small,
+                 cv::Size(rigs_.back().cameras[i].width, rigs_.back().cameras[i].height), 0, 0,
+                 cv::INTER_AREA);
+      cv::cvtColor(small, g, cv::COLOR_BGRA2GRAY);
+      g.convertTo(gray[i], CV_32F);
+    }
+    gray_.push_back(std::move(gray));
+  }
+}
+
+double AutofocusContext::sweep_cost(const ViewRequest& req_in, int width, double q,
+                                    int level) const {
+  const Rig& rig = rigs_[level];
+  ViewRequest req = scaled_request(req_in, width);
+  req.focal_plane = plane_at_inverse_depth(rig, q);
+  const ViewGeometry g(rig, req);
+  const int W = req.view.width, H = req.view.height;
+  std::vector<float> s0(static_cast<size_t>(W) * H, 0), s1(s0.size(), 0), s2(s0.size(), 0);
+  for (size_t i = 0; i < rig.cameras.size(); ++i) {
+    const FragmentPlan plan = plan_fragment(g, static_cast<int>(i));
+    if (plan.empty()) continue;
+    const Camera& cam = rig.cameras[i];
+    const cv::Mat& img = gray_[level][i];
+    for (const Run& run : plan.runs) {
+      const FragmentPiece& pc = plan.pieces[run.piece];
+      for (int x = run.x0; x < run.x1; ++x) {
+        const double y = run.y;
+        const double den = pc.weight_den(x, y);
+        const double w = den != 0 ? std::clamp(pc.weight_num(x, y) / den, 0.0, 1.0) : 0.0;
+        const cv::Vec3d h = pc.H * cv::Vec3d(x, y, 1.0);
+        if (!(h[2] > 0) || !(w > 0)) continue;
+        cv::Vec2d p(h[0] / h[2], h[1] / h[2]);
+        if (cam.intrinsics.has_distortion()) p = cam.distort_pixel(p);
+        if (!(p[0] >= 0 && p[1] >= 0 && p[0] < cam.width - 1 && p[1] < cam.height - 1)) continue;
+        const float c = bilinear(img, static_cast<float>(p[0]), static_cast<float>(p[1]));
+        const size_t k = static_cast<size_t>(run.y) * W + x;
+        s0[k] += static_cast<float>(w);
+        s1[k] += static_cast<float>(w) * c;
+        s2[k] += static_cast<float>(w) * c * c;
+      }
+    }
+  }
+  const double cap = opt_.truncate * opt_.truncate;
+  double sum = 0;
+  size_t count = 0;
+  for (size_t k = 0; k < s0.size(); ++k) {
+    if (s0[k] < 0.9f) continue;  // most of the aperture must see the point
+    const double m = s1[k] / s0[k];
+    const double var = std::max(0.0, s2[k] / s0[k] - m * m);
+    sum += std::min(var, cap);
+    ++count;
+  }
+  return count ? sum / count : cap;
+}
+
+AutofocusResult AutofocusContext::run(const ViewRequest& req) const {
+  std::vector<double> f;
+  for (const Camera& c : rig_->cameras) f.push_back(c.intrinsics.fx);
+  const double q_max = opt_.max_parallax_px / (median(f) * rig_->typical_spacing());
+  AutofocusResult res;
+  const int nc = std::max(3, opt_.coarse_steps);
+  std::vector<double> qs(nc), cost(nc);
+  for (int k = 0; k < nc; ++k) {
+    qs[k] = q_max * k / (nc - 1);
+    cost[k] = sweep_cost(req, std::min(opt_.coarse_width, req.view.width), qs[k], 0);
+    res.curve.emplace_back(qs[k], cost[k]);
+  }
+  const int kb = static_cast<int>(std::min_element(cost.begin(), cost.end()) - cost.begin());
+  const double lo = qs[std::max(0, kb - 1)], hi = qs[std::min(nc - 1, kb + 1)];
+  const int nf = std::max(3, opt_.fine_steps);
+  std::vector<double> fq(nf), fc(nf);
+  for (int k = 0; k < nf; ++k) {
+    fq[k] = lo + (hi - lo) * k / (nf - 1);
+    fc[k] = sweep_cost(req, std::min(opt_.fine_width, req.view.width), fq[k], 1);
+    res.curve.emplace_back(fq[k], fc[k]);
+  }
+  const int fb = static_cast<int>(std::min_element(fc.begin(), fc.end()) - fc.begin());
+  double q = fq[fb];
+  if (fb > 0 && fb < nf - 1) {
+    const double a = fc[fb - 1], b = fc[fb], c = fc[fb + 1];
+    const double denom = a - 2 * b + c;
+    if (denom > 0) q += 0.5 * (a - c) / denom * (fq[1] - fq[0]);
+  }
+  res.inverse_depth = std::max(0.0, q);
+  res.plane = plane_at_inverse_depth(*rig_, res.inverse_depth);
+  return res;
+}
+
+}  // namespace lf

@@ -1,0 +1,50 @@
+#include "lf/parse.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "lf/focus.h"
+
+namespace lf {
+
+std::vector<double> parse_number_list(const std::string& s, const std::string& what) {
+  std::vector<double> out;
+  size_t pos = 0;
+  while (pos <= s.size()) {
+    const size_t comma = s.find(',', pos);
+    const std::string tok =
+        s.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
+    size_t used = 0;
+    double v = 0;
+    try {
+      v = std::stod(tok, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != tok.size() || !std::isfinite(v))
+      throw std::invalid_argument(what + ": '" + tok + "' is not a number");
+    out.push_back(v);
+    if (comma == std::string::npos) break;
+    pos = comma + 1;
+  }
+  return out;
+}
+
+FocalPlane parse_focal_plane(const std::string& s, const Rig& rig) {
+  if (s == "infinity") return FocalPlane::infinity();
+  if (s.rfind("depth:", 0) == 0)
+    return plane_at_depth(rig, parse_number_list(s.substr(6), "focal depth")[0]);
+  if (s.rfind("param:", 0) == 0)
+    return plane_from_focal_param(rig, parse_number_list(s.substr(6), "focal parameter")[0]);
+  if (s.rfind("plane:", 0) == 0) {
+    const auto v = parse_number_list(s.substr(6), "focal plane");
+    if (v.size() != 4) throw std::invalid_argument("focal plane needs nx,ny,nz,d");
+    const FocalPlane p{{v[0], v[1], v[2]}, v[3]};
+    if (p.at_infinity() && p.d == 0) throw std::invalid_argument("focal plane (0,0,0,0)");
+    return p;
+  }
+  throw std::invalid_argument("focal plane '" + s +
+                              "': use infinity, depth:Z, param:A or plane:nx,ny,nz,d");
+}
+
+}  // namespace lf

@@ -1,0 +1,22 @@
+// Text forms of numbers and focal planes, as users type them (tool flags,
+// element properties). Errors: std::invalid_argument naming the field.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "lf/rig.h"
+#include "lf/view.h"
+
+namespace lf {
+
+// Parses "a,b,c" into finite numbers; throws std::invalid_argument naming
+// `what` and the bad token.
+std::vector<double> parse_number_list(const std::string& s, const std::string& what);
+
+// Parses a focal-plane specification: "infinity", "depth:Z" (rig units from
+// the camera plane), "param:A" (light-slab focal parameter) or
+// "plane:nx,ny,nz,d". Throws std::invalid_argument naming the problem.
+FocalPlane parse_focal_plane(const std::string& spec, const Rig& rig);
+
+}  // namespace lf

@@ -1,0 +1,30 @@
+// CPU rendering of a planned fragment (Yang et al. 2002, Section 4.2: the
+// random access camera warps the part of its image that a view needs).
+// Input: a FragmentPlan (lf/plan.h) and the camera's current image; output:
+// the Fragment's pixels (lf/fragment.h gives their layout: 8-bit,
+// premultiplied by the aperture weight).
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include "lf/camera.h"
+#include "lf/fragment.h"
+#include "lf/plan.h"
+
+namespace lf {
+
+// Renders a planned fragment from the camera's current image (CV_8UC4,
+// camera.width x camera.height). Bilinear sampling with edge clamping within
+// half a pixel of the border; samples outside, behind the camera, or where
+// the camera's distortion cannot be evaluated get alpha 0. Lens distortion is
+// applied to the sampling coordinates when the camera has any. No threads,
+// no allocation beyond `out.pixels`. Throws std::invalid_argument on an image
+// of the wrong size or type.
+enum class Kernel { kBest, kScalar };
+// kBest uses SSE2 where the build has it (x86-64; meson option simd); the
+// scalar reference kernel gives bit-identical results (tested).
+void render_fragment(const FragmentPlan& plan, const Camera& camera, const cv::Mat& image,
+                     Fragment& out, Kernel kernel = Kernel::kBest);
+bool simd_available();
+
+}  // namespace lf
