@@ -1,9 +1,27 @@
-// lfcamsrc: one camera of a rig as a video source. Mode "dataset": the
-// camera's still image from the rig (dataset folder or rig file) repeated as
-// video. Frames are captured on a schedule aligned to the pipeline clock:
-// running time k * period + phase (Yang et al. 2002, 4.4.4), so all cameras
-// that share a clock capture within one frame of each other. Buffer PTS is
-// the capture time (running time); OFFSET is the frame number.
+/**
+ * SECTION:element-lfcamsrc
+ * @title: lfcamsrc
+ *
+ * One camera of a light field rig as a video source (`video/x-raw`, RGBA, the
+ * rig's image size). `mode=dataset`: the camera's still image from the rig,
+ * repeated; `mode=synthetic`: a dynamic scene with known depths ray-cast from
+ * the camera's calibration (lib/lf/synthetic.h); `mode=file`: a video file or
+ * image sequence (`location`) through GStreamer's decoders; `mode=v4l2`: a
+ * capture `device`. Frames are captured on a schedule aligned to the pipeline
+ * clock: running time k * period + phase (Yang et al. 2002, 4.4.4), so all
+ * cameras that share a clock capture within one frame of each other. Buffer
+ * PTS is the capture time (running time); OFFSET is the frame number; every
+ * frame carries an `LfCaptureMeta` (camera-id, capture-time).
+ *
+ * The camera is named like lffragment's: `camera-id`, or `row` and `col` of
+ * the rig's grid.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 lfcamsrc rig=rig.json row=2 col=3 mode=synthetic num-buffers=30 ! \
+ *   videoconvert ! autovideosink
+ * ]|
+ */
 #include <gst/app/gstappsink.h>
 #include <gst/base/gstpushsrc.h>
 #include <gst/video/video.h>
@@ -13,7 +31,12 @@
 #include <opencv2/imgproc.hpp>
 
 #include "lf/synthetic.h"
-#include "lfcommon.h"
+#include "lfclock.h"
+#include "lfguard.h"
+#include "lfmeta.h"
+#include "lfprops.h"
+#include "lfrig.h"
+#include "lftrace.h"
 
 GST_DEBUG_CATEGORY_STATIC(lf_cam_src_debug);
 #define GST_CAT_DEFAULT lf_cam_src_debug
@@ -24,11 +47,57 @@ G_DECLARE_FINAL_TYPE(LfCamSrc, lf_cam_src, LF, CAM_SRC, GstPushSrc)
 G_END_DECLS
 
 namespace {
+enum class Mode { kDataset = 0, kSynthetic = 1, kFile = 2, kV4l2 = 3 };
+}  // namespace
+
+#define DEFAULT_FPS_N 30
+#define DEFAULT_FPS_D 1
+#define DEFAULT_PHASE 0
+#define DEFAULT_IS_LIVE FALSE
+#define DEFAULT_MODE Mode::kDataset
+#define DEFAULT_DEVICE "/dev/video0"
+#define DEFAULT_LOOP FALSE
+
+#define LF_TYPE_CAM_SRC_MODE (lf_cam_src_mode_get_type())
+static GType lf_cam_src_mode_get_type() {
+  static GType type = 0;
+  static const GEnumValue values[] = {
+      {static_cast<gint>(Mode::kDataset),
+       "The camera's image from the rig (dataset), repeated as video", "dataset"},
+      {static_cast<gint>(Mode::kSynthetic),
+       "Synthetic dynamic scene rendered from the camera's calibration: a textured disc "
+       "moving at a known depth over a textured background plane (lf::SyntheticScene)",
+       "synthetic"},
+      {static_cast<gint>(Mode::kFile),
+       "A video file or an image sequence (location; GStreamer's decoders), scaled to the "
+       "rig's image size",
+       "file"},
+      {static_cast<gint>(Mode::kV4l2),
+       "A V4L2 capture device (device; through v4l2src), scaled to the rig's image size", "v4l2"},
+      {0, nullptr, nullptr}};
+  if (g_once_init_enter(&type))
+    g_once_init_leave(&type, g_enum_register_static("LfCamSrcMode", values));
+  return type;
+}
+
+namespace {
+struct Settings : lfgst::CameraAddress {
+  std::string rig;
+  lfgst::Fraction framerate{DEFAULT_FPS_N, DEFAULT_FPS_D};
+  guint64 phase = DEFAULT_PHASE;
+  bool live = DEFAULT_IS_LIVE;
+  Mode mode = DEFAULT_MODE;
+  std::string location;
+  std::string device = DEFAULT_DEVICE;
+  bool loop = DEFAULT_LOOP;
+};
+
+// From start (READY->PAUSED) to stop (PAUSED->READY).
 struct State {
+  Settings s;  // snapshot taken at start
   std::shared_ptr<const lf::Rig> rig;
   int index = -1;
   cv::Mat rgba;  // the still, RGBA (dataset mode)
-  bool synthetic = false;
   lf::SyntheticScene scene;
   guint64 frame = 0;
   // file / v4l2 modes: an internal decoding pipeline ending in an appsink.
@@ -44,60 +113,23 @@ struct State {
     }
   }
 };
+
+struct Priv {
+  Settings settings;  // properties (object lock)
+  std::unique_ptr<State> state;
+  lfgst::ClockWaiter waiter;
+};
+
+lfgst::Properties<Settings> props;
 }  // namespace
 
 struct _LfCamSrc {
   GstPushSrc parent;
-  gchar* rig;
-  gint camera_id, row, col;
-  gint fps_n, fps_d;
-  guint64 phase;
-  gboolean live;
-  gint mode;
-  gchar* location;
-  gchar* device;
-  gboolean loop;
-  lfgst::ClockWaiter* waiter;
-  State* state;
-};
-
-enum {
-  PROP_0,
-  PROP_RIG,
-  PROP_CAMERA_ID,
-  PROP_ROW,
-  PROP_COL,
-  PROP_FRAMERATE,
-  PROP_PHASE,
-  PROP_IS_LIVE,
-  PROP_MODE,
-  PROP_LOCATION,
-  PROP_DEVICE,
-  PROP_LOOP
+  Priv* priv;
 };
 
 G_DEFINE_TYPE(LfCamSrc, lf_cam_src, GST_TYPE_PUSH_SRC)
-
-#define LF_TYPE_CAM_SRC_MODE (lf_cam_src_mode_get_type())
-static GType lf_cam_src_mode_get_type() {
-  static GType type = 0;
-  static const GEnumValue values[] = {
-      {0, "The camera's image from the rig (dataset), repeated as video", "dataset"},
-      {1,
-       "Synthetic dynamic scene rendered from the camera's calibration: a textured disc "
-       "moving at a known depth over a textured background plane (lf::SyntheticScene)",
-       "synthetic"},
-      {2,
-       "A video file or an image sequence (location; GStreamer's decoders), scaled to the "
-       "rig's image size",
-       "file"},
-      {3, "A V4L2 capture device (device; through v4l2src), scaled to the rig's image size",
-       "v4l2"},
-      {0, nullptr, nullptr}};
-  if (g_once_init_enter(&type))
-    g_once_init_leave(&type, g_enum_register_static("LfCamSrcMode", values));
-  return type;
-}
+GST_ELEMENT_REGISTER_DEFINE(lfcamsrc, "lfcamsrc", GST_RANK_NONE, LF_TYPE_CAM_SRC)
 
 static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE(
     "src", GST_PAD_SRC, GST_PAD_ALWAYS,
@@ -105,153 +137,53 @@ static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE(
                     "height = (int) [ 2, 65535 ], framerate = (fraction) [ 1/1, 1000/1 ]"));
 
 static void lf_cam_src_set_property(GObject* obj, guint id, const GValue* v, GParamSpec* ps) {
-  LfCamSrc* self = LF_CAM_SRC(obj);
-  GST_OBJECT_LOCK(self);
-  switch (id) {
-    case PROP_RIG:
-      g_free(self->rig);
-      self->rig = g_value_dup_string(v);
-      break;
-    case PROP_CAMERA_ID:
-      self->camera_id = g_value_get_int(v);
-      break;
-    case PROP_ROW:
-      self->row = g_value_get_int(v);
-      break;
-    case PROP_COL:
-      self->col = g_value_get_int(v);
-      break;
-    case PROP_FRAMERATE:
-      self->fps_n = gst_value_get_fraction_numerator(v);
-      self->fps_d = gst_value_get_fraction_denominator(v);
-      break;
-    case PROP_PHASE:
-      self->phase = g_value_get_uint64(v);
-      break;
-    case PROP_IS_LIVE:
-      self->live = g_value_get_boolean(v);
-      break;
-    case PROP_MODE:
-      self->mode = g_value_get_enum(v);
-      break;
-    case PROP_LOCATION:
-      g_free(self->location);
-      self->location = g_value_dup_string(v);
-      break;
-    case PROP_DEVICE:
-      g_free(self->device);
-      self->device = g_value_dup_string(v);
-      break;
-    case PROP_LOOP:
-      self->loop = g_value_get_boolean(v);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
-  }
-  GST_OBJECT_UNLOCK(self);
-  // Must be known before READY->PAUSED (live sources do not preroll);
-  // set_live takes the object lock itself.
-  if (id == PROP_IS_LIVE) gst_base_src_set_live(GST_BASE_SRC(self), g_value_get_boolean(v));
+  props.set(obj, LF_CAM_SRC(obj)->priv->settings, id, v, ps);
+  // Must be known before READY->PAUSED (live sources do not preroll).
+  if (g_str_equal(ps->name, "is-live"))
+    gst_base_src_set_live(GST_BASE_SRC(obj), g_value_get_boolean(v));
 }
 
 static void lf_cam_src_get_property(GObject* obj, guint id, GValue* v, GParamSpec* ps) {
-  LfCamSrc* self = LF_CAM_SRC(obj);
-  GST_OBJECT_LOCK(self);
-  switch (id) {
-    case PROP_RIG:
-      g_value_set_string(v, self->rig);
-      break;
-    case PROP_CAMERA_ID:
-      g_value_set_int(v, self->camera_id);
-      break;
-    case PROP_ROW:
-      g_value_set_int(v, self->row);
-      break;
-    case PROP_COL:
-      g_value_set_int(v, self->col);
-      break;
-    case PROP_FRAMERATE:
-      gst_value_set_fraction(v, self->fps_n, self->fps_d);
-      break;
-    case PROP_PHASE:
-      g_value_set_uint64(v, self->phase);
-      break;
-    case PROP_IS_LIVE:
-      g_value_set_boolean(v, self->live);
-      break;
-    case PROP_MODE:
-      g_value_set_enum(v, self->mode);
-      break;
-    case PROP_LOCATION:
-      g_value_set_string(v, self->location);
-      break;
-    case PROP_DEVICE:
-      g_value_set_string(v, self->device);
-      break;
-    case PROP_LOOP:
-      g_value_set_boolean(v, self->loop);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
-  }
-  GST_OBJECT_UNLOCK(self);
+  props.get(obj, LF_CAM_SRC(obj)->priv->settings, id, v, ps);
 }
 
-static gboolean lf_cam_src_start(GstBaseSrc* src) {
-  LfCamSrc* self = LF_CAM_SRC(src);
-  if (!self->rig || !*self->rig) {
-    GST_ELEMENT_ERROR(self, RESOURCE, NOT_FOUND, ("No rig given"),
-                      ("set the 'rig' property to a rig file or dataset folder"));
-    return FALSE;
-  }
-  auto* st = new State();
-  try {
-    st->rig = lfgst::load_rig_cached(self->rig);
-    const lf::Rig& rig = *st->rig;
-    if (self->camera_id >= 0) {
-      st->index = rig.index_of(self->camera_id);
-      if (st->index < 0)
-        throw std::invalid_argument("camera-id " + std::to_string(self->camera_id) +
-                                    " is not in the rig");
-    } else if (self->row >= 0 && self->col >= 0) {
-      if (rig.grid.empty() || self->row >= rig.grid.rows || self->col >= rig.grid.cols ||
-          rig.grid.at(self->row, self->col) < 0)
-        throw std::invalid_argument("no camera at grid row " + std::to_string(self->row) +
-                                    ", column " + std::to_string(self->col));
-      st->index = rig.grid.at(self->row, self->col);
+// The description of the internal decoding pipeline (file and v4l2 modes).
+static std::string decoder_description(const Settings& s, const lf::Camera& cam) {
+  std::string desc;
+  if (s.mode == Mode::kV4l2) {
+    desc = "v4l2src device=\"" + s.device + "\"";
+  } else {
+    if (s.location.empty())
+      throw std::invalid_argument(
+          "mode=file needs 'location' (a file, or a printf pattern such as frames/%04d.png for "
+          "an image sequence)");
+    if (s.location.find('%') != std::string::npos) {
+      desc = "multifilesrc location=\"" + s.location + "\"" + (s.loop ? " loop=true" : "") +
+             " ! decodebin";
     } else {
-      throw std::invalid_argument("set camera-id, or row and col");
+      gchar* uri = gst_uri_is_valid(s.location.c_str())
+                       ? g_strdup(s.location.c_str())
+                       : gst_filename_to_uri(s.location.c_str(), nullptr);
+      if (!uri) throw std::invalid_argument("location '" + s.location + "' is not a file or URI");
+      desc = std::string("uridecodebin uri=\"") + uri + "\"";
+      g_free(uri);
     }
-    const lf::Camera& cam = rig.cameras[st->index];
-    if (self->mode == 2 || self->mode == 3) {
-      gchar* scaled = g_strdup_printf(
-          "videoconvert ! videoscale ! video/x-raw,format=RGBA,width=%d,height=%d,"
-          "pixel-aspect-ratio=1/1 ! appsink name=frames sync=false max-buffers=2 drop=%s",
-          cam.width, cam.height, self->mode == 3 ? "true" : "false");
-      std::string desc;
-      if (self->mode == 3) {
-        desc = std::string("v4l2src device=") + (self->device ? self->device : "/dev/video0");
-      } else {
-        if (!self->location || !*self->location)
-          throw std::invalid_argument(
-              "mode=file needs 'location' (a file, or a printf "
-              "pattern such as frames/%04d.png for an image sequence)");
-        const std::string loc = self->location;
-        if (loc.find('%') != std::string::npos) {
-          desc = "multifilesrc location=\"" + loc + "\"" + (self->loop ? " loop=true" : "") +
-                 " ! decodebin";
-        } else {
-          gchar* uri = gst_uri_is_valid(loc.c_str()) ? g_strdup(loc.c_str())
-                                                     : gst_filename_to_uri(loc.c_str(), nullptr);
-          if (!uri) throw std::invalid_argument("location '" + loc + "' is not a file or URI");
-          desc = std::string("uridecodebin uri=\"") + uri + "\"";
-          g_free(uri);
-        }
-      }
-      desc += std::string(" ! ") + scaled;
-      g_free(scaled);
+  }
+  return desc + " ! videoconvert ! videoscale ! video/x-raw,format=RGBA,width=" +
+         std::to_string(cam.width) + ",height=" + std::to_string(cam.height) +
+         ",pixel-aspect-ratio=1/1 ! appsink name=frames sync=false max-buffers=2 drop=" +
+         (s.mode == Mode::kV4l2 ? "true" : "false");
+}
+
+// Opens the camera's input for `st` (throws std::exception on failure).
+static void open_input(State* st) {
+  const Settings& s = st->s;
+  const lf::Camera& cam = st->rig->cameras[st->index];
+  switch (s.mode) {
+    case Mode::kFile:
+    case Mode::kV4l2: {
       GError* err = nullptr;
-      st->decoder = gst_parse_launch(desc.c_str(), &err);
+      st->decoder = gst_parse_launch(decoder_description(s, cam).c_str(), &err);
       if (!st->decoder) {
         const std::string msg = err ? err->message : "cannot build the decoding pipeline";
         g_clear_error(&err);
@@ -260,15 +192,16 @@ static gboolean lf_cam_src_start(GstBaseSrc* src) {
       g_clear_error(&err);
       st->appsink = gst_bin_get_by_name(GST_BIN(st->decoder), "frames");
       if (gst_element_set_state(st->decoder, GST_STATE_PLAYING) == GST_STATE_CHANGE_FAILURE)
-        throw std::runtime_error(
-            "cannot open " + std::string(self->mode == 3 ? "device " : "") +
-            (self->mode == 3 ? (self->device ? self->device : "/dev/video0") : self->location));
+        throw std::runtime_error("cannot open " + (s.mode == Mode::kV4l2 ? "device " + s.device
+                                                                          : s.location));
       st->rgba = cv::Mat(cam.height, cam.width, CV_8UC4);  // size for caps
-    } else if (self->mode == 1) {
-      st->synthetic = true;
-      st->scene = lf::SyntheticScene::for_rig(rig);
+      break;
+    }
+    case Mode::kSynthetic:
+      st->scene = lf::SyntheticScene::for_rig(*st->rig);
       st->rgba = cv::Mat(cam.height, cam.width, CV_8UC4);  // size for caps
-    } else {
+      break;
+    case Mode::kDataset: {
       if (cam.image.empty())
         throw std::invalid_argument("camera " + std::to_string(cam.id) +
                                     " has no image file (use mode=synthetic)");
@@ -277,31 +210,41 @@ static gboolean lf_cam_src_start(GstBaseSrc* src) {
       if (bgr.cols != cam.width || bgr.rows != cam.height)
         cv::resize(bgr, bgr, cv::Size(cam.width, cam.height), 0, 0, cv::INTER_AREA);
       cv::cvtColor(bgr, st->rgba, cv::COLOR_BGR2RGBA);
+      break;
     }
-  } catch (const std::exception& e) {
-    delete st;
-    GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("Cannot open the camera"), ("%s", e.what()));
+  }
+}
+
+static gboolean lf_cam_src_start(GstBaseSrc* src) {
+  LfCamSrc* self = LF_CAM_SRC(src);
+  auto st = std::make_unique<State>();
+  st->s = lfgst::snapshot(GST_OBJECT(self), self->priv->settings);
+  st->rig = lfgst::open_rig(GST_ELEMENT(self), st->s.rig);
+  if (!st->rig) return FALSE;
+  st->index = lfgst::camera_index(GST_ELEMENT(self), *st->rig, st->s);
+  if (st->index < 0) return FALSE;
+  GError* err = nullptr;
+  if (!lfgst::guard([&] { open_input(st.get()); }, &err)) {
+    GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("Cannot open the camera"), ("%s", err->message));
+    g_error_free(err);
     return FALSE;
   }
-  delete self->state;
-  self->state = st;
+  self->priv->state = std::move(st);
   return TRUE;
 }
 
 static gboolean lf_cam_src_stop(GstBaseSrc* src) {
-  LfCamSrc* self = LF_CAM_SRC(src);
-  delete self->state;
-  self->state = nullptr;
+  LF_CAM_SRC(src)->priv->state.reset();
   return TRUE;
 }
 
 static GstCaps* lf_cam_src_get_caps(GstBaseSrc* src, GstCaps* filter) {
   LfCamSrc* self = LF_CAM_SRC(src);
   GstCaps* caps;
-  if (self->state) {
+  if (State* st = self->priv->state.get()) {
     caps = gst_caps_new_simple("video/x-raw", "format", G_TYPE_STRING, "RGBA", "width", G_TYPE_INT,
-                               self->state->rgba.cols, "height", G_TYPE_INT, self->state->rgba.rows,
-                               "framerate", GST_TYPE_FRACTION, self->fps_n, self->fps_d, nullptr);
+                               st->rgba.cols, "height", G_TYPE_INT, st->rgba.rows, "framerate",
+                               GST_TYPE_FRACTION, st->s.framerate.n, st->s.framerate.d, nullptr);
   } else {
     caps = gst_pad_get_pad_template_caps(GST_BASE_SRC_PAD(src));
   }
@@ -314,12 +257,12 @@ static GstCaps* lf_cam_src_get_caps(GstBaseSrc* src, GstCaps* filter) {
 }
 
 static gboolean lf_cam_src_unlock(GstBaseSrc* src) {
-  LF_CAM_SRC(src)->waiter->unlock();
+  LF_CAM_SRC(src)->priv->waiter.unlock();
   return TRUE;
 }
 
 static gboolean lf_cam_src_unlock_stop(GstBaseSrc* src) {
-  LF_CAM_SRC(src)->waiter->unlock_stop();
+  LF_CAM_SRC(src)->priv->waiter.unlock_stop();
   return TRUE;
 }
 
@@ -329,11 +272,12 @@ static void free_mat(gpointer p) {
 
 static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
   LfCamSrc* self = LF_CAM_SRC(src);
-  State* st = self->state;
-  const GstClockTime period = gst_util_uint64_scale_int(GST_SECOND, self->fps_d, self->fps_n);
-  if (self->live)
-    st->frame = lfgst::first_current_tick(GST_ELEMENT(src), st->frame, period, self->phase);
-  const GstClockTime pts = st->frame * period + self->phase;
+  State* st = self->priv->state.get();
+  const Settings& set = st->s;
+  const GstClockTime period =
+      gst_util_uint64_scale_int(GST_SECOND, set.framerate.d, set.framerate.n);
+  if (set.live) st->frame = lfgst::first_current_tick(GST_ELEMENT(src), st->frame, period, set.phase);
+  const GstClockTime pts = st->frame * period + set.phase;
   // Capture time, frame number and the capture meta on every frame.
   auto stamp = [&](GstBuffer* buf) {
     GST_BUFFER_PTS(buf) = pts;
@@ -346,13 +290,13 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
     return buf;
   };
   // Live: emit at running time pts on the pipeline clock.
-  if (self->live && !self->waiter->wait_until(GST_ELEMENT(src), pts)) return GST_FLOW_FLUSHING;
+  if (set.live && !self->priv->waiter.wait_until(GST_ELEMENT(src), pts)) return GST_FLOW_FLUSHING;
   if (st->decoder) {
     // File: the next decoded frame (looping a plain file on EOS if asked);
     // V4L2 (live): the newest frame at the capture instant.
     GstAppSink* sink = GST_APP_SINK(st->appsink);
     GstSample* s = nullptr;
-    if (self->mode == 3) {
+    if (set.mode == Mode::kV4l2) {
       while (GstSample* n = gst_app_sink_try_pull_sample(sink, 0)) {
         if (s) gst_sample_unref(s);
         s = n;
@@ -360,7 +304,7 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
       if (!s && !st->last) s = gst_app_sink_try_pull_sample(sink, 5 * GST_SECOND);
     } else {
       s = gst_app_sink_try_pull_sample(sink, 30 * GST_SECOND);
-      if (!s && gst_app_sink_is_eos(sink) && self->loop &&
+      if (!s && gst_app_sink_is_eos(sink) && set.loop &&
           gst_element_seek_simple(st->decoder, GST_FORMAT_TIME, GST_SEEK_FLAG_FLUSH, 0))
         s = gst_app_sink_try_pull_sample(sink, 30 * GST_SECOND);
       if (!s) {
@@ -381,7 +325,7 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
   }
   // Dataset: zero-copy, the buffer shares the still (read-only). Synthetic:
   // the scene at the capture time.
-  auto* ref = new cv::Mat(st->synthetic ? st->scene.render(st->rig->cameras[st->index], pts / 1e9)
+  auto* ref = new cv::Mat(set.mode == Mode::kSynthetic ? st->scene.render(st->rig->cameras[st->index], pts / 1e9)
                                         : st->rgba);
   GstBuffer* buf = gst_buffer_new_wrapped_full(GST_MEMORY_FLAG_READONLY, ref->data,
                                                ref->total() * ref->elemSize(), 0,
@@ -391,8 +335,7 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
 }
 
 static gboolean lf_cam_src_query(GstBaseSrc* src, GstQuery* q) {
-  LfCamSrc* self = LF_CAM_SRC(src);
-  if (GST_QUERY_TYPE(q) == GST_QUERY_LATENCY && self->live) {
+  if (GST_QUERY_TYPE(q) == GST_QUERY_LATENCY && gst_base_src_is_live(src)) {
     gst_query_set_latency(q, TRUE, 0, GST_CLOCK_TIME_NONE);
     return TRUE;
   }
@@ -400,22 +343,12 @@ static gboolean lf_cam_src_query(GstBaseSrc* src, GstQuery* q) {
 }
 
 static void lf_cam_src_finalize(GObject* obj) {
-  LfCamSrc* self = LF_CAM_SRC(obj);
-  g_free(self->rig);
-  g_free(self->location);
-  g_free(self->device);
-  delete self->state;
-  delete self->waiter;
+  delete LF_CAM_SRC(obj)->priv;
   G_OBJECT_CLASS(lf_cam_src_parent_class)->finalize(obj);
 }
 
 static void lf_cam_src_init(LfCamSrc* self) {
-  self->camera_id = -1;
-  self->row = self->col = -1;
-  self->device = g_strdup("/dev/video0");
-  self->fps_n = 30;
-  self->fps_d = 1;
-  self->waiter = new lfgst::ClockWaiter();
+  self->priv = new Priv();
   gst_base_src_set_format(GST_BASE_SRC(self), GST_FORMAT_TIME);
 }
 
@@ -427,56 +360,42 @@ static void lf_cam_src_class_init(LfCamSrcClass* klass) {
   oc->set_property = lf_cam_src_set_property;
   oc->get_property = lf_cam_src_get_property;
   oc->finalize = lf_cam_src_finalize;
-  const auto rw = static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
-                                           GST_PARAM_MUTABLE_READY);
-  g_object_class_install_property(
-      oc, PROP_RIG,
-      g_param_spec_string("rig", "Rig", "Rig file (.json) or dataset folder", nullptr, rw));
-  g_object_class_install_property(
-      oc, PROP_CAMERA_ID,
-      g_param_spec_int("camera-id", "Camera id", "Camera id in the rig (-1: use row and col)", -1,
-                       G_MAXINT, -1, rw));
-  g_object_class_install_property(
-      oc, PROP_ROW,
-      g_param_spec_int("row", "Row", "Grid row of the camera (-1: unset)", -1, 65535, -1, rw));
-  g_object_class_install_property(
-      oc, PROP_COL,
-      g_param_spec_int("col", "Column", "Grid column of the camera (-1: unset)", -1, 65535, -1,
-                       rw));
-  g_object_class_install_property(
-      oc, PROP_FRAMERATE,
-      gst_param_spec_fraction("framerate", "Frame rate", "Capture rate, frames per second", 1, 1,
-                              1000, 1, 30, 1, rw));
-  g_object_class_install_property(
-      oc, PROP_PHASE,
-      g_param_spec_uint64("phase", "Phase",
-                          "Capture schedule offset, ns: frame k is captured at running time "
-                          "k * period + phase",
-                          0, G_MAXUINT64, 0, rw));
-  g_object_class_install_property(
-      oc, PROP_IS_LIVE,
-      g_param_spec_boolean("is-live", "Live",
-                           "Capture in real time on the pipeline clock's schedule", FALSE, rw));
-  g_object_class_install_property(
-      oc, PROP_MODE,
-      g_param_spec_enum("mode", "Mode", "Where frames come from", LF_TYPE_CAM_SRC_MODE, 0, rw));
-  g_object_class_install_property(
-      oc, PROP_LOCATION,
-      g_param_spec_string("location", "Location",
-                          "mode=file: a video file or URI, or a printf pattern of an image "
-                          "sequence (frames/%04d.png)",
-                          nullptr, rw));
-  g_object_class_install_property(
-      oc, PROP_DEVICE,
-      g_param_spec_string("device", "Device", "mode=v4l2: the capture device", "/dev/video0", rw));
-  g_object_class_install_property(
-      oc, PROP_LOOP,
-      g_param_spec_boolean("loop", "Loop", "mode=file: start again at the end", FALSE, rw));
+  const GParamFlags rw = lfgst::kReadWriteReady;
+  props.add(oc, &Settings::rig,
+            g_param_spec_string("rig", "Rig", "Rig file (.json) or dataset folder", nullptr, rw));
+  lfgst::add_camera_properties(props, oc);
+  props.add(oc, &Settings::framerate,
+            gst_param_spec_fraction("framerate", "Frame rate", "Capture rate, frames per second",
+                                    1, 1, 1000, 1, DEFAULT_FPS_N, DEFAULT_FPS_D, rw));
+  props.add(oc, &Settings::phase,
+            g_param_spec_uint64("phase", "Phase",
+                                "Capture schedule offset, ns: frame k is captured at running "
+                                "time k * period + phase",
+                                0, G_MAXUINT64, DEFAULT_PHASE, rw));
+  props.add(oc, &Settings::live,
+            g_param_spec_boolean("is-live", "Live",
+                                 "Capture in real time on the pipeline clock's schedule",
+                                 DEFAULT_IS_LIVE, rw));
+  props.add(oc, &Settings::mode,
+            g_param_spec_enum("mode", "Mode", "Where frames come from", LF_TYPE_CAM_SRC_MODE,
+                              static_cast<gint>(DEFAULT_MODE), rw));
+  props.add(oc, &Settings::location,
+            g_param_spec_string("location", "Location",
+                                "mode=file: a video file or URI, or a printf pattern of an image "
+                                "sequence (frames/%04d.png)",
+                                nullptr, rw));
+  props.add(oc, &Settings::device,
+            g_param_spec_string("device", "Device", "mode=v4l2: the capture device",
+                                DEFAULT_DEVICE, rw));
+  props.add(oc, &Settings::loop,
+            g_param_spec_boolean("loop", "Loop", "mode=file: start again at the end", DEFAULT_LOOP,
+                                 rw));
+  gst_type_mark_as_plugin_api(LF_TYPE_CAM_SRC_MODE, static_cast<GstPluginAPIFlags>(0));
   gst_element_class_add_static_pad_template(ec, &src_template);
   gst_element_class_set_static_metadata(
       ec, "Light field camera source", "Source/Video",
-      "One camera of a light field rig (dataset stills as video, or a synthetic dynamic scene), "
-      "captured on a clock-aligned schedule",
+      "One camera of a light field rig (dataset stills as video, a synthetic dynamic scene, a "
+      "video file or a V4L2 device), captured on a clock-aligned schedule",
       "lightfield-gst");
   bc->start = lf_cam_src_start;
   bc->stop = lf_cam_src_stop;
@@ -486,8 +405,4 @@ static void lf_cam_src_class_init(LfCamSrcClass* klass) {
   bc->query = lf_cam_src_query;
   pc->create = lf_cam_src_create;
   GST_DEBUG_CATEGORY_INIT(lf_cam_src_debug, "lfcamsrc", 0, "light field camera source");
-}
-
-gboolean lf_cam_src_register(GstPlugin* plugin) {
-  return gst_element_register(plugin, "lfcamsrc", GST_RANK_NONE, LF_TYPE_CAM_SRC);
 }

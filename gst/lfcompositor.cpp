@@ -1,9 +1,30 @@
-// lfcompositor: collects the fragments of each view request and adds them
-// into the output frame (Yang et al. 2002, 4.3), renormalised by the
-// accumulated weight. A GstAggregator: it composites a request when all of
-// its fragments are in, or at the deadline (the aggregator's `latency`) in
-// live pipelines with whatever arrived, so a dead camera never stops the
-// output. Output: ordinary raw video.
+/**
+ * SECTION:element-lfcompositor
+ * @title: lfcompositor
+ *
+ * Collects the fragments of each view request and adds them into the output
+ * frame (Yang et al. 2002, Section 4.3), renormalised by the accumulated
+ * weight (lib/lf/composite.h). A GstAggregator: it composites a request when
+ * all of its fragments are in, or at the deadline in live pipelines with
+ * whatever arrived, so a dead camera never stops the output. Output: ordinary
+ * raw video (RGBA, RGBx or I420).
+ *
+ * Stream facts come from the fragment caps: the output frame rate is their
+ * `framerate` (the viewer's request rate; the `framerate` property overrides
+ * it), and the deadline is one frame period after a request's running time
+ * (gst_aggregator_set_latency), unless the `latency` property is set, which
+ * then replaces it.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 lfviewrequest rig=rig.json num-buffers=30 ! tee name=t \
+ *   t. ! queue ! f0.request lfcamsrc rig=rig.json camera-id=0 ! f0.sink \
+ *   lffragment name=f0 rig=rig.json camera-id=0 ! c.sink_0 \
+ *   t. ! queue ! f1.request lfcamsrc rig=rig.json camera-id=1 ! f1.sink \
+ *   lffragment name=f1 rig=rig.json camera-id=1 ! c.sink_1 \
+ *   lfcompositor name=c rig=rig.json ! videoconvert ! autovideosink
+ * ]|
+ */
 #include <gst/base/gstaggregator.h>
 #include <gst/video/video.h>
 #include <zlib.h>
@@ -15,9 +36,12 @@
 
 #include "lf/composite.h"
 #include "lf/fragment.h"
-#include "lf/render.h"
 #include "lf/wire.h"
-#include "lfcommon.h"
+#include "lfcaps.h"
+#include "lfguard.h"
+#include "lfprops.h"
+#include "lfrig.h"
+#include "lftrace.h"
 
 GST_DEBUG_CATEGORY_STATIC(lf_compositor_debug);
 #define GST_CAT_DEFAULT lf_compositor_debug
@@ -27,36 +51,62 @@ G_BEGIN_DECLS
 G_DECLARE_FINAL_TYPE(LfCompositor, lf_compositor, LF, COMPOSITOR, GstAggregator)
 G_END_DECLS
 
+#define DEFAULT_VIEWER_ID -1
+#define DEFAULT_FPS_N 0  // 0/1: from the fragment caps
+#define DEFAULT_FPS_D 1
+#define DEFAULT_STEREO FALSE
+// Output rate when neither the caps nor the property give one.
+#define FALLBACK_FPS_N 30
+#define FALLBACK_FPS_D 1
+
 namespace {
+struct Settings {
+  std::string rig;
+  gint viewer_id = DEFAULT_VIEWER_ID;
+  lfgst::Fraction framerate{DEFAULT_FPS_N, DEFAULT_FPS_D};
+  bool stereo = DEFAULT_STEREO;
+};
 struct Group {
   std::vector<lf::Fragment> fragments;
   std::set<uint64_t> cameras;  // (viewer << 32) | camera
   GstClockTime pts = GST_CLOCK_TIME_NONE, duration = GST_CLOCK_TIME_NONE;
   GstClockTime running_time = GST_CLOCK_TIME_NONE;  // of its first fragment
 };
+// From start (READY->PAUSED) to stop (PAUSED->READY); used on the aggregate
+// thread only (GstAggregator handles serialized sink events there too).
 struct State {
+  Settings s;  // snapshot taken at start
   std::shared_ptr<const lf::Rig> rig;
   std::map<uint64_t, Group> pending;  // by request sequence
   int64_t last_emitted = -1;
   lf::Compositor comp, comp_right;
   GstVideoInfo out;
   bool have_caps = false;
+  lfgst::Fraction caps_fps{0, 1};  // from the fragment caps (0/1: none yet)
+  // The output rate: the property, else the caps, else 30/1.
+  lfgst::Fraction fps() const {
+    if (s.framerate.n > 0) return s.framerate;
+    if (caps_fps.n > 0) return caps_fps;
+    return {FALLBACK_FPS_N, FALLBACK_FPS_D};
+  }
 };
 constexpr size_t kMaxPending = 16;
+
+struct Priv {
+  Settings settings;  // properties (object lock)
+  std::unique_ptr<State> state;
+};
+
+lfgst::Properties<Settings> props;
 }  // namespace
 
 struct _LfCompositor {
   GstAggregator parent;
-  gchar* rig;
-  gint viewer_id;
-  gint fps_n, fps_d;
-  gboolean stereo;
-  State* state;
+  Priv* priv;
 };
 
-enum { PROP_0, PROP_RIG, PROP_VIEWER_ID, PROP_FRAMERATE, PROP_STEREO };
-
 G_DEFINE_TYPE(LfCompositor, lf_compositor, GST_TYPE_AGGREGATOR)
+GST_ELEMENT_REGISTER_DEFINE(lfcompositor, "lfcompositor", GST_RANK_NONE, LF_TYPE_COMPOSITOR)
 
 static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE(
     "sink_%u", GST_PAD_SINK, GST_PAD_REQUEST, GST_STATIC_CAPS(LF_FRAGMENT_CAPS));
@@ -66,79 +116,67 @@ static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE(
                     "16384 ], height = (int) [ 2, 16384 ], framerate = (fraction) [ 0/1, MAX ]"));
 
 static void lf_compositor_set_property(GObject* obj, guint id, const GValue* v, GParamSpec* ps) {
-  LfCompositor* self = LF_COMPOSITOR(obj);
-  GST_OBJECT_LOCK(self);
-  switch (id) {
-    case PROP_RIG:
-      g_free(self->rig);
-      self->rig = g_value_dup_string(v);
-      break;
-    case PROP_VIEWER_ID:
-      self->viewer_id = g_value_get_int(v);
-      break;
-    case PROP_FRAMERATE:
-      self->fps_n = gst_value_get_fraction_numerator(v);
-      self->fps_d = gst_value_get_fraction_denominator(v);
-      break;
-    case PROP_STEREO:
-      self->stereo = g_value_get_boolean(v);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
-  }
-  GST_OBJECT_UNLOCK(self);
+  props.set(obj, LF_COMPOSITOR(obj)->priv->settings, id, v, ps);
 }
 
 static void lf_compositor_get_property(GObject* obj, guint id, GValue* v, GParamSpec* ps) {
-  LfCompositor* self = LF_COMPOSITOR(obj);
-  GST_OBJECT_LOCK(self);
-  switch (id) {
-    case PROP_RIG:
-      g_value_set_string(v, self->rig);
-      break;
-    case PROP_VIEWER_ID:
-      g_value_set_int(v, self->viewer_id);
-      break;
-    case PROP_FRAMERATE:
-      gst_value_set_fraction(v, self->fps_n, self->fps_d);
-      break;
-    case PROP_STEREO:
-      g_value_set_boolean(v, self->stereo);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
-  }
-  GST_OBJECT_UNLOCK(self);
+  props.get(obj, LF_COMPOSITOR(obj)->priv->settings, id, v, ps);
 }
 
 static gboolean lf_compositor_start(GstAggregator* agg) {
   LfCompositor* self = LF_COMPOSITOR(agg);
-  auto* st = new State();
-  if (self->rig && *self->rig) {
-    try {
-      st->rig = lfgst::load_rig_cached(self->rig);
-    } catch (const std::exception& e) {
-      delete st;
-      GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("Cannot load the rig"), ("%s", e.what()));
-      return FALSE;
-    }
+  auto st = std::make_unique<State>();
+  st->s = lfgst::snapshot(GST_OBJECT(self), self->priv->settings);
+  if (!st->s.rig.empty()) {
+    st->rig = lfgst::open_rig(GST_ELEMENT(self), st->s.rig);
+    if (!st->rig) return FALSE;
   }
-  delete self->state;
-  self->state = st;
+  self->priv->state = std::move(st);
   return TRUE;
 }
 
 static gboolean lf_compositor_stop(GstAggregator* agg) {
-  LfCompositor* self = LF_COMPOSITOR(agg);
-  delete self->state;
-  self->state = nullptr;
+  LF_COMPOSITOR(agg)->priv->state.reset();
   return TRUE;
+}
+
+// The deadline: one frame period of the request rate, unless the `latency`
+// property is set (then it alone).
+static void update_latency(LfCompositor* self) {
+  State* st = self->priv->state.get();
+  if (!st) return;
+  GstClockTime user = 0;
+  g_object_get(self, "latency", &user, nullptr);
+  const lfgst::Fraction fps = st->fps();
+  const GstClockTime period = gst_util_uint64_scale_int(GST_SECOND, fps.d, fps.n);
+  const GstClockTime own = user > 0 ? 0 : period;
+  gst_aggregator_set_latency(GST_AGGREGATOR(self), own, own);
+}
+
+static gboolean lf_compositor_sink_event(GstAggregator* agg, GstAggregatorPad* pad,
+                                         GstEvent* event) {
+  LfCompositor* self = LF_COMPOSITOR(agg);
+  State* st = self->priv->state.get();
+  if (GST_EVENT_TYPE(event) == GST_EVENT_CAPS && st) {
+    GstCaps* caps;
+    gst_event_parse_caps(event, &caps);
+    gint n, d;
+    if (lfgst::caps_framerate(caps, &n, &d) && !(lfgst::Fraction{n, d} == st->caps_fps)) {
+      if (st->caps_fps.n > 0)
+        GST_WARNING_OBJECT(self, "fragment caps change the request rate from %d/%d to %d/%d",
+                           st->caps_fps.n, st->caps_fps.d, n, d);
+      st->caps_fps = {n, d};
+      update_latency(self);
+    }
+  }
+  return GST_AGGREGATOR_CLASS(lf_compositor_parent_class)->sink_event(agg, pad, event);
 }
 
 // Number of fragments a complete request has: the rig's cameras, or else one
 // per sink pad.
 static size_t expected_fragments(LfCompositor* self) {
-  if (self->state->rig) return self->state->rig->cameras.size() * (self->stereo ? 2 : 1);
+  State* st = self->priv->state.get();
+  if (st->rig) return st->rig->cameras.size() * (st->s.stereo ? 2 : 1);
   GST_OBJECT_LOCK(self);
   const size_t n = GST_ELEMENT(self)->numsinkpads;
   GST_OBJECT_UNLOCK(self);
@@ -146,17 +184,18 @@ static size_t expected_fragments(LfCompositor* self) {
 }
 
 static bool ensure_caps(LfCompositor* self, int width, int height) {
-  State* st = self->state;
+  State* st = self->priv->state.get();
   if (st->have_caps && GST_VIDEO_INFO_WIDTH(&st->out) == width &&
       GST_VIDEO_INFO_HEIGHT(&st->out) == height)
     return true;
   GstAggregator* agg = GST_AGGREGATOR(self);
+  const lfgst::Fraction fps = st->fps();
   GstCaps* peer = gst_pad_peer_query_caps(GST_AGGREGATOR_SRC_PAD(agg), nullptr);
   GstVideoFormat chosen = GST_VIDEO_FORMAT_UNKNOWN;
   for (const char* fmt : {"RGBA", "RGBx", "I420"}) {
     GstCaps* c = gst_caps_new_simple("video/x-raw", "format", G_TYPE_STRING, fmt, "width",
                                      G_TYPE_INT, width, "height", G_TYPE_INT, height, "framerate",
-                                     GST_TYPE_FRACTION, self->fps_n, self->fps_d, nullptr);
+                                     GST_TYPE_FRACTION, fps.n, fps.d, nullptr);
     const bool ok = !peer || gst_caps_can_intersect(c, peer);
     gst_caps_unref(c);
     if (ok) {
@@ -171,8 +210,8 @@ static bool ensure_caps(LfCompositor* self, int width, int height) {
     return false;
   }
   gst_video_info_set_format(&st->out, chosen, width, height);
-  GST_VIDEO_INFO_FPS_N(&st->out) = self->fps_n;
-  GST_VIDEO_INFO_FPS_D(&st->out) = self->fps_d;
+  GST_VIDEO_INFO_FPS_N(&st->out) = fps.n;
+  GST_VIDEO_INFO_FPS_D(&st->out) = fps.d;
   GstCaps* caps = gst_video_info_to_caps(&st->out);
   gst_aggregator_set_src_caps(agg, caps);
   gst_caps_unref(caps);
@@ -181,25 +220,26 @@ static bool ensure_caps(LfCompositor* self, int width, int height) {
 }
 
 static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g) {
-  State* st = self->state;
+  State* st = self->priv->state.get();
   const gint64 t0 = g_get_monotonic_time();
   const lf::Fragment& first = g.fragments.front();
   const int w = first.out_width, H = first.out_height;
-  const int W = self->stereo ? 2 * w : w;  // stereo: left | right side by side
+  const int W = st->s.stereo ? 2 * w : w;  // stereo: left | right side by side
   if (!ensure_caps(self, W, H)) return GST_FLOW_NOT_NEGOTIATED;
-  const guint left_id = static_cast<guint>(std::max(0, self->viewer_id));
+  const guint left_id = static_cast<guint>(std::max(0, st->s.viewer_id));
   st->comp.reset(w, H);
-  if (self->stereo) st->comp_right.reset(w, H);
+  if (st->s.stereo) st->comp_right.reset(w, H);
   for (const lf::Fragment& f : g.fragments) {
-    try {
-      (self->stereo && f.viewer_id != left_id ? st->comp_right : st->comp).add(f);
-    } catch (const std::exception& e) {
-      GST_WARNING_OBJECT(self, "dropping fragment of camera %u: %s", f.camera_id, e.what());
+    GError* err = nullptr;
+    if (!lfgst::guard([&] { (st->s.stereo && f.viewer_id != left_id ? st->comp_right : st->comp).add(f); },
+                      &err)) {
+      GST_WARNING_OBJECT(self, "dropping fragment of camera %u: %s", f.camera_id, err->message);
+      g_error_free(err);
     }
   }
   cv::Mat rgba;
   st->comp.resolve(rgba);
-  if (self->stereo) {
+  if (st->s.stereo) {
     cv::Mat right;
     st->comp_right.resolve(right);
     cv::hconcat(rgba, right, rgba);
@@ -246,18 +286,25 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g) {
 
 // Parses one fragment buffer and files it under its request.
 static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
-  State* st = self->state;
+  State* st = self->priv->state.get();
   GstMapInfo map;
   if (!gst_buffer_map(buf, &map, GST_MAP_READ)) return;
-  try {
-    const gint64 t0 = g_get_monotonic_time();
-    lf::Fragment f = lf::parse_fragment(map.data, map.size);
+  GError* err = nullptr;
+  lf::Fragment f;
+  const gint64 t0 = g_get_monotonic_time();
+  if (!lfgst::guard([&] { f = lf::parse_fragment(map.data, map.size); }, &err)) {
+    GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Dropping a malformed fragment"), ("%s",
+                        err->message));
+    g_error_free(err);
+    gst_buffer_unmap(buf, &map);
+    return;
+  }
     lfgst::trace(GST_ELEMENT(self), "decoded", f.viewer_id, f.sequence,
                  static_cast<gint>(f.camera_id), (g_get_monotonic_time() - t0) * 1000);
-    const guint v0 = static_cast<guint>(std::max(0, self->viewer_id));
+    const guint v0 = static_cast<guint>(std::max(0, st->s.viewer_id));
     const bool ours =
-        self->stereo ? (f.viewer_id == v0 || f.viewer_id == v0 + 1)
-                     : (self->viewer_id < 0 || f.viewer_id == static_cast<guint>(self->viewer_id));
+        st->s.stereo ? (f.viewer_id == v0 || f.viewer_id == v0 + 1)
+                     : (st->s.viewer_id < 0 || f.viewer_id == static_cast<guint>(st->s.viewer_id));
     const bool known = !st->rig || st->rig->index_of(static_cast<int>(f.camera_id)) >= 0;
     if (!known) {
       GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Dropping a fragment of an unknown camera"),
@@ -275,9 +322,6 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
         g.fragments.push_back(std::move(f));
       }
     }
-  } catch (const std::exception& e) {
-    GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Dropping a malformed fragment"), ("%s", e.what()));
-  }
   gst_buffer_unmap(buf, &map);
 }
 
@@ -286,11 +330,11 @@ static int64_t queued_sequence(GstBuffer* buf) {
   GstMapInfo map;
   int64_t seq = -1;
   if (gst_buffer_map(buf, &map, GST_MAP_READ)) {
-    try {
-      seq = static_cast<int64_t>(lf::peek_fragment_header(map.data, map.size).sequence);
-    } catch (const std::exception&) {
-      seq = -1;  // malformed: absorb() reports it
-    }
+    // Malformed: -1 (absorb() reports it).
+    if (!lfgst::guard(
+            [&] { seq = static_cast<int64_t>(lf::peek_fragment_header(map.data, map.size).sequence); },
+            nullptr))
+      seq = -1;
     gst_buffer_unmap(buf, &map);
   }
   return seq;
@@ -298,7 +342,7 @@ static int64_t queued_sequence(GstBuffer* buf) {
 
 static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeout) {
   LfCompositor* self = LF_COMPOSITOR(agg);
-  State* st = self->state;
+  State* st = self->priv->state.get();
   bool all_eos = true;
   GList* pads;
   GST_OBJECT_LOCK(self);
@@ -368,8 +412,8 @@ static GstClockTime lf_compositor_get_next_time(GstAggregator* agg) {
     if (GST_CLOCK_TIME_IS_VALID(rt) && (t == GST_CLOCK_TIME_NONE || rt < t)) t = rt;
   };
   // Requests already collected (aggregate() runs on this same thread)...
-  if (self->state)
-    for (const auto& entry : self->state->pending) earliest(entry.second.running_time);
+  if (State* st = self->priv->state.get())
+    for (const auto& entry : st->pending) earliest(entry.second.running_time);
   // ... and fragments still waiting in the pads.
   GST_OBJECT_LOCK(self);
   for (GList* l = GST_ELEMENT(self)->sinkpads; l; l = l->next) {
@@ -390,8 +434,9 @@ static GstPadProbeReturn trace_arrival(GstPad* pad, GstPadProbeInfo* info, gpoin
   GstBuffer* buf = GST_PAD_PROBE_INFO_BUFFER(info);
   GstMapInfo map;
   if (buf && gst_buffer_map(buf, &map, GST_MAP_READ)) {
-    try {
-      const lf::FragmentHeader h = lf::peek_fragment_header(map.data, map.size);
+    lf::FragmentHeader h;
+    // Malformed: not traced here (reported when aggregated).
+    if (lfgst::guard([&] { h = lf::peek_fragment_header(map.data, map.size); }, nullptr)) {
       GstObject* parent = gst_pad_get_parent(pad);
       if (parent) {
         lfgst::trace(GST_ELEMENT(parent), "fragment-in", h.viewer_id, h.sequence,
@@ -399,8 +444,6 @@ static GstPadProbeReturn trace_arrival(GstPad* pad, GstPadProbeInfo* info, gpoin
                      h.capture_time_ns);
         gst_object_unref(parent);
       }
-    } catch (const std::exception&) {
-      // malformed: reported when aggregated
     }
     gst_buffer_unmap(buf, &map);
   }
@@ -435,16 +478,17 @@ static gboolean lf_compositor_src_event(GstAggregator* agg, GstEvent* event) {
 }
 
 static void lf_compositor_finalize(GObject* obj) {
-  LfCompositor* self = LF_COMPOSITOR(obj);
-  g_free(self->rig);
-  delete self->state;
+  delete LF_COMPOSITOR(obj)->priv;
   G_OBJECT_CLASS(lf_compositor_parent_class)->finalize(obj);
 }
 
+static void on_latency_changed(GObject* obj, GParamSpec*, gpointer) {
+  update_latency(LF_COMPOSITOR(obj));
+}
+
 static void lf_compositor_init(LfCompositor* self) {
-  self->viewer_id = -1;
-  self->fps_n = 30;
-  self->fps_d = 1;
+  self->priv = new Priv();
+  g_signal_connect(self, "notify::latency", G_CALLBACK(on_latency_changed), nullptr);
 }
 
 static void lf_compositor_class_init(LfCompositorClass* klass) {
@@ -454,45 +498,42 @@ static void lf_compositor_class_init(LfCompositorClass* klass) {
   oc->set_property = lf_compositor_set_property;
   oc->get_property = lf_compositor_get_property;
   oc->finalize = lf_compositor_finalize;
-  const auto rw = static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
-                                           GST_PARAM_MUTABLE_READY);
-  g_object_class_install_property(
-      oc, PROP_RIG,
-      g_param_spec_string("rig", "Rig",
-                          "Rig file or dataset folder: a request is complete when every camera "
-                          "of the rig has answered (unset: one fragment per sink pad)",
-                          nullptr, rw));
-  g_object_class_install_property(
-      oc, PROP_VIEWER_ID,
-      g_param_spec_int("viewer-id", "Viewer id", "Composite only this viewer's requests (-1: any)",
-                       -1, G_MAXINT, -1, rw));
-  g_object_class_install_property(
-      oc, PROP_FRAMERATE,
-      gst_param_spec_fraction("framerate", "Frame rate", "Frame rate announced in the output caps",
-                              0, 1, 1000, 1, 30, 1, rw));
-  g_object_class_install_property(
-      oc, PROP_STEREO,
-      g_param_spec_boolean("stereo", "Stereo",
-                           "Composite the requests of viewer-id (left) and viewer-id + 1 (right) "
-                           "side by side (lfviewrequest stereo-baseline), output twice as wide",
-                           FALSE, rw));
+  const GParamFlags rw = lfgst::kReadWriteReady;
+  props.add(oc, &Settings::rig,
+            g_param_spec_string("rig", "Rig",
+                                "Rig file or dataset folder: a request is complete when every "
+                                "camera of the rig has answered (unset: one fragment per sink "
+                                "pad)",
+                                nullptr, rw));
+  props.add(oc, &Settings::viewer_id,
+            g_param_spec_int("viewer-id", "Viewer id",
+                             "Composite only this viewer's requests (-1: any)", -1, G_MAXINT,
+                             DEFAULT_VIEWER_ID, rw));
+  props.add(oc, &Settings::framerate,
+            gst_param_spec_fraction("framerate", "Frame rate",
+                                    "Output frame rate; 0/1: the request rate from the fragment "
+                                    "caps (30/1 if they carry none)",
+                                    0, 1, 1000, 1, DEFAULT_FPS_N, DEFAULT_FPS_D, rw));
+  props.add(oc, &Settings::stereo,
+            g_param_spec_boolean("stereo", "Stereo",
+                                 "Composite the requests of viewer-id (left) and viewer-id + 1 "
+                                 "(right) side by side (lfviewrequest stereo-baseline), output "
+                                 "twice as wide",
+                                 DEFAULT_STEREO, rw));
   gst_element_class_add_static_pad_template_with_gtype(ec, &sink_template, GST_TYPE_AGGREGATOR_PAD);
   gst_element_class_add_static_pad_template_with_gtype(ec, &src_template, GST_TYPE_AGGREGATOR_PAD);
   gst_element_class_set_static_metadata(
       ec, "Light field compositor", "Filter/Editor/Video/Compositor",
       "Adds the image fragments of each view request into the output frame, renormalised; "
-      "composites incomplete requests at the deadline (property 'latency', ns) in live "
-      "pipelines (Yang et al. 2002, 4.3)",
+      "composites incomplete requests at the deadline (one request period, or the 'latency' "
+      "property, ns) in live pipelines (Yang et al. 2002, 4.3)",
       "lightfield-gst");
   ec->request_new_pad = lf_compositor_request_new_pad;
   ac->start = lf_compositor_start;
   ac->stop = lf_compositor_stop;
   ac->aggregate = lf_compositor_aggregate;
+  ac->sink_event = lf_compositor_sink_event;
   ac->src_event = lf_compositor_src_event;
   ac->get_next_time = lf_compositor_get_next_time;
   GST_DEBUG_CATEGORY_INIT(lf_compositor_debug, "lfcompositor", 0, "light field compositor");
-}
-
-gboolean lf_compositor_register(GstPlugin* plugin) {
-  return gst_element_register(plugin, "lfcompositor", GST_RANK_NONE, LF_TYPE_COMPOSITOR);
 }

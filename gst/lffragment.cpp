@@ -1,20 +1,40 @@
-// lffragment: the paper's "random access camera" (Yang et al. 2002, 4.2).
-// Camera frames arrive on "sink", view requests on "request"; for every
-// request the newest frame is warped into this camera's fragment of the
-// requested view (lib/lf/plan.h, lib/lf/fragment.h) and pushed on "src",
-// tagged in band (lib/lf/wire.h). Cameras that do not contribute send an
-// explicitly empty fragment, so the compositor knows the request is complete.
+/**
+ * SECTION:element-lffragment
+ * @title: lffragment
+ *
+ * The paper's random access camera (Yang et al. 2002, Section 4.2). Camera
+ * frames arrive on `sink`, view requests on `request`; for every request the
+ * newest frame (colour-corrected by the rig's 3x4 `colour` matrix,
+ * lib/lf/colour.h) is warped into this camera's fragment of the requested
+ * view (lib/lf/plan.h, lib/lf/render.h) and pushed on `src`, tagged in band
+ * (lib/lf/wire.h). Cameras that do not contribute send an explicitly empty
+ * fragment, so the compositor knows the request is complete. The fragment
+ * caps carry the request caps' `framerate`.
+ *
+ * The camera is named like lfcamsrc's: `camera-id`, or `row` and `col` of
+ * the rig's grid.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 lfviewrequest rig=rig.json num-buffers=30 ! f.request \
+ *   lfcamsrc rig=rig.json camera-id=0 ! f.sink \
+ *   lffragment name=f rig=rig.json camera-id=0 encoding=jpeg ! fakesink
+ * ]|
+ */
 #include <gst/video/video.h>
 
 #include <memory>
-#include <opencv2/imgproc.hpp>
 
-#include "lf/composite.h"
-#include "lf/fragment.h"
+#include "lf/colour.h"
 #include "lf/plan.h"
 #include "lf/render.h"
 #include "lf/wire.h"
-#include "lfcommon.h"
+#include "lfcaps.h"
+#include "lfguard.h"
+#include "lfmeta.h"
+#include "lfprops.h"
+#include "lfrig.h"
+#include "lftrace.h"
 
 GST_DEBUG_CATEGORY_STATIC(lf_fragment_debug);
 #define GST_CAT_DEFAULT lf_fragment_debug
@@ -24,26 +44,75 @@ G_BEGIN_DECLS
 G_DECLARE_FINAL_TYPE(LfFragment, lf_fragment, LF, FRAGMENT, GstElement)
 G_END_DECLS
 
+namespace {
+enum class Encoding { kRaw = 0, kJpeg = 1 };
+}  // namespace
+
+#define DEFAULT_ENCODING Encoding::kRaw
+#define DEFAULT_JPEG_QUALITY 90
+
 #define LF_TYPE_FRAGMENT_ENCODING (lf_fragment_encoding_get_type())
 static GType lf_fragment_encoding_get_type() {
   static GType type = 0;
-  static const GEnumValue values[] = {{0, "Raw premultiplied RGBA row spans", "raw"},
-                                      {1, "JPEG (4-component, TurboJPEG)", "jpeg"},
-                                      {0, nullptr, nullptr}};
+  static const GEnumValue values[] = {
+      {static_cast<gint>(Encoding::kRaw), "Raw premultiplied RGBA row spans", "raw"},
+      {static_cast<gint>(Encoding::kJpeg),
+       "JPEG: colour (YCbCr 4:2:0) and weight (greyscale) JPEGs, TurboJPEG", "jpeg"},
+      {0, nullptr, nullptr}};
   if (g_once_init_enter(&type))
     g_once_init_leave(&type, g_enum_register_static("LfFragmentEncoding", values));
   return type;
 }
 
 namespace {
+struct Settings : lfgst::CameraAddress {
+  std::string rig;
+  Encoding encoding = DEFAULT_ENCODING;
+  gint quality = DEFAULT_JPEG_QUALITY;  // mutable in PLAYING: read live
+};
+
+// From READY->PAUSED to PAUSED->READY.
 struct State {
+  Settings s;  // snapshot taken at READY->PAUSED
   std::shared_ptr<const lf::Rig> rig;
   int index = -1;
   // Colour-corrected copy of the newest frame (only when the camera has a
-  // correction), made once per frame, not once per request.
+  // correction or the frames are RGBx), made once per frame, not once per
+  // request; guarded by Priv::lock.
   GstBuffer* corrected_of = nullptr;  // the frame it was made from (not owned, compared only)
   cv::Mat corrected;
 };
+
+struct Priv {
+  Settings settings;  // properties (object lock)
+  std::unique_ptr<State> state;
+  // Camera frames and request waits, guarded by `lock`.
+  GMutex lock;
+  GCond cond;
+  GstBuffer* frame = nullptr;  // newest camera frame
+  GstVideoInfo vinfo;
+  bool have_vinfo = false;
+  bool video_eos = false;
+  bool flushing = false;
+  Priv() {
+    g_mutex_init(&lock);
+    g_cond_init(&cond);
+    gst_video_info_init(&vinfo);
+  }
+  ~Priv() {
+    gst_buffer_replace(&frame, nullptr);
+    g_mutex_clear(&lock);
+    g_cond_clear(&cond);
+  }
+  void set_flushing(bool f) {
+    g_mutex_lock(&lock);
+    flushing = f;
+    g_cond_broadcast(&cond);
+    g_mutex_unlock(&lock);
+  }
+};
+
+lfgst::Properties<Settings> props;
 }  // namespace
 
 struct _LfFragment {
@@ -51,23 +120,11 @@ struct _LfFragment {
   GstPad* sinkpad;
   GstPad* requestpad;
   GstPad* srcpad;
-  gchar* rig;
-  gint camera_id;
-  gint encoding;
-  gint quality;
-  GMutex lock;
-  GCond cond;
-  GstBuffer* frame;  // newest camera frame
-  GstVideoInfo vinfo;
-  gboolean have_vinfo;
-  gboolean video_eos;
-  gboolean flushing;
-  State* state;
+  Priv* priv;
 };
 
-enum { PROP_0, PROP_RIG, PROP_CAMERA_ID, PROP_ENCODING, PROP_QUALITY };
-
 G_DEFINE_TYPE(LfFragment, lf_fragment, GST_TYPE_ELEMENT)
+GST_ELEMENT_REGISTER_DEFINE(lffragment, "lffragment", GST_RANK_NONE, LF_TYPE_FRAGMENT)
 
 static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE(
     "sink", GST_PAD_SINK, GST_PAD_ALWAYS,
@@ -79,54 +136,18 @@ static GstStaticPadTemplate src_template =
     GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(LF_FRAGMENT_CAPS));
 
 static void lf_fragment_set_property(GObject* obj, guint id, const GValue* v, GParamSpec* ps) {
-  LfFragment* self = LF_FRAGMENT(obj);
-  GST_OBJECT_LOCK(self);
-  switch (id) {
-    case PROP_RIG:
-      g_free(self->rig);
-      self->rig = g_value_dup_string(v);
-      break;
-    case PROP_CAMERA_ID:
-      self->camera_id = g_value_get_int(v);
-      break;
-    case PROP_ENCODING:
-      self->encoding = g_value_get_enum(v);
-      break;
-    case PROP_QUALITY:
-      self->quality = g_value_get_int(v);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
-  }
-  GST_OBJECT_UNLOCK(self);
+  props.set(obj, LF_FRAGMENT(obj)->priv->settings, id, v, ps);
 }
 
 static void lf_fragment_get_property(GObject* obj, guint id, GValue* v, GParamSpec* ps) {
-  LfFragment* self = LF_FRAGMENT(obj);
-  GST_OBJECT_LOCK(self);
-  switch (id) {
-    case PROP_RIG:
-      g_value_set_string(v, self->rig);
-      break;
-    case PROP_CAMERA_ID:
-      g_value_set_int(v, self->camera_id);
-      break;
-    case PROP_ENCODING:
-      g_value_set_enum(v, self->encoding);
-      break;
-    case PROP_QUALITY:
-      g_value_set_int(v, self->quality);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
-  }
-  GST_OBJECT_UNLOCK(self);
+  props.get(obj, LF_FRAGMENT(obj)->priv->settings, id, v, ps);
 }
 
 // ---- camera frames -------------------------------------------------------
 
-static gboolean lf_fragment_sink_event(GstPad* pad, GstObject* parent, GstEvent* event) {
+static gboolean lf_fragment_sink_event(GstPad*, GstObject* parent, GstEvent* event) {
   LfFragment* self = LF_FRAGMENT(parent);
+  Priv* p = self->priv;
   switch (GST_EVENT_TYPE(event)) {
     case GST_EVENT_CAPS: {
       GstCaps* caps;
@@ -137,8 +158,8 @@ static gboolean lf_fragment_sink_event(GstPad* pad, GstObject* parent, GstEvent*
         gst_event_unref(event);
         return FALSE;
       }
-      if (self->state) {
-        const lf::Camera& cam = self->state->rig->cameras[self->state->index];
+      if (p->state) {
+        const lf::Camera& cam = p->state->rig->cameras[p->state->index];
         if (GST_VIDEO_INFO_WIDTH(&info) != cam.width ||
             GST_VIDEO_INFO_HEIGHT(&info) != cam.height) {
           GST_ELEMENT_ERROR(
@@ -149,56 +170,47 @@ static gboolean lf_fragment_sink_event(GstPad* pad, GstObject* parent, GstEvent*
           return FALSE;
         }
       }
-      g_mutex_lock(&self->lock);
-      self->vinfo = info;
-      self->have_vinfo = TRUE;
-      g_mutex_unlock(&self->lock);
-      gst_event_unref(event);
-      return TRUE;
+      g_mutex_lock(&p->lock);
+      p->vinfo = info;
+      p->have_vinfo = true;
+      g_mutex_unlock(&p->lock);
+      break;
     }
     case GST_EVENT_EOS:
       // The camera stream ending does not end the fragment stream: the
       // newest frame stays in use (stills, or a camera that stopped).
-      g_mutex_lock(&self->lock);
-      self->video_eos = TRUE;
-      g_cond_broadcast(&self->cond);
-      g_mutex_unlock(&self->lock);
-      gst_event_unref(event);
-      return TRUE;
+      g_mutex_lock(&p->lock);
+      p->video_eos = true;
+      g_cond_broadcast(&p->cond);
+      g_mutex_unlock(&p->lock);
+      break;
     case GST_EVENT_FLUSH_START:
-      g_mutex_lock(&self->lock);
-      self->flushing = TRUE;
-      g_cond_broadcast(&self->cond);
-      g_mutex_unlock(&self->lock);
-      gst_event_unref(event);
-      return TRUE;
+      p->set_flushing(true);
+      break;
     case GST_EVENT_FLUSH_STOP:
-      g_mutex_lock(&self->lock);
-      self->flushing = FALSE;
-      self->video_eos = FALSE;
-      g_mutex_unlock(&self->lock);
-      gst_event_unref(event);
-      return TRUE;
+      g_mutex_lock(&p->lock);
+      p->flushing = false;
+      p->video_eos = false;
+      g_mutex_unlock(&p->lock);
+      break;
     default:
-      gst_event_unref(event);
-      return TRUE;
+      break;
   }
-  (void)pad;
+  gst_event_unref(event);
+  return TRUE;
 }
 
 static GstFlowReturn lf_fragment_sink_chain(GstPad*, GstObject* parent, GstBuffer* buf) {
-  LfFragment* self = LF_FRAGMENT(parent);
-  g_mutex_lock(&self->lock);
-  if (self->flushing) {
-    g_mutex_unlock(&self->lock);
-    gst_buffer_unref(buf);
-    return GST_FLOW_FLUSHING;
+  Priv* p = LF_FRAGMENT(parent)->priv;
+  g_mutex_lock(&p->lock);
+  const bool flushing = p->flushing;
+  if (!flushing) {
+    gst_buffer_replace(&p->frame, buf);
+    g_cond_broadcast(&p->cond);
   }
-  gst_buffer_replace(&self->frame, buf);
-  g_cond_broadcast(&self->cond);
-  g_mutex_unlock(&self->lock);
+  g_mutex_unlock(&p->lock);
   gst_buffer_unref(buf);
-  return GST_FLOW_OK;
+  return flushing ? GST_FLOW_FLUSHING : GST_FLOW_OK;
 }
 
 // ---- view requests -------------------------------------------------------
@@ -207,142 +219,137 @@ static gboolean lf_fragment_request_event(GstPad* pad, GstObject* parent, GstEve
   LfFragment* self = LF_FRAGMENT(parent);
   switch (GST_EVENT_TYPE(event)) {
     case GST_EVENT_CAPS: {
-      gst_event_unref(event);
+      GstCaps* in;
+      gst_event_parse_caps(event, &in);
+      const Encoding enc =
+          lfgst::read_setting(GST_OBJECT(self), self->priv->settings, &Settings::encoding);
       GstCaps* caps = gst_caps_new_simple("application/x-lf-fragment", "encoding", G_TYPE_STRING,
-                                          self->encoding == 1 ? "jpeg" : "raw", nullptr);
+                                          enc == Encoding::kJpeg ? "jpeg" : "raw", nullptr);
+      gint n, d;
+      if (lfgst::caps_framerate(in, &n, &d))
+        gst_caps_set_simple(caps, "framerate", GST_TYPE_FRACTION, n, d, nullptr);
+      gst_event_unref(event);
       const gboolean ok = gst_pad_push_event(self->srcpad, gst_event_new_caps(caps));
       gst_caps_unref(caps);
       return ok;
     }
     case GST_EVENT_FLUSH_START:
-      g_mutex_lock(&self->lock);
-      self->flushing = TRUE;
-      g_cond_broadcast(&self->cond);
-      g_mutex_unlock(&self->lock);
+      self->priv->set_flushing(true);
       return gst_pad_push_event(self->srcpad, event);
     case GST_EVENT_FLUSH_STOP:
-      g_mutex_lock(&self->lock);
-      self->flushing = FALSE;
-      g_mutex_unlock(&self->lock);
+      self->priv->set_flushing(false);
       return gst_pad_push_event(self->srcpad, event);
     default:
       return gst_pad_event_default(pad, parent, event);
   }
 }
 
+// The camera image to warp: the frame itself, or its colour-corrected (or
+// made opaque, for RGBx) copy, made once per frame.
+static cv::Mat camera_image(Priv* p, State* st, GstBuffer* frame, const cv::Mat& image, bool rgbx) {
+  const lf::Camera& cam = st->rig->cameras[st->index];
+  if (!rgbx && !cam.has_colour_correction()) return image;
+  g_mutex_lock(&p->lock);
+  if (st->corrected_of != frame || st->corrected.empty()) {
+    st->corrected = lf::colour_correct(cam.colour, image, lf::ChannelOrder::kRGBA, rgbx);
+    st->corrected_of = frame;
+  }
+  cv::Mat out = st->corrected;
+  g_mutex_unlock(&p->lock);
+  return out;
+}
+
+static int64_t capture_time_of(LfFragment* self, GstBuffer* frame, int camera_id) {
+  int meta_cam = -1;
+  guint64 meta_time = 0;
+  if (lfgst::read_capture_meta(frame, &meta_cam, &meta_time)) {
+    if (meta_cam != camera_id)
+      GST_WARNING_OBJECT(self, "frames come from camera %d, this is camera %d", meta_cam,
+                         camera_id);
+    return static_cast<int64_t>(meta_time);
+  }
+  return GST_BUFFER_PTS_IS_VALID(frame) ? static_cast<int64_t>(GST_BUFFER_PTS(frame)) : -1;
+}
+
 static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBuffer* buf) {
   LfFragment* self = LF_FRAGMENT(parent);
-  State* st = self->state;
+  Priv* p = self->priv;
+  State* st = p->state.get();
   lf::ViewRequest req;
+  GError* err = nullptr;
   {
     GstMapInfo map;
     if (!gst_buffer_map(buf, &map, GST_MAP_READ)) {
       gst_buffer_unref(buf);
       return GST_FLOW_ERROR;
     }
-    try {
-      req = lf::parse_request(map.data, map.size);
-    } catch (const std::exception& e) {
-      gst_buffer_unmap(buf, &map);
+    const gboolean ok = lfgst::guard([&] { req = lf::parse_request(map.data, map.size); }, &err);
+    gst_buffer_unmap(buf, &map);
+    if (!ok) {
       GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Dropping a malformed view request"),
-                          ("%s", e.what()));
+                          ("%s", err->message));
+      g_error_free(err);
       gst_buffer_unref(buf);
       return GST_FLOW_OK;
     }
-    gst_buffer_unmap(buf, &map);
   }
-  const gint cam_id = st->rig->cameras[st->index].id;
-  lfgst::trace(GST_ELEMENT(self), "request-in", req.viewer_id, req.sequence, cam_id);
-  // Wait for a camera frame.
-  g_mutex_lock(&self->lock);
-  while (!self->frame && !self->flushing && !self->video_eos) g_cond_wait(&self->cond, &self->lock);
-  if (self->flushing) {
-    g_mutex_unlock(&self->lock);
+  const lf::Rig& rig = *st->rig;
+  const lf::Camera& cam = rig.cameras[st->index];
+  lfgst::trace(GST_ELEMENT(self), "request-in", req.viewer_id, req.sequence, cam.id);
+  // Wait for a camera frame (woken by a frame, end of stream, flushing or
+  // PAUSED->READY).
+  g_mutex_lock(&p->lock);
+  while (!p->frame && !p->flushing && !p->video_eos) g_cond_wait(&p->cond, &p->lock);
+  if (p->flushing) {
+    g_mutex_unlock(&p->lock);
     gst_buffer_unref(buf);
     return GST_FLOW_FLUSHING;
   }
-  GstBuffer* frame = self->frame ? gst_buffer_ref(self->frame) : nullptr;
-  const GstVideoInfo info = self->vinfo;
-  const gboolean have_info = self->have_vinfo;
-  g_mutex_unlock(&self->lock);
-  if (!frame || !have_info) {
+  GstBuffer* frame = p->frame ? gst_buffer_ref(p->frame) : nullptr;
+  GstVideoInfo info = p->vinfo;
+  const bool have_info = p->have_vinfo;
+  g_mutex_unlock(&p->lock);
+  GstVideoFrame vf;
+  if (!frame || !have_info || !gst_video_frame_map(&vf, &info, frame, GST_MAP_READ)) {
     GST_ELEMENT_ERROR(self, STREAM, FAILED, ("No camera frame"),
-                      ("the camera stream ended before delivering a frame"));
+                      ("the camera stream ended before delivering a frame, or it cannot be "
+                       "mapped"));
     if (frame) gst_buffer_unref(frame);
     gst_buffer_unref(buf);
     return GST_FLOW_ERROR;
   }
-  GstVideoFrame vf;
-  if (!gst_video_frame_map(&vf, const_cast<GstVideoInfo*>(&info), frame, GST_MAP_READ)) {
-    gst_buffer_unref(frame);
-    gst_buffer_unref(buf);
-    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("Cannot map the camera frame"), (nullptr));
-    return GST_FLOW_ERROR;
-  }
+  const gint quality = lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::quality);
   std::vector<uint8_t> bytes;
-  try {
-    const lf::Rig& rig = *st->rig;
-    const cv::Mat image(GST_VIDEO_FRAME_HEIGHT(&vf), GST_VIDEO_FRAME_WIDTH(&vf), CV_8UC4,
-                        GST_VIDEO_FRAME_PLANE_DATA(&vf, 0), GST_VIDEO_FRAME_PLANE_STRIDE(&vf, 0));
-    cv::Mat rgba = image;
-    const lf::Camera& cam = rig.cameras[st->index];
-    const bool rgbx = GST_VIDEO_INFO_FORMAT(&info) == GST_VIDEO_FORMAT_RGBx;
-    if (rgbx || cam.has_colour_correction()) {
-      g_mutex_lock(&self->lock);
-      if (st->corrected_of != frame || st->corrected.empty()) {
-        cv::Mat out;
-        if (cam.has_colour_correction()) {
-          cv::Mat m(cam.colour), rgb;
-          cv::cvtColor(image, rgb, cv::COLOR_RGBA2RGB);
-          cv::transform(rgb, rgb, m);                  // saturating
-          cv::cvtColor(rgb, out, cv::COLOR_RGB2RGBA);  // alpha 255
-          if (!rgbx) {
-            std::vector<cv::Mat> ch;
-            cv::split(out, ch);
-            cv::extractChannel(image, ch[3], 3);
-            cv::merge(ch, out);
-          }
-        } else {
-          cv::cvtColor(image, out, cv::COLOR_RGBA2RGB);  // x is undefined: alpha 255
-          cv::cvtColor(out, out, cv::COLOR_RGB2RGBA);
-        }
-        st->corrected = out;
-        st->corrected_of = frame;
-      }
-      rgba = st->corrected;
-      g_mutex_unlock(&self->lock);
-    }
-    const lf::ViewGeometry g(rig, req, st->index);  // only this camera's homography
-    lf::Fragment f;
-    f.viewer_id = req.viewer_id;
-    f.sequence = req.sequence;
-    int meta_cam = -1;
-    guint64 meta_time = 0;
-    if (lfgst::read_capture_meta(frame, &meta_cam, &meta_time)) {
-      if (meta_cam != rig.cameras[st->index].id)
-        GST_WARNING_OBJECT(self, "frames come from camera %d, this is camera %d", meta_cam,
-                           rig.cameras[st->index].id);
-      f.capture_time_ns = static_cast<int64_t>(meta_time);
-    } else {
-      f.capture_time_ns =
-          GST_BUFFER_PTS_IS_VALID(frame) ? static_cast<int64_t>(GST_BUFFER_PTS(frame)) : -1;
-    }
-    lf::render_fragment(lf::plan_fragment(g, st->index), rig.cameras[st->index], rgba, f);
-    lfgst::trace(GST_ELEMENT(self), "warped", req.viewer_id, req.sequence, cam_id,
-                 static_cast<gint64>(f.pixel_count()));
-    bytes = lf::serialize_fragment(
-        f, self->encoding == 1 ? lf::Encoding::kJpeg : lf::Encoding::kRaw, self->quality);
-    lfgst::trace(GST_ELEMENT(self), "encoded", req.viewer_id, req.sequence, cam_id,
-                 static_cast<gint64>(bytes.size()));
-  } catch (const std::exception& e) {
-    gst_video_frame_unmap(&vf);
-    gst_buffer_unref(frame);
-    gst_buffer_unref(buf);
-    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("Fragment rendering failed"), ("%s", e.what()));
-    return GST_FLOW_ERROR;
-  }
+  const gboolean ok = lfgst::guard(
+      [&] {
+        const cv::Mat image(GST_VIDEO_FRAME_HEIGHT(&vf), GST_VIDEO_FRAME_WIDTH(&vf), CV_8UC4,
+                            GST_VIDEO_FRAME_PLANE_DATA(&vf, 0),
+                            GST_VIDEO_FRAME_PLANE_STRIDE(&vf, 0));
+        const cv::Mat rgba = camera_image(
+            p, st, frame, image, GST_VIDEO_INFO_FORMAT(&info) == GST_VIDEO_FORMAT_RGBx);
+        const lf::ViewGeometry g(rig, req, st->index);  // only this camera's homography
+        lf::Fragment f;
+        f.viewer_id = req.viewer_id;
+        f.sequence = req.sequence;
+        f.capture_time_ns = capture_time_of(self, frame, cam.id);
+        lf::render_fragment(lf::plan_fragment(g, st->index), cam, rgba, f);
+        lfgst::trace(GST_ELEMENT(self), "warped", req.viewer_id, req.sequence, cam.id,
+                     static_cast<gint64>(f.pixel_count()));
+        bytes = lf::serialize_fragment(
+            f, st->s.encoding == Encoding::kJpeg ? lf::Encoding::kJpeg : lf::Encoding::kRaw,
+            quality);
+        lfgst::trace(GST_ELEMENT(self), "encoded", req.viewer_id, req.sequence, cam.id,
+                     static_cast<gint64>(bytes.size()));
+      },
+      &err);
   gst_video_frame_unmap(&vf);
   gst_buffer_unref(frame);
+  if (!ok) {
+    gst_buffer_unref(buf);
+    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("Fragment rendering failed"), ("%s", err->message));
+    g_error_free(err);
+    return GST_FLOW_ERROR;
+  }
   GstBuffer* out = gst_buffer_new_memdup(bytes.data(), bytes.size());
   gst_buffer_copy_into(out, buf, GST_BUFFER_COPY_TIMESTAMPS, 0, -1);
   GST_BUFFER_OFFSET(out) = req.sequence;
@@ -350,54 +357,48 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
   return gst_pad_push(self->srcpad, out);
 }
 
+static gboolean lf_fragment_start(LfFragment* self) {
+  auto st = std::make_unique<State>();
+  st->s = lfgst::snapshot(GST_OBJECT(self), self->priv->settings);
+  st->rig = lfgst::open_rig(GST_ELEMENT(self), st->s.rig);
+  if (!st->rig) return FALSE;
+  st->index = lfgst::camera_index(GST_ELEMENT(self), *st->rig, st->s);
+  if (st->index < 0) return FALSE;
+  self->priv->state = std::move(st);
+  self->priv->set_flushing(false);
+  return TRUE;
+}
+
+static void lf_fragment_stop(LfFragment* self) {
+  Priv* p = self->priv;
+  g_mutex_lock(&p->lock);
+  gst_buffer_replace(&p->frame, nullptr);
+  p->video_eos = false;
+  p->have_vinfo = false;
+  g_mutex_unlock(&p->lock);
+  p->state.reset();
+}
+
 static GstStateChangeReturn lf_fragment_change_state(GstElement* el, GstStateChange t) {
   LfFragment* self = LF_FRAGMENT(el);
-  if (t == GST_STATE_CHANGE_READY_TO_PAUSED) {
-    if (!self->rig || !*self->rig) {
-      GST_ELEMENT_ERROR(self, RESOURCE, NOT_FOUND, ("No rig given"),
-                        ("set the 'rig' property to a rig file or dataset folder"));
-      return GST_STATE_CHANGE_FAILURE;
-    }
-    auto* st = new State();
-    try {
-      st->rig = lfgst::load_rig_cached(self->rig);
-      st->index = st->rig->index_of(self->camera_id);
-      if (st->index < 0)
-        throw std::invalid_argument("camera-id " + std::to_string(self->camera_id) +
-                                    " is not in the rig");
-    } catch (const std::exception& e) {
-      delete st;
-      GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("Cannot set up the camera"), ("%s", e.what()));
-      return GST_STATE_CHANGE_FAILURE;
-    }
-    delete self->state;
-    self->state = st;
-  }
-  if (t == GST_STATE_CHANGE_PAUSED_TO_READY) {
-    g_mutex_lock(&self->lock);
-    gst_buffer_replace(&self->frame, nullptr);
-    self->video_eos = FALSE;
-    self->have_vinfo = FALSE;
-    g_mutex_unlock(&self->lock);
-  }
-  return GST_ELEMENT_CLASS(lf_fragment_parent_class)->change_state(el, t);
+  if (t == GST_STATE_CHANGE_READY_TO_PAUSED && !lf_fragment_start(self))
+    return GST_STATE_CHANGE_FAILURE;
+  // Wake a request waiting for a camera frame before the pads deactivate
+  // (they wait for the streaming threads to leave).
+  if (t == GST_STATE_CHANGE_PAUSED_TO_READY) self->priv->set_flushing(true);
+  const GstStateChangeReturn ret =
+      GST_ELEMENT_CLASS(lf_fragment_parent_class)->change_state(el, t);
+  if (t == GST_STATE_CHANGE_PAUSED_TO_READY) lf_fragment_stop(self);
+  return ret;
 }
 
 static void lf_fragment_finalize(GObject* obj) {
-  LfFragment* self = LF_FRAGMENT(obj);
-  g_free(self->rig);
-  gst_buffer_replace(&self->frame, nullptr);
-  delete self->state;
-  g_mutex_clear(&self->lock);
-  g_cond_clear(&self->cond);
+  delete LF_FRAGMENT(obj)->priv;
   G_OBJECT_CLASS(lf_fragment_parent_class)->finalize(obj);
 }
 
 static void lf_fragment_init(LfFragment* self) {
-  self->camera_id = 0;
-  self->quality = 90;
-  g_mutex_init(&self->lock);
-  g_cond_init(&self->cond);
+  self->priv = new Priv();
   self->sinkpad = gst_pad_new_from_static_template(&sink_template, "sink");
   gst_pad_set_chain_function(self->sinkpad, lf_fragment_sink_chain);
   gst_pad_set_event_function(self->sinkpad, lf_fragment_sink_event);
@@ -417,25 +418,18 @@ static void lf_fragment_class_init(LfFragmentClass* klass) {
   oc->set_property = lf_fragment_set_property;
   oc->get_property = lf_fragment_get_property;
   oc->finalize = lf_fragment_finalize;
-  const auto rw = static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
-                                           GST_PARAM_MUTABLE_READY);
-  g_object_class_install_property(
-      oc, PROP_RIG,
-      g_param_spec_string("rig", "Rig", "Rig file (.json) or dataset folder", nullptr, rw));
-  g_object_class_install_property(
-      oc, PROP_CAMERA_ID,
-      g_param_spec_int("camera-id", "Camera id", "This camera's id in the rig", 0, G_MAXINT, 0,
-                       rw));
-  g_object_class_install_property(
-      oc, PROP_ENCODING,
-      g_param_spec_enum("encoding", "Encoding", "Fragment payload encoding",
-                        LF_TYPE_FRAGMENT_ENCODING, 0, rw));
-  g_object_class_install_property(
-      oc, PROP_QUALITY,
-      g_param_spec_int("jpeg-quality", "JPEG quality", "JPEG quality (encoding=jpeg), 1..100", 1,
-                       100, 90,
-                       static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
-                                                GST_PARAM_MUTABLE_PLAYING)));
+  props.add(oc, &Settings::rig,
+            g_param_spec_string("rig", "Rig", "Rig file (.json) or dataset folder", nullptr,
+                                lfgst::kReadWriteReady));
+  lfgst::add_camera_properties(props, oc);
+  props.add(oc, &Settings::encoding,
+            g_param_spec_enum("encoding", "Encoding", "Fragment payload encoding",
+                              LF_TYPE_FRAGMENT_ENCODING, static_cast<gint>(DEFAULT_ENCODING),
+                              lfgst::kReadWriteReady));
+  props.add(oc, &Settings::quality,
+            g_param_spec_int("jpeg-quality", "JPEG quality", "JPEG quality (encoding=jpeg), 1..100",
+                             1, 100, DEFAULT_JPEG_QUALITY, lfgst::kReadWritePlaying));
+  gst_type_mark_as_plugin_api(LF_TYPE_FRAGMENT_ENCODING, static_cast<GstPluginAPIFlags>(0));
   gst_element_class_add_static_pad_template(ec, &sink_template);
   gst_element_class_add_static_pad_template(ec, &request_template);
   gst_element_class_add_static_pad_template(ec, &src_template);
@@ -446,8 +440,4 @@ static void lf_fragment_class_init(LfFragmentClass* klass) {
       "lightfield-gst");
   ec->change_state = lf_fragment_change_state;
   GST_DEBUG_CATEGORY_INIT(lf_fragment_debug, "lffragment", 0, "light field fragments");
-}
-
-gboolean lf_fragment_register(GstPlugin* plugin) {
-  return gst_element_register(plugin, "lffragment", GST_RANK_NONE, LF_TYPE_FRAGMENT);
 }

@@ -1,19 +1,25 @@
 // The lightfield plugin: lfcamsrc, lffragment, lfcompositor, lfviewrequest.
+// Package, version and origin come from the build (meson.build,
+// meson_options.txt: package-name, package-origin) through config.h.
 #include <gst/gst.h>
 
-gboolean lf_cam_src_register(GstPlugin* plugin);
-gboolean lf_fragment_register(GstPlugin* plugin);
-gboolean lf_compositor_register(GstPlugin* plugin);
-gboolean lf_view_request_register(GstPlugin* plugin);
+#include "config.h"
+
+GST_ELEMENT_REGISTER_DECLARE(lfcamsrc);
+GST_ELEMENT_REGISTER_DECLARE(lffragment);
+GST_ELEMENT_REGISTER_DECLARE(lfcompositor);
+GST_ELEMENT_REGISTER_DECLARE(lfviewrequest);
 
 static gboolean plugin_init(GstPlugin* plugin) {
-  return lf_cam_src_register(plugin) && lf_fragment_register(plugin) &&
-         lf_compositor_register(plugin) && lf_view_request_register(plugin);
+  gboolean ok = FALSE;
+  ok |= GST_ELEMENT_REGISTER(lfcamsrc, plugin);
+  ok |= GST_ELEMENT_REGISTER(lffragment, plugin);
+  ok |= GST_ELEMENT_REGISTER(lfcompositor, plugin);
+  ok |= GST_ELEMENT_REGISTER(lfviewrequest, plugin);
+  return ok;
 }
 
-#define PACKAGE "lightfield-gst"
 GST_PLUGIN_DEFINE(GST_VERSION_MAJOR, GST_VERSION_MINOR, lightfield,
                   "Distributed light field camera (Yang et al. 2002): cameras, fragments, "
                   "compositor, view requests",
-                  plugin_init, "0.1.0", "LGPL", "lightfield-gst",
-                  "https://example.invalid/lightfield-gst")
+                  plugin_init, VERSION, GST_LICENSE, GST_PACKAGE_NAME, GST_PACKAGE_ORIGIN)

@@ -30,6 +30,12 @@ std::vector<double> parse_number_list(const std::string& s, const std::string& w
   return out;
 }
 
+cv::Vec3d parse_point(const std::string& s, const std::string& what) {
+  const auto v = parse_number_list(s, what);
+  if (v.size() != 3) throw std::invalid_argument(what + " '" + s + "' is not 'x,y,z'");
+  return {v[0], v[1], v[2]};
+}
+
 FocalPlane parse_focal_plane(const std::string& s, const Rig& rig) {
   if (s == "infinity") return FocalPlane::infinity();
   if (s.rfind("depth:", 0) == 0)

@@ -2,6 +2,7 @@
 // element properties). Errors: std::invalid_argument naming the field.
 #pragma once
 
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
@@ -13,6 +14,10 @@ namespace lf {
 // Parses "a,b,c" into finite numbers; throws std::invalid_argument naming
 // `what` and the bad token.
 std::vector<double> parse_number_list(const std::string& s, const std::string& what);
+
+// Parses "x,y,z" (exactly three finite numbers); throws std::invalid_argument
+// naming `what`.
+cv::Vec3d parse_point(const std::string& s, const std::string& what);
 
 // Parses a focal-plane specification: "infinity", "depth:Z" (rig units from
 // the camera plane), "param:A" (light-slab focal parameter) or

@@ -47,6 +47,19 @@ int Rig::index_of(int id) const {
   return -1;
 }
 
+int Rig::camera_index(int camera_id, int row, int col) const {
+  if (camera_id >= 0) {
+    const int i = index_of(camera_id);
+    if (i < 0) throw std::invalid_argument("camera-id " + std::to_string(camera_id) + " is not in the rig");
+    return i;
+  }
+  if (row < 0 || col < 0) throw std::invalid_argument("set camera-id, or row and col");
+  if (grid.empty() || row >= grid.rows || col >= grid.cols || grid.at(row, col) < 0)
+    throw std::invalid_argument("no camera at grid row " + std::to_string(row) + ", column " +
+                                std::to_string(col));
+  return grid.at(row, col);
+}
+
 void Rig::finalize() {
   if (cameras.empty()) throw std::invalid_argument("rig '" + name + "': no cameras");
   std::set<int> ids;

@@ -105,6 +105,10 @@ class Rig {
   const std::vector<Form2>& facets() const { return facets_; }
   int dimension() const { return dimension_; }  // 0, 1 or 2
   int index_of(int camera_id) const;            // -1 if absent
+  // Index of a camera named by its id (camera_id >= 0), or else by its grid
+  // cell (row, col >= 0). Throws std::invalid_argument saying why there is
+  // no such camera.
+  int camera_index(int camera_id, int row, int col) const;
   // Median distance from each camera to its nearest neighbour on the plane.
   double typical_spacing() const { return spacing_; }
 

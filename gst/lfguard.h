@@ -1,0 +1,31 @@
+// The one boundary between the C++ core (which reports errors as exceptions:
+// std::invalid_argument, std::runtime_error, lf::WireError, cv::Exception)
+// and GLib/GStreamer (which report them as GError and element messages).
+// Every call from an element into C++ that may throw goes through guard();
+// no exception crosses into GStreamer.
+#pragma once
+
+#include <glib.h>
+
+#include <exception>
+
+namespace lfgst {
+
+GQuark error_quark();
+
+// Runs `fn`. TRUE if it returned; FALSE with `*error` set (domain
+// error_quark(), code 0, message = the exception's what()) if it threw.
+template <class F>
+gboolean guard(F&& fn, GError** error) noexcept {
+  try {
+    fn();
+    return TRUE;
+  } catch (const std::exception& e) {
+    g_set_error_literal(error, error_quark(), 0, e.what());
+  } catch (...) {
+    g_set_error_literal(error, error_quark(), 0, "unknown C++ exception");
+  }
+  return FALSE;
+}
+
+}  // namespace lfgst

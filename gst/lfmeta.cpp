@@ -1,0 +1,34 @@
+#include "lfmeta.h"
+
+
+namespace lfgst {
+
+static const GstMetaInfo* capture_meta_info() {
+  static const GstMetaInfo* info = nullptr;
+  static gsize once = 0;
+  if (g_once_init_enter(&once)) {
+    static const gchar* tags[] = {nullptr};
+    info = gst_meta_register_custom("LfCaptureMeta", tags, nullptr, nullptr, nullptr);
+    g_once_init_leave(&once, 1);
+  }
+  return info;
+}
+
+void add_capture_meta(GstBuffer* buf, int camera_id, guint64 capture_time) {
+  capture_meta_info();
+  GstCustomMeta* m = gst_buffer_add_custom_meta(buf, "LfCaptureMeta");
+  if (!m) return;
+  gst_structure_set(gst_custom_meta_get_structure(m), "camera-id", G_TYPE_INT, camera_id,
+                    "capture-time", G_TYPE_UINT64, capture_time, nullptr);
+}
+
+bool read_capture_meta(GstBuffer* buf, int* camera_id, guint64* capture_time) {
+  capture_meta_info();
+  GstCustomMeta* m = gst_buffer_get_custom_meta(buf, "LfCaptureMeta");
+  if (!m) return false;
+  const GstStructure* s = gst_custom_meta_get_structure(m);
+  return gst_structure_get_int(s, "camera-id", camera_id) &&
+         gst_structure_get_uint64(s, "capture-time", capture_time);
+}
+
+}  // namespace lfgst

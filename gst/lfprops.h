@@ -1,0 +1,122 @@
+// Element properties as a table over a plain settings struct, so each element
+// declares a property once (its GParamSpec and the member it sets) and
+// set_property / get_property are the same code for every element.
+//
+// Settings structs are written by set_property under the object lock and
+// snapshotted, under the same lock, when an element starts (READY->PAUSED):
+// streaming threads read the snapshot, never the live struct. Properties
+// flagged GST_PARAM_MUTABLE_PLAYING are read live with read_setting().
+#pragma once
+
+#include <gst/gst.h>
+
+#include <functional>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+namespace lfgst {
+
+// A GStreamer fraction property (frame rates).
+struct Fraction {
+  gint n = 0, d = 1;
+  bool operator==(const Fraction& o) const { return n == o.n && d == o.d; }
+};
+
+template <class S>
+class Properties {
+ public:
+  // Installs `spec` on `oc` as the next property id, bound to member `m`.
+  // Member types: std::string (string), gint, guint, guint64, gdouble,
+  // bool (boolean), Fraction (GstFraction) and enums (registered GEnums).
+  template <class T>
+  void add(GObjectClass* oc, T S::*m, GParamSpec* spec) {
+    Entry e;
+    e.set = [m](S& s, const GValue* v) { assign(s.*m, v); };
+    e.get = [m](const S& s, GValue* v) { fetch(s.*m, v); };
+    entries_.push_back(std::move(e));
+    g_object_class_install_property(oc, static_cast<guint>(entries_.size()), spec);
+  }
+
+  // set_property / get_property of an element whose settings are `s`.
+  void set(GObject* obj, S& s, guint id, const GValue* v, GParamSpec* ps) const {
+    if (id < 1 || id > entries_.size()) {
+      G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
+      return;
+    }
+    GST_OBJECT_LOCK(obj);
+    entries_[id - 1].set(s, v);
+    GST_OBJECT_UNLOCK(obj);
+  }
+  void get(GObject* obj, const S& s, guint id, GValue* v, GParamSpec* ps) const {
+    if (id < 1 || id > entries_.size()) {
+      G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
+      return;
+    }
+    GST_OBJECT_LOCK(obj);
+    entries_[id - 1].get(s, v);
+    GST_OBJECT_UNLOCK(obj);
+  }
+
+ private:
+  struct Entry {
+    std::function<void(S&, const GValue*)> set;
+    std::function<void(const S&, GValue*)> get;
+  };
+  static void assign(std::string& x, const GValue* v) {
+    const gchar* s = g_value_get_string(v);
+    x = s ? s : "";
+  }
+  static void assign(gint& x, const GValue* v) { x = g_value_get_int(v); }
+  static void assign(guint& x, const GValue* v) { x = g_value_get_uint(v); }
+  static void assign(guint64& x, const GValue* v) { x = g_value_get_uint64(v); }
+  static void assign(gdouble& x, const GValue* v) { x = g_value_get_double(v); }
+  static void assign(bool& x, const GValue* v) { x = g_value_get_boolean(v); }
+  static void assign(Fraction& x, const GValue* v) {
+    x = {gst_value_get_fraction_numerator(v), gst_value_get_fraction_denominator(v)};
+  }
+  template <class E, std::enable_if_t<std::is_enum<E>::value, int> = 0>
+  static void assign(E& x, const GValue* v) {
+    x = static_cast<E>(g_value_get_enum(v));
+  }
+  static void fetch(const std::string& x, GValue* v) {
+    g_value_set_string(v, x.empty() ? nullptr : x.c_str());
+  }
+  static void fetch(gint x, GValue* v) { g_value_set_int(v, x); }
+  static void fetch(guint x, GValue* v) { g_value_set_uint(v, x); }
+  static void fetch(guint64 x, GValue* v) { g_value_set_uint64(v, x); }
+  static void fetch(gdouble x, GValue* v) { g_value_set_double(v, x); }
+  static void fetch(bool x, GValue* v) { g_value_set_boolean(v, x); }
+  static void fetch(const Fraction& x, GValue* v) { gst_value_set_fraction(v, x.n, x.d); }
+  template <class E, std::enable_if_t<std::is_enum<E>::value, int> = 0>
+  static void fetch(E x, GValue* v) {
+    g_value_set_enum(v, static_cast<gint>(x));
+  }
+  std::vector<Entry> entries_;
+};
+
+// A copy of the settings, taken under the object lock.
+template <class S>
+S snapshot(GstObject* obj, const S& s) {
+  GST_OBJECT_LOCK(obj);
+  S copy = s;
+  GST_OBJECT_UNLOCK(obj);
+  return copy;
+}
+
+// One member, read under the object lock (properties mutable in PLAYING).
+template <class S, class T>
+T read_setting(GstObject* obj, const S& s, T S::*m) {
+  GST_OBJECT_LOCK(obj);
+  T copy = s.*m;
+  GST_OBJECT_UNLOCK(obj);
+  return copy;
+}
+
+// Flags of the elements' properties.
+constexpr GParamFlags kReadWriteReady = static_cast<GParamFlags>(
+    G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY);
+constexpr GParamFlags kReadWritePlaying = static_cast<GParamFlags>(
+    G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
+
+}  // namespace lfgst
