@@ -1,5 +1,7 @@
 #include "calib/bundle.h"
 
+#include "calib/reprojection_error.h"
+
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
 
@@ -10,26 +12,6 @@
 
 namespace lf::calib {
 
-namespace {
-
-struct ReprojectionError {
-  ReprojectionError(double x, double y, bool bal) : x_(x), y_(y), sign_(bal ? -1.0 : 1.0) {}
-  template <typename T>
-  bool operator()(const T* camera, const T* point, T* residual) const {
-    T P[3];
-    ceres::AngleAxisRotatePoint(camera, point, P);
-    P[0] += camera[3], P[1] += camera[4], P[2] += camera[5];
-    const T px = sign_ * P[0] / P[2], py = sign_ * P[1] / P[2];
-    const T r2 = px * px + py * py;
-    const T d = T(1) + r2 * (camera[7] + camera[8] * r2);
-    residual[0] = camera[6] * d * px - x_;
-    residual[1] = camera[6] * d * py - y_;
-    return true;
-  }
-  double x_, y_, sign_;
-};
-
-}  // namespace
 
 BundleProblem read_bal(const std::string& path) {
   std::ifstream in(path);
@@ -68,8 +50,7 @@ BundleReport bundle_adjust(BundleProblem& p, const BundleOptions& opt) {
     throw std::invalid_argument("bundle_adjust: parameter arrays do not match the counts");
   ceres::Problem problem;
   for (const auto& o : p.observations) {
-    ceres::CostFunction* cost = new ceres::AutoDiffCostFunction<ReprojectionError, 2, 9, 3>(
-        new ReprojectionError(o.x, o.y, p.bal_sign));
+    ceres::CostFunction* cost = BalReprojectionError::Create(o.x, o.y, p.bal_sign);
     ceres::LossFunction* loss = opt.huber_px > 0 ? new ceres::HuberLoss(opt.huber_px) : nullptr;
     problem.AddResidualBlock(cost, loss, &p.cameras[9 * static_cast<size_t>(o.camera)],
                              &p.points[3 * static_cast<size_t>(o.point)]);

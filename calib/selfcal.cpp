@@ -1,5 +1,7 @@
 #include "calib/selfcal.h"
 
+#include "calib/reprojection_error.h"
+
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
 
@@ -28,25 +30,6 @@ double median(std::vector<double> v) {
   std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
   return v[v.size() / 2];
 }
-
-// Pixel residual of the paper's camera model (OpenCV convention): pose =
-// angle-axis (3) + t (3); intrinsics = f, k1, k2; principal point (2).
-struct PixelError {
-  explicit PixelError(const cv::Vec2d& obs) : u(obs[0]), v(obs[1]) {}
-  template <typename T>
-  bool operator()(const T* pose, const T* intr, const T* pp, const T* X, T* r) const {
-    T P[3];
-    ceres::AngleAxisRotatePoint(pose, X, P);
-    P[0] += pose[3], P[1] += pose[4], P[2] += pose[5];
-    const T x = P[0] / P[2], y = P[1] / P[2];
-    const T r2 = x * x + y * y;
-    const T d = T(1) + r2 * (intr[1] + intr[2] * r2);
-    r[0] = intr[0] * d * x + pp[0] - T(u);
-    r[1] = intr[0] * d * y + pp[1] - T(v);
-    return true;
-  }
-  double u, v;
-};
 
 // Prior on a camera's intrinsics around the Zhang camera's.
 struct IntrinsicsPrior {
@@ -290,7 +273,7 @@ SelfCalResult self_calibrate(const std::vector<Camera>& cameras, int zc, const I
       if (!usable[i] || res.outlier[i] || !res.registered[c] || !res.point_valid[p]) continue;
       const cv::Vec2d px(xn[i][0] * zhang.fx, xn[i][1] * zhang.fx);
       pr.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<PixelError, 2, 6, 3, 2, 3>(new PixelError(px)),
+          ReprojectionError::Create(px[0], px[1]),
           new ceres::HuberLoss(o.huber_px), blocks[c].data(), pinhole.data(), centre.data(),
           res.points[p].val);
       pr.SetParameterBlockConstant(pinhole.data());
@@ -436,7 +419,7 @@ SelfCalResult self_calibrate(const std::vector<Camera>& cameras, int zc, const I
       if (!use[i]) continue;
       const int c = obs[i].camera;
       pr.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<PixelError, 2, 6, 3, 2, 3>(new PixelError(obs[i].pixel)),
+          ReprojectionError::Create(obs[i].pixel[0], obs[i].pixel[1]),
           robust ? new ceres::HuberLoss(o.huber_px) : nullptr, pblocks[c].data(),
           iblocks[shared ? 0 : c].data(), ppblocks[c].data(), res.points[obs[i].point].val);
     }
@@ -468,7 +451,7 @@ SelfCalResult self_calibrate(const std::vector<Camera>& cameras, int zc, const I
     for (size_t i = 0; i < obs.size(); ++i) {
       if (!active[i]) continue;
       const int c = obs[i].camera;
-      const PixelError e(obs[i].pixel);
+      const ReprojectionError e(obs[i].pixel[0], obs[i].pixel[1]);
       double r[2];
       e(pblocks[c].data(), iblocks[shared ? 0 : c].data(), ppblocks[c].data(),
         res.points[obs[i].point].val, r);
@@ -637,52 +620,6 @@ SelfCalResult self_calibrate(const std::vector<Camera>& cameras, int zc, const I
       << "\n";
   res.log = log.str();
   return res;
-}
-
-SyntheticPointLight make_synthetic_point_light(const SyntheticPointLightOptions& o) {
-  SyntheticPointLight s;
-  const double vfov = 2 * std::atan(0.5 * o.height / o.f) * 180 / CV_PI;
-  s.truth = synthetic_grid_rig(o.rows, o.cols, o.pitch, o.width, o.height, vfov, o.rot_jitter_deg,
-                               o.seed);
-  s.truth.unit = "m";
-  std::mt19937_64 rng(o.seed * 7919 + 1);
-  std::uniform_real_distribution<double> uni(-1, 1), u01(0, 1);
-  std::normal_distribution<double> noise(0, o.noise_px);
-  for (Camera& c : s.truth.cameras) {
-    c.intrinsics.fx = c.intrinsics.fy = o.f * (1 + o.f_spread * uni(rng));
-    c.intrinsics.k1 = o.k1;
-    c.intrinsics.k2 = o.k2;
-  }
-  s.zhang = s.truth.cameras[0].intrinsics;
-  s.zhang.fx = s.zhang.fy = s.zhang.fx * (1 + o.zhang_f_error);
-  // Lights inside the common field of view, spread in depth.
-  const double half_w = 0.5 * (o.cols - 1) * o.pitch, half_h = 0.5 * (o.rows - 1) * o.pitch;
-  while (static_cast<int>(s.lights.size()) < o.lights) {
-    const double z = o.z_min + (o.z_max - o.z_min) * u01(rng);
-    const double ex = 0.8 * z * 0.5 * o.width / o.f, ey = 0.8 * z * 0.5 * o.height / o.f;
-    s.lights.emplace_back(uni(rng) * (ex - half_w * 0.2), uni(rng) * (ey - half_h * 0.2), z);
-  }
-  for (int p = 0; p < o.lights; ++p)
-    for (size_t c = 0; c < s.truth.cameras.size(); ++c) {
-      const auto px = s.truth.cameras[c].project(s.lights[p]);
-      if (!px || (*px)[0] < 0 || (*px)[1] < 0 || (*px)[0] > o.width - 1 || (*px)[1] > o.height - 1)
-        continue;
-      if (u01(rng) < o.dropout) continue;
-      PointObservation ob;
-      ob.camera = static_cast<int>(c);
-      ob.point = p;
-      const bool out = u01(rng) < o.outlier_fraction;
-      if (out) {  // a stray detection: anywhere at least 5 px away
-        do {
-          ob.pixel = {u01(rng) * (o.width - 1), u01(rng) * (o.height - 1)};
-        } while (cv::norm(ob.pixel - *px) < 5);
-      } else {
-        ob.pixel = *px + cv::Vec2d(noise(rng), noise(rng));
-      }
-      s.observations.push_back(ob);
-      s.is_outlier.push_back(out);
-    }
-  return s;
 }
 
 }  // namespace lf::calib

@@ -6,10 +6,11 @@
 # usage: pipelines/chess64.sh [OUT.avi] [FRAMES]
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
+build="${LF_BUILD_DIR:-$root/build}"  # the build directory (scripts/setup.sh: LF_BUILD_DIR)
 out="${1:-$root/out/chess64.avi}"; frames="${2:-120}"
 mkdir -p "$(dirname "$out")"
 rig="$(dirname "$out")/chess64-rig.json"
-"$root/build/tools/lf-rig" --input "$root/../shared/data/stanford-chess" --block 0,0,8,8 --out "$rig"
+"$build/tools/lf-rig" --input "$root/../shared/data/stanford-chess" --block 0,0,8,8 --out "$rig"
 file_sink="videoconvert ! jpegenc quality=90 ! avimux ! filesink location=$out"
 if [ -n "${DISPLAY:-}${WAYLAND_DISPLAY:-}" ]; then
   sink="tee name=vt ! queue ! videoconvert ! autovideosink vt. ! queue ! $file_sink"

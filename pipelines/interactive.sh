@@ -8,9 +8,10 @@
 # usage: pipelines/interactive.sh [BLOCK]   (BLOCK default 0,0,8,8)
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
+build="${LF_BUILD_DIR:-$root/build}"  # the build directory (scripts/setup.sh: LF_BUILD_DIR)
 mkdir -p "$root/out"
 rig="$root/out/interactive-rig.json"
-"$root/build/tools/lf-rig" --input "$root/../shared/data/stanford-chess" --block "${1:-0,0,8,8}" --out "$rig"
+"$build/tools/lf-rig" --input "$root/../shared/data/stanford-chess" --block "${1:-0,0,8,8}" --out "$rig"
 if [ -z "${DISPLAY:-}${WAYLAND_DISPLAY:-}" ]; then
   echo "interactive.sh: no display; use pipelines/chess64.sh for a video file" >&2
   exit 1

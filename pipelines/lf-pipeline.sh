@@ -16,9 +16,10 @@
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 root="$(dirname "$here")"
+build="${LF_BUILD_DIR:-$root/build}"  # the build directory (scripts/setup.sh: LF_BUILD_DIR)
 rig="$1"; request="$2"; sink="$3"; camsrc="${4:-num-buffers=1}"; fragment="${5:-}"
-export GST_PLUGIN_PATH="$root/build/gst${GST_PLUGIN_PATH:+:$GST_PLUGIN_PATH}"
-ids=$("$root/build/tools/lf-rig" --input "$rig" --ids)
+export GST_PLUGIN_PATH="$build/gst${GST_PLUGIN_PATH:+:$GST_PLUGIN_PATH}"
+ids=$("$build/tools/lf-rig" --input "$rig" --ids)
 desc="lfviewrequest rig=$rig $request ! tee name=t  lfcompositor name=comp rig=$rig ${COMPOSITOR:-latency=50000000} ! $sink"
 i=0
 for id in $ids; do

@@ -41,6 +41,7 @@
 #   PRINT=1      print the lf-launch command instead of running it
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
+build="${LF_BUILD_DIR:-$root/build}"  # the build directory (scripts/setup.sh: LF_BUILD_DIR)
 role="${1:-}"
 : "${RIG:?RIG must name the rig file}"
 HOSTS="${HOSTS:-4}"; COMPOSITOR="${COMPOSITOR:-127.0.0.1}"; VIEWER="${VIEWER:-127.0.0.1}"
@@ -50,7 +51,7 @@ VIDEO_PORT="${VIDEO_PORT:-5100}"; FPS="${FPS:-15}"; ENCODING="${ENCODING:-jpeg}"
 QUALITY="${QUALITY:-90}"; LATENCY_MS="${LATENCY_MS:-40}"; LOSS="${LOSS:-0}"
 VIEW="${VIEW:-orbit=0.6 dolly=15 path-frames=120 width=640 height=480}"
 PHASE_NS="${PHASE_NS:-$((500000000 / FPS))}"; OUTPUT="${OUTPUT:-fakesink}"
-export GST_PLUGIN_PATH="$root/build/gst${GST_PLUGIN_PATH:+:$GST_PLUGIN_PATH}"
+export GST_PLUGIN_PATH="$build/gst${GST_PLUGIN_PATH:+:$GST_PLUGIN_PATH}"
 rtp_caps="application/x-rtp,media=application,clock-rate=90000,encoding-name=X-GST"
 # Sender side of an RTP stream: optional emulated loss, never clock-synced
 # (buffers leave when ready; the receivers' deadlines do the scheduling).
@@ -63,7 +64,7 @@ multicast=0
 if [[ "$REQUESTS" =~ ^2(2[4-9]|3[0-9])\. ]]; then multicast=1; fi
 
 BASELINE_PORT="${BASELINE_PORT:-6000}"
-ids=$("$root/build/tools/lf-rig" --input "$RIG" --ids)
+ids=$("$build/tools/lf-rig" --input "$RIG" --ids)
 jpeg_caps="application/x-rtp,media=video,clock-rate=90000,encoding-name=JPEG,payload=26"
 case "$role" in
   compositor)
@@ -136,7 +137,7 @@ case "$role" in
     exit 2
     ;;
 esac
-cmd=("$root/build/tools/lf-launch" "${clock[@]}")
+cmd=("$build/tools/lf-launch" "${clock[@]}")
 if [ -n "${DURATION:-}" ]; then cmd+=(--duration "$DURATION"); fi
 if [ "${PRINT:-0}" = 1 ]; then
   printf '%q ' "${cmd[@]}" --; echo "$desc"

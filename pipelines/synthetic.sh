@@ -7,11 +7,12 @@
 # usage: pipelines/synthetic.sh [OUT.avi] [FRAMES]
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
+build="${LF_BUILD_DIR:-$root/build}"  # the build directory (scripts/setup.sh: LF_BUILD_DIR)
 out="${1:-$root/out/synthetic.avi}"; frames="${2:-50}"
 mkdir -p "$(dirname "$out")"
 rig="$(dirname "$out")/synthetic-rig.json"
 # 6x6 cameras, 5 cm apart, 160x120 images; disc at 25 x 5 cm = 1.25 m.
-"$root/build/tools/lf-rig" --synthetic 6x6 --spacing 0.05 --size 160x120 --out "$rig"
+"$build/tools/lf-rig" --synthetic 6x6 --spacing 0.05 --size 160x120 --out "$rig"
 sink="videoconvert ! jpegenc ! avimux ! filesink location=$out"
 if [ -n "${DISPLAY:-}${WAYLAND_DISPLAY:-}" ]; then
   sink="tee name=vt ! queue ! videoconvert ! autovideosink vt. ! queue ! $sink"

@@ -5,9 +5,12 @@
 # offline still with auto-focus -> out/chess-still.png.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# The build directory: $LF_BUILD_DIR (default ./build).
+export LF_BUILD_DIR="${LF_BUILD_DIR:-$PWD/build}"
+build="$LF_BUILD_DIR"
 ./scripts/setup.sh
 mkdir -p out
 ./pipelines/chess64.sh out/chess64.avi 120
-./build/tools/lf-render --input ../shared/data/stanford-chess --block 0,0,8,8 \
+"$build/tools/lf-render" --input ../shared/data/stanford-chess --block 0,0,8,8 \
   --at -3320,-812 --size 640x480 --focal auto --out out/chess-still.png --quiet
 echo "demo: wrote out/chess64.avi (GStreamer pipeline) and out/chess-still.png (lf-render)"

@@ -3,6 +3,9 @@
 # and builds lightfield-gst in ./build. Safe to run again.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# The build directory: $LF_BUILD_DIR (default ./build).
+export LF_BUILD_DIR="${LF_BUILD_DIR:-$PWD/build}"
+build="$LF_BUILD_DIR"
 
 PACKAGES=(g++ meson ninja-build pkg-config libopencv-dev libturbojpeg0-dev
           nlohmann-json3-dev zlib1g-dev libgtest-dev
@@ -21,7 +24,7 @@ if [ ${#missing[@]} -gt 0 ]; then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 
-if [ ! -f build/build.ninja ]; then
-  meson setup build --buildtype=release
+if [ ! -f "$build/build.ninja" ]; then
+  meson setup "$build" --buildtype=release
 fi
-ninja -C build
+ninja -C "$build"

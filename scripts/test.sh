@@ -2,17 +2,20 @@
 # Sets everything up (scripts/setup.sh) and runs every test.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# The build directory: $LF_BUILD_DIR (default ./build).
+export LF_BUILD_DIR="${LF_BUILD_DIR:-$PWD/build}"
+build="$LF_BUILD_DIR"
 ./scripts/setup.sh
 if [ ! -d ../shared/data ]; then
   echo "test: ../shared/data is missing (the real-data tests read it in place)" >&2
   exit 1
 fi
-rm -rf build/gtest-xml
+rm -rf "$build/gtest-xml"
 status=0
-GTEST_OUTPUT=xml:"$PWD/build/gtest-xml/" meson test -C build --print-errorlogs || status=$?
+GTEST_OUTPUT=xml:"$build/gtest-xml/" meson test -C "$build" --print-errorlogs || status=$?
 # One closing line with GoogleTest's counts over all test programs.
 passed=0; failed=0
-for f in build/gtest-xml/*.xml; do
+for f in "$build"/gtest-xml/*.xml; do
   [ -f "$f" ] || continue
   t=$(grep -m1 -o 'tests="[0-9]*"' "$f" | grep -o '[0-9]*')
   fl=$(grep -m1 -o 'failures="[0-9]*"' "$f" | grep -o '[0-9]*')

@@ -15,7 +15,8 @@
 # usage: net-deploy-check.sh BUILD_DIR SHARED_DATA_DIR
 set -euo pipefail
 build="$(cd "$1" && pwd)"; data="$2"
-root="$(dirname "$build")"
+root="$(cd "$(dirname "$0")/.." && pwd)"
+export LF_BUILD_DIR="$build"  # for the pipeline and tool scripts it runs
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 export RIG="$work/rig.json" FPS=15 LATENCY_MS=40 ENCODING=jpeg QUALITY=90

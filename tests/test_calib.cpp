@@ -8,14 +8,17 @@
 
 #include <filesystem>
 #include <fstream>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 #include <random>
 
 #include "calib/bundle.h"
 #include "calib/colour.h"
+#include "calib/reprojection_error.h"
 #include "calib/intrinsics.h"
 #include "calib/selfcal.h"
+#include "calib/synthetic_point_light.h"
 #include "calib/tracking.h"
 #include "helpers.h"
 #include "lf/composite.h"
@@ -110,7 +113,9 @@ TEST(Intrinsics, BadInputIsAClearError) {
 
 // The reference: Ceres's examples/bundle_adjuster.cc model (SnavelyReprojectionError)
 // and solver settings (sparse Schur, Levenberg-Marquardt, points eliminated
-// first), written out here independently of calib/bundle.cpp.
+// first), written out here independently of calib/bundle.cpp and
+// lf/projection.h on purpose: it is the published model the solve is checked
+// against, not a second copy of ours.
 struct SnavelyReference {
   SnavelyReference(double x, double y) : x(x), y(y) {}
   template <typename T>
@@ -592,4 +597,49 @@ TEST(Colour, SamplesFromImagesOfTheCommonScene) {
   for (size_t c = 0; c < 16; ++c) EXPECT_EQ(r.cameras[c].defective, c == 9) << c;
   EXPECT_LT(r.mean_delta_e_after, 1.0);
   EXPECT_GT(r.mean_delta_e_before, 2.0);
+}
+
+// The Ceres cost functors evaluate the same projection as lf::Camera::project
+// (one camera model: lf/projection.h).
+TEST(ReprojectionError, MatchesCameraProject) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> U(-1, 1);
+  for (int trial = 0; trial < 200; ++trial) {
+    lf::Camera cam;
+    cam.width = 640, cam.height = 480;
+    cam.intrinsics = {500 + 100 * U(rng), 0, 320 + 20 * U(rng), 240 + 20 * U(rng),
+                      0.2 * U(rng), 0.05 * U(rng)};
+    cam.intrinsics.fy = cam.intrinsics.fx;
+    const cv::Vec3d aa(0.3 * U(rng), 0.3 * U(rng), 0.3 * U(rng));
+    cv::Matx33d R;
+    cv::Rodrigues(aa, R);
+    cam.extrinsics.R = R;
+    cam.extrinsics.t = {U(rng), U(rng), U(rng)};
+    const cv::Vec3d X = cam.extrinsics.R.t() * (cv::Vec3d(0.4 * U(rng), 0.3 * U(rng), 3 + U(rng)) -
+                                                cam.extrinsics.t);
+    const auto uv = cam.project(X);
+    ASSERT_TRUE(uv.has_value());
+    const double pose[6] = {aa[0], aa[1], aa[2], cam.extrinsics.t[0], cam.extrinsics.t[1],
+                            cam.extrinsics.t[2]};
+    const double intr[3] = {cam.intrinsics.fx, cam.intrinsics.k1, cam.intrinsics.k2};
+    const double pp[2] = {cam.intrinsics.cx, cam.intrinsics.cy};
+    double r[2];
+    ASSERT_TRUE(lf::calib::ReprojectionError((*uv)[0], (*uv)[1])(pose, intr, pp, X.val, r));
+    EXPECT_NEAR(r[0], 0, 1e-9);
+    EXPECT_NEAR(r[1], 0, 1e-9);
+    // Through Ceres (automatic differentiation) as the solver calls it.
+    std::unique_ptr<ceres::CostFunction> cost(
+        lf::calib::ReprojectionError::Create((*uv)[0] + 1.5, (*uv)[1] - 0.5));
+    const double* blocks[4] = {pose, intr, pp, X.val};
+    ASSERT_TRUE(cost->Evaluate(blocks, r, nullptr));
+    EXPECT_NEAR(r[0], 1.5 * -1, 1e-9);
+    EXPECT_NEAR(r[1], 0.5, 1e-9);
+    // BAL layout, principal point at 0, camera looking down +z (sign +1).
+    const double bal[9] = {aa[0], aa[1], aa[2], pose[3], pose[4], pose[5], intr[0], intr[1],
+                           intr[2]};
+    ASSERT_TRUE(lf::calib::BalReprojectionError((*uv)[0] - pp[0], (*uv)[1] - pp[1], 1.0)(
+        bal, X.val, r));
+    EXPECT_NEAR(r[0], 0, 1e-9);
+    EXPECT_NEAR(r[1], 0, 1e-9);
+  }
 }

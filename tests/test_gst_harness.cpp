@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "gst_init.h"
+#include "lfrig.h"
 #include "lf/composite.h"
 #include "lf/rig_file.h"
 #include "lf/focus.h"
@@ -206,3 +207,30 @@ TEST_F(Harness, CompositorCapsAndBadInput) {
 }
 
 }  // namespace
+
+// The elements' rig cache (gst/lfrig.h): one entry per file whatever the
+// name used, and an edited file is loaded again.
+TEST(RigCache, CanonicalPathAndEditsReload) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / "lf-rig-cache-test";
+  fs::create_directories(dir);
+  const fs::path file = dir / "rig.json";
+  lf::save_rig(lf::synthetic_grid_rig(2, 2, 0.05, 64, 48, 40), file.string());
+  const auto a = lfgst::load_rig_cached(file.string());
+  const fs::path cwd = fs::current_path();
+  fs::current_path(dir);
+  const auto b = lfgst::load_rig_cached("rig.json");
+  const auto c = lfgst::load_rig_cached("./../lf-rig-cache-test/rig.json");
+  fs::current_path(cwd);
+  EXPECT_EQ(a.get(), b.get());
+  EXPECT_EQ(a.get(), c.get());
+  EXPECT_EQ(a->cameras.size(), 4u);
+  // Edit: a 3x3 rig under the same name (and a later modification time).
+  lf::save_rig(lf::synthetic_grid_rig(3, 3, 0.05, 64, 48, 40), file.string());
+  fs::last_write_time(file, fs::last_write_time(file) + std::chrono::seconds(2));
+  const auto d = lfgst::load_rig_cached(file.string());
+  EXPECT_NE(a.get(), d.get());
+  EXPECT_EQ(d->cameras.size(), 9u);
+  EXPECT_EQ(lfgst::load_rig_cached(file.string()).get(), d.get());
+  fs::remove_all(dir);
+}

@@ -2,8 +2,10 @@
 // a textured plane (exact ground truth when the focal plane is that plane).
 #include <gtest/gtest.h>
 
+#include <opencv2/imgproc.hpp>
 #include <random>
 
+#include "lf/colour.h"
 #include "lf/composite.h"
 #include "lf/focus.h"
 #include "lf/parse.h"
@@ -196,3 +198,33 @@ TEST(Render, RejectsWrongImages) {
 }
 
 }  // namespace
+
+// Colour correction (lib/lf/colour.h), as lffragment (RGBA) and lf-render
+// (BGRA) apply it: the same correction whatever the channel order.
+TEST(Colour, SameCorrectionInRgbaAndBgraOrder) {
+  cv::Mat rgba(7, 9, CV_8UC4);
+  cv::randu(rgba, 0, 256);
+  const cv::Matx34d m(1.1, 0.05, 0, 3, 0.02, 0.9, 0.03, -4, 0, 0.1, 1.2, 7);
+  const cv::Mat out_rgba = lf::colour_correct(m, rgba, lf::ChannelOrder::kRGBA);
+  cv::Mat bgra, out_bgra, back;
+  cv::cvtColor(rgba, bgra, cv::COLOR_RGBA2BGRA);
+  out_bgra = lf::colour_correct(m, bgra, lf::ChannelOrder::kBGRA);
+  cv::cvtColor(out_bgra, back, cv::COLOR_BGRA2RGBA);
+  EXPECT_EQ(cv::norm(out_rgba, back, cv::NORM_INF), 0);
+  // One pixel by hand: A c + b, rounded and saturated; the fourth channel kept.
+  const cv::Vec4b p = rgba.at<cv::Vec4b>(3, 4), q = out_rgba.at<cv::Vec4b>(3, 4);
+  for (int i = 0; i < 3; ++i) {
+    const double v = m(i, 0) * p[0] + m(i, 1) * p[1] + m(i, 2) * p[2] + m(i, 3);
+    EXPECT_NEAR(q[i], std::min(255.0, std::max(0.0, v)), 0.5 + 1e-9) << i;
+  }
+  EXPECT_EQ(q[3], p[3]);
+  // Identity and not opaque: the image itself, no copy; opaque: alpha 255.
+  const cv::Matx34d id(1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0);
+  EXPECT_EQ(lf::colour_correct(id, rgba, lf::ChannelOrder::kRGBA).data, rgba.data);
+  const cv::Mat opaque = lf::colour_correct(id, rgba, lf::ChannelOrder::kRGBA, true);
+  std::vector<cv::Mat> ch;
+  cv::split(opaque, ch);
+  EXPECT_EQ(cv::countNonZero(ch[3] != 255), 0);
+  EXPECT_THROW(lf::colour_correct(m, cv::Mat(2, 2, CV_8UC3), lf::ChannelOrder::kRGBA),
+               std::invalid_argument);
+}

@@ -14,24 +14,14 @@
 
 #include <cstdio>
 #include <cstring>
-#include <iostream>
 #include <string>
 
 namespace {
 
-const char* kHelp = R"(lf-launch: run a pipeline on a network-shared clock.
-
-usage: lf-launch (--clock-server PORT | --clock-client HOST:PORT) --base-time NS|now+MS
-                 [--sync-timeout S] [--duration S] [--check-clock] -- PIPELINE DESCRIPTION...
-  --clock-server PORT      publish this machine's clock (GstNetTimeProvider, UDP PORT)
-  --clock-client HOST:PORT slave to a provider (GstNetClientClock); waits until synchronised
-  --base-time NS           base time shared by every host, ns on the shared clock
-  --base-time now+MS       (server) now + MS milliseconds; printed as "base-time NS"
-  --sync-timeout S         client: give up if not synchronised after S seconds (default 10)
-  --duration S             stop after S seconds (default: run to end of stream)
-  --check-clock            client: print "clock-offset-ms X" (client clock - local system
-                           clock right after sync) and exit without running a pipeline
-)";
+const char* kSummary =
+    "Runs a gst-launch-style pipeline description on a clock shared across machines.\n"
+    "Give exactly one of --clock-server and --clock-client; every host uses the same\n"
+    "--base-time.";
 
 GstClockTime parse_base(const std::string& s, GstClock* clock) {
   if (s.rfind("now+", 0) == 0)
@@ -42,42 +32,51 @@ GstClockTime parse_base(const std::string& s, GstClock* clock) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  gst_init(nullptr, nullptr);  // not argv: GOption would eat the "--" separator
-  std::string server_port, client, base = "now+500", description;
-  double sync_timeout = 10, duration = -1;
-  bool check = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
-      return argv[++i];
-    };
-    try {
-      if (a == "--help" || a == "-h") {
-        std::cout << kHelp;
-        return 0;
-      } else if (a == "--clock-server") {
-        server_port = value();
-      } else if (a == "--clock-client") {
-        client = value();
-      } else if (a == "--base-time") {
-        base = value();
-      } else if (a == "--sync-timeout") {
-        sync_timeout = std::stod(value());
-      } else if (a == "--duration") {
-        duration = std::stod(value());
-      } else if (a == "--check-clock") {
-        check = true;
-      } else if (a == "--") {
-        for (++i; i < argc; ++i) description += std::string(argv[i]) + " ";
-      } else {
-        throw std::invalid_argument("unknown option '" + a + "' (see --help)");
-      }
-    } catch (const std::exception& e) {
-      std::fprintf(stderr, "lf-launch: error: %s\n", e.what());
-      return 2;
-    }
+  gint port = 0;
+  gchar* client_opt = nullptr;
+  gchar* base_opt = nullptr;
+  gdouble sync_timeout = 10, duration = -1;
+  gboolean check = FALSE;
+  gchar** rest = nullptr;
+  const GOptionEntry entries[] = {
+      {"clock-server", 0, 0, G_OPTION_ARG_INT, &port,
+       "Publish this machine's clock (GstNetTimeProvider) on UDP PORT", "PORT"},
+      {"clock-client", 0, 0, G_OPTION_ARG_STRING, &client_opt,
+       "Slave to a provider (GstNetClientClock); waits until synchronised", "HOST:PORT"},
+      {"base-time", 0, 0, G_OPTION_ARG_STRING, &base_opt,
+       "Base time shared by every host, ns on the shared clock; now+MS (server): now + MS "
+       "milliseconds, printed as \"base-time NS\" (default now+500)",
+       "NS|now+MS"},
+      {"sync-timeout", 0, 0, G_OPTION_ARG_DOUBLE, &sync_timeout,
+       "Client: give up if not synchronised after S seconds (default 10)", "S"},
+      {"duration", 0, 0, G_OPTION_ARG_DOUBLE, &duration,
+       "Stop after S seconds (default: run to end of stream)", "S"},
+      {"check-clock", 0, 0, G_OPTION_ARG_NONE, &check,
+       "Client: print \"clock-offset-ms X\" (client clock - local system clock right after "
+       "sync) and exit without running a pipeline",
+       nullptr},
+      {G_OPTION_REMAINING, 0, 0, G_OPTION_ARG_STRING_ARRAY, &rest, nullptr, nullptr},
+      {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
+  GOptionContext* ctx = g_option_context_new("-- PIPELINE DESCRIPTION...");
+  g_option_context_set_summary(ctx, kSummary);
+  g_option_context_add_main_entries(ctx, entries, nullptr);
+  g_option_context_add_group(ctx, gst_init_get_option_group());
+  GError* opt_err = nullptr;
+  if (!g_option_context_parse(ctx, &argc, &argv, &opt_err)) {
+    std::fprintf(stderr, "lf-launch: error: %s (see --help)\n", opt_err->message);
+    g_clear_error(&opt_err);
+    g_option_context_free(ctx);
+    return 2;
   }
+  g_option_context_free(ctx);
+  const std::string server_port = port > 0 ? std::to_string(port) : "";
+  const std::string client = client_opt ? client_opt : "";
+  const std::string base = base_opt ? base_opt : "now+500";
+  std::string description;
+  for (gchar** r = rest; r && *r; ++r) description += std::string(*r) + " ";
+  g_free(client_opt);
+  g_free(base_opt);
+  g_strfreev(rest);
   if (server_port.empty() == client.empty()) {
     std::fprintf(stderr, "lf-launch: error: give exactly one of --clock-server, --clock-client\n");
     return 2;

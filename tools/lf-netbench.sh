@@ -14,20 +14,21 @@
 # of the camera images [0.5: 700x400], DATA [../shared/data].
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
+build="${LF_BUILD_DIR:-$root/build}"  # the build directory (scripts/setup.sh: LF_BUILD_DIR)
 out="${1:-$root/out/netbench}"; seconds="${2:-8}"
 mkdir -p "$out"; out="$(cd "$out" && pwd)"
 data="${DATA:-$root/../shared/data}"
 export FPS="${FPS:-15}" QUALITY="${QUALITY:-90}" LATENCY_MS="${LATENCY_MS:-40}"
 W="${WIDTH:-640}"; H="${HEIGHT:-480}"; scale="${INPUT_SCALE:-0.5}"
 export VIEW="orbit=0.6 dolly=15 path-frames=120 width=$W height=$H"
-trace="$root/build/tools/lf-trace"
+trace="$build/tools/lf-trace"
 key() { awk -v k="$2" '/^## summary/{s=1; next} s && $1==k {print $2}' "$1"; }
 
 declare -A bytes
 for k in 2 4 8; do
   n=$((k * k))
   rig="$out/rig$n.json"
-  "$root/build/tools/lf-rig" --input "$data/stanford-chess" --block 0,0,8,8 --spread "$k" \
+  "$build/tools/lf-rig" --input "$data/stanford-chess" --block 0,0,8,8 --spread "$k" \
     --input-scale "$scale" --out "$rig"
   for enc in raw jpeg; do
     run="$out/$enc$n"

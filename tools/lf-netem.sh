@@ -18,6 +18,7 @@
 # OUTDIR/view-N.png.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
+build="${LF_BUILD_DIR:-$root/build}"  # the build directory (scripts/setup.sh: LF_BUILD_DIR)
 cmd="${1:-}"; out="${2:-}"; seconds="${3:-}"; scenario="${4:-normal}"
 if [ "$cmd" != run ] || [ -z "$out" ] || [ -z "$seconds" ]; then
   sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'
@@ -100,7 +101,7 @@ export BASE_TIME
 echo "$BASE_TIME" > "$out/base-time"
 : > "$out/clock-offsets"
 for ((k = 0; k < HOSTS; k++)); do
-  ip netns exec "$tag"cam$k "$root/build/tools/lf-launch" --clock-client "${ip[comp]}:${CLOCK_PORT:-5300}" \
+  ip netns exec "$tag"cam$k "$build/tools/lf-launch" --clock-client "${ip[comp]}:${CLOCK_PORT:-5300}" \
     --check-clock | sed "s/^/cam$k /" >> "$out/clock-offsets" || true
   launch "cam$k" camera "$k"
 done

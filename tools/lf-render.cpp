@@ -8,6 +8,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "cli.h"
+#include "lf/colour.h"
 #include "lf/datasets.h"
 #include "lf/rig_file.h"
 #include "lf/rig_ops.h"
@@ -83,47 +84,38 @@ int main(int argc, char** argv) {
                                     : (std::to_string(rig.grid.rows) + "x" +
                                        std::to_string(rig.grid.cols) + " grid")
                                           .c_str());
-    const auto images = lf::load_images(rig, [&](int k, int n) {
+    auto images = lf::load_images(rig, [&](int k, int n) {
       if (!quiet) cli::progress("images", k, n);
     });
 
-    // Views.
-    std::vector<lf::VirtualView> views;
-    bool closed = false;
+    // Colour correction from the rig (lib/lf/colour.h; identity by default).
+    lf::colour_correct_images(rig, images, lf::ChannelOrder::kBGRA);
+
+    // Views (lib/lf/view_builder.h, as lfviewrequest builds them).
+    lf::ViewSettings vs;
+    vs.width = W;
+    vs.height = H;
     if (args.has("--at")) {
       const auto p = args.numbers("--at", 2, 3);
-      cv::Vec3d eye(p[0], p[1], 0);
-      if (p.size() == 3) {
-        eye[2] = p[2];
-      } else {  // on the camera plane: solve its equation for z
-        const lf::CameraPlane& P = rig.plane();
-        if (std::abs(P.normal[2]) < 1e-9)
-          throw std::invalid_argument("--at X,Y: the camera plane is vertical here; give X,Y,Z");
-        eye[2] =
-            P.origin[2] -
-            (P.normal[0] * (p[0] - P.origin[0]) + P.normal[1] * (p[1] - P.origin[1])) / P.normal[2];
-      }
-      views.push_back(lf::view_between_cameras(rig, eye, W, H));
+      vs.position = p.size() == 3 ? cv::Vec3d(p[0], p[1], p[2])
+                                  : lf::point_on_camera_plane(rig, p[0], p[1]);
     } else if (args.has("--eye")) {
-      const auto e = args.numbers("--eye", 3, 3);
       if (!args.has("--look-at")) throw std::invalid_argument("--eye needs --look-at");
-      const auto l = args.numbers("--look-at", 3, 3);
-      const cv::Matx33d& R = rig.cameras[0].extrinsics.R;
-      views.push_back(lf::VirtualView::look_at({e[0], e[1], e[2]}, {l[0], l[1], l[2]},
-                                               {R(1, 0), R(1, 1), R(1, 2)},
-                                               args.number("--vfov", 50), W, H));
+      vs.position = lf::parse_point(args.get("--eye"), "--eye");
+      vs.look_at = lf::parse_point(args.get("--look-at"), "--look-at");
+      vs.vfov_deg = args.number("--vfov", 50);
     } else {
-      const int frames = args.integer("--frames", 60);
-      if (frames < 1 || frames > 100000) throw std::invalid_argument("--frames out of range");
-      std::vector<lf::Keyframe> keys;
+      vs.path_frames = args.integer("--frames", 60);
+      if (vs.path_frames < 1 || vs.path_frames > 100000)
+        throw std::invalid_argument("--frames out of range");
       if (args.has("--path")) {
-        keys = lf::load_path(args.get("--path"));
+        vs.path_file = args.get("--path");
       } else {
-        keys = lf::orbit_path(rig, args.number("--orbit", 0.6), args.number("--dolly", 0), 24);
-        closed = true;
+        vs.orbit = args.number("--orbit", 0.6);
+        vs.dolly = args.number("--dolly", 0);
       }
-      views = lf::sample_path(rig, keys, frames, W, H, closed);
     }
+    const std::vector<lf::VirtualView> views = lf::build_views(rig, vs).views;
 
     const cli::FocalSpec focal = cli::parse_focal(args.get("--focal", "auto"), rig);
     std::unique_ptr<lf::AutofocusContext> af;

@@ -1,5 +1,5 @@
 // lf-trace: reads the event traces the elements write under LF_TRACE (see
-// gst/lfcommon.h for the format) on one or many hosts and prints
+// gst/lftrace.h for the format) on one or many hosts and prints
 //  * output: requests issued and composited, complete and incomplete, the
 //    longest gap between output frames, a per-second timeline;
 //  * bandwidth: fragment bytes entering the compositor per output frame

@@ -1,5 +1,7 @@
 #include "lf/camera.h"
 
+#include "lf/projection.h"
+
 #include <cmath>
 
 namespace lf {
@@ -21,16 +23,14 @@ Extrinsics Extrinsics::from_center(const cv::Matx33d& R, const cv::Vec3d& C) {
 }
 
 cv::Vec2d distort_normalized(const Intrinsics& K, const cv::Vec2d& xy) {
-  const double r2 = xy[0] * xy[0] + xy[1] * xy[1];
-  const double f = 1.0 + r2 * (K.k1 + K.k2 * r2);
+  const double f = distortion_factor(xy[0] * xy[0] + xy[1] * xy[1], K.k1, K.k2);
   return {xy[0] * f, xy[1] * f};
 }
 
 namespace {
 // r_d(r) = r (1 + k1 r^2 + k2 r^4); derivative 1 + 3 k1 r^2 + 5 k2 r^4.
 double radial(double k1, double k2, double r) {
-  const double r2 = r * r;
-  return r * (1.0 + r2 * (k1 + k2 * r2));
+  return r * distortion_factor(r * r, k1, k2);
 }
 double radial_derivative(double k1, double k2, double r) {
   const double r2 = r * r;
@@ -92,8 +92,10 @@ cv::Vec3d Camera::forward() const {
 std::optional<cv::Vec2d> Camera::project(const cv::Vec3d& X) const {
   const cv::Vec3d Xc = extrinsics.R * X + extrinsics.t;
   if (!(Xc[2] > 0.0)) return std::nullopt;
-  const cv::Vec2d xd = distort_normalized(intrinsics, {Xc[0] / Xc[2], Xc[1] / Xc[2]});
-  return cv::Vec2d(intrinsics.fx * xd[0] + intrinsics.cx, intrinsics.fy * xd[1] + intrinsics.cy);
+  const Intrinsics& K = intrinsics;
+  cv::Vec2d uv;
+  project_camera_point(Xc.val, K.fx, K.fy, K.cx, K.cy, K.k1, K.k2, uv.val);
+  return uv;
 }
 
 std::optional<cv::Vec3d> Camera::unproject(const cv::Vec2d& p) const {
