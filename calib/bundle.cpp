@@ -1,7 +1,5 @@
 #include "calib/bundle.h"
 
-#include "calib/reprojection_error.h"
-
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
 
@@ -10,8 +8,9 @@
 #include <sstream>
 #include <stdexcept>
 
-namespace lf::calib {
+#include "calib/reprojection_error.h"
 
+namespace lf::calib {
 
 BundleProblem read_bal(const std::string& path) {
   std::ifstream in(path);

@@ -75,9 +75,7 @@ static GType lf_cam_src_mode_get_type() {
       {static_cast<gint>(Mode::kV4l2),
        "A V4L2 capture device (device; through v4l2src), scaled to the rig's image size", "v4l2"},
       {0, nullptr, nullptr}};
-  if (g_once_init_enter(&type))
-    g_once_init_leave(&type, g_enum_register_static("LfCamSrcMode", values));
-  return type;
+  return lfgst::enum_type(&type, "LfCamSrcMode", values);
 }
 
 namespace {
@@ -136,16 +134,10 @@ static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE(
     GST_STATIC_CAPS("video/x-raw, format = (string) RGBA, width = (int) [ 2, 65535 ], "
                     "height = (int) [ 2, 65535 ], framerate = (fraction) [ 1/1, 1000/1 ]"));
 
-static void lf_cam_src_set_property(GObject* obj, guint id, const GValue* v, GParamSpec* ps) {
-  props.set(obj, LF_CAM_SRC(obj)->priv->settings, id, v, ps);
-  // Must be known before READY->PAUSED (live sources do not preroll).
-  if (g_str_equal(ps->name, "is-live"))
-    gst_base_src_set_live(GST_BASE_SRC(obj), g_value_get_boolean(v));
+static void lf_cam_src_property_set(GObject* obj, GParamSpec* ps, const GValue* v) {
+  lfgst::apply_is_live(obj, ps, v);
 }
-
-static void lf_cam_src_get_property(GObject* obj, guint id, GValue* v, GParamSpec* ps) {
-  props.get(obj, LF_CAM_SRC(obj)->priv->settings, id, v, ps);
-}
+LF_DEFINE_ELEMENT_GLUE(lf_cam_src, LF_CAM_SRC)
 
 // The description of the internal decoding pipeline (file and v4l2 modes).
 static std::string decoder_description(const Settings& s, const lf::Camera& cam) {
@@ -192,8 +184,8 @@ static void open_input(State* st) {
       g_clear_error(&err);
       st->appsink = gst_bin_get_by_name(GST_BIN(st->decoder), "frames");
       if (gst_element_set_state(st->decoder, GST_STATE_PLAYING) == GST_STATE_CHANGE_FAILURE)
-        throw std::runtime_error("cannot open " + (s.mode == Mode::kV4l2 ? "device " + s.device
-                                                                          : s.location));
+        throw std::runtime_error("cannot open " +
+                                 (s.mode == Mode::kV4l2 ? "device " + s.device : s.location));
       st->rgba = cv::Mat(cam.height, cam.width, CV_8UC4);  // size for caps
       break;
     }
@@ -276,7 +268,8 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
   const Settings& set = st->s;
   const GstClockTime period =
       gst_util_uint64_scale_int(GST_SECOND, set.framerate.d, set.framerate.n);
-  if (set.live) st->frame = lfgst::first_current_tick(GST_ELEMENT(src), st->frame, period, set.phase);
+  if (set.live)
+    st->frame = lfgst::first_current_tick(GST_ELEMENT(src), st->frame, period, set.phase);
   const GstClockTime pts = st->frame * period + set.phase;
   // Capture time, frame number and the capture meta on every frame.
   auto stamp = [&](GstBuffer* buf) {
@@ -325,8 +318,9 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
   }
   // Dataset: zero-copy, the buffer shares the still (read-only). Synthetic:
   // the scene at the capture time.
-  auto* ref = new cv::Mat(set.mode == Mode::kSynthetic ? st->scene.render(st->rig->cameras[st->index], pts / 1e9)
-                                        : st->rgba);
+  auto* ref = new cv::Mat(set.mode == Mode::kSynthetic
+                              ? st->scene.render(st->rig->cameras[st->index], pts / 1e9)
+                              : st->rgba);
   GstBuffer* buf = gst_buffer_new_wrapped_full(GST_MEMORY_FLAG_READONLY, ref->data,
                                                ref->total() * ref->elemSize(), 0,
                                                ref->total() * ref->elemSize(), ref, free_mat);
@@ -335,16 +329,8 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
 }
 
 static gboolean lf_cam_src_query(GstBaseSrc* src, GstQuery* q) {
-  if (GST_QUERY_TYPE(q) == GST_QUERY_LATENCY && gst_base_src_is_live(src)) {
-    gst_query_set_latency(q, TRUE, 0, GST_CLOCK_TIME_NONE);
-    return TRUE;
-  }
+  if (lfgst::answer_live_latency(src, q)) return TRUE;
   return GST_BASE_SRC_CLASS(lf_cam_src_parent_class)->query(src, q);
-}
-
-static void lf_cam_src_finalize(GObject* obj) {
-  delete LF_CAM_SRC(obj)->priv;
-  G_OBJECT_CLASS(lf_cam_src_parent_class)->finalize(obj);
 }
 
 static void lf_cam_src_init(LfCamSrc* self) {
@@ -365,8 +351,8 @@ static void lf_cam_src_class_init(LfCamSrcClass* klass) {
             g_param_spec_string("rig", "Rig", "Rig file (.json) or dataset folder", nullptr, rw));
   lfgst::add_camera_properties(props, oc);
   props.add(oc, &Settings::framerate,
-            gst_param_spec_fraction("framerate", "Frame rate", "Capture rate, frames per second",
-                                    1, 1, 1000, 1, DEFAULT_FPS_N, DEFAULT_FPS_D, rw));
+            gst_param_spec_fraction("framerate", "Frame rate", "Capture rate, frames per second", 1,
+                                    1, 1000, 1, DEFAULT_FPS_N, DEFAULT_FPS_D, rw));
   props.add(oc, &Settings::phase,
             g_param_spec_uint64("phase", "Phase",
                                 "Capture schedule offset, ns: frame k is captured at running "
@@ -384,12 +370,12 @@ static void lf_cam_src_class_init(LfCamSrcClass* klass) {
                                 "mode=file: a video file or URI, or a printf pattern of an image "
                                 "sequence (frames/%04d.png)",
                                 nullptr, rw));
-  props.add(oc, &Settings::device,
-            g_param_spec_string("device", "Device", "mode=v4l2: the capture device",
-                                DEFAULT_DEVICE, rw));
-  props.add(oc, &Settings::loop,
-            g_param_spec_boolean("loop", "Loop", "mode=file: start again at the end", DEFAULT_LOOP,
-                                 rw));
+  props.add(
+      oc, &Settings::device,
+      g_param_spec_string("device", "Device", "mode=v4l2: the capture device", DEFAULT_DEVICE, rw));
+  props.add(
+      oc, &Settings::loop,
+      g_param_spec_boolean("loop", "Loop", "mode=file: start again at the end", DEFAULT_LOOP, rw));
   gst_type_mark_as_plugin_api(LF_TYPE_CAM_SRC_MODE, static_cast<GstPluginAPIFlags>(0));
   gst_element_class_add_static_pad_template(ec, &src_template);
   gst_element_class_set_static_metadata(

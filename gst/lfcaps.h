@@ -20,8 +20,8 @@ namespace lfgst {
 // The `framerate` field of `caps` when it is present and positive.
 inline bool caps_framerate(const GstCaps* caps, gint* n, gint* d) {
   if (!caps || gst_caps_get_size(caps) < 1) return false;
-  return gst_structure_get_fraction(gst_caps_get_structure(caps, 0), "framerate", n, d) &&
-         *n > 0 && *d > 0;
+  return gst_structure_get_fraction(gst_caps_get_structure(caps, 0), "framerate", n, d) && *n > 0 &&
+         *d > 0;
 }
 
 }  // namespace lfgst

@@ -1,6 +1,5 @@
 #include "lfclock.h"
 
-
 namespace lfgst {
 
 ClockWaiter::ClockWaiter() {

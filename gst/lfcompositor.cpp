@@ -115,13 +115,8 @@ static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE(
     GST_STATIC_CAPS("video/x-raw, format = (string) { RGBA, RGBx, I420 }, width = (int) [ 2, "
                     "16384 ], height = (int) [ 2, 16384 ], framerate = (fraction) [ 0/1, MAX ]"));
 
-static void lf_compositor_set_property(GObject* obj, guint id, const GValue* v, GParamSpec* ps) {
-  props.set(obj, LF_COMPOSITOR(obj)->priv->settings, id, v, ps);
-}
-
-static void lf_compositor_get_property(GObject* obj, guint id, GValue* v, GParamSpec* ps) {
-  props.get(obj, LF_COMPOSITOR(obj)->priv->settings, id, v, ps);
-}
+static void lf_compositor_property_set(GObject*, GParamSpec*, const GValue*) {}
+LF_DEFINE_ELEMENT_GLUE(lf_compositor, LF_COMPOSITOR)
 
 static gboolean lf_compositor_start(GstAggregator* agg) {
   LfCompositor* self = LF_COMPOSITOR(agg);
@@ -231,8 +226,9 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g) {
   if (st->s.stereo) st->comp_right.reset(w, H);
   for (const lf::Fragment& f : g.fragments) {
     GError* err = nullptr;
-    if (!lfgst::guard([&] { (st->s.stereo && f.viewer_id != left_id ? st->comp_right : st->comp).add(f); },
-                      &err)) {
+    if (!lfgst::guard(
+            [&] { (st->s.stereo && f.viewer_id != left_id ? st->comp_right : st->comp).add(f); },
+            &err)) {
       GST_WARNING_OBJECT(self, "dropping fragment of camera %u: %s", f.camera_id, err->message);
       g_error_free(err);
     }
@@ -293,35 +289,35 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
   lf::Fragment f;
   const gint64 t0 = g_get_monotonic_time();
   if (!lfgst::guard([&] { f = lf::parse_fragment(map.data, map.size); }, &err)) {
-    GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Dropping a malformed fragment"), ("%s",
-                        err->message));
+    GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Dropping a malformed fragment"),
+                        ("%s", err->message));
     g_error_free(err);
     gst_buffer_unmap(buf, &map);
     return;
   }
-    lfgst::trace(GST_ELEMENT(self), "decoded", f.viewer_id, f.sequence,
-                 static_cast<gint>(f.camera_id), (g_get_monotonic_time() - t0) * 1000);
-    const guint v0 = static_cast<guint>(std::max(0, st->s.viewer_id));
-    const bool ours =
-        st->s.stereo ? (f.viewer_id == v0 || f.viewer_id == v0 + 1)
-                     : (st->s.viewer_id < 0 || f.viewer_id == static_cast<guint>(st->s.viewer_id));
-    const bool known = !st->rig || st->rig->index_of(static_cast<int>(f.camera_id)) >= 0;
-    if (!known) {
-      GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Dropping a fragment of an unknown camera"),
-                          ("camera %u is not in the rig", f.camera_id));
-    } else if (ours && static_cast<int64_t>(f.sequence) > st->last_emitted) {
-      Group& g = st->pending[f.sequence];
-      const uint64_t key = (static_cast<uint64_t>(f.viewer_id) << 32) | f.camera_id;
-      if (g.cameras.insert(key).second) {
-        if (!GST_CLOCK_TIME_IS_VALID(g.pts)) {
-          g.pts = GST_BUFFER_PTS(buf);
-          g.duration = GST_BUFFER_DURATION(buf);
-          if (GST_CLOCK_TIME_IS_VALID(g.pts))
-            g.running_time = gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, g.pts);
-        }
-        g.fragments.push_back(std::move(f));
+  lfgst::trace(GST_ELEMENT(self), "decoded", f.viewer_id, f.sequence,
+               static_cast<gint>(f.camera_id), (g_get_monotonic_time() - t0) * 1000);
+  const guint v0 = static_cast<guint>(std::max(0, st->s.viewer_id));
+  const bool ours =
+      st->s.stereo ? (f.viewer_id == v0 || f.viewer_id == v0 + 1)
+                   : (st->s.viewer_id < 0 || f.viewer_id == static_cast<guint>(st->s.viewer_id));
+  const bool known = !st->rig || st->rig->index_of(static_cast<int>(f.camera_id)) >= 0;
+  if (!known) {
+    GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Dropping a fragment of an unknown camera"),
+                        ("camera %u is not in the rig", f.camera_id));
+  } else if (ours && static_cast<int64_t>(f.sequence) > st->last_emitted) {
+    Group& g = st->pending[f.sequence];
+    const uint64_t key = (static_cast<uint64_t>(f.viewer_id) << 32) | f.camera_id;
+    if (g.cameras.insert(key).second) {
+      if (!GST_CLOCK_TIME_IS_VALID(g.pts)) {
+        g.pts = GST_BUFFER_PTS(buf);
+        g.duration = GST_BUFFER_DURATION(buf);
+        if (GST_CLOCK_TIME_IS_VALID(g.pts))
+          g.running_time = gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, g.pts);
       }
+      g.fragments.push_back(std::move(f));
     }
+  }
   gst_buffer_unmap(buf, &map);
 }
 
@@ -332,7 +328,9 @@ static int64_t queued_sequence(GstBuffer* buf) {
   if (gst_buffer_map(buf, &map, GST_MAP_READ)) {
     // Malformed: -1 (absorb() reports it).
     if (!lfgst::guard(
-            [&] { seq = static_cast<int64_t>(lf::peek_fragment_header(map.data, map.size).sequence); },
+            [&] {
+              seq = static_cast<int64_t>(lf::peek_fragment_header(map.data, map.size).sequence);
+            },
             nullptr))
       seq = -1;
     gst_buffer_unmap(buf, &map);
@@ -477,11 +475,6 @@ static gboolean lf_compositor_src_event(GstAggregator* agg, GstEvent* event) {
   return any;
 }
 
-static void lf_compositor_finalize(GObject* obj) {
-  delete LF_COMPOSITOR(obj)->priv;
-  G_OBJECT_CLASS(lf_compositor_parent_class)->finalize(obj);
-}
-
 static void on_latency_changed(GObject* obj, GParamSpec*, gpointer) {
   update_latency(LF_COMPOSITOR(obj));
 }
@@ -505,10 +498,10 @@ static void lf_compositor_class_init(LfCompositorClass* klass) {
                                 "camera of the rig has answered (unset: one fragment per sink "
                                 "pad)",
                                 nullptr, rw));
-  props.add(oc, &Settings::viewer_id,
-            g_param_spec_int("viewer-id", "Viewer id",
-                             "Composite only this viewer's requests (-1: any)", -1, G_MAXINT,
-                             DEFAULT_VIEWER_ID, rw));
+  props.add(
+      oc, &Settings::viewer_id,
+      g_param_spec_int("viewer-id", "Viewer id", "Composite only this viewer's requests (-1: any)",
+                       -1, G_MAXINT, DEFAULT_VIEWER_ID, rw));
   props.add(oc, &Settings::framerate,
             gst_param_spec_fraction("framerate", "Frame rate",
                                     "Output frame rate; 0/1: the request rate from the fragment "

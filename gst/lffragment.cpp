@@ -59,9 +59,7 @@ static GType lf_fragment_encoding_get_type() {
       {static_cast<gint>(Encoding::kJpeg),
        "JPEG: colour (YCbCr 4:2:0) and weight (greyscale) JPEGs, TurboJPEG", "jpeg"},
       {0, nullptr, nullptr}};
-  if (g_once_init_enter(&type))
-    g_once_init_leave(&type, g_enum_register_static("LfFragmentEncoding", values));
-  return type;
+  return lfgst::enum_type(&type, "LfFragmentEncoding", values);
 }
 
 namespace {
@@ -135,13 +133,8 @@ static GstStaticPadTemplate request_template = GST_STATIC_PAD_TEMPLATE(
 static GstStaticPadTemplate src_template =
     GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(LF_FRAGMENT_CAPS));
 
-static void lf_fragment_set_property(GObject* obj, guint id, const GValue* v, GParamSpec* ps) {
-  props.set(obj, LF_FRAGMENT(obj)->priv->settings, id, v, ps);
-}
-
-static void lf_fragment_get_property(GObject* obj, guint id, GValue* v, GParamSpec* ps) {
-  props.get(obj, LF_FRAGMENT(obj)->priv->settings, id, v, ps);
-}
+static void lf_fragment_property_set(GObject*, GParamSpec*, const GValue*) {}
+LF_DEFINE_ELEMENT_GLUE(lf_fragment, LF_FRAGMENT)
 
 // ---- camera frames -------------------------------------------------------
 
@@ -325,8 +318,8 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
         const cv::Mat image(GST_VIDEO_FRAME_HEIGHT(&vf), GST_VIDEO_FRAME_WIDTH(&vf), CV_8UC4,
                             GST_VIDEO_FRAME_PLANE_DATA(&vf, 0),
                             GST_VIDEO_FRAME_PLANE_STRIDE(&vf, 0));
-        const cv::Mat rgba = camera_image(
-            p, st, frame, image, GST_VIDEO_INFO_FORMAT(&info) == GST_VIDEO_FORMAT_RGBx);
+        const cv::Mat rgba = camera_image(p, st, frame, image,
+                                          GST_VIDEO_INFO_FORMAT(&info) == GST_VIDEO_FORMAT_RGBx);
         const lf::ViewGeometry g(rig, req, st->index);  // only this camera's homography
         lf::Fragment f;
         f.viewer_id = req.viewer_id;
@@ -386,15 +379,9 @@ static GstStateChangeReturn lf_fragment_change_state(GstElement* el, GstStateCha
   // Wake a request waiting for a camera frame before the pads deactivate
   // (they wait for the streaming threads to leave).
   if (t == GST_STATE_CHANGE_PAUSED_TO_READY) self->priv->set_flushing(true);
-  const GstStateChangeReturn ret =
-      GST_ELEMENT_CLASS(lf_fragment_parent_class)->change_state(el, t);
+  const GstStateChangeReturn ret = GST_ELEMENT_CLASS(lf_fragment_parent_class)->change_state(el, t);
   if (t == GST_STATE_CHANGE_PAUSED_TO_READY) lf_fragment_stop(self);
   return ret;
-}
-
-static void lf_fragment_finalize(GObject* obj) {
-  delete LF_FRAGMENT(obj)->priv;
-  G_OBJECT_CLASS(lf_fragment_parent_class)->finalize(obj);
 }
 
 static void lf_fragment_init(LfFragment* self) {

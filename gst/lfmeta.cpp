@@ -1,6 +1,5 @@
 #include "lfmeta.h"
 
-
 namespace lfgst {
 
 static const GstMetaInfo* capture_meta_info() {

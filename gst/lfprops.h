@@ -8,6 +8,7 @@
 // flagged GST_PARAM_MUTABLE_PLAYING are read live with read_setting().
 #pragma once
 
+#include <gst/base/gstbasesrc.h>
 #include <gst/gst.h>
 
 #include <functional>
@@ -114,9 +115,52 @@ T read_setting(GstObject* obj, const S& s, T S::*m) {
 }
 
 // Flags of the elements' properties.
-constexpr GParamFlags kReadWriteReady = static_cast<GParamFlags>(
-    G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY);
+constexpr GParamFlags kReadWriteReady =
+    static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY);
 constexpr GParamFlags kReadWritePlaying = static_cast<GParamFlags>(
     G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
+
+}  // namespace lfgst
+
+// The GObject glue every element shares: set_property / get_property through
+// the element's `props` table on `self->priv->settings`, and finalize
+// deleting `self->priv`. PREFIX is the element's function prefix, CAST its
+// instance cast macro.
+#define LF_DEFINE_ELEMENT_GLUE(PREFIX, CAST)                                                   \
+  static void PREFIX##_set_property(GObject* obj, guint id, const GValue* v, GParamSpec* ps) { \
+    props.set(obj, CAST(obj)->priv->settings, id, v, ps);                                      \
+    PREFIX##_property_set(obj, ps, v);                                                         \
+  }                                                                                            \
+  static void PREFIX##_get_property(GObject* obj, guint id, GValue* v, GParamSpec* ps) {       \
+    props.get(obj, CAST(obj)->priv->settings, id, v, ps);                                      \
+  }                                                                                            \
+  static void PREFIX##_finalize(GObject* obj) {                                                \
+    delete CAST(obj)->priv;                                                                    \
+    G_OBJECT_CLASS(PREFIX##_parent_class)->finalize(obj);                                      \
+  }
+
+namespace lfgst {
+
+// For live sources (lfcamsrc, lfviewrequest: frames leave at their capture
+// or request time): the latency query answered as live with no latency.
+// False for other queries (then the base class answers).
+inline bool answer_live_latency(GstBaseSrc* src, GstQuery* q) {
+  if (GST_QUERY_TYPE(q) != GST_QUERY_LATENCY || !gst_base_src_is_live(src)) return false;
+  gst_query_set_latency(q, TRUE, 0, GST_CLOCK_TIME_NONE);
+  return true;
+}
+
+// A registered GEnum type, made once.
+inline GType enum_type(GType* type, const char* name, const GEnumValue* values) {
+  if (g_once_init_enter(type)) g_once_init_leave(type, g_enum_register_static(name, values));
+  return *type;
+}
+
+// Live sources (lfcamsrc, lfviewrequest): the live flag must be known before
+// READY->PAUSED (live sources do not preroll), so it is applied when set.
+inline void apply_is_live(GObject* obj, GParamSpec* ps, const GValue* v) {
+  if (g_str_equal(ps->name, "is-live"))
+    gst_base_src_set_live(GST_BASE_SRC(obj), g_value_get_boolean(v));
+}
 
 }  // namespace lfgst

@@ -43,8 +43,8 @@ void add_camera_properties(Properties<S>& props, GObjectClass* oc) {
                        G_MAXINT, -1, kReadWriteReady));
   props.template add<gint>(
       oc, static_cast<gint S::*>(&CameraAddress::row),
-      g_param_spec_int("row", "Row", "Grid row of the camera, with col (-1: unset)", -1, 65535,
-                       -1, kReadWriteReady));
+      g_param_spec_int("row", "Row", "Grid row of the camera, with col (-1: unset)", -1, 65535, -1,
+                       kReadWriteReady));
   props.template add<gint>(
       oc, static_cast<gint S::*>(&CameraAddress::col),
       g_param_spec_int("col", "Column", "Grid column of the camera, with row (-1: unset)", -1,

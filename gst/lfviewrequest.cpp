@@ -115,16 +115,10 @@ GST_ELEMENT_REGISTER_DEFINE(lfviewrequest, "lfviewrequest", GST_RANK_NONE, LF_TY
 static GstStaticPadTemplate src_template =
     GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(LF_REQUEST_CAPS));
 
-static void lf_view_request_set_property(GObject* obj, guint id, const GValue* v, GParamSpec* ps) {
-  props.set(obj, LF_VIEW_REQUEST(obj)->priv->settings, id, v, ps);
-  // Must be known before READY->PAUSED (live sources do not preroll).
-  if (g_str_equal(ps->name, "is-live"))
-    gst_base_src_set_live(GST_BASE_SRC(obj), g_value_get_boolean(v));
+static void lf_view_request_property_set(GObject* obj, GParamSpec* ps, const GValue* v) {
+  lfgst::apply_is_live(obj, ps, v);
 }
-
-static void lf_view_request_get_property(GObject* obj, guint id, GValue* v, GParamSpec* ps) {
-  props.get(obj, LF_VIEW_REQUEST(obj)->priv->settings, id, v, ps);
-}
+LF_DEFINE_ELEMENT_GLUE(lf_view_request, LF_VIEW_REQUEST)
 
 static lf::ViewSettings view_settings(const Settings& s) {
   lf::ViewSettings v;
@@ -145,9 +139,9 @@ static gboolean lf_view_request_start(GstBaseSrc* src) {
   auto st = std::make_unique<State>();
   st->s = lfgst::snapshot(GST_OBJECT(self), self->priv->settings);
   if (st->s.framerate.n <= 0 || st->s.framerate.d <= 0) {
-    GST_ELEMENT_ERROR(self, LIBRARY, SETTINGS, ("Invalid framerate"),
-                      ("framerate must be positive, got %d/%d", st->s.framerate.n,
-                       st->s.framerate.d));
+    GST_ELEMENT_ERROR(
+        self, LIBRARY, SETTINGS, ("Invalid framerate"),
+        ("framerate must be positive, got %d/%d", st->s.framerate.n, st->s.framerate.d));
     return FALSE;
   }
   st->rig = lfgst::open_rig(GST_ELEMENT(self), st->s.rig);
@@ -159,8 +153,8 @@ static gboolean lf_view_request_start(GstBaseSrc* src) {
             st->views = lf::build_views(*st->rig, view_settings(st->s));
           },
           &err)) {
-    GST_ELEMENT_ERROR(self, LIBRARY, SETTINGS, ("Invalid view request settings"), ("%s",
-                      err->message));
+    GST_ELEMENT_ERROR(self, LIBRARY, SETTINGS, ("Invalid view request settings"),
+                      ("%s", err->message));
     g_error_free(err);
     return FALSE;
   }
@@ -301,8 +295,7 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   Priv* p = self->priv;
   State* st = p->state.get();
   const Settings& s = st->s;
-  const GstClockTime period =
-      gst_util_uint64_scale_int(GST_SECOND, s.framerate.d, s.framerate.n);
+  const GstClockTime period = gst_util_uint64_scale_int(GST_SECOND, s.framerate.d, s.framerate.n);
   if (s.live)  // a viewer joining late starts at the current tick
     st->sequence = lfgst::first_current_tick(GST_ELEMENT(src), st->sequence, period, 0);
   const guint64 k = st->sequence;
@@ -351,16 +344,8 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
 }
 
 static gboolean lf_view_request_query(GstBaseSrc* src, GstQuery* q) {
-  if (GST_QUERY_TYPE(q) == GST_QUERY_LATENCY && gst_base_src_is_live(src)) {
-    gst_query_set_latency(q, TRUE, 0, GST_CLOCK_TIME_NONE);
-    return TRUE;
-  }
+  if (lfgst::answer_live_latency(src, q)) return TRUE;
   return GST_BASE_SRC_CLASS(lf_view_request_parent_class)->query(src, q);
-}
-
-static void lf_view_request_finalize(GObject* obj) {
-  delete LF_VIEW_REQUEST(obj)->priv;
-  G_OBJECT_CLASS(lf_view_request_parent_class)->finalize(obj);
 }
 
 static void lf_view_request_init(LfViewRequest* self) {
@@ -376,19 +361,19 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
   oc->get_property = lf_view_request_get_property;
   oc->finalize = lf_view_request_finalize;
   const GParamFlags rw = lfgst::kReadWriteReady;
-  props.add(oc, &Settings::rig,
-            g_param_spec_string("rig", "Rig",
-                                "Rig file (.json) or dataset folder (lf-render --input)", nullptr,
-                                rw));
+  props.add(
+      oc, &Settings::rig,
+      g_param_spec_string("rig", "Rig", "Rig file (.json) or dataset folder (lf-render --input)",
+                          nullptr, rw));
   props.add(oc, &Settings::viewer_id,
             g_param_spec_uint("viewer-id", "Viewer id", "Tag of this viewer's requests and output",
                               0, G_MAXUINT32, DEFAULT_VIEWER_ID, rw));
-  props.add(oc, &Settings::width,
-            g_param_spec_int("width", "Width", "Output width, pixels", 2, 16384, DEFAULT_WIDTH,
-                             rw));
-  props.add(oc, &Settings::height,
-            g_param_spec_int("height", "Height", "Output height, pixels", 2, 16384,
-                             DEFAULT_HEIGHT, rw));
+  props.add(
+      oc, &Settings::width,
+      g_param_spec_int("width", "Width", "Output width, pixels", 2, 16384, DEFAULT_WIDTH, rw));
+  props.add(
+      oc, &Settings::height,
+      g_param_spec_int("height", "Height", "Output height, pixels", 2, 16384, DEFAULT_HEIGHT, rw));
   props.add(oc, &Settings::position,
             g_param_spec_string("position", "Position",
                                 "Eye 'x,y,z' in rig units (empty: centre of the camera plane)",
@@ -428,12 +413,12 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
                              1, 1000000, DEFAULT_PATH_FRAMES, rw));
   props.add(oc, &Settings::framerate,
             gst_param_spec_fraction("framerate", "Frame rate",
-                                    "Requests per second (also in the src caps)", 1, 1000, 1000,
-                                    1, DEFAULT_FPS_N, DEFAULT_FPS_D, rw));
-  props.add(oc, &Settings::live,
-            g_param_spec_boolean("is-live", "Live",
-                                 "Emit requests in real time on the pipeline clock",
-                                 DEFAULT_IS_LIVE, rw));
+                                    "Requests per second (also in the src caps)", 1, 1000, 1000, 1,
+                                    DEFAULT_FPS_N, DEFAULT_FPS_D, rw));
+  props.add(
+      oc, &Settings::live,
+      g_param_spec_boolean("is-live", "Live", "Emit requests in real time on the pipeline clock",
+                           DEFAULT_IS_LIVE, rw));
   props.add(oc, &Settings::stereo_baseline,
             g_param_spec_double("stereo-baseline", "Stereo baseline",
                                 "Eye separation in rig units; > 0 emits a left (viewer-id) and a "

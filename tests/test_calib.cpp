@@ -15,19 +15,19 @@
 
 #include "calib/bundle.h"
 #include "calib/colour.h"
-#include "calib/reprojection_error.h"
 #include "calib/intrinsics.h"
+#include "calib/reprojection_error.h"
 #include "calib/selfcal.h"
 #include "calib/synthetic_point_light.h"
 #include "calib/tracking.h"
 #include "helpers.h"
 #include "lf/composite.h"
-#include "lf/rig_file.h"
 #include "lf/focus.h"
 #include "lf/parse.h"
 #include "lf/quality.h"
 #include "lf/render.h"
 #include "lf/render_view.h"
+#include "lf/rig_file.h"
 #include "lf/synthetic.h"
 #include "lf/view_builder.h"
 
@@ -607,20 +607,20 @@ TEST(ReprojectionError, MatchesCameraProject) {
   for (int trial = 0; trial < 200; ++trial) {
     lf::Camera cam;
     cam.width = 640, cam.height = 480;
-    cam.intrinsics = {500 + 100 * U(rng), 0, 320 + 20 * U(rng), 240 + 20 * U(rng),
-                      0.2 * U(rng), 0.05 * U(rng)};
+    cam.intrinsics = {500 + 100 * U(rng), 0, 320 + 20 * U(rng), 240 + 20 * U(rng), 0.2 * U(rng),
+                      0.05 * U(rng)};
     cam.intrinsics.fy = cam.intrinsics.fx;
     const cv::Vec3d aa(0.3 * U(rng), 0.3 * U(rng), 0.3 * U(rng));
     cv::Matx33d R;
     cv::Rodrigues(aa, R);
     cam.extrinsics.R = R;
     cam.extrinsics.t = {U(rng), U(rng), U(rng)};
-    const cv::Vec3d X = cam.extrinsics.R.t() * (cv::Vec3d(0.4 * U(rng), 0.3 * U(rng), 3 + U(rng)) -
-                                                cam.extrinsics.t);
+    const cv::Vec3d X = cam.extrinsics.R.t() *
+                        (cv::Vec3d(0.4 * U(rng), 0.3 * U(rng), 3 + U(rng)) - cam.extrinsics.t);
     const auto uv = cam.project(X);
     ASSERT_TRUE(uv.has_value());
-    const double pose[6] = {aa[0], aa[1], aa[2], cam.extrinsics.t[0], cam.extrinsics.t[1],
-                            cam.extrinsics.t[2]};
+    const double pose[6] = {
+        aa[0], aa[1], aa[2], cam.extrinsics.t[0], cam.extrinsics.t[1], cam.extrinsics.t[2]};
     const double intr[3] = {cam.intrinsics.fx, cam.intrinsics.k1, cam.intrinsics.k2};
     const double pp[2] = {cam.intrinsics.cx, cam.intrinsics.cy};
     double r[2];
@@ -635,10 +635,10 @@ TEST(ReprojectionError, MatchesCameraProject) {
     EXPECT_NEAR(r[0], 1.5 * -1, 1e-9);
     EXPECT_NEAR(r[1], 0.5, 1e-9);
     // BAL layout, principal point at 0, camera looking down +z (sign +1).
-    const double bal[9] = {aa[0], aa[1], aa[2], pose[3], pose[4], pose[5], intr[0], intr[1],
-                           intr[2]};
-    ASSERT_TRUE(lf::calib::BalReprojectionError((*uv)[0] - pp[0], (*uv)[1] - pp[1], 1.0)(
-        bal, X.val, r));
+    const double bal[9] = {aa[0],   aa[1],   aa[2],   pose[3], pose[4],
+                           pose[5], intr[0], intr[1], intr[2]};
+    ASSERT_TRUE(
+        lf::calib::BalReprojectionError((*uv)[0] - pp[0], (*uv)[1] - pp[1], 1.0)(bal, X.val, r));
     EXPECT_NEAR(r[0], 0, 1e-9);
     EXPECT_NEAR(r[1], 0, 1e-9);
   }

@@ -6,18 +6,18 @@
 #include <filesystem>
 
 #include "gst_init.h"
-#include "lfrig.h"
 #include "lf/composite.h"
-#include "lf/rig_file.h"
 #include "lf/focus.h"
 #include "lf/fragment.h"
 #include "lf/parse.h"
 #include "lf/quality.h"
 #include "lf/render.h"
 #include "lf/render_view.h"
+#include "lf/rig_file.h"
 #include "lf/synthetic.h"
 #include "lf/view_builder.h"
 #include "lf/wire.h"
+#include "lfrig.h"
 
 namespace {
 

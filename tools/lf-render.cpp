@@ -97,8 +97,8 @@ int main(int argc, char** argv) {
     vs.height = H;
     if (args.has("--at")) {
       const auto p = args.numbers("--at", 2, 3);
-      vs.position = p.size() == 3 ? cv::Vec3d(p[0], p[1], p[2])
-                                  : lf::point_on_camera_plane(rig, p[0], p[1]);
+      vs.position =
+          p.size() == 3 ? cv::Vec3d(p[0], p[1], p[2]) : lf::point_on_camera_plane(rig, p[0], p[1]);
     } else if (args.has("--eye")) {
       if (!args.has("--look-at")) throw std::invalid_argument("--eye needs --look-at");
       vs.position = lf::parse_point(args.get("--eye"), "--eye");

@@ -1,8 +1,8 @@
 #include "lf/camera.h"
 
-#include "lf/projection.h"
-
 #include <cmath>
+
+#include "lf/projection.h"
 
 namespace lf {
 

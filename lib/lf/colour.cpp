@@ -12,8 +12,7 @@ const cv::Matx34d kIdentity(1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0);
 
 cv::Mat colour_correct(const cv::Matx34d& colour, const cv::Mat& image, ChannelOrder order,
                        bool opaque) {
-  if (image.type() != CV_8UC4)
-    throw std::invalid_argument("colour_correct: image must be CV_8UC4");
+  if (image.type() != CV_8UC4) throw std::invalid_argument("colour_correct: image must be CV_8UC4");
   const bool correct = colour != kIdentity;
   if (!correct && !opaque) return image;
   // The matrix is for RGB: for BGR images, the same map with channels 0 and 2
@@ -27,9 +26,9 @@ cv::Mat colour_correct(const cv::Matx34d& colour, const cv::Mat& image, ChannelO
     }
   }
   cv::Mat rgb, out;
-  cv::cvtColor(image, rgb, cv::COLOR_RGBA2RGB);  // drops the fourth channel
+  cv::cvtColor(image, rgb, cv::COLOR_RGBA2RGB);      // drops the fourth channel
   if (correct) cv::transform(rgb, rgb, cv::Mat(m));  // saturating
-  cv::cvtColor(rgb, out, cv::COLOR_RGB2RGBA);       // fourth channel 255
+  cv::cvtColor(rgb, out, cv::COLOR_RGB2RGBA);        // fourth channel 255
   if (!opaque) cv::mixChannels(image, out, std::vector<int>{3, 3});
   return out;
 }

@@ -1,7 +1,5 @@
 #include "lf/datasets.h"
 
-#include "lf/rig_file.h"
-
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -15,6 +13,8 @@
 #include <set>
 #include <sstream>
 #include <stdexcept>
+
+#include "lf/rig_file.h"
 
 namespace fs = std::filesystem;
 

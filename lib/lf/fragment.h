@@ -16,7 +16,6 @@
 #include <opencv2/core.hpp>
 #include <vector>
 
-
 namespace lf {
 
 struct Fragment {

@@ -50,7 +50,8 @@ int Rig::index_of(int id) const {
 int Rig::camera_index(int camera_id, int row, int col) const {
   if (camera_id >= 0) {
     const int i = index_of(camera_id);
-    if (i < 0) throw std::invalid_argument("camera-id " + std::to_string(camera_id) + " is not in the rig");
+    if (i < 0)
+      throw std::invalid_argument("camera-id " + std::to_string(camera_id) + " is not in the rig");
     return i;
   }
   if (row < 0 || col < 0) throw std::invalid_argument("set camera-id, or row and col");

@@ -104,8 +104,8 @@ cv::Vec3d point_on_camera_plane(const Rig& rig, double x, double y) {
   if (std::abs(P.normal[2]) < 1e-9)
     throw std::invalid_argument("the camera plane is vertical here: give x, y and z");
   return {x, y,
-          P.origin[2] - (P.normal[0] * (x - P.origin[0]) + P.normal[1] * (y - P.origin[1])) /
-                            P.normal[2]};
+          P.origin[2] -
+              (P.normal[0] * (x - P.origin[0]) + P.normal[1] * (y - P.origin[1])) / P.normal[2]};
 }
 
 VirtualView ViewSequence::at(uint64_t k, const Rig& rig, const cv::Vec3d& offset) const {
@@ -125,8 +125,8 @@ ViewSequence build_views(const Rig& rig, const ViewSettings& s) {
   if (!s.path_file.empty()) {
     seq.views = sample_path(rig, load_path(s.path_file), frames, s.width, s.height, false);
   } else if (s.orbit > 0) {
-    seq.views = sample_path(rig, orbit_path(rig, s.orbit, s.dolly, 24), frames, s.width, s.height,
-                            true);
+    seq.views =
+        sample_path(rig, orbit_path(rig, s.orbit, s.dolly, 24), frames, s.width, s.height, true);
   } else {
     const cv::Vec3d eye = s.position ? *s.position : rig.plane().origin;
     if (s.look_at) {

@@ -1,7 +1,5 @@
 #include "lf/wire.h"
 
-#include "lf/rotation.h"
-
 #include <turbojpeg.h>
 #include <zlib.h>
 
@@ -13,6 +11,8 @@
 #include <mutex>
 #include <opencv2/imgproc.hpp>
 #include <string>
+
+#include "lf/rotation.h"
 
 namespace lf {
 
