@@ -234,3 +234,52 @@ TEST(RigCache, CanonicalPathAndEditsReload) {
   EXPECT_EQ(lfgst::load_rig_cached(file.string()).get(), d.get());
   fs::remove_all(dir);
 }
+
+// Stream facts in caps: the compositor's output rate comes from the fragment
+// caps' framerate (the request rate), and its deadline is one such period
+// unless the latency property is set.
+TEST_F(Harness, CompositorRateAndDeadlineFromFragmentCaps) {
+  const lf::Rig one = rig_.subset({0});
+  const std::string one_path =
+      (std::filesystem::temp_directory_path() / "lf-harness-one-rate.json").string();
+  lf::save_rig(one, one_path);
+  for (const GstClockTime user_latency : {GstClockTime(0), GstClockTime(5 * GST_MSECOND)}) {
+    GstElement* el = gst_element_factory_make("lfcompositor", nullptr);
+    g_object_set(el, "rig", one_path.c_str(), "latency", user_latency, nullptr);
+    GstHarness* h = gst_harness_new_with_element(el, "sink_0", "src");
+    gst_harness_set_live(h, FALSE);
+    gst_harness_set_src_caps_str(h, "application/x-lf-fragment,encoding=raw,framerate=15/1");
+    const lf::ViewRequest req = request(2);
+    const lf::ViewGeometry g(one, req);
+    lf::Fragment f;
+    f.viewer_id = req.viewer_id;
+    f.sequence = 2;
+    lf::render_fragment(lf::plan_fragment(g, 0), one.cameras[0],
+                        lf::SyntheticScene::for_rig(one).render(one.cameras[0], 0.0), f);
+    ASSERT_EQ(gst_harness_push(h, bytes(lf::serialize_fragment(f, lf::Encoding::kRaw), 0)),
+              GST_FLOW_OK);
+    GstBuffer* out = gst_harness_pull(h);
+    ASSERT_NE(out, nullptr);
+    GstCaps* caps = gst_pad_get_current_caps(h->sinkpad);
+    gint n = 0, d = 0;
+    ASSERT_TRUE(gst_structure_get_fraction(gst_caps_get_structure(caps, 0), "framerate", &n, &d));
+    EXPECT_EQ(n, 15);
+    EXPECT_EQ(d, 1);
+    // The aggregator's latency: its property plus the element's own (one
+    // period when the property is 0).
+    GstQuery* q = gst_query_new_latency();
+    gboolean live = FALSE;
+    GstClockTime min = 0, max = 0;
+    gst_harness_set_live(h, TRUE);
+    ASSERT_TRUE(gst_pad_peer_query(h->sinkpad, q));
+    {
+      gst_query_parse_latency(q, &live, &min, &max);
+      EXPECT_EQ(min, user_latency > 0 ? user_latency : GST_SECOND / 15) << user_latency;
+    }
+    gst_query_unref(q);
+    gst_caps_unref(caps);
+    gst_buffer_unref(out);
+    gst_object_unref(el);
+    gst_harness_teardown(h);
+  }
+}
