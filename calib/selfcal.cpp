@@ -13,6 +13,7 @@
 #include <stdexcept>
 
 #include "calib/reprojection_error.h"
+#include "lf/projection.h"
 #include "lf/synthetic.h"
 
 namespace lf::calib {

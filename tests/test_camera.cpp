@@ -5,6 +5,7 @@
 #include <random>
 
 #include "lf/camera.h"
+#include "lf/projection.h"
 
 namespace {
 

@@ -66,15 +66,24 @@ bool help_requested(int argc, char** argv, const char* help) {
 }
 
 lf::Rig select_cameras(lf::Rig rig, const Args& args, bool default_8x8) {
+  if (args.has("--block")) args.numbers("--block", 4, 4);  // checks the count
+  return select_cameras(
+      std::move(rig), args.get("--block"), args.has("--spread") ? args.integer("--spread", 0) : 0,
+      args.has("--input-scale") ? args.number("--input-scale", 1) : 1.0, default_8x8);
+}
+
+lf::Rig select_cameras(lf::Rig rig, const std::string& block, int spread, double input_scale,
+                       bool default_8x8) {
   for (const auto& w : rig.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
-  if (args.has("--block")) {
-    const auto b = args.numbers("--block", 4, 4);
+  if (!block.empty()) {
+    const auto b = parse_numbers(block, "--block");
+    if (b.size() != 4) throw std::invalid_argument("--block needs R0,C0,ROWS,COLS");
     rig = lf::grid_block(rig, int(b[0]), int(b[1]), int(b[2]), int(b[3]));
   } else if (default_8x8 && rig.grid.rows >= 8 && rig.grid.cols >= 8) {
     rig = lf::grid_block(rig, 0, 0, 8, 8);
   }
-  if (args.has("--spread")) rig = lf::grid_spread(rig, args.integer("--spread", 0));
-  if (args.has("--input-scale")) rig = lf::scale_rig(rig, args.number("--input-scale", 1));
+  if (spread != 0) rig = lf::grid_spread(rig, spread);
+  if (input_scale != 1.0) rig = lf::scale_rig(rig, input_scale);
   return rig;
 }
 

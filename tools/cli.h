@@ -39,6 +39,10 @@ bool help_requested(int argc, char** argv, const char* help);
 // large enough, the 8x8 block at 0,0) and --input-scale to a rig, and prints
 // the rig's import warnings on stderr.
 lf::Rig select_cameras(lf::Rig rig, const Args& args, bool default_8x8 = false);
+// The same from values (tools that parse with GOption): `block` "R0,C0,ROWS,COLS"
+// or empty, `spread` 0 for none, `input_scale` 1 for none.
+lf::Rig select_cameras(lf::Rig rig, const std::string& block, int spread, double input_scale,
+                       bool default_8x8);
 
 std::vector<double> parse_numbers(const std::string& s, const std::string& what);
 void parse_size(const std::string& s, int& w, int& h);

@@ -26,15 +26,10 @@
 
 namespace {
 
-const char* kHelp = R"(lf-gst-bench: throughput and latency of the GStreamer pipeline.
-
-usage: lf-gst-bench [--input PATH] [--block R0,C0,R,C] [--sizes 640x480,320x240]
-                    [--encodings raw,jpeg90] [--frames N] [--latency-rate HZ]
-  --input PATH      dataset folder or rig file (default ../shared/data/stanford-chess)
-  --block ...       grid block (default 0,0,8,8: 64 cameras)
-  --frames N        requests per throughput run (default 300)
-  --latency-rate F  request rate of the live latency run (default 30)
-)";
+const char* kSummary =
+    "Throughput (non-live) and request -> frame latency (live) of the single-machine\n"
+    "GStreamer pipeline (lfviewrequest ! tee ! N x (queue ! lffragment) ! lfcompositor\n"
+    "! appsink), in process.";
 
 struct Probe {
   std::mutex m;
@@ -143,37 +138,68 @@ double percentile(std::vector<double> v, double q) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (cli::help_requested(argc, argv, kHelp)) return 0;
+  gchar *input = nullptr, *block = nullptr, *sizes_opt = nullptr, *encodings_opt = nullptr;
+  gint frames = 300, rate = 30;
+  const GOptionEntry entries[] = {
+      {"input", 0, 0, G_OPTION_ARG_STRING, &input,
+       "Dataset folder or rig file (default ../shared/data/stanford-chess)", "PATH"},
+      {"block", 0, 0, G_OPTION_ARG_STRING, &block,
+       "Grid block of cameras (default 0,0,8,8: 64 cameras)", "R0,C0,ROWS,COLS"},
+      {"sizes", 0, 0, G_OPTION_ARG_STRING, &sizes_opt, "Output sizes (default 640x480,320x240)",
+       "WxH,..."},
+      {"encodings", 0, 0, G_OPTION_ARG_STRING, &encodings_opt,
+       "Fragment encodings: raw, jpegQ (default raw,jpeg90)", "ENC,..."},
+      {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "Requests per throughput run (default 300)", "N"},
+      {"latency-rate", 0, 0, G_OPTION_ARG_INT, &rate,
+       "Request rate of the live latency run, Hz (default 30)", "HZ"},
+      {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
+  // The plugin next to this program (build/gst) unless GST_PLUGIN_PATH says otherwise.
+  if (!g_getenv("GST_PLUGIN_PATH")) {
+    const auto exe = std::filesystem::read_symlink("/proc/self/exe");
+    const auto dir = exe.parent_path().parent_path() / "gst";
+    if (std::filesystem::exists(dir / "libgstlightfield.so"))
+      g_setenv("GST_PLUGIN_PATH", dir.c_str(), TRUE);
+  }
+  GOptionContext* ctx = g_option_context_new(nullptr);
+  g_option_context_set_summary(ctx, kSummary);
+  g_option_context_add_main_entries(ctx, entries, nullptr);
+  g_option_context_add_group(ctx, gst_init_get_option_group());
+  GError* opt_err = nullptr;
+  const gboolean parsed = g_option_context_parse(ctx, &argc, &argv, &opt_err);
+  g_option_context_free(ctx);
+  if (!parsed || argc > 1) {
+    std::fprintf(stderr, "lf-gst-bench: error: %s (see --help)\n",
+                 opt_err ? opt_err->message : "unexpected arguments");
+    g_clear_error(&opt_err);
+    return 2;
+  }
+  auto str = [](gchar* s, const char* def) {
+    const std::string v = s ? s : def;
+    g_free(s);
+    return v;
+  };
+  const std::string input_path = str(input, "../shared/data/stanford-chess");
+  const std::string block_spec = str(block, "");
+  const std::string sizes_spec = str(sizes_opt, "640x480,320x240");
+  const std::string encodings_spec = str(encodings_opt, "raw,jpeg90");
   try {
-    cli::Args args(argc, argv,
-                   {"--input", "--block", "--sizes", "--encodings", "--frames", "--latency-rate"},
-                   {});
-    // The plugin next to this program (build/gst) unless GST_PLUGIN_PATH says otherwise.
-    if (!g_getenv("GST_PLUGIN_PATH")) {
-      const auto exe = std::filesystem::read_symlink("/proc/self/exe");
-      const auto dir = exe.parent_path().parent_path() / "gst";
-      if (std::filesystem::exists(dir / "libgstlightfield.so"))
-        g_setenv("GST_PLUGIN_PATH", dir.c_str(), TRUE);
-    }
-    gst_init(nullptr, nullptr);
-    const lf::Rig rig = cli::select_cameras(
-        lf::load_rig_or_dataset(args.get("--input", "../shared/data/stanford-chess")), args, true);
+    const lf::Rig rig =
+        cli::select_cameras(lf::load_rig_or_dataset(input_path), block_spec, 0, 1.0, true);
     const std::string rig_path =
         (std::filesystem::temp_directory_path() / "lf-gst-bench-rig.json").string();
     lf::save_rig(rig, rig_path);
-    const int frames = args.integer("--frames", 300);
-    const int rate = args.integer("--latency-rate", 30);
+    if (frames < 2 || rate < 1) throw std::invalid_argument("--frames >= 2, --latency-rate >= 1");
     std::vector<std::pair<int, int>> sizes;
     std::vector<std::string> encodings;
     {
-      std::stringstream ss(args.get("--sizes", "640x480,320x240"));
+      std::stringstream ss(sizes_spec);
       std::string t;
       while (std::getline(ss, t, ',')) {
         int w, h;
         cli::parse_size(t, w, h);
         sizes.emplace_back(w, h);
       }
-      std::stringstream es(args.get("--encodings", "raw,jpeg90"));
+      std::stringstream es(encodings_spec);
       while (std::getline(es, t, ',')) encodings.push_back(t);
     }
     std::printf("## GStreamer pipeline, %zu cameras, one machine (%d cores)\n\n",

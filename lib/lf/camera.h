@@ -48,16 +48,6 @@ struct Extrinsics {
   static Extrinsics from_center(const cv::Matx33d& R_world_to_cam, const cv::Vec3d& C);
 };
 
-// Applies the radial distortion to normalized coordinates.
-cv::Vec2d distort_normalized(const Intrinsics& K, const cv::Vec2d& xy);
-// Inverts distort_normalized by Newton's method. Returns nullopt where the
-// model is not invertible (past the radius where r_d(r) stops increasing) or
-// the iteration does not converge; never returns NaN.
-std::optional<cv::Vec2d> undistort_normalized(const Intrinsics& K, const cv::Vec2d& xy_d);
-// Undistorted normalized radius beyond which the radial model folds back
-// (r_d'(r) <= 0); +inf when it never does. Points beyond it are not imaged.
-double distortion_fold_radius(const Intrinsics& K);
-
 struct Camera {
   int id = 0;        // stable camera id (the id carried by fragments)
   std::string name;  // human-readable, e.g. "r03c05"

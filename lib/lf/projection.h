@@ -1,8 +1,14 @@
 // The camera model's projection (lf/camera.h: pinhole + two radial terms,
 // Yang et al. 2002, 4.4.2), written once as templates so that the same code
 // serves lf::Camera (T = double) and the calibration's Ceres cost functors
-// (T = ceres::Jet, automatic differentiation; calib/reprojection_error.h).
+// (T = ceres::Jet, automatic differentiation; calib/reprojection_error.h),
+// and the distortion's inverse.
 #pragma once
+
+#include <opencv2/core.hpp>
+#include <optional>
+
+#include "lf/camera.h"
 
 namespace lf {
 
@@ -23,5 +29,15 @@ void project_camera_point(const T* Xc, const T& fx, const T& fy, const T& cx, co
   uv[0] = fx * d * x + cx;
   uv[1] = fy * d * y + cy;
 }
+
+// Applies the radial distortion to normalized coordinates.
+cv::Vec2d distort_normalized(const Intrinsics& K, const cv::Vec2d& xy);
+// Inverts distort_normalized by Newton's method. Returns nullopt where the
+// model is not invertible (past the radius where r_d(r) stops increasing) or
+// the iteration does not converge; never returns NaN.
+std::optional<cv::Vec2d> undistort_normalized(const Intrinsics& K, const cv::Vec2d& xy_d);
+// Undistorted normalized radius beyond which the radial model folds back
+// (r_d'(r) <= 0); +inf when it never does. Points beyond it are not imaged.
+double distortion_fold_radius(const Intrinsics& K);
 
 }  // namespace lf

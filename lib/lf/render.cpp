@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "lf/projection.h"
+
 #if defined(__SSE2__) && !defined(LF_NO_SIMD)
 #include <emmintrin.h>
 #define LF_SSE2 1
