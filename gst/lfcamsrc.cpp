@@ -328,6 +328,11 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
   return GST_FLOW_OK;
 }
 
+static gboolean lf_cam_src_event(GstBaseSrc* src, GstEvent* event) {
+  if (lfgst::refuse_seek(GST_ELEMENT(src), event)) return FALSE;
+  return GST_BASE_SRC_CLASS(lf_cam_src_parent_class)->event(src, event);
+}
+
 static gboolean lf_cam_src_query(GstBaseSrc* src, GstQuery* q) {
   if (lfgst::answer_live_latency(src, q)) return TRUE;
   return GST_BASE_SRC_CLASS(lf_cam_src_parent_class)->query(src, q);
@@ -389,6 +394,7 @@ static void lf_cam_src_class_init(LfCamSrcClass* klass) {
   bc->unlock = lf_cam_src_unlock;
   bc->unlock_stop = lf_cam_src_unlock_stop;
   bc->query = lf_cam_src_query;
+  bc->event = lf_cam_src_event;
   pc->create = lf_cam_src_create;
   GST_DEBUG_CATEGORY_INIT(lf_cam_src_debug, "lfcamsrc", 0, "light field camera source");
 }

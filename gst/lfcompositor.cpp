@@ -42,6 +42,7 @@
 #include "lfprops.h"
 #include "lfrig.h"
 #include "lftrace.h"
+#include "lfwarn.h"
 
 GST_DEBUG_CATEGORY_STATIC(lf_compositor_debug);
 #define GST_CAT_DEFAULT lf_compositor_debug
@@ -51,18 +52,23 @@ G_BEGIN_DECLS
 G_DECLARE_FINAL_TYPE(LfCompositor, lf_compositor, LF, COMPOSITOR, GstAggregator)
 G_END_DECLS
 
-#define DEFAULT_VIEWER_ID -1
+#define DEFAULT_VIEWER_ID 0
+#define DEFAULT_WIDTH 0  // 0: from the fragment caps (the viewer's request size)
+#define DEFAULT_HEIGHT 0
 #define DEFAULT_FPS_N 0  // 0/1: from the fragment caps
 #define DEFAULT_FPS_D 1
 #define DEFAULT_STEREO FALSE
 // Output rate when neither the caps nor the property give one.
 #define FALLBACK_FPS_N 30
 #define FALLBACK_FPS_D 1
+// Largest output frame (its accumulators take 16 bytes a pixel).
+#define MAX_OUTPUT_SIDE 8192
 
 namespace {
 struct Settings {
   std::string rig;
   gint viewer_id = DEFAULT_VIEWER_ID;
+  gint width = DEFAULT_WIDTH, height = DEFAULT_HEIGHT;
   lfgst::Fraction framerate{DEFAULT_FPS_N, DEFAULT_FPS_D};
   bool stereo = DEFAULT_STEREO;
 };
@@ -72,6 +78,14 @@ struct Group {
   GstClockTime pts = GST_CLOCK_TIME_NONE, duration = GST_CLOCK_TIME_NONE;
   GstClockTime running_time = GST_CLOCK_TIME_NONE;  // of its first fragment
 };
+// Sequences accepted: (last emitted, last emitted + kSequenceWindow].
+constexpr uint64_t kSequenceWindow = 4096;
+// A stream that stays outside the window this long (no frame emitted) is
+// followed: the sequence is re-anchored to it (a restarted viewer, or a
+// hostile first fragment that anchored the window).
+constexpr gint64 kReanchorAfterUs = G_USEC_PER_SEC;
+constexpr size_t kMaxPending = 16;
+
 // From start (READY->PAUSED) to stop (PAUSED->READY); used on the aggregate
 // thread only (GstAggregator handles serialized sink events there too).
 struct State {
@@ -79,18 +93,34 @@ struct State {
   std::shared_ptr<const lf::Rig> rig;
   std::map<uint64_t, Group> pending;  // by request sequence
   int64_t last_emitted = -1;
+  gint64 stale_since_us = -1;  // first out-of-window fragment since the last frame
+  int64_t viewer = -1;         // the viewer composited (viewer-id, or the first seen)
   lf::Compositor comp, comp_right;
+  cv::Mat last_frame;  // RGBA of the last frame emitted (missing pixels come from it)
   GstVideoInfo out;
   bool have_caps = false;
-  lfgst::Fraction caps_fps{0, 1};  // from the fragment caps (0/1: none yet)
+  GstVideoConverter* convert = nullptr;  // RGBA -> I420 when negotiated
+  lfgst::Fraction caps_fps{0, 1};        // from the fragment caps (0/1: none yet)
+  gint caps_width = 0, caps_height = 0;  // the view size from the fragment caps
+  guint64 late = 0, filled_frames = 0;
+  lfgst::WarnLimiter bad, foreign, unknown_camera, wrong_size, no_size, out_of_window;
+  ~State() {
+    if (convert) gst_video_converter_free(convert);
+  }
   // The output rate: the property, else the caps, else 30/1.
   lfgst::Fraction fps() const {
     if (s.framerate.n > 0) return s.framerate;
     if (caps_fps.n > 0) return caps_fps;
     return {FALLBACK_FPS_N, FALLBACK_FPS_D};
   }
+  // The size of one view (the output is twice as wide in stereo): the
+  // properties, else the caps; never what a fragment claims. False if unknown.
+  bool view_size(int* w, int* h) const {
+    *w = s.width > 0 ? s.width : caps_width;
+    *h = s.height > 0 ? s.height : caps_height;
+    return *w > 0 && *h > 0;
+  }
 };
-constexpr size_t kMaxPending = 16;
 
 struct Priv {
   Settings settings;  // properties (object lock)
@@ -126,6 +156,7 @@ static gboolean lf_compositor_start(GstAggregator* agg) {
     st->rig = lfgst::open_rig(GST_ELEMENT(self), st->s.rig);
     if (!st->rig) return FALSE;
   }
+  st->viewer = st->s.viewer_id;
   self->priv->state = std::move(st);
   return TRUE;
 }
@@ -155,6 +186,19 @@ static gboolean lf_compositor_sink_event(GstAggregator* agg, GstAggregatorPad* p
   if (GST_EVENT_TYPE(event) == GST_EVENT_CAPS && st) {
     GstCaps* caps;
     gst_event_parse_caps(event, &caps);
+    const GstStructure* cs = gst_caps_get_structure(caps, 0);
+    gint w = 0, h = 0;
+    if (gst_structure_get_int(cs, "width", &w) && gst_structure_get_int(cs, "height", &h)) {
+      if (w < 1 || h < 1 || w > MAX_OUTPUT_SIDE || h > MAX_OUTPUT_SIDE) {
+        GST_ELEMENT_WARNING(self, STREAM, FORMAT, ("Ignoring a view size out of range"),
+                            ("fragment caps announce %dx%d (1..%d)", w, h, MAX_OUTPUT_SIDE));
+      } else if (st->s.width <= 0 || st->s.height <= 0) {
+        if (st->caps_width > 0 && (w != st->caps_width || h != st->caps_height))
+          GST_WARNING_OBJECT(self, "fragment caps change the view size from %dx%d to %dx%d",
+                             st->caps_width, st->caps_height, w, h);
+        st->caps_width = w, st->caps_height = h;
+      }
+    }
     gint n, d;
     if (lfgst::caps_framerate(caps, &n, &d) && !(lfgst::Fraction{n, d} == st->caps_fps)) {
       if (st->caps_fps.n > 0)
@@ -207,6 +251,13 @@ static bool ensure_caps(LfCompositor* self, int width, int height) {
   gst_video_info_set_format(&st->out, chosen, width, height);
   GST_VIDEO_INFO_FPS_N(&st->out) = fps.n;
   GST_VIDEO_INFO_FPS_D(&st->out) = fps.d;
+  if (st->convert) gst_video_converter_free(st->convert), st->convert = nullptr;
+  if (chosen == GST_VIDEO_FORMAT_I420) {
+    // GStreamer's converter (any size, odd ones included), built once.
+    GstVideoInfo rgba;
+    gst_video_info_set_format(&rgba, GST_VIDEO_FORMAT_RGBA, width, height);
+    st->convert = gst_video_converter_new(&rgba, &st->out, nullptr);
+  }
   GstCaps* caps = gst_video_info_to_caps(&st->out);
   gst_aggregator_set_src_caps(agg, caps);
   gst_caps_unref(caps);
@@ -214,14 +265,14 @@ static bool ensure_caps(LfCompositor* self, int width, int height) {
   return true;
 }
 
-static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g) {
+static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool complete) {
   State* st = self->priv->state.get();
   const gint64 t0 = g_get_monotonic_time();
-  const lf::Fragment& first = g.fragments.front();
-  const int w = first.out_width, H = first.out_height;
-  const int W = st->s.stereo ? 2 * w : w;  // stereo: left | right side by side
+  int w = 0, H = 0;
+  if (!st->view_size(&w, &H)) return GST_FLOW_OK;  // nothing was accepted without a size
+  const int W = st->s.stereo ? 2 * w : w;          // stereo: left | right side by side
   if (!ensure_caps(self, W, H)) return GST_FLOW_NOT_NEGOTIATED;
-  const guint left_id = static_cast<guint>(std::max(0, st->s.viewer_id));
+  const guint left_id = static_cast<guint>(std::max<int64_t>(0, st->viewer));
   st->comp.reset(w, H);
   if (st->s.stereo) st->comp_right.reset(w, H);
   for (const lf::Fragment& f : g.fragments) {
@@ -240,21 +291,31 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g) {
     st->comp_right.resolve(right);
     cv::hconcat(rgba, right, rgba);
   }
+  // Missing fragments (a missed deadline): the last picture where no weight
+  // arrived, not black.
+  size_t filled = 0;
+  if (!complete && st->last_frame.size() == rgba.size())
+    filled = lf::Compositor::fill_from(rgba, st->last_frame);
+  if (filled) {
+    st->filled_frames++;
+    GST_DEBUG_OBJECT(self, "request %" G_GUINT64_FORMAT ": %zu pixels from the last frame", seq,
+                     filled);
+  }
+  st->last_frame = rgba;
   GstBuffer* out = gst_buffer_new_allocate(nullptr, GST_VIDEO_INFO_SIZE(&st->out), nullptr);
   GstVideoFrame vf;
   gst_video_frame_map(&vf, &st->out, out, GST_MAP_WRITE);
-  if (GST_VIDEO_INFO_FORMAT(&st->out) == GST_VIDEO_FORMAT_I420) {
-    cv::Mat i420;
-    cv::cvtColor(rgba, i420, cv::COLOR_RGBA2YUV_I420);
-    for (int p = 0; p < 3; ++p) {
-      const int pw = GST_VIDEO_FRAME_COMP_WIDTH(&vf, p), ph = GST_VIDEO_FRAME_COMP_HEIGHT(&vf, p);
-      const uint8_t* src = i420.data + (p == 0 ? 0 : W * H + (p == 2 ? (W / 2) * (H / 2) : 0));
-      const int sstride = p == 0 ? W : W / 2;
-      auto* dst = static_cast<uint8_t*>(GST_VIDEO_FRAME_PLANE_DATA(&vf, p));
-      const int dstride = GST_VIDEO_FRAME_PLANE_STRIDE(&vf, p);
-      for (int y = 0; y < ph; ++y)
-        std::memcpy(dst + y * dstride, src + y * sstride, std::min(pw, sstride));
-    }
+  if (st->convert) {
+    GstVideoInfo info;
+    gst_video_info_set_format(&info, GST_VIDEO_FORMAT_RGBA, W, H);
+    GstBuffer* src =
+        gst_buffer_new_wrapped_full(GST_MEMORY_FLAG_READONLY, rgba.data, rgba.total() * 4, 0,
+                                    rgba.total() * 4, nullptr, nullptr);
+    GstVideoFrame sf;
+    gst_video_frame_map(&sf, &info, src, GST_MAP_READ);
+    gst_video_converter_frame(st->convert, &sf, &vf);
+    gst_video_frame_unmap(&sf);
+    gst_buffer_unref(src);
   } else {
     auto* dst = static_cast<uint8_t*>(GST_VIDEO_FRAME_PLANE_DATA(&vf, 0));
     const int dstride = GST_VIDEO_FRAME_PLANE_STRIDE(&vf, 0);
@@ -263,14 +324,17 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g) {
   gst_video_frame_unmap(&vf);
   if (lfgst::trace_enabled()) {
     const uLong sum = crc32(0L, rgba.data, static_cast<uInt>(rgba.total() * rgba.elemSize()));
-    lfgst::trace(GST_ELEMENT(self), "composited", first.viewer_id, seq, -1,
+    lfgst::trace(GST_ELEMENT(self), "composited", left_id, seq, -1,
                  static_cast<gint64>(g.fragments.size()), static_cast<gint64>(sum),
                  (g_get_monotonic_time() - t0) * 1000);
+    if (filled)
+      lfgst::trace(GST_ELEMENT(self), "filled", left_id, seq, -1, static_cast<gint64>(filled));
   }
   GST_BUFFER_PTS(out) = g.pts;
   GST_BUFFER_DURATION(out) = g.duration;
   GST_BUFFER_OFFSET(out) = seq;
   st->last_emitted = static_cast<int64_t>(seq);
+  st->stale_since_us = -1;
   GstAggregator* agg = GST_AGGREGATOR(self);
   if (GST_CLOCK_TIME_IS_VALID(g.pts)) {
     GstSegment* seg = &GST_AGGREGATOR_PAD(agg->srcpad)->segment;
@@ -280,32 +344,82 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g) {
   return gst_aggregator_finish_buffer(agg, out);
 }
 
-// Parses one fragment buffer and files it under its request.
+// Whether a fragment's sequence is one to composite: inside the window after
+// the last frame emitted; a stream that stays outside it for a second is
+// followed (re-anchored) with a warning.
+static bool sequence_accepted(LfCompositor* self, State* st, uint64_t seq) {
+  if (st->last_emitted < 0) return true;
+  const auto last = static_cast<uint64_t>(st->last_emitted);
+  if (seq > last && seq - last <= kSequenceWindow) return true;
+  if (seq <= last) st->late++;
+  const gint64 now = g_get_monotonic_time();
+  if (st->stale_since_us < 0) st->stale_since_us = now;
+  if (now - st->stale_since_us < kReanchorAfterUs) return false;
+  LF_ELEMENT_WARNING_LIMITED(self, st->out_of_window, STREAM, DECODE,
+                             ("Following a new request sequence"),
+                             "no frame for a second and fragments of request %" G_GUINT64_FORMAT
+                             " arrive (last emitted %" G_GUINT64_FORMAT ")",
+                             seq, last);
+  st->pending.clear();
+  st->last_emitted = seq > 0 ? static_cast<int64_t>(std::min<uint64_t>(seq - 1, G_MAXINT64)) : -1;
+  st->stale_since_us = -1;
+  return true;
+}
+
+// Parses one fragment buffer and files it under its request. What a peer
+// sends is checked from the header before anything is decoded: the viewer,
+// the camera, the sequence window and the output size; then the payload is
+// parsed with the frame's area as its pixel limit.
 static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
   State* st = self->priv->state.get();
   GstMapInfo map;
   if (!gst_buffer_map(buf, &map, GST_MAP_READ)) return;
-  GError* err = nullptr;
+  lf::FragmentHeader head;
   lf::Fragment f;
+  GError* err = nullptr;
+  int w = 0, h = 0;
   const gint64 t0 = g_get_monotonic_time();
-  if (!lfgst::guard([&] { f = lf::parse_fragment(map.data, map.size); }, &err)) {
-    GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Dropping a malformed fragment"),
-                        ("%s", err->message));
+  if (!lfgst::guard([&] { head = lf::peek_fragment_header(map.data, map.size); }, &err)) {
+    LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE, ("Dropping a malformed fragment"),
+                               "%s", err->message);
     g_error_free(err);
-    gst_buffer_unmap(buf, &map);
-    return;
-  }
-  lfgst::trace(GST_ELEMENT(self), "decoded", f.viewer_id, f.sequence,
-               static_cast<gint>(f.camera_id), (g_get_monotonic_time() - t0) * 1000);
-  const guint v0 = static_cast<guint>(std::max(0, st->s.viewer_id));
-  const bool ours =
-      st->s.stereo ? (f.viewer_id == v0 || f.viewer_id == v0 + 1)
-                   : (st->s.viewer_id < 0 || f.viewer_id == static_cast<guint>(st->s.viewer_id));
-  const bool known = !st->rig || st->rig->index_of(static_cast<int>(f.camera_id)) >= 0;
-  if (!known) {
-    GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Dropping a fragment of an unknown camera"),
-                        ("camera %u is not in the rig", f.camera_id));
-  } else if (ours && static_cast<int64_t>(f.sequence) > st->last_emitted) {
+  } else if (st->viewer >= 0 && head.viewer_id != st->viewer &&
+             !(st->s.stereo && head.viewer_id == st->viewer + 1)) {
+    GST_LOG_OBJECT(self, "fragment of viewer %u: not ours", head.viewer_id);
+  } else if (st->rig && st->rig->index_of(static_cast<int>(head.camera_id)) < 0) {
+    LF_ELEMENT_WARNING_LIMITED(self, st->unknown_camera, STREAM, DECODE,
+                               ("Dropping a fragment of an unknown camera"),
+                               "camera %u is not in the rig", head.camera_id);
+  } else if (!st->view_size(&w, &h)) {
+    LF_ELEMENT_WARNING_LIMITED(self, st->no_size, STREAM, FORMAT,
+                               ("No output size: dropping fragments"),
+                               "set width and height, or send fragment caps with the view's "
+                               "width and height (lfviewrequest does) (camera %u)",
+                               head.camera_id);
+  } else if (!sequence_accepted(self, st, head.sequence)) {
+    GST_LOG_OBJECT(self, "fragment of request %" G_GUINT64_FORMAT ": outside the window",
+                   head.sequence);
+  } else if (!lfgst::guard(
+                 [&] {
+                   f = lf::parse_fragment(map.data, map.size, nullptr,
+                                          static_cast<size_t>(w) * static_cast<size_t>(h));
+                 },
+                 &err)) {
+    LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE, ("Dropping a malformed fragment"),
+                               "%s", err->message);
+    g_error_free(err);
+  } else if (f.out_width != w || f.out_height != h) {
+    LF_ELEMENT_WARNING_LIMITED(self, st->wrong_size, STREAM, DECODE,
+                               ("Dropping a fragment for another output size"),
+                               "camera %u: fragment for %dx%d, the output is %dx%d", f.camera_id,
+                               f.out_width, f.out_height, w, h);
+  } else {
+    lfgst::trace(GST_ELEMENT(self), "decoded", f.viewer_id, f.sequence,
+                 static_cast<gint>(f.camera_id), (g_get_monotonic_time() - t0) * 1000);
+    if (st->viewer < 0) {  // viewer-id -1: the first viewer seen, then only it
+      st->viewer = f.viewer_id;
+      GST_INFO_OBJECT(self, "compositing viewer %u", f.viewer_id);
+    }
     Group& g = st->pending[f.sequence];
     const uint64_t key = (static_cast<uint64_t>(f.viewer_id) << 32) | f.camera_id;
     if (g.cameras.insert(key).second) {
@@ -393,7 +507,7 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
                        " incomplete: %zu of %zu fragments (timeout %d, eos %d, pending %zu)",
                        it->first, it->second.cameras.size(), expected, timeout, all_eos,
                        st->pending.size());
-    ret = emit(self, it->first, it->second);
+    ret = emit(self, it->first, it->second, complete);
     st->pending.erase(it);
   }
   if (ret == GST_FLOW_OK && all_eos && st->pending.empty()) return GST_FLOW_EOS;
@@ -460,6 +574,10 @@ static GstPad* lf_compositor_request_new_pad(GstElement* el, GstPadTemplate* tem
 // Navigation events from the video sink go to every camera branch (and on
 // to lfviewrequest, which applies each once); GstAggregator drops them.
 static gboolean lf_compositor_src_event(GstAggregator* agg, GstEvent* event) {
+  if (lfgst::refuse_seek(GST_ELEMENT(agg), event)) {
+    gst_event_unref(event);
+    return FALSE;
+  }
   if (GST_EVENT_TYPE(event) != GST_EVENT_NAVIGATION)
     return GST_AGGREGATOR_CLASS(lf_compositor_parent_class)->src_event(agg, event);
   GST_OBJECT_LOCK(agg);

@@ -35,6 +35,7 @@
 #include "lfprops.h"
 #include "lfrig.h"
 #include "lftrace.h"
+#include "lfwarn.h"
 
 GST_DEBUG_CATEGORY_STATIC(lf_fragment_debug);
 #define GST_CAT_DEFAULT lf_fragment_debug
@@ -50,6 +51,9 @@ enum class Encoding { kRaw = 0, kJpeg = 1 };
 
 #define DEFAULT_ENCODING Encoding::kRaw
 #define DEFAULT_JPEG_QUALITY 90
+#define DEFAULT_MAX_PIXELS (G_GUINT64_CONSTANT(3840) * 2160)
+#define DEFAULT_MAX_RATE 240.0
+#define DEFAULT_FRAME_TIMEOUT GST_SECOND
 
 #define LF_TYPE_FRAGMENT_ENCODING (lf_fragment_encoding_get_type())
 static GType lf_fragment_encoding_get_type() {
@@ -67,6 +71,9 @@ struct Settings : lfgst::CameraAddress {
   std::string rig;
   Encoding encoding = DEFAULT_ENCODING;
   gint quality = DEFAULT_JPEG_QUALITY;  // mutable in PLAYING: read live
+  guint64 max_pixels = DEFAULT_MAX_PIXELS;
+  gdouble max_rate = DEFAULT_MAX_RATE;
+  guint64 frame_timeout = DEFAULT_FRAME_TIMEOUT;
 };
 
 // From READY->PAUSED to PAUSED->READY.
@@ -79,6 +86,12 @@ struct State {
   // request; guarded by Priv::lock.
   GstBuffer* corrected_of = nullptr;  // the frame it was made from (not owned, compared only)
   cv::Mat corrected;
+  // Request rate limit: a token bucket of max_rate tokens, refilled at
+  // max_rate per second (request thread only).
+  double tokens = 0;
+  gint64 refilled_us = -1;
+  // Warnings about what peers send, at most one a second each.
+  lfgst::WarnLimiter bad_request, too_large, too_fast, no_frame, failed;
 };
 
 struct Priv {
@@ -218,9 +231,7 @@ static gboolean lf_fragment_request_event(GstPad* pad, GstObject* parent, GstEve
           lfgst::read_setting(GST_OBJECT(self), self->priv->settings, &Settings::encoding);
       GstCaps* caps = gst_caps_new_simple("application/x-lf-fragment", "encoding", G_TYPE_STRING,
                                           enc == Encoding::kJpeg ? "jpeg" : "raw", nullptr);
-      gint n, d;
-      if (lfgst::caps_framerate(in, &n, &d))
-        gst_caps_set_simple(caps, "framerate", GST_TYPE_FRACTION, n, d, nullptr);
+      lfgst::copy_stream_facts(in, caps);
       gst_event_unref(event);
       const gboolean ok = gst_pad_push_event(self->srcpad, gst_event_new_caps(caps));
       gst_caps_unref(caps);
@@ -264,6 +275,37 @@ static int64_t capture_time_of(LfFragment* self, GstBuffer* frame, int camera_id
   return GST_BUFFER_PTS_IS_VALID(frame) ? static_cast<int64_t>(GST_BUFFER_PTS(frame)) : -1;
 }
 
+// Requests beyond the element's limits (a view larger than max-pixels, or
+// more than max-rate requests a second) are dropped with a warning: a peer
+// must not make a camera host allocate or compute without bound.
+static bool admit(LfFragment* self, State* st, const lf::ViewRequest& req) {
+  const Settings& s = st->s;
+  const guint64 px = static_cast<guint64>(req.view.width) * req.view.height;
+  if (px > s.max_pixels) {
+    LF_ELEMENT_WARNING_LIMITED(
+        self, st->too_large, STREAM, DECODE, ("Dropping a view request larger than max-pixels"),
+        "viewer %u asks for %dx%d (%" G_GUINT64_FORMAT " pixels), the limit is %" G_GUINT64_FORMAT,
+        req.viewer_id, req.view.width, req.view.height, px, s.max_pixels);
+    return false;
+  }
+  if (s.max_rate > 0) {
+    const gint64 now = g_get_monotonic_time();
+    if (st->refilled_us < 0)
+      st->tokens = s.max_rate;
+    else
+      st->tokens = std::min(s.max_rate, st->tokens + s.max_rate * (now - st->refilled_us) / 1e6);
+    st->refilled_us = now;
+    if (st->tokens < 1) {
+      LF_ELEMENT_WARNING_LIMITED(
+          self, st->too_fast, STREAM, DECODE, ("Dropping view requests above max-rate"),
+          "more than %g requests a second (viewer %u)", s.max_rate, req.viewer_id);
+      return false;
+    }
+    st->tokens -= 1;
+  }
+  return true;
+}
+
 static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBuffer* buf) {
   LfFragment* self = LF_FRAGMENT(parent);
   Priv* p = self->priv;
@@ -274,25 +316,33 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
     GstMapInfo map;
     if (!gst_buffer_map(buf, &map, GST_MAP_READ)) {
       gst_buffer_unref(buf);
-      return GST_FLOW_ERROR;
+      return GST_FLOW_OK;
     }
     const gboolean ok = lfgst::guard([&] { req = lf::parse_request(map.data, map.size); }, &err);
     gst_buffer_unmap(buf, &map);
     if (!ok) {
-      GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Dropping a malformed view request"),
-                          ("%s", err->message));
+      LF_ELEMENT_WARNING_LIMITED(self, st->bad_request, STREAM, DECODE,
+                                 ("Dropping a malformed view request"), "%s", err->message);
       g_error_free(err);
       gst_buffer_unref(buf);
       return GST_FLOW_OK;
     }
   }
+  if (!admit(self, st, req)) {
+    gst_buffer_unref(buf);
+    return GST_FLOW_OK;
+  }
   const lf::Rig& rig = *st->rig;
   const lf::Camera& cam = rig.cameras[st->index];
   lfgst::trace(GST_ELEMENT(self), "request-in", req.viewer_id, req.sequence, cam.id);
-  // Wait for a camera frame (woken by a frame, end of stream, flushing or
-  // PAUSED->READY).
+  // Wait for a camera frame, at most frame-timeout (woken by a frame, end of
+  // stream, flushing or PAUSED->READY): a camera that never delivers (unlinked,
+  // refused caps, dead) must not hold the request thread forever.
+  const gint64 deadline =
+      g_get_monotonic_time() + static_cast<gint64>(st->s.frame_timeout / GST_USECOND);
   g_mutex_lock(&p->lock);
-  while (!p->frame && !p->flushing && !p->video_eos) g_cond_wait(&p->cond, &p->lock);
+  while (!p->frame && !p->flushing && !p->video_eos)
+    if (!g_cond_wait_until(&p->cond, &p->lock, deadline)) break;
   if (p->flushing) {
     g_mutex_unlock(&p->lock);
     gst_buffer_unref(buf);
@@ -304,12 +354,13 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
   g_mutex_unlock(&p->lock);
   GstVideoFrame vf;
   if (!frame || !have_info || !gst_video_frame_map(&vf, &info, frame, GST_MAP_READ)) {
-    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("No camera frame"),
-                      ("the camera stream ended before delivering a frame, or it cannot be "
-                       "mapped"));
+    LF_ELEMENT_WARNING_LIMITED(
+        self, st->no_frame, STREAM, FAILED, ("No camera frame: dropping the request"),
+        "camera %d delivered no frame within %" GST_TIME_FORMAT " (request %" G_GUINT64_FORMAT ")",
+        cam.id, GST_TIME_ARGS(st->s.frame_timeout), req.sequence);
     if (frame) gst_buffer_unref(frame);
     gst_buffer_unref(buf);
-    return GST_FLOW_ERROR;
+    return GST_FLOW_OK;
   }
   const gint quality = lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::quality);
   std::vector<uint8_t> bytes;
@@ -338,10 +389,15 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
   gst_video_frame_unmap(&vf);
   gst_buffer_unref(frame);
   if (!ok) {
-    gst_buffer_unref(buf);
-    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("Fragment rendering failed"), ("%s", err->message));
+    // A request this camera cannot answer (e.g. a payload over the wire
+    // format's limit) is dropped: the compositor renormalises without it.
+    LF_ELEMENT_WARNING_LIMITED(self, st->failed, STREAM, FAILED,
+                               ("Cannot render the fragment: dropping the request"),
+                               "request %" G_GUINT64_FORMAT " of viewer %u: %s", req.sequence,
+                               req.viewer_id, err->message);
     g_error_free(err);
-    return GST_FLOW_ERROR;
+    gst_buffer_unref(buf);
+    return GST_FLOW_OK;
   }
   GstBuffer* out = gst_buffer_new_memdup(bytes.data(), bytes.size());
   gst_buffer_copy_into(out, buf, GST_BUFFER_COPY_TIMESTAMPS, 0, -1);
@@ -416,6 +472,22 @@ static void lf_fragment_class_init(LfFragmentClass* klass) {
   props.add(oc, &Settings::quality,
             g_param_spec_int("jpeg-quality", "JPEG quality", "JPEG quality (encoding=jpeg), 1..100",
                              1, 100, DEFAULT_JPEG_QUALITY, lfgst::kReadWritePlaying));
+  props.add(oc, &Settings::max_pixels,
+            g_param_spec_uint64("max-pixels", "Maximum view size",
+                                "Requests for views of more pixels (width x height) are dropped "
+                                "with a warning",
+                                1, G_MAXUINT64, DEFAULT_MAX_PIXELS, lfgst::kReadWriteReady));
+  props.add(oc, &Settings::max_rate,
+            g_param_spec_double("max-rate", "Maximum request rate",
+                                "Requests per second answered, over all viewers (bursts up to "
+                                "one second's worth); more are dropped with a warning (0: no "
+                                "limit)",
+                                0, 1e6, DEFAULT_MAX_RATE, lfgst::kReadWriteReady));
+  props.add(oc, &Settings::frame_timeout,
+            g_param_spec_uint64("frame-timeout", "Frame timeout",
+                                "How long a request waits for the camera's first frame, ns; "
+                                "then it is dropped with a warning",
+                                0, G_MAXUINT64, DEFAULT_FRAME_TIMEOUT, lfgst::kReadWriteReady));
   gst_type_mark_as_plugin_api(LF_TYPE_FRAGMENT_ENCODING, static_cast<GstPluginAPIFlags>(0));
   gst_element_class_add_static_pad_template(ec, &sink_template);
   gst_element_class_add_static_pad_template(ec, &request_template);

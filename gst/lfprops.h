@@ -150,6 +150,15 @@ inline bool answer_live_latency(GstBaseSrc* src, GstQuery* q) {
   return true;
 }
 
+// Live capture and request schedules cannot be repositioned: seeks are
+// refused (logged), not accepted and left to stall the pipeline. True when
+// `event` is a seek.
+inline bool refuse_seek(GstElement* el, GstEvent* event) {
+  if (GST_EVENT_TYPE(event) != GST_EVENT_SEEK) return false;
+  GST_INFO_OBJECT(el, "refusing a seek: live light field streams are not seekable");
+  return true;
+}
+
 // A registered GEnum type, made once.
 inline GType enum_type(GType* type, const char* name, const GEnumValue* values) {
   if (g_once_init_enter(type)) g_once_init_leave(type, g_enum_register_static(name, values));

@@ -174,10 +174,10 @@ static gboolean lf_view_request_stop(GstBaseSrc* src) {
 
 static GstCaps* lf_view_request_get_caps(GstBaseSrc* src, GstCaps* filter) {
   LfViewRequest* self = LF_VIEW_REQUEST(src);
-  const lfgst::Fraction fps =
-      lfgst::read_setting(GST_OBJECT(self), self->priv->settings, &Settings::framerate);
+  const Settings s = lfgst::snapshot(GST_OBJECT(self), self->priv->settings);
   GstCaps* caps = gst_caps_new_simple("application/x-lf-view-request", "framerate",
-                                      GST_TYPE_FRACTION, fps.n, fps.d, nullptr);
+                                      GST_TYPE_FRACTION, s.framerate.n, s.framerate.d, "width",
+                                      G_TYPE_INT, s.width, "height", G_TYPE_INT, s.height, nullptr);
   if (filter) {
     GstCaps* t = gst_caps_intersect_full(filter, caps, GST_CAPS_INTERSECT_FIRST);
     gst_caps_unref(caps);
@@ -274,6 +274,7 @@ static gboolean lf_view_request_event(GstBaseSrc* src, GstEvent* event) {
     handle_navigation(LF_VIEW_REQUEST(src), event);
     return TRUE;
   }
+  if (lfgst::refuse_seek(GST_ELEMENT(src), event)) return FALSE;
   return GST_BASE_SRC_CLASS(lf_view_request_parent_class)->event(src, event);
 }
 

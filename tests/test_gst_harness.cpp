@@ -163,11 +163,11 @@ TEST_F(Harness, CompositorCapsAndBadInput) {
       (std::filesystem::temp_directory_path() / "lf-harness-one.json").string();
   lf::save_rig(one, one_path);
   GstElement* el = gst_element_factory_make("lfcompositor", nullptr);
-  g_object_set(el, "rig", one_path.c_str(), nullptr);
+  g_object_set(el, "rig", one_path.c_str(), "viewer-id", 3, nullptr);
   GstHarness* h = gst_harness_new_with_element(el, "sink_0", "src");
   gst_object_unref(el);
   gst_harness_set_live(h, FALSE);
-  gst_harness_set_src_caps_str(h, "application/x-lf-fragment,encoding=raw");
+  gst_harness_set_src_caps_str(h, "application/x-lf-fragment,encoding=raw,width=80,height=60");
   // Garbage: dropped with a warning.
   EXPECT_EQ(gst_harness_push(h, bytes({'L', 'F', 'F', 'R', 0, 1}, 0)), GST_FLOW_OK);
   // A real fragment of the one camera: composited alone, renormalised.
@@ -245,10 +245,11 @@ TEST_F(Harness, CompositorRateAndDeadlineFromFragmentCaps) {
   lf::save_rig(one, one_path);
   for (const GstClockTime user_latency : {GstClockTime(0), GstClockTime(5 * GST_MSECOND)}) {
     GstElement* el = gst_element_factory_make("lfcompositor", nullptr);
-    g_object_set(el, "rig", one_path.c_str(), "latency", user_latency, nullptr);
+    g_object_set(el, "rig", one_path.c_str(), "viewer-id", 3, "latency", user_latency, nullptr);
     GstHarness* h = gst_harness_new_with_element(el, "sink_0", "src");
     gst_harness_set_live(h, FALSE);
-    gst_harness_set_src_caps_str(h, "application/x-lf-fragment,encoding=raw,framerate=15/1");
+    gst_harness_set_src_caps_str(
+        h, "application/x-lf-fragment,encoding=raw,framerate=15/1,width=80,height=60");
     const lf::ViewRequest req = request(2);
     const lf::ViewGeometry g(one, req);
     lf::Fragment f;

@@ -49,4 +49,20 @@ void Compositor::resolve(cv::Mat& out) const {
   }
 }
 
+size_t Compositor::fill_from(cv::Mat& out, const cv::Mat& previous) {
+  if (previous.type() != CV_8UC4 || previous.size() != out.size() || out.type() != CV_8UC4)
+    throw std::invalid_argument("compositor: previous frame does not match");
+  size_t n = 0;
+  for (int y = 0; y < out.rows; ++y) {
+    uint8_t* o = out.ptr<uint8_t>(y);
+    const uint8_t* p = previous.ptr<uint8_t>(y);
+    for (int x = 0; x < out.cols; ++x, o += 4, p += 4)
+      if (o[3] == 0 && p[3] != 0) {
+        o[0] = p[0], o[1] = p[1], o[2] = p[2], o[3] = p[3];
+        ++n;
+      }
+  }
+  return n;
+}
+
 }  // namespace lf

@@ -22,6 +22,12 @@ class Compositor {
   // Writes the normalised frame (CV_8UC4; alpha = 255 where any weight arrived,
   // 0 elsewhere, where colour is 0).
   void resolve(cv::Mat& out) const;
+  // Where no weight arrived (alpha 0 in `out`), takes the pixel of
+  // `previous` (the last frame shown, same size, CV_8UC4): a frame
+  // composited without some of its fragments (a missed deadline) shows the
+  // last picture there instead of black. Returns the number of pixels taken.
+  // Throws std::invalid_argument if `previous` does not match.
+  static size_t fill_from(cv::Mat& out, const cv::Mat& previous);
   // Accumulated weight (0..255 per full contribution) at a pixel.
   uint32_t weight_at(int x, int y) const { return acc_[(static_cast<size_t>(y) * w_ + x) * 4 + 3]; }
   int width() const { return w_; }

@@ -259,7 +259,7 @@ void decompress(const uint8_t* j, size_t n, int w, int h, JpegKind kind, std::ve
   out.resize(static_cast<size_t>(w) * h * (colour ? 4 : 1));
   if (tjDecompress2(decompressor(), j, static_cast<unsigned long>(n), out.data(), w,
                     w * (colour ? 4 : 1), h, colour ? TJPF_RGBX : TJPF_GRAY,
-                    TJFLAG_STOPONWARNING) != 0)
+                    TJFLAG_STOPONWARNING | TJFLAG_LIMITSCANS) != 0)
     bad_fragment(std::string(what) + " JPEG data: " + tjGetErrorStr2(decompressor()));
 }
 
@@ -363,7 +363,7 @@ FragmentHeader peek_fragment_header(const uint8_t* data, size_t size) {
   return h;
 }
 
-Fragment parse_fragment(const uint8_t* data, size_t size, Encoding* enc_out) {
+Fragment parse_fragment(const uint8_t* data, size_t size, Encoding* enc_out, size_t max_pixels) {
   const FragmentHeader head = peek_fragment_header(data, size);
   Reader r(data + 32, size - 32, "fragment");
   Fragment f;
@@ -404,6 +404,9 @@ Fragment parse_fragment(const uint8_t* data, size_t size, Encoding* enc_out) {
   if (x + w > f.out_width || y + h > f.out_height)
     bad_fragment("rectangle " + std::to_string(w) + "x" + std::to_string(h) + "+" +
                  std::to_string(x) + "+" + std::to_string(y) + " exceeds the output frame");
+  if (static_cast<size_t>(w) * h > max_pixels)
+    bad_fragment("rectangle of " + std::to_string(w) + "x" + std::to_string(h) +
+                 " pixels exceeds the receiver's limit of " + std::to_string(max_pixels));
   f.rect = cv::Rect(x, y, w, h);
   Reader p(payload, psize, "fragment payload");
   size_t npix = 0;

@@ -13,20 +13,21 @@
 //   8  viewer_id u32, 12 sequence u64, 20 camera_id u32, 24 capture_time_ns i64
 //  32  out_width u16, 34 out_height u16 (the output frame, 1..16384)
 //  36  rect x, y, w, h  u16 x 4 (inside the output frame; all 0 when empty)
-//  44  encoding u8 (0 empty, 1 raw, 2 jpeg, 3 jpeg with its tables left out),
-//  45  jpeg quality u8 (1..100 with encoding 3), 46 reserved u16 (0)
+//  44  encoding u8 (0 empty, 1 raw, 2 jpeg), 45 jpeg quality u8 (1..100 with
+//      jpeg, else 0), 46 reserved u16 (0)
 //  48  payload_size u32 (<= 64 MiB), 52 crc32 u32 (bytes 0..51, then payload)
 // Payload: rect.h row spans (u16 begin, u16 end, relative to rect.x, begin <=
 // end <= w), then
 //   raw:  the span pixels, 4 bytes each, row after row;
-//   jpeg: a 4-component (YCCK, via TurboJPEG's CMYK path: 4:2:0 chroma,
-//         full-resolution 4th channel) JPEG of the w x h rectangle; pixels
-//         outside the spans are ignored (the sender fills them from the
-//         nearest span pixels). Encoding 3 leaves out the DQT and DHT
-//         segments, which are then libjpeg's standard tables for the quality
-//         in byte 45 (ITU T.81 Annex K; as RTP/JPEG, RFC 2435, does): the
-//         receiver puts them back after SOI. Senders use 3 whenever their
-//         tables are the standard ones, else 2.
+//   jpeg: flags u8 (1: the JPEGs leave out their DQT and DHT segments, which
+//         are then libjpeg's standard tables for the quality in byte 45, ITU
+//         T.81 Annex K, put back by the receiver after SOI, as RTP/JPEG, RFC
+//         2435, does; 2: the weight JPEG is at half resolution, (w+1)/2 x
+//         (h+1)/2, upsampled bilinearly), colour_size u32, then a baseline
+//         YCbCr 4:2:0 JPEG of the w x h rectangle's colour (colour_size
+//         bytes), then a greyscale JPEG of its fourth channel (the weight,
+//         the rest of the payload). Pixels outside the spans are ignored (the
+//         sender fills them from the nearest span pixels).
 //
 // View request, version 1: 144 bytes
 //   0 "LFVR", 4 version u16 = 1, 6 size u16 = 144, 8 viewer_id u32, 12 sequence u64,
@@ -55,6 +56,8 @@ struct WireError : std::runtime_error {
 constexpr size_t kFragmentHeaderSize = 56;
 constexpr size_t kRequestSize = 144;
 constexpr size_t kMaxPayload = 64u << 20;
+// Default cap on a parsed fragment's rectangle: 8192 x 8192 pixels.
+constexpr size_t kMaxFragmentPixels = size_t{8192} * 8192;
 
 // Serializes a fragment (empty fragments are always sent as kEmpty).
 // jpeg_quality in 1..100. Throws std::invalid_argument on an inconsistent
@@ -62,8 +65,13 @@ constexpr size_t kMaxPayload = 64u << 20;
 std::vector<uint8_t> serialize_fragment(const Fragment& f, Encoding encoding,
                                         int jpeg_quality = 90);
 // Parses and validates; the result passes check_fragment(). `encoding`
-// receives the payload's encoding if not null.
-Fragment parse_fragment(const uint8_t* data, size_t size, Encoding* encoding = nullptr);
+// receives the payload's encoding if not null. A fragment whose rectangle has
+// more than `max_pixels` pixels is rejected before anything is decoded (a
+// receiver passes the area of the frame it composites, so a peer cannot make
+// it decode more than that); JPEG decoding also limits progressive scans
+// (TurboJPEG's TJFLAG_LIMITSCANS), so its cost is bounded by the pixels.
+Fragment parse_fragment(const uint8_t* data, size_t size, Encoding* encoding = nullptr,
+                        size_t max_pixels = kMaxFragmentPixels);
 
 // The identifying header fields of a serialized fragment, read without
 // checking the CRC or decoding the payload (for routing and tracing).
