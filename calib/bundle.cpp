@@ -23,9 +23,12 @@ BundleProblem read_bal(const std::string& path) {
   if (!(in >> p.num_cameras >> p.num_points >> nobs) || p.num_cameras <= 0 || p.num_points <= 0 ||
       nobs == 0 || nobs > 100000000)
     fail("bad header (expected: cameras points observations, all > 0)");
-  p.observations.resize(nobs);
+  // Grow as data arrives: the header's counts are not trusted for allocation
+  // (a 3-number header could otherwise ask for gigabytes).
+  constexpr size_t kReserveMax = 1 << 16;
+  p.observations.reserve(std::min<size_t>(nobs, kReserveMax));
   for (size_t i = 0; i < nobs; ++i) {
-    auto& o = p.observations[i];
+    BundleProblem::Observation o;
     if (!(in >> o.camera >> o.point >> o.x >> o.y))
       fail("observation " + std::to_string(i) + " is truncated or not numeric");
     if (o.camera < 0 || o.camera >= p.num_cameras || o.point < 0 || o.point >= p.num_points)
@@ -33,13 +36,18 @@ BundleProblem read_bal(const std::string& path) {
            " / point " + std::to_string(o.point) + ", out of range");
     if (!std::isfinite(o.x) || !std::isfinite(o.y))
       fail("observation " + std::to_string(i) + " is not finite");
+    p.observations.push_back(o);
   }
-  p.cameras.resize(9 * static_cast<size_t>(p.num_cameras));
-  p.points.resize(3 * static_cast<size_t>(p.num_points));
-  for (double& v : p.cameras)
-    if (!(in >> v) || !std::isfinite(v)) fail("camera parameters truncated or not finite");
-  for (double& v : p.points)
-    if (!(in >> v) || !std::isfinite(v)) fail("point coordinates truncated or not finite");
+  auto read_block = [&](std::vector<double>& v, size_t n, const char* what) {
+    v.reserve(std::min<size_t>(n, kReserveMax));
+    for (size_t i = 0; i < n; ++i) {
+      double x;
+      if (!(in >> x) || !std::isfinite(x)) fail(std::string(what) + " truncated or not finite");
+      v.push_back(x);
+    }
+  };
+  read_block(p.cameras, 9 * static_cast<size_t>(p.num_cameras), "camera parameters");
+  read_block(p.points, 3 * static_cast<size_t>(p.num_points), "point coordinates");
   return p;
 }
 

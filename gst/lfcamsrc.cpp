@@ -139,32 +139,71 @@ static void lf_cam_src_property_set(GObject* obj, GParamSpec* ps, const GValue* 
 }
 LF_DEFINE_ELEMENT_GLUE(lf_cam_src, LF_CAM_SRC)
 
-// The description of the internal decoding pipeline (file and v4l2 modes).
-static std::string decoder_description(const Settings& s, const lf::Camera& cam) {
-  std::string desc;
+// An element made by name; throws naming it when GStreamer lacks it.
+static GstElement* make(const char* factory) {
+  GstElement* e = gst_element_factory_make(factory, nullptr);
+  if (!e) throw std::runtime_error(std::string("GStreamer element '") + factory + "' is missing");
+  return e;
+}
+
+// decodebin / uridecodebin: link the first video pad to the converter.
+static void on_decoded_pad(GstElement*, GstPad* pad, gpointer convert) {
+  GstCaps* caps = gst_pad_get_current_caps(pad);
+  if (!caps) caps = gst_pad_query_caps(pad, nullptr);
+  const bool video =
+      caps && gst_caps_get_size(caps) > 0 &&
+      g_str_has_prefix(gst_structure_get_name(gst_caps_get_structure(caps, 0)), "video/");
+  if (caps) gst_caps_unref(caps);
+  GstPad* sink = gst_element_get_static_pad(GST_ELEMENT(convert), "sink");
+  if (video && !gst_pad_is_linked(sink)) gst_pad_link(pad, sink);
+  gst_object_unref(sink);
+}
+
+// The internal decoding pipeline (file and v4l2 modes), built from elements
+// with their properties set directly: user strings (location, device) are
+// never spliced into a pipeline description.
+static GstElement* build_decoder(const Settings& s, const lf::Camera& cam, GstElement** sink) {
+  GstElement* pipe = gst_pipeline_new(nullptr);
+  GstElement* convert = make("videoconvert");
+  GstElement* scale = make("videoscale");
+  GstElement* filter = make("capsfilter");
+  GstElement* app = make("appsink");
+  GstCaps* caps = gst_caps_new_simple("video/x-raw", "format", G_TYPE_STRING, "RGBA", "width",
+                                      G_TYPE_INT, cam.width, "height", G_TYPE_INT, cam.height,
+                                      "pixel-aspect-ratio", GST_TYPE_FRACTION, 1, 1, nullptr);
+  g_object_set(filter, "caps", caps, nullptr);
+  gst_caps_unref(caps);
+  g_object_set(app, "sync", FALSE, "max-buffers", 2, "drop", s.mode == Mode::kV4l2, nullptr);
+  gst_bin_add_many(GST_BIN(pipe), convert, scale, filter, app, nullptr);
+  gst_element_link_many(convert, scale, filter, app, nullptr);
   if (s.mode == Mode::kV4l2) {
-    desc = "v4l2src device=\"" + s.device + "\"";
+    GstElement* src = make("v4l2src");
+    g_object_set(src, "device", s.device.c_str(), nullptr);
+    gst_bin_add(GST_BIN(pipe), src);
+    gst_element_link(src, convert);
+  } else if (s.location.find('%') != std::string::npos) {
+    GstElement* src = make("multifilesrc");
+    GstElement* dec = make("decodebin");
+    g_object_set(src, "location", s.location.c_str(), "loop", s.loop, nullptr);
+    gst_bin_add_many(GST_BIN(pipe), src, dec, nullptr);
+    gst_element_link(src, dec);
+    g_signal_connect(dec, "pad-added", G_CALLBACK(on_decoded_pad), convert);
   } else {
-    if (s.location.empty())
-      throw std::invalid_argument(
-          "mode=file needs 'location' (a file, or a printf pattern such as frames/%04d.png for "
-          "an image sequence)");
-    if (s.location.find('%') != std::string::npos) {
-      desc = "multifilesrc location=\"" + s.location + "\"" + (s.loop ? " loop=true" : "") +
-             " ! decodebin";
-    } else {
-      gchar* uri = gst_uri_is_valid(s.location.c_str())
-                       ? g_strdup(s.location.c_str())
-                       : gst_filename_to_uri(s.location.c_str(), nullptr);
-      if (!uri) throw std::invalid_argument("location '" + s.location + "' is not a file or URI");
-      desc = std::string("uridecodebin uri=\"") + uri + "\"";
-      g_free(uri);
+    gchar* uri = gst_uri_is_valid(s.location.c_str())
+                     ? g_strdup(s.location.c_str())
+                     : gst_filename_to_uri(s.location.c_str(), nullptr);
+    if (!uri) {
+      gst_object_unref(pipe);
+      throw std::invalid_argument("location '" + s.location + "' is not a file or URI");
     }
+    GstElement* dec = make("uridecodebin");
+    g_object_set(dec, "uri", uri, nullptr);
+    g_free(uri);
+    gst_bin_add(GST_BIN(pipe), dec);
+    g_signal_connect(dec, "pad-added", G_CALLBACK(on_decoded_pad), convert);
   }
-  return desc + " ! videoconvert ! videoscale ! video/x-raw,format=RGBA,width=" +
-         std::to_string(cam.width) + ",height=" + std::to_string(cam.height) +
-         ",pixel-aspect-ratio=1/1 ! appsink name=frames sync=false max-buffers=2 drop=" +
-         (s.mode == Mode::kV4l2 ? "true" : "false");
+  *sink = GST_ELEMENT(gst_object_ref(app));
+  return pipe;
 }
 
 // Opens the camera's input for `st` (throws std::exception on failure).
@@ -174,15 +213,11 @@ static void open_input(State* st) {
   switch (s.mode) {
     case Mode::kFile:
     case Mode::kV4l2: {
-      GError* err = nullptr;
-      st->decoder = gst_parse_launch(decoder_description(s, cam).c_str(), &err);
-      if (!st->decoder) {
-        const std::string msg = err ? err->message : "cannot build the decoding pipeline";
-        g_clear_error(&err);
-        throw std::runtime_error(msg);
-      }
-      g_clear_error(&err);
-      st->appsink = gst_bin_get_by_name(GST_BIN(st->decoder), "frames");
+      if (s.mode == Mode::kFile && s.location.empty())
+        throw std::invalid_argument(
+            "mode=file needs 'location' (a file, or a printf pattern such as frames/%04d.png "
+            "for an image sequence)");
+      st->decoder = build_decoder(s, cam, &st->appsink);
       if (gst_element_set_state(st->decoder, GST_STATE_PLAYING) == GST_STATE_CHANGE_FAILURE)
         throw std::runtime_error("cannot open " +
                                  (s.mode == Mode::kV4l2 ? "device " + s.device : s.location));

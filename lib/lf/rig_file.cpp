@@ -2,6 +2,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <stdexcept>
@@ -29,6 +30,30 @@ T get_field(const json& j, const char* key, const std::string& origin, const std
     fail(origin, where + ": field '" + key + "' has the wrong type (" + e.what() + ")");
   }
 }
+// Integers are checked, not converted: a JSON number such as 1e30 or 2^40
+// is rejected (converting it to int would be undefined or wrap).
+int json_int(const json& v, const std::string& origin, const std::string& what) {
+  if (v.is_number_unsigned()) {
+    if (v.get<uint64_t>() > static_cast<uint64_t>(std::numeric_limits<int>::max()))
+      fail(origin, what + " is out of range");
+  } else if (!v.is_number_integer()) {
+    fail(origin, what + " must be an integer");
+  }
+  const int64_t x = v.get<int64_t>();
+  if (x < std::numeric_limits<int>::min() || x > std::numeric_limits<int>::max())
+    fail(origin, what + " is out of range");
+  return static_cast<int>(x);
+}
+
+template <>
+int get_field<int>(const json& j, const char* key, const std::string& origin,
+                   const std::string& where) {
+  if (!j.contains(key)) fail(origin, where + ": missing field '" + key + "'");
+  return json_int(j.at(key), origin, where + ": field '" + key + "'");
+}
+
+Rig parse_rig_json(const json& j, const std::string& origin);
+
 }  // namespace
 
 std::string rig_to_json(const Rig& rig) {
@@ -87,6 +112,16 @@ Rig rig_from_json(const std::string& text, const std::string& origin) {
     fail(origin, std::string("not valid JSON: ") + e.what());
   }
   if (!j.is_object()) fail(origin, "top level is not a JSON object");
+  // Every nlohmann exception becomes the documented std::runtime_error.
+  try {
+    return parse_rig_json(j, origin);
+  } catch (const json::exception& e) {
+    fail(origin, std::string("wrong type or value: ") + e.what());
+  }
+}
+
+namespace {
+Rig parse_rig_json(const json& j, const std::string& origin) {
   const auto format = get_field<std::string>(j, "format", origin, "header");
   if (format != kFormat) fail(origin, "format is '" + format + "', expected '" + kFormat + "'");
   const int version = get_field<int>(j, "version", origin, "header");
@@ -146,18 +181,21 @@ Rig rig_from_json(const std::string& text, const std::string& origin) {
           rig.grid.cells.push_back(-1);
           continue;
         }
-        if (!cell.is_number_integer()) fail(origin, "grid: camera_ids entries are ids or null");
-        const int idx = rig.index_of(cell.get<int>());
-        if (idx < 0) fail(origin, "grid: unknown camera id " + std::to_string(cell.get<int>()));
+        const int id = json_int(cell, origin, "grid: camera_ids entry");
+        const int idx = rig.index_of(id);
+        if (idx < 0) fail(origin, "grid: unknown camera id " + std::to_string(id));
         rig.grid.cells.push_back(idx);
       }
     }
   }
   if (j.contains("triangles")) {
-    try {
-      rig.triangles = j["triangles"].get<std::vector<std::array<int, 3>>>();
-    } catch (const json::exception& e) {
-      fail(origin, std::string("triangles must be [id, id, id] triples: ") + e.what());
+    const json& tris = j["triangles"];
+    if (!tris.is_array()) fail(origin, "triangles must be an array of [id, id, id] triples");
+    for (const json& t : tris) {
+      if (!t.is_array() || t.size() != 3) fail(origin, "triangles must be [id, id, id] triples");
+      rig.triangles.push_back({json_int(t[0], origin, "triangle id"),
+                               json_int(t[1], origin, "triangle id"),
+                               json_int(t[2], origin, "triangle id")});
     }
   }
   if (j.contains("focal_param")) {
@@ -173,6 +211,7 @@ Rig rig_from_json(const std::string& text, const std::string& origin) {
   }
   return rig;
 }
+}  // namespace
 
 Rig load_rig(const std::string& path) {
   std::ifstream in(path);
