@@ -15,6 +15,10 @@ namespace lf::calib {
 BundleProblem read_bal(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error("read_bal: cannot open '" + path + "'");
+  return read_bal(in, path);
+}
+
+BundleProblem read_bal(std::istream& in, const std::string& path) {
   BundleProblem p;
   size_t nobs = 0;
   auto fail = [&](const std::string& what) -> void {

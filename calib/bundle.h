@@ -9,6 +9,7 @@
 //   x = f (1 + k1 |p|^2 + k2 |p|^4) p
 #pragma once
 
+#include <istream>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,8 @@ struct BundleProblem {
 // line and what is wrong (bad header, index out of range, non-finite value,
 // truncation).
 BundleProblem read_bal(const std::string& path);
+// The same from a stream; `name` names it in errors.
+BundleProblem read_bal(std::istream& in, const std::string& name);
 
 struct BundleOptions {
   int max_iterations = 100;

@@ -387,6 +387,8 @@ TEST_F(Hostile, LocalFilesAreBounded) {
   EXPECT_THROW(lf::rig_from_json(bad), std::runtime_error);
   bad = json.substr(0, at) + "\"width\": 99999999999" + json.substr(comma);
   EXPECT_THROW(lf::rig_from_json(bad), std::runtime_error);
+  // Found by fuzz_rig: a number out of double's range is a parse error too.
+  EXPECT_THROW(lf::rig_from_json("{\"format\": 1e999}"), std::runtime_error);
   const auto name = json.find("\"name\"");
   ASSERT_NE(name, std::string::npos);
   bad = json.substr(0, name) + "\"name\": 5, \"x\"" + json.substr(json.find(':', name));

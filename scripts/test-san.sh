@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# The sanitizer run: builds with clang, AddressSanitizer and
+# UndefinedBehaviorSanitizer (scripts/setup-san.sh), runs the in-process test
+# programs (every test but the 'system' suite, whose tests launch other
+# processes: valgrind, gst-launch, lf-launch), then each fuzz harness for
+# SECONDS (default 60; scripts/fuzz.sh).
+# usage: scripts/test-san.sh [SECONDS]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build="${LF_SAN_BUILD_DIR:-$PWD/build-san}"
+./scripts/setup-san.sh "$build"
+export ASAN_OPTIONS="detect_leaks=1:abort_on_error=0"
+export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
+export LSAN_OPTIONS="suppressions=$PWD/tests/lsan.supp"
+# OpenCV's gphoto2 camera probing is of no use here and leaks (tests/lsan.supp).
+export OPENCV_VIDEOIO_PRIORITY_GPHOTO2=0
+# Build the GStreamer registry once, outside the measured runs (in process:
+# the plugin scanner cannot load a sanitized plugin).
+ASAN_OPTIONS=detect_leaks=0 "$build/tests/test_gst_harness" \
+  --gtest_filter=Harness.CamSrcCapsAndCaptureTime > /dev/null
+rm -rf "$build/gtest-xml"
+status=0
+GTEST_OUTPUT=xml:"$build/gtest-xml/" meson test -C "$build" --no-suite system \
+  --print-errorlogs --timeout-multiplier 3 || status=$?
+./scripts/fuzz.sh "${1:-60}" "$build" || status=1
+exit "$status"

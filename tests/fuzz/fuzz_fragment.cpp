@@ -1,0 +1,32 @@
+// libFuzzer harness: the fragment parser (lib/lf/wire.h) as a receiver uses
+// it, then compositing of whatever it accepts. A parsed fragment must pass
+// check_fragment, survive a raw round trip unchanged, and add to a frame of
+// its size without error.
+#include <cstdint>
+#include <cstdlib>
+#include <exception>
+
+#include "lf/composite.h"
+#include "lf/wire.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  lf::Fragment f;
+  try {
+    // A receiver's limit: a 640x480 frame.
+    f = lf::parse_fragment(data, size, nullptr, 640 * 480);
+  } catch (const lf::WireError&) {
+    return 0;  // rejected: the expected outcome for almost every input
+  }
+  lf::check_fragment(f);  // throws (and so aborts the run) if inconsistent
+  const auto raw = lf::serialize_fragment(f, f.empty() ? lf::Encoding::kEmpty : lf::Encoding::kRaw);
+  const lf::Fragment g = lf::parse_fragment(raw.data(), raw.size());
+  if (g.pixels != f.pixels || g.spans != f.spans || g.rect != f.rect) std::abort();
+  if (f.out_width <= 640 && f.out_height <= 480) {
+    lf::Compositor c;
+    c.reset(f.out_width, f.out_height);
+    c.add(f);
+    cv::Mat out;
+    c.resolve(out);
+  }
+  return 0;
+}
