@@ -6,17 +6,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 build="${1:-${LF_SAN_BUILD_DIR:-$PWD/build-san}}"
 PACKAGES=(clang-14 libclang-rt-14-dev)
-missing=()
-for p in "${PACKAGES[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if [ ${#missing[@]} -gt 0 ]; then
-  echo "setup-san: installing ${missing[*]}"
-  SUDO=""
-  [ "$(id -u)" -ne 0 ] && SUDO="sudo"
-  $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
-fi
+./scripts/install-packages.sh "${PACKAGES[@]}"
 if [ ! -f "$build/build.ninja" ]; then
   CXX=clang++-14 CC=clang-14 meson setup "$build" --buildtype=debugoptimized \
     -Db_sanitize=address,undefined -Db_lundef=false -Dfuzzing=true > /dev/null
