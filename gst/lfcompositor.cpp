@@ -29,6 +29,7 @@
 #include <gst/video/video.h>
 #include <zlib.h>
 
+#include <atomic>
 #include <map>
 #include <memory>
 #include <opencv2/imgproc.hpp>
@@ -125,6 +126,9 @@ struct State {
 struct Priv {
   Settings settings;  // properties (object lock)
   std::unique_ptr<State> state;
+  // One frame period of the output rate (ns; 0 until the caps give a rate):
+  // read by the `latency` notify handler on any thread, so not in State.
+  std::atomic<GstClockTime> period{0};
 };
 
 lfgst::Properties<Settings> props;
@@ -169,12 +173,10 @@ static gboolean lf_compositor_stop(GstAggregator* agg) {
 // The deadline: one frame period of the request rate, unless the `latency`
 // property is set (then it alone).
 static void update_latency(LfCompositor* self) {
-  State* st = self->priv->state.get();
-  if (!st) return;
+  const GstClockTime period = self->priv->period.load();
+  if (period == 0) return;
   GstClockTime user = 0;
   g_object_get(self, "latency", &user, nullptr);
-  const lfgst::Fraction fps = st->fps();
-  const GstClockTime period = gst_util_uint64_scale_int(GST_SECOND, fps.d, fps.n);
   const GstClockTime own = user > 0 ? 0 : period;
   gst_aggregator_set_latency(GST_AGGREGATOR(self), own, own);
 }
@@ -205,6 +207,8 @@ static gboolean lf_compositor_sink_event(GstAggregator* agg, GstAggregatorPad* p
         GST_WARNING_OBJECT(self, "fragment caps change the request rate from %d/%d to %d/%d",
                            st->caps_fps.n, st->caps_fps.d, n, d);
       st->caps_fps = {n, d};
+      const lfgst::Fraction fps = st->fps();
+      self->priv->period = gst_util_uint64_scale_int(GST_SECOND, fps.d, fps.n);
       update_latency(self);
     }
   }

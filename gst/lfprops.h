@@ -41,22 +41,18 @@ class Properties {
 
   // set_property / get_property of an element whose settings are `s`.
   void set(GObject* obj, S& s, guint id, const GValue* v, GParamSpec* ps) const {
-    if (id < 1 || id > entries_.size()) {
-      G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
-      return;
+    if (const Entry* e = find(obj, id, ps)) {
+      GST_OBJECT_LOCK(obj);
+      e->set(s, v);
+      GST_OBJECT_UNLOCK(obj);
     }
-    GST_OBJECT_LOCK(obj);
-    entries_[id - 1].set(s, v);
-    GST_OBJECT_UNLOCK(obj);
   }
   void get(GObject* obj, const S& s, guint id, GValue* v, GParamSpec* ps) const {
-    if (id < 1 || id > entries_.size()) {
-      G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
-      return;
+    if (const Entry* e = find(obj, id, ps)) {
+      GST_OBJECT_LOCK(obj);
+      e->get(s, v);
+      GST_OBJECT_UNLOCK(obj);
     }
-    GST_OBJECT_LOCK(obj);
-    entries_[id - 1].get(s, v);
-    GST_OBJECT_UNLOCK(obj);
   }
 
  private:
@@ -92,6 +88,12 @@ class Properties {
   template <class E, std::enable_if_t<std::is_enum<E>::value, int> = 0>
   static void fetch(E x, GValue* v) {
     g_value_set_enum(v, static_cast<gint>(x));
+  }
+  // The entry of property `id`, or null (warned) if it is not in the table.
+  const Entry* find(GObject* obj, guint id, GParamSpec* ps) const {
+    if (id >= 1 && id <= entries_.size()) return &entries_[id - 1];
+    G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
+    return nullptr;
   }
   std::vector<Entry> entries_;
 };
