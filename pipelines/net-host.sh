@@ -38,6 +38,14 @@
 #                streams its JPEG video (stock jpegenc quality=QUALITY, rtpjpegpay)
 #                to the compositor host, which stores the received JPEG frames
 #                as DIR/cam<ID>-<N>.jpg (camera i uses port BASELINE_PORT + i) [6000]
+#   SRTP_KEY     60 hex digits (AES-128 key + salt) shared by every host:
+#                every RTP stream is authenticated and encrypted (srtpenc /
+#                srtpdec, RFC 3711, AES-128-ICM + HMAC-SHA1-80), so packets
+#                from anyone without the key are dropped before they reach
+#                a depayloader; `head -c 30 /dev/urandom | od -An -tx1 |
+#                tr -d ' \n'` makes one. Each stream has a fixed SSRC
+#                (requests 4096, camera host K's fragments 8192 + K, video
+#                12288). Unset: plain RTP, as on a trusted network    [unset]
 #   PRINT=1      print the lf-launch command instead of running it
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -53,6 +61,23 @@ VIEW="${VIEW:-orbit=0.6 dolly=15 path-frames=120 width=640 height=480}"
 PHASE_NS="${PHASE_NS:-$((500000000 / FPS))}"; OUTPUT="${OUTPUT:-fakesink}"
 export GST_PLUGIN_PATH="$build/gst${GST_PLUGIN_PATH:+:$GST_PLUGIN_PATH}"
 rtp_caps="application/x-rtp,media=application,clock-rate=90000,encoding-name=X-GST"
+jpeg_caps="application/x-rtp,media=video,clock-rate=90000,encoding-name=JPEG,payload=26"
+SRTP_KEY="${SRTP_KEY:-}"
+if [ -n "$SRTP_KEY" ] && ! [[ "$SRTP_KEY" =~ ^[0-9a-fA-F]{60}$ ]]; then
+  echo "net-host.sh: SRTP_KEY must be 60 hex digits (30 bytes: AES-128 key + salt)" >&2; exit 2
+fi
+SSRC_REQUESTS=4096; SSRC_FRAGMENTS=8192; SSRC_VIDEO=12288
+srtp_params="srtp-key=(buffer)$SRTP_KEY,srtp-cipher=(string)aes-128-icm,srtp-auth=(string)hmac-sha1-80"
+srtp_params+=",srtcp-cipher=(string)aes-128-icm,srtcp-auth=(string)hmac-sha1-80,roc=(uint)0"
+# receive CAPS SSRC: a udpsrc's caps and what follows it, up to the depayloader.
+receive() {
+  if [ -z "$SRTP_KEY" ]; then echo "caps=\"$1\""; return; fi
+  local caps="${1/application\/x-rtp/application/x-srtp}"
+  if [[ "$caps" != *payload=* ]]; then caps+=",payload=(int)96"; fi  # rtpgstpay's
+  echo "caps=\"$caps,ssrc=(uint)$2,$srtp_params\" ! srtpdec"
+}
+# protect: what follows a payloader, before the sender.
+protect() { if [ -n "$SRTP_KEY" ]; then echo "srtpenc key=$SRTP_KEY ! "; fi; }
 # Sender side of an RTP stream: optional emulated loss, never clock-synced
 # (buffers leave when ready; the receivers' deadlines do the scheduling).
 loss=""
@@ -65,7 +90,6 @@ if [[ "$REQUESTS" =~ ^2(2[4-9]|3[0-9])\. ]]; then multicast=1; fi
 
 BASELINE_PORT="${BASELINE_PORT:-6000}"
 ids=$("$build/tools/lf-rig" --input "$RIG" --ids)
-jpeg_caps="application/x-rtp,media=video,clock-rate=90000,encoding-name=JPEG,payload=26"
 case "$role" in
   compositor)
     clock=(--clock-server "$CLOCK_PORT" --base-time "${BASE_TIME:-now+3000}")
@@ -78,11 +102,16 @@ case "$role" in
         i=$((i + 1))
       done
     else
+      # Caps travel in band (rtpgstpay) from whoever sends to the fragment
+      # ports, so the view size and rate are fixed here, not taken from them.
+      w=$(sed -n 's/.*width=\([0-9]*\).*/\1/p' <<< "$VIEW"); h=$(sed -n 's/.*height=\([0-9]*\).*/\1/p' <<< "$VIEW")
       desc="lfcompositor name=comp rig=$RIG latency=$((LATENCY_MS * 1000000)) framerate=$FPS/1"
-      desc+=" ! videoconvert ! video/x-raw,format=I420 ! jpegenc quality=$QUALITY ! rtpjpegpay ! $loss"
+      desc+=" width=${w:-640} height=${h:-480}"
+      desc+=" ! videoconvert ! video/x-raw,format=I420 ! jpegenc quality=$QUALITY"
+      desc+=" ! rtpjpegpay ssrc=$SSRC_VIDEO ! $(protect)$loss"
       desc+="udpsink host=$VIEWER port=$VIDEO_PORT $sender"
       for ((k = 0; k < HOSTS; k++)); do
-        desc+="  udpsrc port=$((FRAGMENT_PORT + k)) buffer-size=16777216 caps=\"$rtp_caps\""
+        desc+="  udpsrc port=$((FRAGMENT_PORT + k)) buffer-size=16777216 $(receive "$rtp_caps" $((SSRC_FRAGMENTS + k)))"
         desc+=" ! rtpgstdepay ! queue max-size-buffers=0 max-size-bytes=0 max-size-time=1000000000"
         desc+=" ! comp.sink_$k"
       done
@@ -96,8 +125,9 @@ case "$role" in
     else
       src="udpsrc port=$REQUEST_PORT"
     fi
-    desc="$src caps=\"$rtp_caps\" ! rtpgstdepay ! tee name=requests"
-    desc+="  funnel name=fragments ! rtpgstpay config-interval=1 ! $loss"
+    desc="$src $(receive "$rtp_caps" $SSRC_REQUESTS) ! rtpgstdepay ! tee name=requests"
+    desc+="  funnel name=fragments ! rtpgstpay config-interval=1 ssrc=$((SSRC_FRAGMENTS + host))"
+    desc+=" ! $(protect)$loss"
     desc+="udpsink host=$COMPOSITOR port=$((FRAGMENT_PORT + host)) $sender"
     i=0; n=0
     if [ -n "${BASELINE:-}" ]; then desc=""; fi
@@ -128,8 +158,8 @@ case "$role" in
       dest="multiudpsink clients=$clients $sender"
     fi
     desc="lfviewrequest rig=$RIG is-live=true framerate=$FPS/1 $VIEW"
-    desc+=" ! rtpgstpay config-interval=1 ! $loss$dest"
-    desc+="  udpsrc port=$VIDEO_PORT buffer-size=4194304 caps=\"$jpeg_caps\""
+    desc+=" ! rtpgstpay config-interval=1 ssrc=$SSRC_REQUESTS ! $(protect)$loss$dest"
+    desc+="  udpsrc port=$VIDEO_PORT buffer-size=4194304 $(receive "$jpeg_caps" $SSRC_VIDEO)"
     desc+=" ! rtpjpegdepay ! jpegdec ! $OUTPUT"
     ;;
   *)

@@ -10,7 +10,13 @@
 #   SCENARIO: normal | kill (camera host 1 killed at 1/3 of the run,
 #             restarted at 2/3) | loss (LOSS, default 0.05, per RTP packet on
 #             every link: tc netem where the kernel has it, else dropped by the
-#             senders)
+#             senders) | hostile (an attacker host, evil, runs tools/lf-hostile
+#             beside the others: random and crafted requests and fragments at
+#             HOSTILE_RATE packets/s, default 1000, to the request group, every
+#             camera host, the compositor's fragment ports and the viewer)
+# Every scenario samples each host's resident memory every 5 s (OUTDIR/rss:
+# seconds, host, VmRSS kB) and writes its peak (OUTDIR/rss-peak: host,
+# VmHWM kB).
 # Environment: RIG (required), HOSTS [4], REQUESTS=unicast for a unicast
 # fan-out of the view requests (default: multicast), and net-host.sh's settings (FPS,
 # ENCODING, VIEW, LATENCY_MS, ...). Writes OUTDIR/{comp,view,cam*}.trace,
@@ -33,8 +39,9 @@ tag="lf$$"
 sw="${tag}sw"
 hosts=(comp view)
 for ((k = 0; k < HOSTS; k++)); do hosts+=("cam$k"); done
+if [ "$scenario" = hostile ]; then hosts+=(evil); fi
 declare -A ip pid
-ip[comp]=10.77.0.2; ip[view]=10.77.0.3
+ip[comp]=10.77.0.2; ip[view]=10.77.0.3; ip[evil]=10.77.0.9
 for ((k = 0; k < HOSTS; k++)); do ip[cam$k]=10.77.0.$((10 + k)); done
 
 cleanup() {
@@ -108,6 +115,34 @@ done
 launch view viewer
 echo "lf-netem.sh: $HOSTS camera hosts, compositor, viewer; base time $BASE_TIME; $scenario run of ${seconds}s" >&2
 start=$(date +%s.%N)
+: > "$out/rss"
+sample_rss() {  # every 5 s: seconds since start, host, VmRSS (kB)
+  while :; do
+    for h in "${!pid[@]}"; do
+      r=$(awk '/^VmRSS:/{print $2}' "/proc/${pid[$h]}/status" 2>/dev/null || true)
+      if [ -n "$r" ]; then echo "$(awk "BEGIN{printf \"%.0f\", $(date +%s.%N) - $start}") $h $r" >> "$out/rss"; fi
+    done
+    sleep 5
+  done
+}
+sample_rss &
+sampler=$!
+if [ "$scenario" = hostile ]; then
+  targets=(--fragments "${ip[view]}:${VIDEO_PORT:-5100}")
+  if [[ "${REQUESTS:-239.255.42.1}" =~ ^2(2[4-9]|3[0-9])\. ]]; then
+    targets+=(--requests "${REQUESTS:-239.255.42.1}:${REQUEST_PORT:-5000}")
+  fi
+  for ((k = 0; k < HOSTS; k++)); do
+    targets+=(--requests "${ip[cam$k]}:${REQUEST_PORT:-5000}")
+    targets+=(--fragments "${ip[comp]}:$((${FRAGMENT_PORT:-5200} + k))")
+  done
+  # The attacker forges the rig's real camera ids too.
+  ids=$("$build/tools/lf-rig" --input "$RIG" --ids | tr -s ' \n' ',' | sed 's/,$//')
+  ip netns exec "$tag"evil "$build/tools/lf-hostile" "${targets[@]}" --camera-ids "$ids" \
+    --rate "${HOSTILE_RATE:-1000}" --duration "$(awk "BEGIN{print $seconds + (${START_MS:-4000}) / 1000}")" \
+    > "$out/evil.log" 2>&1 &
+  evil=$!
+fi
 sleep "$(awk "BEGIN{print (${START_MS:-4000})/1000}")"
 case "$scenario" in
   kill)
@@ -123,6 +158,12 @@ case "$scenario" in
   *) sleep "$seconds" ;;
 esac
 # Still running? (A host that died early is an error.)
+kill "$sampler" 2>/dev/null || true
+: > "$out/rss-peak"
+for h in "${!pid[@]}"; do
+  echo "$h $(awk '/^VmHWM:/{print $2}' "/proc/${pid[$h]}/status" 2>/dev/null || echo gone)" >> "$out/rss-peak"
+done
+if [ -n "${evil:-}" ]; then wait "$evil" || true; fi
 status=0
 for h in "${!pid[@]}"; do
   if ! kill -0 "${pid[$h]}" 2>/dev/null; then
