@@ -98,12 +98,18 @@ struct State {
   int64_t viewer = -1;         // the viewer composited (viewer-id, or the first seen)
   lf::Compositor comp, comp_right;
   cv::Mat last_frame;  // RGBA of the last frame emitted (missing pixels come from it)
-  GstVideoInfo out;
+  GstVideoInfo out;    // negotiated output
+  int src_width = 0, src_height = 0;  // composited frames (scaled to `out` if it differs)
   bool have_caps = false;
   GstVideoConverter* convert = nullptr;  // RGBA -> I420 when negotiated
   lfgst::Fraction caps_fps{0, 1};        // from the fragment caps (0/1: none yet)
   gint caps_width = 0, caps_height = 0;  // the view size from the fragment caps
   guint64 late = 0, filled_frames = 0;
+  // Fragments of other viewers since the last one of ours, and when the
+  // first of them came (warned once when ours stay away).
+  guint64 foreign_count = 0;
+  gint64 foreign_since_us = -1;
+  bool warned_foreign = false;
   lfgst::WarnLimiter bad, foreign, unknown_camera, wrong_size, no_size, out_of_window;
   ~State() {
     if (convert) gst_video_converter_free(convert);
@@ -216,55 +222,91 @@ static gboolean lf_compositor_sink_event(GstAggregator* agg, GstAggregatorPad* p
 }
 
 // Number of fragments a complete request has: the rig's cameras, or else one
-// per sink pad.
+// per sink pad (twice that in stereo).
 static size_t expected_fragments(LfCompositor* self) {
   State* st = self->priv->state.get();
   if (st->rig) return st->rig->cameras.size() * (st->s.stereo ? 2 : 1);
   GST_OBJECT_LOCK(self);
   const size_t n = GST_ELEMENT(self)->numsinkpads;
   GST_OBJECT_UNLOCK(self);
-  return n;
+  return n * (st->s.stereo ? 2 : 1);  // stereo: a left and a right fragment per pad
 }
 
+// Negotiates the output for composited frames of width x height: that size
+// at the request rate in the first of RGBA, RGBx, I420 that downstream
+// takes; else the size downstream asks for (nearest to ours), scaled by
+// GStreamer's converter, as stock compositor follows a downstream size. The
+// rate is the viewer's request rate and cannot follow; a mismatch is an
+// error that names both sides.
 static bool ensure_caps(LfCompositor* self, int width, int height) {
   State* st = self->priv->state.get();
-  if (st->have_caps && GST_VIDEO_INFO_WIDTH(&st->out) == width &&
-      GST_VIDEO_INFO_HEIGHT(&st->out) == height)
-    return true;
+  if (st->have_caps && st->src_width == width && st->src_height == height) return true;
   GstAggregator* agg = GST_AGGREGATOR(self);
   const lfgst::Fraction fps = st->fps();
   GstCaps* peer = gst_pad_peer_query_caps(GST_AGGREGATOR_SRC_PAD(agg), nullptr);
-  GstVideoFormat chosen = GST_VIDEO_FORMAT_UNKNOWN;
+  GstCaps* chosen = nullptr;
   for (const char* fmt : {"RGBA", "RGBx", "I420"}) {
     GstCaps* c = gst_caps_new_simple("video/x-raw", "format", G_TYPE_STRING, fmt, "width",
                                      G_TYPE_INT, width, "height", G_TYPE_INT, height, "framerate",
                                      GST_TYPE_FRACTION, fps.n, fps.d, nullptr);
-    const bool ok = !peer || gst_caps_can_intersect(c, peer);
-    gst_caps_unref(c);
-    if (ok) {
-      chosen = gst_video_format_from_string(fmt);
+    if (!peer || gst_caps_can_intersect(c, peer)) {
+      chosen = c;
       break;
     }
+    gst_caps_unref(c);
   }
-  if (peer) gst_caps_unref(peer);
-  if (chosen == GST_VIDEO_FORMAT_UNKNOWN) {
-    GST_ELEMENT_ERROR(self, CORE, NEGOTIATION, ("Downstream accepts none of RGBA, RGBx, I420"),
-                      (nullptr));
+  if (!chosen && peer) {
+    GstCaps* any = gst_caps_from_string(
+        "video/x-raw, format = (string) { RGBA, RGBx, I420 }, width = (int) [ 2, 8192 ], "
+        "height = (int) [ 2, 8192 ]");
+    gst_caps_set_simple(any, "framerate", GST_TYPE_FRACTION, fps.n, fps.d, nullptr);
+    GstCaps* t = gst_caps_intersect_full(peer, any, GST_CAPS_INTERSECT_FIRST);
+    gst_caps_unref(any);
+    if (!gst_caps_is_empty(t)) {
+      t = gst_caps_truncate(t);
+      t = gst_caps_make_writable(t);
+      GstStructure* ts = gst_caps_get_structure(t, 0);
+      gst_structure_fixate_field_nearest_int(ts, "width", width);
+      gst_structure_fixate_field_nearest_int(ts, "height", height);
+      chosen = gst_caps_fixate(t);
+      GST_INFO_OBJECT(self, "downstream asks for another size: scaling %dx%d to %" GST_PTR_FORMAT,
+                      width, height, chosen);
+    } else {
+      gst_caps_unref(t);
+    }
+  }
+  if (!chosen) {
+    gchar* want = peer ? gst_caps_to_string(peer) : g_strdup("(nothing)");
+    GST_ELEMENT_ERROR(self, CORE, NEGOTIATION, ("Downstream does not accept the view's video"),
+                      ("the view is %dx%d at %d/%d fps (RGBA, RGBx or I420; set lfviewrequest "
+                       "width, height and framerate to change it); downstream accepts %s",
+                       width, height, fps.n, fps.d, want));
+    g_free(want);
+    if (peer) gst_caps_unref(peer);
     return false;
   }
-  gst_video_info_set_format(&st->out, chosen, width, height);
-  GST_VIDEO_INFO_FPS_N(&st->out) = fps.n;
-  GST_VIDEO_INFO_FPS_D(&st->out) = fps.d;
+  if (peer) gst_caps_unref(peer);
+  gst_video_info_from_caps(&st->out, chosen);
   if (st->convert) gst_video_converter_free(st->convert), st->convert = nullptr;
-  if (chosen == GST_VIDEO_FORMAT_I420) {
+  const GstVideoFormat fmt = GST_VIDEO_INFO_FORMAT(&st->out);
+  if (fmt == GST_VIDEO_FORMAT_I420 || GST_VIDEO_INFO_WIDTH(&st->out) != width ||
+      GST_VIDEO_INFO_HEIGHT(&st->out) != height) {
     // GStreamer's converter (any size, odd ones included), built once.
     GstVideoInfo rgba;
     gst_video_info_set_format(&rgba, GST_VIDEO_FORMAT_RGBA, width, height);
+    GST_VIDEO_INFO_FPS_N(&rgba) = GST_VIDEO_INFO_FPS_N(&st->out);
+    GST_VIDEO_INFO_FPS_D(&rgba) = GST_VIDEO_INFO_FPS_D(&st->out);
     st->convert = gst_video_converter_new(&rgba, &st->out, nullptr);
+    if (!st->convert) {
+      GST_ELEMENT_ERROR(self, CORE, NEGOTIATION, ("Cannot convert to the negotiated video"),
+                        ("%" GST_PTR_FORMAT, chosen));
+      gst_caps_unref(chosen);
+      return false;
+    }
   }
-  GstCaps* caps = gst_video_info_to_caps(&st->out);
-  gst_aggregator_set_src_caps(agg, caps);
-  gst_caps_unref(caps);
+  gst_aggregator_set_src_caps(agg, chosen);
+  gst_caps_unref(chosen);
+  st->src_width = width, st->src_height = height;
   st->have_caps = true;
   return true;
 }
@@ -312,6 +354,8 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
   if (st->convert) {
     GstVideoInfo info;
     gst_video_info_set_format(&info, GST_VIDEO_FORMAT_RGBA, W, H);
+    GST_VIDEO_INFO_FPS_N(&info) = GST_VIDEO_INFO_FPS_N(&st->out);
+    GST_VIDEO_INFO_FPS_D(&info) = GST_VIDEO_INFO_FPS_D(&st->out);
     GstBuffer* src =
         gst_buffer_new_wrapped_full(GST_MEMORY_FLAG_READONLY, rgba.data, rgba.total() * 4, 0,
                                     rgba.total() * 4, nullptr, nullptr);
@@ -370,6 +414,23 @@ static bool sequence_accepted(LfCompositor* self, State* st, uint64_t seq) {
   return true;
 }
 
+// A fragment of another viewer: after kForeignWarnUs of only those, warn
+// once that viewer-id names a viewer that is not there (a misconfiguration
+// that would otherwise produce nothing, silently).
+constexpr gint64 kForeignWarnUs = 2 * G_USEC_PER_SEC;
+static void note_foreign(LfCompositor* self, State* st, guint viewer) {
+  const gint64 now = g_get_monotonic_time();
+  if (st->foreign_count++ == 0) st->foreign_since_us = now;
+  if (st->warned_foreign || now - st->foreign_since_us < kForeignWarnUs) return;
+  st->warned_foreign = true;
+  GST_ELEMENT_WARNING(self, STREAM, WRONG_TYPE,
+                      ("No fragments of viewer %" G_GINT64_FORMAT, st->viewer),
+                      ("%" G_GUINT64_FORMAT " fragments in %.1f s, all of other viewers (such "
+                       "as %u): check viewer-id (lfviewrequest viewer-id, or -1 here to "
+                       "take the first viewer seen)",
+                       st->foreign_count, (now - st->foreign_since_us) / 1e6, viewer));
+}
+
 // Parses one fragment buffer and files it under its request. What a peer
 // sends is checked from the header before anything is decoded: the viewer,
 // the camera, the sequence window and the output size; then the payload is
@@ -390,6 +451,7 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
   } else if (st->viewer >= 0 && head.viewer_id != st->viewer &&
              !(st->s.stereo && head.viewer_id == st->viewer + 1)) {
     GST_LOG_OBJECT(self, "fragment of viewer %u: not ours", head.viewer_id);
+    note_foreign(self, st, head.viewer_id);
   } else if (st->rig && st->rig->index_of(static_cast<int>(head.camera_id)) < 0) {
     LF_ELEMENT_WARNING_LIMITED(self, st->unknown_camera, STREAM, DECODE,
                                ("Dropping a fragment of an unknown camera"),
@@ -420,6 +482,7 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
   } else {
     lfgst::trace(GST_ELEMENT(self), "decoded", f.viewer_id, f.sequence,
                  static_cast<gint>(f.camera_id), (g_get_monotonic_time() - t0) * 1000);
+    st->foreign_count = 0, st->foreign_since_us = -1;
     if (st->viewer < 0) {  // viewer-id -1: the first viewer seen, then only it
       st->viewer = f.viewer_id;
       GST_INFO_OBJECT(self, "compositing viewer %u", f.viewer_id);
@@ -575,15 +638,26 @@ static GstPad* lf_compositor_request_new_pad(GstElement* el, GstPadTemplate* tem
   return pad;
 }
 
-// Navigation events from the video sink go to every camera branch (and on
-// to lfviewrequest, which applies each once); GstAggregator drops them.
+// Navigation events and lf-view events (lfviewrequest) from downstream go to
+// every camera branch and on to lfviewrequest, which applies each once;
+// GstAggregator would drop them. They are tagged with this compositor's
+// viewer-id (unless they name one), so only this viewer is steered.
 static gboolean lf_compositor_src_event(GstAggregator* agg, GstEvent* event) {
   if (lfgst::refuse_seek(GST_ELEMENT(agg), event)) {
     gst_event_unref(event);
     return FALSE;
   }
-  if (GST_EVENT_TYPE(event) != GST_EVENT_NAVIGATION)
+  const bool view_event =
+      GST_EVENT_TYPE(event) == GST_EVENT_CUSTOM_UPSTREAM && gst_event_has_name(event, "lf-view");
+  if (GST_EVENT_TYPE(event) != GST_EVENT_NAVIGATION && !view_event)
     return GST_AGGREGATOR_CLASS(lf_compositor_parent_class)->src_event(agg, event);
+  const gint viewer = lfgst::read_setting(GST_OBJECT(agg), LF_COMPOSITOR(agg)->priv->settings,
+                                          &Settings::viewer_id);
+  if (viewer >= 0 && !gst_structure_has_field(gst_event_get_structure(event), "viewer-id")) {
+    event = gst_event_make_writable(event);
+    gst_structure_set(gst_event_writable_structure(event), "viewer-id", G_TYPE_UINT,
+                      static_cast<guint>(viewer), nullptr);
+  }
   GST_OBJECT_LOCK(agg);
   GList* pads = g_list_copy(GST_ELEMENT(agg)->sinkpads);
   g_list_foreach(
@@ -624,6 +698,16 @@ static void lf_compositor_class_init(LfCompositorClass* klass) {
       oc, &Settings::viewer_id,
       g_param_spec_int("viewer-id", "Viewer id", "Composite only this viewer's requests (-1: any)",
                        -1, G_MAXINT, DEFAULT_VIEWER_ID, rw));
+  props.add(oc, &Settings::width,
+            g_param_spec_int("width", "Width",
+                             "Width of one view, pixels (0: from the fragment caps, the viewer's "
+                             "request size). Set it where fragments arrive from a network: caps "
+                             "travel in band and any sender can announce them",
+                             0, MAX_OUTPUT_SIDE, DEFAULT_WIDTH, rw));
+  props.add(
+      oc, &Settings::height,
+      g_param_spec_int("height", "Height", "Height of one view, pixels (0: from the fragment caps)",
+                       0, MAX_OUTPUT_SIDE, DEFAULT_HEIGHT, rw));
   props.add(oc, &Settings::framerate,
             gst_param_spec_fraction("framerate", "Frame rate",
                                     "Output frame rate; 0/1: the request rate from the fragment "
