@@ -29,7 +29,9 @@ class Properties {
  public:
   // Installs `spec` on `oc` as the next property id, bound to member `m`.
   // Member types: std::string (string), gint, guint, guint64, gdouble,
-  // bool (boolean), Fraction (GstFraction) and enums (registered GEnums).
+  // bool (boolean), Fraction (GstFraction), std::vector<double>
+  // (GstValueArray of doubles, gst_param_spec_array) and enums (registered
+  // GEnums).
   template <class T>
   void add(GObjectClass* oc, T S::*m, GParamSpec* spec) {
     Entry e;
@@ -72,6 +74,16 @@ class Properties {
   static void assign(Fraction& x, const GValue* v) {
     x = {gst_value_get_fraction_numerator(v), gst_value_get_fraction_denominator(v)};
   }
+  static void assign(std::vector<double>& x, const GValue* v) {
+    x.clear();
+    for (guint i = 0; i < gst_value_array_get_size(v); ++i) {
+      GValue d = G_VALUE_INIT;
+      g_value_init(&d, G_TYPE_DOUBLE);
+      if (g_value_transform(gst_value_array_get_value(v, i), &d))
+        x.push_back(g_value_get_double(&d));
+      g_value_unset(&d);
+    }
+  }
   template <class E, std::enable_if_t<std::is_enum<E>::value, int> = 0>
   static void assign(E& x, const GValue* v) {
     x = static_cast<E>(g_value_get_enum(v));
@@ -85,6 +97,14 @@ class Properties {
   static void fetch(gdouble x, GValue* v) { g_value_set_double(v, x); }
   static void fetch(bool x, GValue* v) { g_value_set_boolean(v, x); }
   static void fetch(const Fraction& x, GValue* v) { gst_value_set_fraction(v, x.n, x.d); }
+  static void fetch(const std::vector<double>& x, GValue* v) {
+    for (double c : x) {
+      GValue d = G_VALUE_INIT;
+      g_value_init(&d, G_TYPE_DOUBLE);
+      g_value_set_double(&d, c);
+      gst_value_array_append_and_take_value(v, &d);
+    }
+  }
   template <class E, std::enable_if_t<std::is_enum<E>::value, int> = 0>
   static void fetch(E x, GValue* v) {
     g_value_set_enum(v, static_cast<gint>(x));

@@ -6,26 +6,56 @@
  * focal plane) at a rate, for one viewer: a fixed view from the properties, a
  * keyframed camera path (`path`) or an orbit over the camera plane (`orbit`).
  * Output: `application/x-lf-view-request` buffers (byte layout in
- * lib/lf/wire.h) whose caps carry the request `framerate`. Positions are in
- * the rig's units and world frame (lib/lf/rig.h). Views are built by
- * lib/lf/view_builder.h, as `lf-render` builds them.
+ * lib/lf/wire.h) whose caps carry the request `framerate`, `width` and
+ * `height`. Positions are in the rig's units and world frame (lib/lf/rig.h).
+ * Views are built by lib/lf/view_builder.h, as `lf-render` builds them.
+ *
+ * ## Steering while playing
+ *
+ * The view properties (`position`, `look-at`, `eye-s`, `eye-t`, `eye-w`,
+ * `vfov`, `focal-plane`, `focal-depth`, `stereo-baseline`, `orbit`, `dolly`,
+ * `path`, `path-frames`) are changeable in PLAYING and apply from the next
+ * request on. `eye-s`, `eye-t`, `eye-w`, `vfov`, `focal-depth` and
+ * `stereo-baseline` are controllable (gst_object_add_control_binding:
+ * interpolated camera moves; values are synced at each request's time).
+ *
+ * A whole view is set at once with a custom upstream event, sent at the
+ * video sink (gst_element_send_event) or into any pad downstream of the
+ * request: a #GstStructure named `lf-view`, made with
+ * gst_event_new_custom (GST_EVENT_CUSTOM_UPSTREAM, ...), whose fields are
+ * any of the properties above, by name, with the property's type and range
+ * (`position`, `look-at`: #GstValueArray of 3 doubles, or an empty one to
+ * unset; doubles for the rest, `focal-plane` a string), plus an optional
+ * `viewer-id` (uint): only that viewer applies it. `lfcompositor` adds its
+ * own `viewer-id` to the events it forwards, so an event or a navigation
+ * event sent at one viewer's sink steers only that viewer. All fields are
+ * checked first (type, finite, in range, known); an event with any bad
+ * field is refused whole with a warning.
+ *
+ * ## Navigation
  *
  * Navigation events from the video sink steer the view: drag (button 1)
- * moves the eye on the camera plane, the wheel moves the focal plane (0.25 px
- * of neighbour parallax per notch), arrow keys move the eye by 1/4 camera
- * spacing, Page_Up/Page_Down (or +/-) move it along the camera-plane normal,
- * r resets.
+ * moves the eye on the camera plane (`eye-s`, `eye-t`; kept over the
+ * camera array), the wheel (or buttons 4/5, as X sinks send it) moves the
+ * focal plane (`focal-depth`, 0.25 px of neighbour parallax per notch),
+ * arrow keys move the eye by 1/4 camera spacing, Page_Up/Page_Down (also
+ * Prior/Next, +/-/=, keypad +/-) move it along the camera-plane normal
+ * (`eye-w`), r resets the eye offset and the focal depth. The properties
+ * follow, so an application reads back where the viewer went.
  *
  * ## Example launch line
  * |[
- * gst-launch-1.0 lfviewrequest rig=rig.json position=0,0,0 focal-plane=depth:2 num-buffers=1 ! \
- *   fakesink dump=true
+ * gst-launch-1.0 lfviewrequest rig=rig.json position="<0,0,0>" focal-plane=depth:2 \
+ *   num-buffers=1 ! fakesink dump=true
  * ]|
  */
 #include <gst/base/gstbasesrc.h>
 #include <gst/video/navigation.h>
 
+#include <atomic>
+#include <cmath>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "lf/focus.h"
@@ -38,6 +68,7 @@
 #include "lfprops.h"
 #include "lfrig.h"
 #include "lftrace.h"
+#include "lfwarn.h"
 
 GST_DEBUG_CATEGORY_STATIC(lf_view_request_debug);
 #define GST_CAT_DEFAULT lf_view_request_debug
@@ -52,6 +83,7 @@ G_END_DECLS
 #define DEFAULT_HEIGHT 480
 #define DEFAULT_VFOV 0.0
 #define DEFAULT_FOCAL_PLANE "infinity"
+#define DEFAULT_FOCAL_DEPTH 0.0
 #define DEFAULT_ORBIT 0.0
 #define DEFAULT_DOLLY 0.0
 #define DEFAULT_PATH_FRAMES 120
@@ -59,15 +91,19 @@ G_END_DECLS
 #define DEFAULT_FPS_D 1
 #define DEFAULT_IS_LIVE FALSE
 #define DEFAULT_STEREO_BASELINE 0.0
+// Largest eye offset or coordinate, rig units.
+#define MAX_COORD 1e12
 
 namespace {
 struct Settings {
   std::string rig;
   guint viewer_id = DEFAULT_VIEWER_ID;
   gint width = DEFAULT_WIDTH, height = DEFAULT_HEIGHT;
-  std::string position, look_at;
+  std::vector<double> position, look_at;  // 3 numbers, or empty (unset)
+  gdouble eye_s = 0, eye_t = 0, eye_w = 0;
   gdouble vfov = DEFAULT_VFOV;
   std::string focal_plane = DEFAULT_FOCAL_PLANE;
+  gdouble focal_depth = DEFAULT_FOCAL_DEPTH;
   std::string path;
   gdouble orbit = DEFAULT_ORBIT, dolly = DEFAULT_DOLLY;
   gint path_frames = DEFAULT_PATH_FRAMES;
@@ -76,17 +112,24 @@ struct Settings {
   gdouble stereo_baseline = DEFAULT_STEREO_BASELINE;
 };
 
+// The views and focal plane that the view settings describe.
+struct Views {
+  Settings s;  // the settings they were built from
+  lf::ViewSequence sequence;
+  lf::FocalPlane plane;
+};
+
 // From READY->PAUSED to PAUSED->READY.
 struct State {
-  Settings s;  // snapshot taken at start
   std::shared_ptr<const lf::Rig> rig;
-  lf::ViewSequence views;
-  lf::FocalPlane plane;
+  // Fixed from start: rig, viewer-id, size, rate, live (caps and schedule).
+  Settings fixed;
+  // Built from the view settings; replaced when they change (streaming
+  // thread), read by the navigation handler (both under Priv::lock).
+  std::shared_ptr<const Views> views;
+  guint applied = 0;  // settings generation the views were built from
   guint64 sequence = 0;
-  // Interactive state (navigation events), guarded by Priv::lock.
-  cv::Vec3d offset = {0, 0, 0};  // added to the eye, rig units
-  double q = 0;                  // focal inverse depth once the wheel was used
-  bool q_active = false;
+  // Navigation gestures (Priv::lock).
   bool dragging = false;
   double drag_x = 0, drag_y = 0;
   guint32 last_seqnum = GST_SEQNUM_INVALID;
@@ -94,14 +137,24 @@ struct State {
 
 struct Priv {
   Settings settings;  // properties (object lock)
-  GMutex lock;        // guards `state` against the navigation (event) thread
+  // Bumped whenever a view property changes (any thread).
+  std::atomic<guint> generation{0};
+  // Held while an lf-view event sets several properties and while the
+  // streaming thread snapshots them, so a request sees all or none.
+  GMutex apply_lock;
+  GMutex lock;  // guards `state` against the event threads
   std::unique_ptr<State> state;
   lfgst::ClockWaiter waiter;
-  Priv() { g_mutex_init(&lock); }
-  ~Priv() { g_mutex_clear(&lock); }
+  lfgst::WarnLimiter bad_view, bad_event;
+  Priv() { g_mutex_init(&lock), g_mutex_init(&apply_lock); }
+  ~Priv() { g_mutex_clear(&lock), g_mutex_clear(&apply_lock); }
 };
 
 lfgst::Properties<Settings> props;
+GParamSpec* spec_eye_s = nullptr;
+GParamSpec* spec_eye_t = nullptr;
+GParamSpec* spec_eye_w = nullptr;
+GParamSpec* spec_focal_depth = nullptr;
 }  // namespace
 
 struct _LfViewRequest {
@@ -117,50 +170,61 @@ static GstStaticPadTemplate src_template =
 
 static void lf_view_request_property_set(GObject* obj, GParamSpec* ps, const GValue* v) {
   lfgst::apply_is_live(obj, ps, v);
+  if (ps->flags & GST_PARAM_MUTABLE_PLAYING) LF_VIEW_REQUEST(obj)->priv->generation++;
 }
 LF_DEFINE_ELEMENT_GLUE(lf_view_request, LF_VIEW_REQUEST)
 
-static lf::ViewSettings view_settings(const Settings& s) {
-  lf::ViewSettings v;
-  v.width = s.width;
-  v.height = s.height;
-  if (!s.position.empty()) v.position = lf::parse_point(s.position, "position");
-  if (!s.look_at.empty()) v.look_at = lf::parse_point(s.look_at, "look-at");
-  v.vfov_deg = s.vfov;
-  v.path_file = s.path;
-  v.orbit = s.orbit;
-  v.dolly = s.dolly;
-  v.path_frames = s.path_frames;
+static std::optional<cv::Vec3d> point(const std::vector<double>& p, const char* what) {
+  if (p.empty()) return std::nullopt;
+  if (p.size() != 3 || !std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+    throw std::invalid_argument(std::string(what) + " needs 3 finite numbers, <x, y, z>");
+  return cv::Vec3d(p[0], p[1], p[2]);
+}
+
+// Builds the views of settings `s` (throws std::exception when they are bad).
+static std::shared_ptr<const Views> build(const Settings& s, const lf::Rig& rig) {
+  auto v = std::make_shared<Views>();
+  v->s = s;
+  lf::ViewSettings vs;
+  vs.width = s.width;
+  vs.height = s.height;
+  vs.position = point(s.position, "position");
+  vs.look_at = point(s.look_at, "look-at");
+  vs.vfov_deg = s.vfov;
+  vs.path_file = s.path;
+  vs.orbit = s.orbit;
+  vs.dolly = s.dolly;
+  vs.path_frames = s.path_frames;
+  v->sequence = lf::build_views(rig, vs);
+  v->plane = s.focal_depth > 0 ? lf::plane_at_inverse_depth(rig, 1.0 / s.focal_depth)
+                               : lf::parse_focal_plane(s.focal_plane, rig);
   return v;
 }
 
 static gboolean lf_view_request_start(GstBaseSrc* src) {
   LfViewRequest* self = LF_VIEW_REQUEST(src);
+  Priv* p = self->priv;
   auto st = std::make_unique<State>();
-  st->s = lfgst::snapshot(GST_OBJECT(self), self->priv->settings);
-  if (st->s.framerate.n <= 0 || st->s.framerate.d <= 0) {
-    GST_ELEMENT_ERROR(
-        self, LIBRARY, SETTINGS, ("Invalid framerate"),
-        ("framerate must be positive, got %d/%d", st->s.framerate.n, st->s.framerate.d));
+  st->applied = p->generation.load();
+  st->fixed = lfgst::snapshot(GST_OBJECT(self), p->settings);
+  const Settings& s = st->fixed;
+  if (s.framerate.n <= 0 || s.framerate.d <= 0) {
+    GST_ELEMENT_ERROR(self, LIBRARY, SETTINGS, ("Invalid framerate"),
+                      ("framerate must be positive, got %d/%d", s.framerate.n, s.framerate.d));
     return FALSE;
   }
-  st->rig = lfgst::open_rig(GST_ELEMENT(self), st->s.rig);
+  st->rig = lfgst::open_rig(GST_ELEMENT(self), s.rig);
   if (!st->rig) return FALSE;
   GError* err = nullptr;
-  if (!lfgst::guard(
-          [&] {
-            st->plane = lf::parse_focal_plane(st->s.focal_plane, *st->rig);
-            st->views = lf::build_views(*st->rig, view_settings(st->s));
-          },
-          &err)) {
+  if (!lfgst::guard([&] { st->views = build(s, *st->rig); }, &err)) {
     GST_ELEMENT_ERROR(self, LIBRARY, SETTINGS, ("Invalid view request settings"),
                       ("%s", err->message));
     g_error_free(err);
     return FALSE;
   }
-  g_mutex_lock(&self->priv->lock);
-  self->priv->state = std::move(st);
-  g_mutex_unlock(&self->priv->lock);
+  g_mutex_lock(&p->lock);
+  p->state = std::move(st);
+  g_mutex_unlock(&p->lock);
   return TRUE;
 }
 
@@ -196,31 +260,62 @@ static gboolean lf_view_request_unlock_stop(GstBaseSrc* src) {
   return TRUE;
 }
 
+// The event is for this viewer: it names no viewer, or this one (or, with a
+// stereo baseline, the right eye's).
+static bool for_this_viewer(LfViewRequest* self, const GstStructure* st) {
+  guint id = 0;
+  gint sid = 0;
+  bool named = gst_structure_get_uint(st, "viewer-id", &id);
+  if (!named && gst_structure_get_int(st, "viewer-id", &sid) && sid >= 0)
+    named = true, id = static_cast<guint>(sid);
+  if (!named) return true;
+  const Settings s = lfgst::snapshot(GST_OBJECT(self), self->priv->settings);
+  return id == s.viewer_id || (s.stereo_baseline > 0 && id == s.viewer_id + 1);
+}
+
+// Sets eye-s/t/w and focal-depth from a navigation gesture, then notifies.
+static void set_navigated(LfViewRequest* self, const cv::Vec3d& eye, double focal_depth) {
+  Priv* p = self->priv;
+  GST_OBJECT_LOCK(self);
+  p->settings.eye_s = eye[0], p->settings.eye_t = eye[1], p->settings.eye_w = eye[2];
+  p->settings.focal_depth = focal_depth;
+  GST_OBJECT_UNLOCK(self);
+  p->generation++;
+  g_object_freeze_notify(G_OBJECT(self));
+  for (GParamSpec* ps : {spec_eye_s, spec_eye_t, spec_eye_w, spec_focal_depth})
+    g_object_notify_by_pspec(G_OBJECT(self), ps);
+  g_object_thaw_notify(G_OBJECT(self));
+}
+
 static void handle_navigation(LfViewRequest* self, GstEvent* event) {
   Priv* p = self->priv;
   g_mutex_lock(&p->lock);
   State* st = p->state.get();
-  if (!st) {
-    g_mutex_unlock(&p->lock);
-    return;
-  }
-  const lf::Rig& rig = *st->rig;
-  const double step = rig.typical_spacing();
-  const lf::CameraPlane& P = rig.plane();
-  double x = 0, y = 0, dx = 0, dy = 0;
-  gint button = 0;
-  const gchar* key = nullptr;
   // Every camera branch forwards the same event upstream: apply it once.
   const guint32 seq = gst_event_get_seqnum(event);
-  if (seq == st->last_seqnum) {
+  if (!st || seq == st->last_seqnum) {
     g_mutex_unlock(&p->lock);
     return;
   }
   st->last_seqnum = seq;
+  const std::shared_ptr<const lf::Rig> rig_ref = st->rig;
+  const std::shared_ptr<const Views> views = st->views;
+  const lf::Rig& rig = *rig_ref;
+  const Settings s = lfgst::snapshot(GST_OBJECT(self), p->settings);
+  const double step = rig.typical_spacing();
+  cv::Vec3d eye(s.eye_s, s.eye_t, s.eye_w);
+  double depth = s.focal_depth;
+  double x = 0, y = 0, dx = 0, dy = 0;
+  gint button = 0;
+  const gchar* key = nullptr;
+  bool changed = false, scroll = false;
   switch (gst_navigation_event_get_type(event)) {
     case GST_NAVIGATION_EVENT_MOUSE_BUTTON_PRESS:
-      if (gst_navigation_event_parse_mouse_button_event(event, &button, &x, &y) && button == 1)
-        st->dragging = true, st->drag_x = x, st->drag_y = y;
+      if (gst_navigation_event_parse_mouse_button_event(event, &button, &x, &y)) {
+        if (button == 1) st->dragging = true, st->drag_x = x, st->drag_y = y;
+        // X sinks (ximagesink, xvimagesink) send the wheel as buttons 4/5.
+        if (button == 4 || button == 5) scroll = true, dy = button == 4 ? 1 : -1;
+      }
       break;
     case GST_NAVIGATION_EVENT_MOUSE_BUTTON_RELEASE:
       if (gst_navigation_event_parse_mouse_button_event(event, &button, &x, &y) && button == 1)
@@ -229,49 +324,135 @@ static void handle_navigation(LfViewRequest* self, GstEvent* event) {
     case GST_NAVIGATION_EVENT_MOUSE_MOVE:
       if (st->dragging && gst_navigation_event_parse_mouse_move_event(event, &x, &y)) {
         // Drag: move the eye on the camera plane, 1/40 camera spacing per pixel.
-        st->offset -= (P.u * (x - st->drag_x) + P.v * (y - st->drag_y)) * (step / 40.0);
+        eye[0] -= (x - st->drag_x) * step / 40.0;
+        eye[1] -= (y - st->drag_y) * step / 40.0;
         st->drag_x = x, st->drag_y = y;
+        changed = true;
       }
       break;
     case GST_NAVIGATION_EVENT_MOUSE_SCROLL:
-      if (gst_navigation_event_parse_mouse_scroll_event(event, &x, &y, &dx, &dy)) {
-        // Wheel: focal plane nearer/farther by 0.25 px of parallax between
-        // neighbouring cameras per notch.
-        if (!st->q_active) st->q = lf::inverse_depth_of(rig, st->plane), st->q_active = true;
-        const double f = rig.cameras[0].intrinsics.fx;
-        st->q = std::max(0.0, st->q + dy * 0.25 / (f * step));
-      }
+      scroll = gst_navigation_event_parse_mouse_scroll_event(event, &x, &y, &dx, &dy);
       break;
     case GST_NAVIGATION_EVENT_KEY_PRESS:
       if (gst_navigation_event_parse_key_event(event, &key) && key) {
         const std::string k = key;
+        changed = true;
         if (k == "Left")
-          st->offset -= P.u * (step / 4);
+          eye[0] -= step / 4;
         else if (k == "Right")
-          st->offset += P.u * (step / 4);
+          eye[0] += step / 4;
         else if (k == "Up")
-          st->offset -= P.v * (step / 4);
+          eye[1] -= step / 4;
         else if (k == "Down")
-          st->offset += P.v * (step / 4);
-        else if (k == "Page_Up" || k == "plus")
-          st->offset += P.normal * step;
-        else if (k == "Page_Down" || k == "minus")
-          st->offset -= P.normal * step;
+          eye[1] += step / 4;
+        else if (k == "Page_Up" || k == "Prior" || k == "plus" || k == "equal" || k == "KP_Add")
+          eye[2] += step;
+        else if (k == "Page_Down" || k == "Next" || k == "minus" || k == "KP_Subtract")
+          eye[2] -= step;
         else if (k == "r")
-          st->offset = {0, 0, 0}, st->q_active = false;
+          eye = {0, 0, 0}, depth = 0;
+        else
+          changed = false;
       }
       break;
     default:
       break;
   }
-  GST_DEBUG_OBJECT(self, "navigation: eye offset (%g, %g, %g), focal q %g", st->offset[0],
-                   st->offset[1], st->offset[2], st->q_active ? st->q : -1.0);
+  if (scroll) {
+    // Wheel: focal plane nearer/farther by 0.25 px of parallax between
+    // neighbouring cameras per notch.
+    const double f = rig.cameras[0].intrinsics.fx;
+    const double q0 = depth > 0 ? 1.0 / depth : lf::inverse_depth_of(rig, views->plane);
+    const double q = std::max(0.0, q0 + dy * 0.25 / (f * step));
+    depth = q > 1.0 / MAX_COORD ? 1.0 / q : MAX_COORD;
+    changed = true;
+  }
+  if (changed) {
+    // Keep the eye over the camera array (off it the picture would be black).
+    cv::Vec2d base(0, 0);
+    if (s.position.size() == 3)
+      base = rig.plane().to_plane({s.position[0], s.position[1], s.position[2]});
+    const cv::Vec2d st2 = lf::clamp_to_array(rig, base + cv::Vec2d(eye[0], eye[1])) - base;
+    eye[0] = st2[0], eye[1] = st2[1];
+  }
   g_mutex_unlock(&p->lock);
+  if (changed) {
+    GST_DEBUG_OBJECT(self, "navigation: eye (s, t, w) = (%g, %g, %g), focal depth %g", eye[0],
+                     eye[1], eye[2], depth);
+    set_navigated(self, eye, depth);
+  }
+}
+
+// An lf-view event: checks every field, then sets them all at once.
+static void handle_view_event(LfViewRequest* self, GstEvent* event) {
+  Priv* p = self->priv;
+  const GstStructure* st = gst_event_get_structure(event);
+  g_mutex_lock(&p->lock);
+  State* state = p->state.get();
+  const guint32 seq = gst_event_get_seqnum(event);
+  const bool fresh = !state || seq != state->last_seqnum;
+  if (state) state->last_seqnum = seq;
+  g_mutex_unlock(&p->lock);
+  if (!fresh) return;
+  std::vector<std::pair<GParamSpec*, GValue>> values;
+  std::string why;
+  for (gint i = 0; i < gst_structure_n_fields(st) && why.empty(); ++i) {
+    const gchar* name = gst_structure_nth_field_name(st, i);
+    if (g_str_equal(name, "viewer-id")) continue;
+    GParamSpec* ps = g_object_class_find_property(G_OBJECT_GET_CLASS(self), name);
+    if (!ps || !(ps->flags & GST_PARAM_MUTABLE_PLAYING)) {
+      why = std::string("unknown field '") + name + "'";
+      break;
+    }
+    const GValue* in = gst_structure_get_value(st, name);
+    GValue v = G_VALUE_INIT;
+    g_value_init(&v, ps->value_type);
+    bool ok;
+    if (ps->value_type == GST_TYPE_ARRAY) {
+      ok = GST_VALUE_HOLDS_ARRAY(in) &&
+           (gst_value_array_get_size(in) == 0 || gst_value_array_get_size(in) == 3);
+      for (guint k = 0; ok && k < gst_value_array_get_size(in); ++k) {
+        GValue d = G_VALUE_INIT;
+        g_value_init(&d, G_TYPE_DOUBLE);
+        ok = g_value_transform(gst_value_array_get_value(in, k), &d) &&
+             std::isfinite(g_value_get_double(&d)) &&
+             std::fabs(g_value_get_double(&d)) <= MAX_COORD;
+        if (ok) gst_value_array_append_and_take_value(&v, &d);
+      }
+    } else {
+      ok = g_value_type_transformable(G_VALUE_TYPE(in), ps->value_type) &&
+           g_value_transform(in, &v) &&
+           !(G_VALUE_HOLDS_DOUBLE(&v) && !std::isfinite(g_value_get_double(&v))) &&
+           !g_param_value_validate(ps, &v);  // true when it had to clamp
+    }
+    if (!ok) {
+      why = std::string("field '") + name + "' is not a valid " + g_type_name(ps->value_type) +
+            " for the property (see gst-inspect-1.0 lfviewrequest)";
+      g_value_unset(&v);
+      break;
+    }
+    values.emplace_back(ps, v);
+  }
+  if (why.empty()) {
+    g_mutex_lock(&p->apply_lock);  // the streaming thread sees all or none
+    for (auto& [ps, v] : values) g_object_set_property(G_OBJECT(self), ps->name, &v);
+    g_mutex_unlock(&p->apply_lock);
+    GST_DEBUG_OBJECT(self, "lf-view event: %u fields applied", static_cast<guint>(values.size()));
+  } else {
+    LF_ELEMENT_WARNING_LIMITED(self, p->bad_event, STREAM, FAILED,
+                               ("Ignoring an lf-view event with a bad field"), "%s", why.c_str());
+  }
+  for (auto& kv : values) g_value_unset(&kv.second);
 }
 
 static gboolean lf_view_request_event(GstBaseSrc* src, GstEvent* event) {
+  LfViewRequest* self = LF_VIEW_REQUEST(src);
   if (GST_EVENT_TYPE(event) == GST_EVENT_NAVIGATION) {
-    handle_navigation(LF_VIEW_REQUEST(src), event);
+    if (for_this_viewer(self, gst_event_get_structure(event))) handle_navigation(self, event);
+    return TRUE;
+  }
+  if (GST_EVENT_TYPE(event) == GST_EVENT_CUSTOM_UPSTREAM && gst_event_has_name(event, "lf-view")) {
+    if (for_this_viewer(self, gst_event_get_structure(event))) handle_view_event(self, event);
     return TRUE;
   }
   if (lfgst::refuse_seek(GST_ELEMENT(src), event)) return FALSE;
@@ -291,44 +472,81 @@ static GstBuffer* request_buffer(GstBaseSrc* src, const lf::ViewRequest& req, Gs
   return buf;
 }
 
+// The views for request time `pts`: controller values synced, rebuilt when
+// a view property changed since the last request (a bad change is warned
+// about and the previous views stay).
+static std::shared_ptr<const Views> current_views(LfViewRequest* self, State* st,
+                                                  GstClockTime pts) {
+  Priv* p = self->priv;
+  gst_object_sync_values(GST_OBJECT(self), pts);
+  const guint gen = p->generation.load();
+  if (gen != st->applied) {
+    g_mutex_lock(&p->apply_lock);
+    Settings s = lfgst::snapshot(GST_OBJECT(self), p->settings);
+    g_mutex_unlock(&p->apply_lock);
+    // Caps and schedule stay as started.
+    s.rig = st->fixed.rig, s.viewer_id = st->fixed.viewer_id;
+    s.width = st->fixed.width, s.height = st->fixed.height;
+    s.framerate = st->fixed.framerate, s.live = st->fixed.live;
+    std::shared_ptr<const Views> v;
+    GError* err = nullptr;
+    if (lfgst::guard([&] { v = build(s, *st->rig); }, &err)) {
+      g_mutex_lock(&p->lock);
+      st->views = v;
+      g_mutex_unlock(&p->lock);
+    } else {
+      LF_ELEMENT_WARNING_LIMITED(self, p->bad_view, LIBRARY, SETTINGS,
+                                 ("Ignoring invalid view settings; the previous view stays"), "%s",
+                                 err->message);
+      g_error_free(err);
+    }
+    st->applied = gen;
+  }
+  g_mutex_lock(&p->lock);
+  std::shared_ptr<const Views> v = st->views;
+  g_mutex_unlock(&p->lock);
+  return v;
+}
+
 static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, GstBuffer** out) {
   LfViewRequest* self = LF_VIEW_REQUEST(src);
   Priv* p = self->priv;
   State* st = p->state.get();
-  const Settings& s = st->s;
-  const GstClockTime period = gst_util_uint64_scale_int(GST_SECOND, s.framerate.d, s.framerate.n);
-  if (s.live)  // a viewer joining late starts at the current tick
+  const Settings& fixed = st->fixed;
+  const GstClockTime period =
+      gst_util_uint64_scale_int(GST_SECOND, fixed.framerate.d, fixed.framerate.n);
+  if (fixed.live)  // a viewer joining late starts at the current tick
     st->sequence = lfgst::first_current_tick(GST_ELEMENT(src), st->sequence, period, 0);
   const guint64 k = st->sequence;
   const GstClockTime pts = k * period;
   // Live: emit at running time pts on the pipeline clock.
-  if (s.live && !p->waiter.wait_until(GST_ELEMENT(src), pts)) return GST_FLOW_FLUSHING;
+  if (fixed.live && !p->waiter.wait_until(GST_ELEMENT(src), pts)) return GST_FLOW_FLUSHING;
+  const std::shared_ptr<const Views> views = current_views(self, st, pts);
+  const Settings& s = views->s;
   lf::ViewRequest req;
-  req.viewer_id = s.viewer_id;
+  req.viewer_id = fixed.viewer_id;
   req.sequence = k;
+  req.focal_plane = views->plane;
   const lf::Rig& rig = *st->rig;
-  g_mutex_lock(&p->lock);
-  const cv::Vec3d offset = st->offset;
-  const bool q_active = st->q_active;
-  const double q = st->q;
-  g_mutex_unlock(&p->lock);
   GError* err = nullptr;
   if (!lfgst::guard(
           [&] {
-            req.view = st->views.at(k, rig, offset);
-            req.focal_plane = q_active ? lf::plane_at_inverse_depth(rig, q) : st->plane;
+            req.view =
+                views->sequence.at(k, rig, lf::camera_plane_offset(rig, s.eye_s, s.eye_t, s.eye_w));
+            lf::validate(req);
           },
           &err)) {
-    GST_ELEMENT_ERROR(self, LIBRARY, FAILED, ("Cannot build view request %" G_GUINT64_FORMAT, k),
-                      ("%s", err->message));
+    LF_ELEMENT_WARNING_LIMITED(self, p->bad_view, LIBRARY, SETTINGS,
+                               ("Ignoring the eye offset: the view it gives is invalid"), "%s",
+                               err->message);
     g_error_free(err);
-    return GST_FLOW_ERROR;
+    req.view = views->sequence.at(k, rig);
   }
   if (s.stereo_baseline > 0) {
     // Left and right eyes along the view's x axis (viewer ids v, v + 1).
     const cv::Vec3d x(req.view.R(0, 0), req.view.R(0, 1), req.view.R(0, 2));
     lf::ViewRequest right = req;
-    right.viewer_id = s.viewer_id + 1;
+    right.viewer_id = fixed.viewer_id + 1;
     right.view.position += x * (0.5 * s.stereo_baseline);
     req.view.position -= x * (0.5 * s.stereo_baseline);
     // One tick = one buffer list (num-buffers counts ticks).
@@ -375,43 +593,76 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
   props.add(
       oc, &Settings::height,
       g_param_spec_int("height", "Height", "Output height, pixels", 2, 16384, DEFAULT_HEIGHT, rw));
+  // View properties: changeable in PLAYING, from the next request on.
+  const GParamFlags play = lfgst::kReadWritePlaying;
+  const GParamFlags ctrl = static_cast<GParamFlags>(play | GST_PARAM_CONTROLLABLE);
+  auto coordinate = [] {
+    return g_param_spec_double(
+        "coordinate", "Coordinate", "Rig units", -MAX_COORD, MAX_COORD, 0,
+        static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS));
+  };
   props.add(oc, &Settings::position,
-            g_param_spec_string("position", "Position",
-                                "Eye 'x,y,z' in rig units (empty: centre of the camera plane)",
-                                nullptr, rw));
+            gst_param_spec_array("position", "Position",
+                                 "Eye <x, y, z>, rig units, world frame (gst-launch: "
+                                 "position=\"<0.1, 0, 0>\"; empty: the centroid of the camera "
+                                 "centres). The eye offset eye-s/t/w is added to it",
+                                 coordinate(), play));
   props.add(oc, &Settings::look_at,
-            g_param_spec_string("look-at", "Look at",
-                                "Target 'x,y,z' in rig units (empty: look like the rig's cameras, "
-                                "with intrinsics interpolated from the surrounding ones)",
-                                nullptr, rw));
+            gst_param_spec_array("look-at", "Look at",
+                                 "Target <x, y, z>, rig units, world frame (empty: look like the "
+                                 "rig's cameras, with intrinsics interpolated from the "
+                                 "surrounding ones)",
+                                 coordinate(), play));
+  spec_eye_s = g_param_spec_double("eye-s", "Eye s",
+                                   "Eye offset along the camera plane's u axis (its s "
+                                   "coordinate, lib/lf/rig.h), rig units; drag and arrow keys "
+                                   "change it",
+                                   -MAX_COORD, MAX_COORD, 0, ctrl);
+  props.add(oc, &Settings::eye_s, spec_eye_s);
+  spec_eye_t = g_param_spec_double("eye-t", "Eye t",
+                                   "Eye offset along the camera plane's v axis (t), rig units",
+                                   -MAX_COORD, MAX_COORD, 0, ctrl);
+  props.add(oc, &Settings::eye_t, spec_eye_t);
+  spec_eye_w = g_param_spec_double("eye-w", "Eye w",
+                                   "Eye offset along the camera plane's normal, the way the "
+                                   "cameras look (dolly), rig units; Page_Up/Page_Down change it",
+                                   -MAX_COORD, MAX_COORD, 0, ctrl);
+  props.add(oc, &Settings::eye_w, spec_eye_w);
   props.add(oc, &Settings::vfov,
             g_param_spec_double(
                 "vfov", "Vertical FOV",
                 "Vertical field of view, degrees (0: from the cameras, or 50 with look-at)", 0,
-                179.9, DEFAULT_VFOV, rw));
+                179.9, DEFAULT_VFOV, ctrl));
   props.add(oc, &Settings::focal_plane,
             g_param_spec_string("focal-plane", "Focal plane",
                                 "infinity | depth:Z (rig units from the camera plane) | param:A "
                                 "(light-slab focal parameter, pixels of shift per unit) | "
-                                "plane:nx,ny,nz,d",
-                                DEFAULT_FOCAL_PLANE, rw));
+                                "plane:nx,ny,nz,d (world frame, n.X + d = 0); used while "
+                                "focal-depth is 0",
+                                DEFAULT_FOCAL_PLANE, play));
+  spec_focal_depth = g_param_spec_double(
+      "focal-depth", "Focal depth",
+      "Focal plane parallel to the camera plane at this depth, rig units along its normal "
+      "(0: use focal-plane); the wheel changes it",
+      0, MAX_COORD, DEFAULT_FOCAL_DEPTH, ctrl);
+  props.add(oc, &Settings::focal_depth, spec_focal_depth);
   props.add(oc, &Settings::path,
             g_param_spec_string("path", "Camera path",
                                 "Keyframed camera path (JSON, see README); overrides position",
-                                nullptr, rw));
+                                nullptr, play));
   props.add(oc, &Settings::orbit,
             g_param_spec_double("orbit", "Orbit",
                                 "Circular path on the camera plane, radius as a fraction of the "
                                 "array's half extent (0: off)",
-                                0, 10, DEFAULT_ORBIT, rw));
+                                0, 10, DEFAULT_ORBIT, play));
   props.add(oc, &Settings::dolly,
             g_param_spec_double(
                 "dolly", "Dolly",
-                "With orbit: amplitude of motion along the camera-plane normal, rig units", -1e12,
-                1e12, DEFAULT_DOLLY, rw));
+                "With orbit: amplitude of motion along the camera-plane normal, rig units",
+                -MAX_COORD, MAX_COORD, DEFAULT_DOLLY, play));
   props.add(oc, &Settings::path_frames,
             g_param_spec_int("path-frames", "Path frames", "Requests per pass over the path/orbit",
-                             1, 1000000, DEFAULT_PATH_FRAMES, rw));
+                             1, 1000000, DEFAULT_PATH_FRAMES, play));
   props.add(oc, &Settings::framerate,
             gst_param_spec_fraction("framerate", "Frame rate",
                                     "Requests per second (also in the src caps)", 1, 1000, 1000, 1,
@@ -425,15 +676,15 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
                                 "Eye separation in rig units; > 0 emits a left (viewer-id) and a "
                                 "right (viewer-id + 1) request per tick, for lfcompositor "
                                 "stereo=true",
-                                0, 1e12, DEFAULT_STEREO_BASELINE, rw));
+                                0, MAX_COORD, DEFAULT_STEREO_BASELINE, ctrl));
   gst_element_class_add_static_pad_template(ec, &src_template);
   gst_element_class_set_static_metadata(
       ec, "Light field view requests", "Source/Metadata",
       "Produces view requests (virtual view + focal plane) for the light field cameras "
-      "(Yang et al. 2002, 4.3). Navigation events from the video sink steer the view: drag "
-      "(button 1) moves the eye on the camera plane, the wheel moves the focal plane (0.25 px "
-      "of neighbour parallax per notch), arrow keys move the eye by 1/4 camera spacing, "
-      "Page_Up/Page_Down (or +/-) move it along the camera-plane normal, r resets",
+      "(Yang et al. 2002, 4.3). View properties change while playing; an upstream 'lf-view' "
+      "event sets several at once. Navigation from the video sink: drag (button 1) moves the "
+      "eye on the camera plane, the wheel (buttons 4/5) the focal plane, arrow keys the eye by "
+      "1/4 camera spacing, Page_Up/Page_Down (Prior/Next, +/-) along the normal, r resets",
       "lightfield-gst");
   bc->start = lf_view_request_start;
   bc->stop = lf_view_request_stop;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
 #include "lf/path_file.h"
@@ -106,6 +107,50 @@ cv::Vec3d point_on_camera_plane(const Rig& rig, double x, double y) {
   return {x, y,
           P.origin[2] -
               (P.normal[0] * (x - P.origin[0]) + P.normal[1] * (y - P.origin[1])) / P.normal[2]};
+}
+
+cv::Vec3d camera_plane_offset(const Rig& rig, double s, double t, double w) {
+  const CameraPlane& P = rig.plane();
+  return P.u * s + P.v * t + P.normal * w;
+}
+
+cv::Vec2d clamp_to_array(const Rig& rig, const cv::Vec2d& st) {
+  std::vector<cv::Point2f> pts, hull;
+  for (const cv::Vec2d& p : rig.plane_positions())
+    pts.emplace_back(static_cast<float>(p[0]), static_cast<float>(p[1]));
+  cv::Vec2d centre(0, 0);
+  for (const cv::Vec2d& p : rig.plane_positions()) centre += p;
+  centre /= static_cast<double>(pts.size());
+  if (pts.size() >= 3) cv::convexHull(pts, hull);
+  const cv::Point2f q(static_cast<float>(st[0]), static_cast<float>(st[1]));
+  if (hull.size() >= 3 && cv::pointPolygonTest(hull, q, true) > 0) return st;
+  // The nearest point of the hull's boundary (of the segment, for a linear
+  // array; the camera, for one)...
+  if (hull.size() < 3) {
+    hull.clear();
+    size_t a = 0, b = 0;
+    for (size_t i = 0; i < pts.size(); ++i)
+      for (size_t j = 0; j < pts.size(); ++j)
+        if (cv::norm(pts[i] - pts[j]) > cv::norm(pts[a] - pts[b])) a = i, b = j;
+    hull = {pts[a], pts[b]};
+  }
+  cv::Vec2d best = centre;
+  double best_d = 1e300;
+  for (size_t i = 0; i < hull.size(); ++i) {
+    const cv::Vec2d a(hull[i].x, hull[i].y);
+    const cv::Vec2d b(hull[(i + 1) % hull.size()].x, hull[(i + 1) % hull.size()].y);
+    const cv::Vec2d ab = b - a;
+    const double len2 = ab.dot(ab);
+    const double t = len2 > 0 ? std::clamp((st - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+    const cv::Vec2d p = a + ab * t;
+    if (cv::norm(st - p) < best_d) best_d = cv::norm(st - p), best = p;
+  }
+  // ...moved 1e-3 camera spacing towards the centre: an eye exactly on the
+  // boundary is on no simplex (the tie rule gives boundary points to the
+  // outside), and its view would be black.
+  const cv::Vec2d in = centre - best;
+  const double n = cv::norm(in), step = 1e-3 * rig.typical_spacing();
+  return n > step ? best + in * (step / n) : centre;
 }
 
 VirtualView ViewSequence::at(uint64_t k, const Rig& rig, const cv::Vec3d& offset) const {

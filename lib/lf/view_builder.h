@@ -37,6 +37,17 @@ std::vector<Keyframe> orbit_path(const Rig& rig, double fraction, double dolly, 
 std::vector<VirtualView> sample_path(const Rig& rig, const std::vector<Keyframe>& keys, int frames,
                                      int width, int height, bool closed);
 
+// An eye offset in camera-plane coordinates (lf/rig.h): s along the plane's
+// u axis, t along v, w along its normal (the way the cameras look), rig
+// units. The world vector s u + t v + w n.
+cv::Vec3d camera_plane_offset(const Rig& rig, double s, double t, double w);
+// `st` if it lies inside the convex hull of the cameras' camera-plane
+// positions, else the nearest point of the hull moved 1e-3 camera spacing
+// inwards: an eye there lies over the array, so every output ray of a view
+// on the camera plane meets a camera simplex (a view steered off the array
+// would be black). Linear arrays: the segment; one camera: the camera.
+cv::Vec2d clamp_to_array(const Rig& rig, const cv::Vec2d& st);
+
 // What a user sets. Precedence: a path file, then an orbit (> 0), then a
 // fixed view at `position`.
 struct ViewSettings {

@@ -1,0 +1,552 @@
+// Steering while playing (issue 14): view properties changed in PLAYING,
+// the lf-view upstream event, events reaching only their viewer, several
+// viewers sharing one set of cameras, and the compositor following a
+// downstream size. Outputs are checked bit for bit against the offline
+// renderer (lf::render_view) for the view that the settings describe.
+#include <gst/app/gstappsink.h>
+#include <gst/gst.h>
+#include <gst/video/navigation.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <opencv2/imgproc.hpp>
+
+#include "gst_init.h"
+#include "helpers.h"
+#include "lf/datasets.h"
+#include "lf/focus.h"
+#include "lf/parse.h"
+#include "lf/render_view.h"
+#include "lf/rig_file.h"
+#include "lf/rig_ops.h"
+#include "lf/view_builder.h"
+#include "lf/wire.h"
+
+namespace {
+
+using testing_lf::data_path;
+
+// Requests seen on an lfviewrequest's src pad, by (viewer, sequence).
+struct Seen {
+  std::mutex m;
+  std::map<std::pair<uint32_t, uint64_t>, lf::ViewRequest> reqs;
+  uint64_t last = 0;
+  static GstPadProbeReturn probe(GstPad*, GstPadProbeInfo* info, gpointer data) {
+    auto* s = static_cast<Seen*>(data);
+    auto add = [s](GstBuffer* b) {
+      GstMapInfo m;
+      gst_buffer_map(b, &m, GST_MAP_READ);
+      const lf::ViewRequest r = lf::parse_request(m.data, m.size);
+      gst_buffer_unmap(b, &m);
+      std::lock_guard<std::mutex> l(s->m);
+      s->reqs[{r.viewer_id, r.sequence}] = r;
+      s->last = std::max(s->last, r.sequence);
+    };
+    if (info->type & GST_PAD_PROBE_TYPE_BUFFER) add(GST_PAD_PROBE_INFO_BUFFER(info));
+    if (info->type & GST_PAD_PROBE_TYPE_BUFFER_LIST) {
+      GstBufferList* l = GST_PAD_PROBE_INFO_BUFFER_LIST(info);
+      for (guint i = 0; i < gst_buffer_list_length(l); ++i) add(gst_buffer_list_get(l, i));
+    }
+    return GST_PAD_PROBE_OK;
+  }
+  bool get(uint32_t viewer, uint64_t seq, lf::ViewRequest* r) {
+    std::lock_guard<std::mutex> l(m);
+    auto it = reqs.find({viewer, seq});
+    if (it == reqs.end()) return false;
+    *r = it->second;
+    return true;
+  }
+  uint64_t newest() {
+    std::lock_guard<std::mutex> l(m);
+    return last;
+  }
+};
+
+struct Frame {
+  cv::Mat rgba;
+  uint64_t sequence = 0;
+};
+
+class Runtime : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    testing_lf::init_gstreamer_with_plugin();
+    // A 2x2 block of the real Chess light field at half resolution.
+    rig_path_ = (std::filesystem::temp_directory_path() / "lf-test-runtime-chess4.json").string();
+    rig_ = lf::scale_rig(
+        lf::grid_block(lf::import_dataset(data_path("stanford-chess")), 3, 3, 2, 2), 0.5);
+    lf::save_rig(rig_, rig_path_);
+    rig_ = lf::load_rig(rig_path_);
+    images_ = lf::load_images(rig_);
+  }
+  static std::string rig_path_;
+  static lf::Rig rig_;
+  static std::vector<cv::Mat> images_;
+
+  // V viewers (lfviewrequest req<v> viewer-id=v -> funnel -> tee) share the
+  // cameras; every fragment goes to every compositor c<v> viewer-id=v !
+  // appsink out<v>. `props(v)` gives viewer v's lfviewrequest properties.
+  static std::string pipeline(int viewers, const std::function<std::string(int)>& props, bool live,
+                              const std::string& sink_caps = "format=RGBA") {
+    std::string d = "funnel name=reqs ! tee name=t";
+    for (int v = 0; v < viewers; ++v) {
+      d += " lfviewrequest name=req" + std::to_string(v) + " rig=" + rig_path_ +
+           " viewer-id=" + std::to_string(v) + " " + props(v) + (live ? " is-live=true" : "") +
+           " ! reqs.";
+      d += " lfcompositor name=c" + std::to_string(v) + " rig=" + rig_path_ +
+           " viewer-id=" + std::to_string(v) + " ! video/x-raw," + sink_caps +
+           " ! appsink name=out" + std::to_string(v) + " sync=false max-buffers=64";
+    }
+    for (size_t i = 0; i < rig_.cameras.size(); ++i) {
+      const std::string id = std::to_string(rig_.cameras[i].id), n = std::to_string(i);
+      d += " lfcamsrc rig=" + rig_path_ + " camera-id=" + id +
+           (live ? " is-live=true framerate=30/1" : " num-buffers=1") + " ! f" + n + ".sink";
+      d += " t. ! queue ! lffragment name=f" + n + " rig=" + rig_path_ + " camera-id=" + id +
+           " ! tee name=ft" + n;
+      for (int v = 0; v < viewers; ++v)
+        d += " ft" + n + ". ! queue ! c" + std::to_string(v) + ".sink_" + n;
+    }
+    return d;
+  }
+
+  static bool pull(GstElement* sink, Frame* f, double seconds = 5) {
+    GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(sink),
+                                                static_cast<GstClockTime>(seconds * GST_SECOND));
+    if (!s) return false;
+    GstStructure* st = gst_caps_get_structure(gst_sample_get_caps(s), 0);
+    int w = 0, h = 0;
+    gst_structure_get_int(st, "width", &w);
+    gst_structure_get_int(st, "height", &h);
+    GstBuffer* b = gst_sample_get_buffer(s);
+    GstMapInfo m;
+    gst_buffer_map(b, &m, GST_MAP_READ);
+    f->rgba = cv::Mat(h, w, CV_8UC4, m.data).clone();
+    f->sequence = GST_BUFFER_OFFSET(b);
+    gst_buffer_unmap(b, &m);
+    gst_sample_unref(s);
+    return true;
+  }
+
+  static cv::Mat render(const lf::ViewRequest& req) {
+    cv::Mat ref = lf::render_view(rig_, images_, req);
+    cv::cvtColor(ref, ref, cv::COLOR_BGRA2RGBA);
+    return ref;
+  }
+  static int differing(const cv::Mat& a, const cv::Mat& b) {
+    if (a.size() != b.size()) return -1;
+    cv::Mat d;
+    cv::absdiff(a, b, d);
+    return cv::countNonZero(d.reshape(1));
+  }
+};
+std::string Runtime::rig_path_;
+lf::Rig Runtime::rig_;
+std::vector<cv::Mat> Runtime::images_;
+
+// A running pipeline with request probes on every viewer.
+struct Running {
+  GstElement* p = nullptr;
+  std::vector<GstElement*> reqs, sinks;
+  Seen seen;
+  std::vector<std::string> warnings;
+  Running(const std::string& desc, int viewers) {
+    GError* err = nullptr;
+    p = gst_parse_launch(desc.c_str(), &err);
+    EXPECT_NE(p, nullptr) << (err ? err->message : "");
+    g_clear_error(&err);
+    if (!p) return;
+    for (int v = 0; v < viewers; ++v) {
+      reqs.push_back(gst_bin_get_by_name(GST_BIN(p), ("req" + std::to_string(v)).c_str()));
+      sinks.push_back(gst_bin_get_by_name(GST_BIN(p), ("out" + std::to_string(v)).c_str()));
+      GstPad* pad = gst_element_get_static_pad(reqs.back(), "src");
+      gst_pad_add_probe(
+          pad,
+          static_cast<GstPadProbeType>(GST_PAD_PROBE_TYPE_BUFFER | GST_PAD_PROBE_TYPE_BUFFER_LIST),
+          Seen::probe, &seen, nullptr);
+      gst_object_unref(pad);
+    }
+    gst_element_set_state(p, GST_STATE_PLAYING);
+  }
+  ~Running() {
+    if (!p) return;
+    gst_element_set_state(p, GST_STATE_NULL);
+    for (GstElement* e : reqs) gst_object_unref(e);
+    for (GstElement* e : sinks) gst_object_unref(e);
+    gst_object_unref(p);
+  }
+  // Warnings posted so far.
+  const std::vector<std::string>& bus_warnings() {
+    GstBus* bus = gst_element_get_bus(p);
+    while (GstMessage* msg = gst_bus_pop_filtered(bus, GST_MESSAGE_WARNING)) {
+      GError* e = nullptr;
+      gchar* dbg = nullptr;
+      gst_message_parse_warning(msg, &e, &dbg);
+      warnings.push_back(std::string(e->message) + ": " + (dbg ? dbg : ""));
+      g_clear_error(&e);
+      g_free(dbg);
+      gst_message_unref(msg);
+    }
+    gst_object_unref(bus);
+    return warnings;
+  }
+};
+
+// What the test expects the view settings to be (mirrors the properties).
+struct Expected {
+  lf::ViewSettings vs;
+  double s = 0, t = 0, w = 0;
+  std::string focal = "infinity";
+  double focal_depth = 0;
+  lf::ViewRequest request(const lf::Rig& rig, uint64_t seq) const {
+    lf::ViewRequest r;
+    r.sequence = seq;
+    r.view = lf::build_views(rig, vs).at(seq, rig, lf::camera_plane_offset(rig, s, t, w));
+    r.focal_plane = focal_depth > 0 ? lf::plane_at_inverse_depth(rig, 1.0 / focal_depth)
+                                    : lf::parse_focal_plane(focal, rig);
+    return r;
+  }
+};
+
+bool same_view(const lf::ViewRequest& a, const lf::ViewRequest& b) {
+  const double tol = 1e-9;
+  return cv::norm(a.view.position - b.view.position) < tol && cv::norm(a.view.R, b.view.R) < tol &&
+         std::fabs(a.view.vfov_deg - b.view.vfov_deg) < tol &&
+         std::fabs(a.view.shift_x - b.view.shift_x) < 1e-6 &&
+         cv::norm(a.focal_plane.n - b.focal_plane.n) < tol &&
+         std::fabs(a.focal_plane.d - b.focal_plane.d) < 1e-9 * (1 + std::fabs(b.focal_plane.d));
+}
+
+TEST_F(Runtime, ViewPropertiesAreMutableInPlayingAndTyped) {
+  GstElement* e = gst_element_factory_make("lfviewrequest", nullptr);
+  ASSERT_NE(e, nullptr);
+  for (const char* name : {"position", "look-at", "eye-s", "eye-t", "eye-w", "vfov", "focal-plane",
+                           "focal-depth", "stereo-baseline", "orbit", "dolly", "path"}) {
+    GParamSpec* ps = g_object_class_find_property(G_OBJECT_GET_CLASS(e), name);
+    ASSERT_NE(ps, nullptr) << name;
+    EXPECT_TRUE(ps->flags & GST_PARAM_MUTABLE_PLAYING) << name;
+  }
+  for (const char* name : {"eye-s", "eye-t", "eye-w", "vfov", "focal-depth"}) {
+    GParamSpec* ps = g_object_class_find_property(G_OBJECT_GET_CLASS(e), name);
+    EXPECT_EQ(ps->value_type, G_TYPE_DOUBLE) << name;
+    EXPECT_TRUE(ps->flags & GST_PARAM_CONTROLLABLE) << name;
+  }
+  EXPECT_EQ(g_object_class_find_property(G_OBJECT_GET_CLASS(e), "position")->value_type,
+            GST_TYPE_ARRAY);
+  // gst-launch syntax: position="<x, y, z>".
+  gst_util_set_object_arg(G_OBJECT(e), "position", "<0.5, -1, 2>");
+  GValue v = G_VALUE_INIT;
+  g_value_init(&v, GST_TYPE_ARRAY);
+  g_object_get_property(G_OBJECT(e), "position", &v);
+  ASSERT_EQ(gst_value_array_get_size(&v), 3u);
+  EXPECT_DOUBLE_EQ(g_value_get_double(gst_value_array_get_value(&v, 1)), -1.0);
+  g_value_unset(&v);
+  gst_object_unref(e);
+}
+
+TEST_F(Runtime, EveryViewPropertyChangedWhilePlayingReachesTheNextOutput) {
+  Running r(pipeline(
+                1, [](int) { return std::string("width=160 height=120 framerate=30/1"); }, true),
+            1);
+  ASSERT_NE(r.p, nullptr);
+  GstElement* req = r.reqs[0];
+  Expected want;
+  want.vs.width = 160, want.vs.height = 120;
+  const cv::Vec3d c = rig_.plane().origin;
+  const double sp = rig_.typical_spacing();
+  struct Step {
+    const char* what;
+    std::function<void()> set;
+  };
+  const cv::Vec3d eye = c + cv::Vec3d(0.3 * sp, -0.2 * sp, 0);
+  const cv::Vec3d target = c + rig_.plane().normal * 40.0 * sp;
+  std::vector<Step> steps = {
+      {"position",
+       [&] {
+         gchar* s = g_strdup_printf("<%.17g, %.17g, %.17g>", eye[0], eye[1], eye[2]);
+         gst_util_set_object_arg(G_OBJECT(req), "position", s);
+         g_free(s);
+         want.vs.position = eye;
+       }},
+      {"focal-plane",
+       [&] {
+         g_object_set(req, "focal-plane", "param:-0.2", nullptr);
+         want.focal = "param:-0.2";
+       }},
+      {"eye-s",
+       [&] {
+         g_object_set(req, "eye-s", 0.1 * sp, nullptr);
+         want.s = 0.1 * sp;
+       }},
+      {"eye-t",
+       [&] {
+         g_object_set(req, "eye-t", -0.15 * sp, nullptr);
+         want.t = -0.15 * sp;
+       }},
+      {"eye-w",
+       [&] {
+         g_object_set(req, "eye-w", 2.0 * sp, nullptr);
+         want.w = 2.0 * sp;
+       }},
+      {"focal-depth",
+       [&] {
+         g_object_set(req, "focal-depth", 30.0 * sp, nullptr);
+         want.focal_depth = 30.0 * sp;
+       }},
+      {"look-at",
+       [&] {
+         gchar* s = g_strdup_printf("<%.17g, %.17g, %.17g>", target[0], target[1], target[2]);
+         gst_util_set_object_arg(G_OBJECT(req), "look-at", s);
+         g_free(s);
+         want.vs.look_at = target;
+       }},
+      {"vfov",
+       [&] {
+         g_object_set(req, "vfov", 35.0, nullptr);
+         want.vs.vfov_deg = 35.0;
+       }},
+  };
+  Frame f;
+  ASSERT_TRUE(pull(r.sinks[0], &f));
+  for (const Step& step : steps) {
+    const uint64_t before = r.seen.newest();
+    step.set();
+    // Applied from the next request on (one may be in flight at the change).
+    bool checked = false;
+    for (int tries = 0; tries < 60 && !checked; ++tries) {
+      ASSERT_TRUE(pull(r.sinks[0], &f)) << step.what;
+      if (f.sequence <= before + 1) continue;
+      lf::ViewRequest got;
+      ASSERT_TRUE(r.seen.get(0, f.sequence, &got));
+      const lf::ViewRequest exp = want.request(rig_, f.sequence);
+      EXPECT_TRUE(same_view(got, exp)) << step.what << ": request " << f.sequence;
+      EXPECT_EQ(differing(f.rgba, render(exp)), 0) << step.what << ": output != lf-render";
+      checked = true;
+    }
+    EXPECT_TRUE(checked) << step.what;
+  }
+  // stereo-baseline: from the next tick, left and right eyes (viewer 0, 1).
+  const uint64_t before = r.seen.newest();
+  g_object_set(req, "stereo-baseline", 0.5 * sp, nullptr);
+  for (int tries = 0; tries < 60 && r.seen.newest() < before + 3; ++tries) pull(r.sinks[0], &f);
+  lf::ViewRequest left, right;
+  ASSERT_TRUE(r.seen.get(0, before + 3, &left));
+  ASSERT_TRUE(r.seen.get(1, before + 3, &right));
+  EXPECT_NEAR(cv::norm(right.view.position - left.view.position), 0.5 * sp, 1e-9);
+}
+
+TEST_F(Runtime, ViewEventSetsTheWholeViewOnceAndRefusesBadFields) {
+  Running r(pipeline(
+                1, [](int) { return std::string("width=160 height=120 framerate=30/1"); }, true),
+            1);
+  ASSERT_NE(r.p, nullptr);
+  Frame f;
+  ASSERT_TRUE(pull(r.sinks[0], &f));
+  const double sp = rig_.typical_spacing();
+  const cv::Vec3d eye = rig_.plane().origin + cv::Vec3d(-0.25 * sp, 0.2 * sp, 0);
+  // Sent at the sink (as an app or a remote viewer would), it travels up
+  // through the compositor and all four camera branches.
+  GValue pos = G_VALUE_INIT;
+  gst_value_array_init(&pos, 3);
+  for (int i = 0; i < 3; ++i) {
+    GValue d = G_VALUE_INIT;
+    g_value_init(&d, G_TYPE_DOUBLE);
+    g_value_set_double(&d, eye[i]);
+    gst_value_array_append_and_take_value(&pos, &d);
+  }
+  GstStructure* s = gst_structure_new("lf-view", "focal-depth", G_TYPE_DOUBLE, 25.0 * sp, "eye-w",
+                                      G_TYPE_DOUBLE, 1.5 * sp, nullptr);
+  gst_structure_take_value(s, "position", &pos);
+  const uint64_t before = r.seen.newest();
+  ASSERT_TRUE(
+      gst_element_send_event(r.sinks[0], gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, s)));
+  double depth = 0, w = 0;
+  g_object_get(r.reqs[0], "focal-depth", &depth, "eye-w", &w, nullptr);
+  EXPECT_DOUBLE_EQ(depth, 25.0 * sp);
+  EXPECT_DOUBLE_EQ(w, 1.5 * sp);  // once, not once per camera branch
+  Expected want;
+  want.vs.width = 160, want.vs.height = 120;
+  want.vs.position = eye;
+  want.w = 1.5 * sp;
+  want.focal_depth = 25.0 * sp;
+  // Every request is either all old or all new: none has only some fields.
+  bool checked = false;
+  for (int tries = 0; tries < 60 && !checked; ++tries) {
+    ASSERT_TRUE(pull(r.sinks[0], &f));
+    if (f.sequence <= before + 1) continue;
+    lf::ViewRequest got;
+    ASSERT_TRUE(r.seen.get(0, f.sequence, &got));
+    const lf::ViewRequest exp = want.request(rig_, f.sequence);
+    EXPECT_TRUE(same_view(got, exp));
+    EXPECT_EQ(differing(f.rgba, render(exp)), 0);
+    checked = true;
+  }
+  EXPECT_TRUE(checked);
+  // Bad events: refused whole, with a warning; nothing changes.
+  const double nan = std::nan("");
+  for (GstStructure* bad : {gst_structure_new("lf-view", "eye-s", G_TYPE_DOUBLE, 0.1, "eye-t",
+                                              G_TYPE_DOUBLE, nan, nullptr),
+                            gst_structure_new("lf-view", "eye-s", G_TYPE_DOUBLE, 0.1, "zoom",
+                                              G_TYPE_DOUBLE, 2.0, nullptr),
+                            gst_structure_new("lf-view", "vfov", G_TYPE_DOUBLE, 500.0, nullptr),
+                            gst_structure_new("lf-view", "eye-s", G_TYPE_STRING, "left", nullptr),
+                            gst_structure_new("lf-view", "width", G_TYPE_INT, 9999, nullptr)}) {
+    gst_element_send_event(r.sinks[0], gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, bad));
+  }
+  double s_now = 1, vfov = 1;
+  int width = 0;
+  g_object_get(r.reqs[0], "eye-s", &s_now, "vfov", &vfov, "width", &width, nullptr);
+  EXPECT_EQ(s_now, 0.0);
+  EXPECT_EQ(vfov, 0.0);
+  EXPECT_EQ(width, 160);
+  int refused = 0;
+  for (const std::string& w2 : r.bus_warnings())
+    if (w2.find("lf-view") != std::string::npos) ++refused;
+  EXPECT_EQ(refused, 5);
+}
+
+TEST_F(Runtime, EventsSteerOnlyTheViewerWhoseSinkTheyEnter) {
+  Running r(pipeline(
+                2, [](int) { return std::string("width=160 height=120 framerate=30/1"); }, true),
+            2);
+  ASSERT_NE(r.p, nullptr);
+  Frame f;
+  ASSERT_TRUE(pull(r.sinks[1], &f));
+  // A key at viewer 1's sink moves viewer 1's eye, not viewer 0's.
+  gst_element_send_event(r.sinks[1],
+                         gst_navigation_event_new_key_press("Prior", GST_NAVIGATION_MODIFIER_NONE));
+  gst_element_send_event(
+      r.sinks[1], gst_event_new_custom(
+                      GST_EVENT_CUSTOM_UPSTREAM,
+                      gst_structure_new("lf-view", "focal-depth", G_TYPE_DOUBLE, 7.0, nullptr)));
+  double w0 = 0, w1 = 0, d0 = 0, d1 = 0;
+  g_object_get(r.reqs[0], "eye-w", &w0, "focal-depth", &d0, nullptr);
+  g_object_get(r.reqs[1], "eye-w", &w1, "focal-depth", &d1, nullptr);
+  EXPECT_EQ(w0, 0.0);
+  EXPECT_EQ(d0, 0.0);
+  EXPECT_NEAR(w1, rig_.typical_spacing(), 1e-12);  // Prior = Page_Up: one spacing forward
+  EXPECT_EQ(d1, 7.0);
+}
+
+TEST_F(Runtime, NavigationKeepsTheEyeOverTheArrayAndTakesXSinkNames) {
+  Running r(pipeline(
+                1, [](int) { return std::string("width=160 height=120 framerate=30/1"); }, true),
+            1);
+  ASSERT_NE(r.p, nullptr);
+  Frame f;
+  ASSERT_TRUE(pull(r.sinks[0], &f));
+  // Drag 4000 px right: 100 spacings; the eye stops at the array's edge.
+  GstElement* sink = r.sinks[0];
+  const auto none = GST_NAVIGATION_MODIFIER_NONE;
+  gst_element_send_event(sink, gst_navigation_event_new_mouse_button_press(1, 10, 60, none));
+  gst_element_send_event(sink, gst_navigation_event_new_mouse_move(4010, 60, none));
+  gst_element_send_event(sink, gst_navigation_event_new_mouse_button_release(1, 4010, 60, none));
+  double s = 0, t = 0;
+  g_object_get(r.reqs[0], "eye-s", &s, "eye-t", &t, nullptr);
+  // Just inside the cameras' hull, at its boundary.
+  std::vector<cv::Point2f> pts, hull;
+  for (const cv::Vec2d& p : rig_.plane_positions()) pts.emplace_back(p[0], p[1]);
+  cv::convexHull(pts, hull);
+  const double inside = cv::pointPolygonTest(hull, cv::Point2f(s, t), true);
+  EXPECT_GT(inside, 0.0);
+  EXPECT_LT(inside, 2e-3 * rig_.typical_spacing());
+  // The output is not black with the eye at the array's edge.
+  const uint64_t dragged = r.seen.newest();
+  do ASSERT_TRUE(pull(sink, &f));
+  while (f.sequence <= dragged + 1);
+  cv::Mat grey;
+  cv::cvtColor(f.rgba, grey, cv::COLOR_RGBA2GRAY);
+  EXPECT_GT(cv::countNonZero(grey), grey.total() * 99 / 100);
+  // ximagesink's wheel: button 4 (nearer focal plane), then 5 (back).
+  gst_element_send_event(sink, gst_navigation_event_new_mouse_button_press(4, 80, 60, none));
+  double depth = 0;
+  g_object_get(r.reqs[0], "focal-depth", &depth, nullptr);
+  const double q = 0.25 / (rig_.cameras[0].intrinsics.fx * rig_.typical_spacing());
+  EXPECT_NEAR(1.0 / depth, q, 1e-9 * q);
+  // "equal" (the + key without shift on X) and "Next" move along the normal.
+  gst_element_send_event(sink, gst_navigation_event_new_key_press("equal", none));
+  gst_element_send_event(sink, gst_navigation_event_new_key_press("equal", none));
+  gst_element_send_event(sink, gst_navigation_event_new_key_press("Next", none));
+  double w = 0;
+  g_object_get(r.reqs[0], "eye-w", &w, nullptr);
+  EXPECT_NEAR(w, rig_.typical_spacing(), 1e-12);
+}
+
+TEST_F(Runtime, ViewersShareTheCamerasAndEachEqualsItsSingleViewerOutput) {
+  const double sp = rig_.typical_spacing();
+  auto props = [&](int v) {
+    const cv::Vec3d eye = rig_.plane().origin + rig_.plane().u * (0.1 * sp * (v % 4 - 1.5)) +
+                          rig_.plane().v * (0.1 * sp * (v / 4));
+    char buf[256];
+    std::snprintf(buf, sizeof buf,
+                  "width=160 height=120 num-buffers=3 focal-plane=param:-0.2 "
+                  "position=\"<%.17g,%.17g,%.17g>\"",
+                  eye[0], eye[1], eye[2]);
+    return std::string(buf);
+  };
+  // Reference: each viewer alone (viewer id v, its own pipeline).
+  std::vector<std::vector<cv::Mat>> alone(8);
+  for (int v = 0; v < 8; ++v) {
+    Running r(pipeline(
+                  1, [&](int) { return props(v); }, false),
+              1);
+    Frame f;
+    while (pull(r.sinks[0], &f, 2)) alone[v].push_back(f.rgba);
+    ASSERT_EQ(alone[v].size(), 3u) << "viewer " << v;
+    lf::ViewRequest req;
+    ASSERT_TRUE(r.seen.get(0, 0, &req));
+    EXPECT_EQ(differing(alone[v][0], render(req)), 0) << "viewer " << v;
+  }
+  for (int viewers : {1, 2, 4, 8}) {
+    Running r(pipeline(viewers, props, false), viewers);
+    for (int v = 0; v < viewers; ++v) {
+      std::vector<cv::Mat> got;
+      Frame f;
+      while (got.size() < 3 && pull(r.sinks[v], &f, 5)) got.push_back(f.rgba);
+      ASSERT_EQ(got.size(), 3u) << viewers << " viewers, viewer " << v;
+      for (size_t k = 0; k < 3; ++k)
+        EXPECT_EQ(differing(got[k], alone[v][k]), 0) << viewers << " viewers, viewer " << v;
+    }
+  }
+}
+
+TEST_F(Runtime, CompositorFollowsADownstreamSize) {
+  std::string desc = pipeline(
+      1,
+      [](int) { return std::string("width=160 height=120 num-buffers=2 focal-plane=param:-0.2"); },
+      false, "format=RGBA,width=80,height=60");
+  Running r(desc, 1);
+  Frame f;
+  ASSERT_TRUE(pull(r.sinks[0], &f));
+  ASSERT_EQ(f.rgba.cols, 80);
+  ASSERT_EQ(f.rgba.rows, 60);
+  lf::ViewRequest req;
+  ASSERT_TRUE(r.seen.get(0, f.sequence, &req));
+  cv::Mat ref;
+  cv::resize(render(req), ref, cv::Size(80, 60), 0, 0, cv::INTER_AREA);
+  cv::Mat d;
+  cv::absdiff(f.rgba, ref, d);
+  const cv::Scalar mad = cv::mean(d);
+  EXPECT_LT((mad[0] + mad[1] + mad[2]) / 3, 4.0);  // scaler vs area resampling
+}
+
+TEST_F(Runtime, CompositorWarnsWhenItsViewerNeverComes) {
+  // Requests of viewer 0, compositor waiting for viewer 5.
+  std::string desc = pipeline(
+      1, [](int) { return std::string("width=80 height=60 framerate=30/1"); }, true);
+  desc.replace(desc.find("name=c0 rig=" + rig_path_ + " viewer-id=0"),
+               std::string("name=c0 rig=" + rig_path_ + " viewer-id=0").size(),
+               "name=c0 rig=" + rig_path_ + " viewer-id=5");
+  Running r(desc, 1);
+  bool warned = false;
+  for (int k = 0; k < 100 && !warned; ++k) {
+    g_usleep(50000);
+    for (const std::string& w : r.bus_warnings())
+      warned |= w.find("No fragments of viewer 5") != std::string::npos;
+  }
+  EXPECT_TRUE(warned);
+}
+
+}  // namespace
