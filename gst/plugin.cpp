@@ -1,4 +1,5 @@
-// The lightfield plugin: lfcamsrc, lffragment, lfcompositor, lfviewrequest.
+// The lightfield plugin: lfcamsrc, lffragment, lfcompositor, lfviewrequest,
+// and the bins built from a rig, lfcamerahost and lfarray.
 // Package, version and origin come from the build (meson.build,
 // meson_options.txt: package-name, package-origin) through config.h.
 #include <gst/gst.h>
@@ -9,6 +10,8 @@ GST_ELEMENT_REGISTER_DECLARE(lfcamsrc);
 GST_ELEMENT_REGISTER_DECLARE(lffragment);
 GST_ELEMENT_REGISTER_DECLARE(lfcompositor);
 GST_ELEMENT_REGISTER_DECLARE(lfviewrequest);
+GST_ELEMENT_REGISTER_DECLARE(lfcamerahost);
+GST_ELEMENT_REGISTER_DECLARE(lfarray);
 
 static gboolean plugin_init(GstPlugin* plugin) {
   gboolean ok = FALSE;
@@ -16,6 +19,8 @@ static gboolean plugin_init(GstPlugin* plugin) {
   ok |= GST_ELEMENT_REGISTER(lffragment, plugin);
   ok |= GST_ELEMENT_REGISTER(lfcompositor, plugin);
   ok |= GST_ELEMENT_REGISTER(lfviewrequest, plugin);
+  ok |= GST_ELEMENT_REGISTER(lfcamerahost, plugin);
+  ok |= GST_ELEMENT_REGISTER(lfarray, plugin);
   return ok;
 }
 

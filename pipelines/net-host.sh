@@ -125,27 +125,29 @@ case "$role" in
     else
       src="udpsrc port=$REQUEST_PORT"
     fi
-    desc="$src $(receive "$rtp_caps" $SSRC_REQUESTS) ! rtpgstdepay ! tee name=requests"
-    desc+="  funnel name=fragments ! rtpgstpay config-interval=1 ssrc=$((SSRC_FRAGMENTS + host))"
-    desc+=" ! $(protect)$loss"
-    desc+="udpsink host=$COMPOSITOR port=$((FRAGMENT_PORT + host)) $sender"
-    i=0; n=0
-    if [ -n "${BASELINE:-}" ]; then desc=""; fi
+    # The cameras of this host: rig order i with i % HOSTS == K.
+    mine=""; i=0; n=0
     for id in $ids; do
-      if [ $((i % HOSTS)) = "$host" ] && [ -n "${BASELINE:-}" ]; then
-        desc+="  lfcamsrc rig=$RIG camera-id=$id is-live=true framerate=$FPS/1 phase=$PHASE_NS"
-        desc+=" ! videoconvert ! video/x-raw,format=I420 ! jpegenc quality=$QUALITY ! rtpjpegpay ! $loss"
-        desc+="udpsink host=$COMPOSITOR port=$((BASELINE_PORT + i)) $sender"
-        n=$((n + 1))
-      elif [ $((i % HOSTS)) = "$host" ]; then
-        desc+="  lfcamsrc rig=$RIG camera-id=$id is-live=true framerate=$FPS/1 phase=$PHASE_NS ! f$id.sink"
-        desc+="  requests. ! queue max-size-buffers=2 leaky=downstream"
-        desc+=" ! lffragment name=f$id rig=$RIG camera-id=$id encoding=$ENCODING jpeg-quality=$QUALITY"
-        desc+=" ! fragments."
-        n=$((n + 1))
-      fi
+      if [ $((i % HOSTS)) = "$host" ]; then mine+="${mine:+,}$i"; n=$((n + 1)); fi
       i=$((i + 1))
     done
+    # One request stream in, one fragment stream out (the lfcamerahost bin).
+    desc="$src $(receive "$rtp_caps" $SSRC_REQUESTS) ! rtpgstdepay"
+    desc+=" ! lfcamerahost rig=$RIG cameras=$mine is-live=true framerate=$FPS/1 phase=$PHASE_NS"
+    desc+=" encoding=$ENCODING jpeg-quality=$QUALITY"
+    desc+=" ! rtpgstpay config-interval=1 ssrc=$((SSRC_FRAGMENTS + host)) ! $(protect)$loss"
+    desc+="udpsink host=$COMPOSITOR port=$((FRAGMENT_PORT + host)) $sender"
+    if [ -n "${BASELINE:-}" ]; then
+      desc=""; i=0
+      for id in $ids; do
+        if [ $((i % HOSTS)) = "$host" ]; then
+          desc+="  lfcamsrc rig=$RIG camera-id=$id is-live=true framerate=$FPS/1 phase=$PHASE_NS"
+          desc+=" ! videoconvert ! video/x-raw,format=I420 ! jpegenc quality=$QUALITY ! rtpjpegpay ! $loss"
+          desc+="udpsink host=$COMPOSITOR port=$((BASELINE_PORT + i)) $sender"
+        fi
+        i=$((i + 1))
+      done
+    fi
     if [ "$n" = 0 ]; then echo "net-host.sh: camera host $host serves no camera of $RIG" >&2; exit 2; fi
     ;;
   viewer)

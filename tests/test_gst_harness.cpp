@@ -87,8 +87,10 @@ TEST_F(Harness, CamSrcCapsAndCaptureTime) {
 TEST_F(Harness, ViewRequestProperties) {
   GstHarness* h = gst_harness_new("lfviewrequest");
   g_object_set(h->element, "rig", rig_path_.c_str(), "viewer-id", 7u, "width", 320, "height", 200,
-               "focal-plane", "depth:1.25", "look-at", "0,0,10", "position", "0.01,0.02,-0.1",
-               "vfov", 33.0, nullptr);
+               "focal-plane", "depth:1.25", "vfov", 33.0, nullptr);
+  // Points are GstValueArrays: "<x, y, z>" in gst-launch syntax.
+  gst_util_set_object_arg(G_OBJECT(h->element), "look-at", "<0, 0, 10>");
+  gst_util_set_object_arg(G_OBJECT(h->element), "position", "<0.01, 0.02, -0.1>");
   gst_harness_play(h);
   GstBuffer* b = gst_harness_pull(h);
   ASSERT_NE(b, nullptr);
@@ -109,7 +111,8 @@ TEST_F(Harness, ViewRequestProperties) {
   gst_harness_teardown(h);
   // A bad position is refused when starting.
   GstHarness* bad = gst_harness_new("lfviewrequest");
-  g_object_set(bad->element, "rig", rig_path_.c_str(), "position", "1,2", nullptr);
+  g_object_set(bad->element, "rig", rig_path_.c_str(), nullptr);
+  gst_util_set_object_arg(G_OBJECT(bad->element), "position", "<1, 2>");
   EXPECT_EQ(gst_element_set_state(bad->element, GST_STATE_PLAYING), GST_STATE_CHANGE_FAILURE);
   gst_harness_teardown(bad);
 }

@@ -550,3 +550,70 @@ TEST_F(Runtime, CompositorWarnsWhenItsViewerNeverComes) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST_F(Runtime, BinsBuildTheSameGraphAsTheHandBuiltOne) {
+  const std::string req =
+      "lfviewrequest name=req0 rig=" + rig_path_ + " width=160 height=120 num-buffers=3 orbit=0.3";
+  std::vector<cv::Mat> hand, array, hosts;
+  {
+    Running r(
+        pipeline(
+            1, [](int) { return std::string("width=160 height=120 num-buffers=3 orbit=0.3"); },
+            false),
+        1);
+    Frame f;
+    while (pull(r.sinks[0], &f, 5)) hand.push_back(f.rgba);
+  }
+  {
+    // The one-machine array: requests in, video out.
+    Running r(req + " ! lfarray rig=" + rig_path_ +
+                  " num-buffers=1 ! video/x-raw,format=RGBA ! appsink name=out0 sync=false",
+              1);
+    Frame f;
+    while (pull(r.sinks[0], &f, 5)) array.push_back(f.rgba);
+  }
+  {
+    // Two camera hosts (cameras 0-1 and 2-3), each one fragment stream.
+    Running r(req + " ! tee name=t lfcompositor name=c rig=" + rig_path_ +
+                  " ! video/x-raw,format=RGBA ! appsink name=out0 sync=false"
+                  " t. ! queue ! lfcamerahost rig=" +
+                  rig_path_ +
+                  " cameras=0-1 num-buffers=1 ! c.sink_0"
+                  " t. ! queue ! lfcamerahost rig=" +
+                  rig_path_ + " cameras=2,3 num-buffers=1 ! c.sink_1",
+              1);
+    Frame f;
+    while (pull(r.sinks[0], &f, 5)) hosts.push_back(f.rgba);
+  }
+  ASSERT_EQ(hand.size(), 3u);
+  ASSERT_EQ(array.size(), 3u);
+  ASSERT_EQ(hosts.size(), 3u);
+  for (size_t k = 0; k < 3; ++k) {
+    EXPECT_EQ(differing(array[k], hand[k]), 0) << "lfarray, frame " << k;
+    EXPECT_EQ(differing(hosts[k], hand[k]), 0) << "lfcamerahost, frame " << k;
+  }
+  // A bad camera list is a clear error when the pipeline starts.
+  GstElement* p = gst_parse_launch(
+      ("lfviewrequest rig=" + rig_path_ + " ! lfarray rig=" + rig_path_ + " cameras=0-9 ! fakesink")
+          .c_str(),
+      nullptr);
+  ASSERT_NE(p, nullptr);
+  EXPECT_EQ(gst_element_set_state(p, GST_STATE_PLAYING), GST_STATE_CHANGE_FAILURE);
+  GstBus* bus = gst_element_get_bus(p);
+  GstMessage* m = gst_bus_pop_filtered(bus, GST_MESSAGE_ERROR);
+  ASSERT_NE(m, nullptr);
+  GError* e = nullptr;
+  gchar* dbg = nullptr;
+  gst_message_parse_error(m, &e, &dbg);
+  EXPECT_NE(std::string(dbg).find("'9' is not an index in 0..3"), std::string::npos) << dbg;
+  g_clear_error(&e);
+  g_free(dbg);
+  gst_message_unref(m);
+  gst_object_unref(bus);
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(p);
+}
+
+}  // namespace

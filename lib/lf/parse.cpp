@@ -1,6 +1,8 @@
 #include "lf/parse.h"
 
+#include <algorithm>
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 
 #include "lf/focus.h"
@@ -51,6 +53,39 @@ FocalPlane parse_focal_plane(const std::string& s, const Rig& rig) {
   }
   throw std::invalid_argument("focal plane '" + s +
                               "': use infinity, depth:Z, param:A or plane:nx,ny,nz,d");
+}
+
+std::vector<int> parse_index_ranges(const std::string& s, int count, const std::string& what) {
+  std::vector<int> out;
+  if (s.find_first_not_of(" \t") == std::string::npos) {
+    for (int i = 0; i < count; ++i) out.push_back(i);
+    return out;
+  }
+  std::stringstream ss(s);
+  std::string tok;
+  auto number = [&](const std::string& t) {
+    size_t used = 0;
+    long v = -1;
+    try {
+      v = std::stol(t, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || t.find_first_not_of(" \t", used) != std::string::npos || v < 0 || v >= count)
+      throw std::invalid_argument(what + ": '" + t + "' is not an index in 0.." +
+                                  std::to_string(count - 1));
+    return static_cast<int>(v);
+  };
+  while (std::getline(ss, tok, ',')) {
+    const size_t dash = tok.find('-', tok.find_first_not_of(" \t") + 1);
+    const int a = number(dash == std::string::npos ? tok : tok.substr(0, dash));
+    const int b = dash == std::string::npos ? a : number(tok.substr(dash + 1));
+    if (b < a) throw std::invalid_argument(what + ": range '" + tok + "' runs backwards");
+    for (int i = a; i <= b; ++i) out.push_back(i);
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
 }
 
 }  // namespace lf

@@ -19,6 +19,11 @@ std::vector<double> parse_number_list(const std::string& s, const std::string& w
 // naming `what`.
 cv::Vec3d parse_point(const std::string& s, const std::string& what);
 
+// Parses a list of indices and inclusive ranges, "0-15,20,22-23", into the
+// sorted distinct indices, each checked against 0..count-1; empty: all of
+// them. Throws std::invalid_argument naming `what` and the bad token.
+std::vector<int> parse_index_ranges(const std::string& s, int count, const std::string& what);
+
 // Parses a focal-plane specification: "infinity", "depth:Z" (rig units from
 // the camera plane), "param:A" (light-slab focal parameter) or
 // "plane:nx,ny,nz,d". Throws std::invalid_argument naming the problem.

@@ -1,0 +1,425 @@
+/**
+ * SECTION:element-lfcamerahost
+ * @title: lfcamerahost
+ *
+ * The cameras of one host, built from the rig (Yang et al. 2002, Figure 2:
+ * a camera host): for each camera selected by `cameras` (rig-order indices,
+ * e.g. "0-15"; empty: all), an `lfcamsrc` and an `lffragment` fed by one
+ * shared request input. View requests enter on the `sink` pad
+ * (`application/x-lf-view-request`, e.g. from `lfviewrequest` or an RTP
+ * receiver); the fragments of all its cameras leave on the `src` pad
+ * (`application/x-lf-fragment`), one stream, for `lfcompositor` or an RTP
+ * sender. The camera and fragment properties below are set on every
+ * camera's `lfcamsrc` or `lffragment` (their documentation is theirs). The
+ * graph is built when the bin goes to READY, from the rig as it is then.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 udpsrc port=5000 caps=... ! rtpgstdepay ! \
+ *   lfcamerahost rig=rig.json cameras=0-15 is-live=true encoding=jpeg ! \
+ *   rtpgstpay ! udpsink host=compositor port=5200
+ * ]|
+ */
+/**
+ * SECTION:element-lfarray
+ * @title: lfarray
+ *
+ * A whole light field camera on one machine: an `lfcamerahost` graph for
+ * the selected cameras whose fragments go, one pad per camera, to an
+ * `lfcompositor`. View requests in on `sink`, raw video out on `src`:
+ * `lfviewrequest rig=R ! lfarray rig=R ! videoconvert ! autovideosink` is
+ * the 64-camera pipeline of Figure 2 on one machine. Navigation and
+ * `lf-view` events from the sink travel up through it to `lfviewrequest`.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 lfviewrequest rig=rig.json orbit=0.5 ! lfarray rig=rig.json ! \
+ *   videoconvert ! autovideosink
+ * ]|
+ */
+#include <gst/gst.h>
+
+#include <string>
+#include <vector>
+
+#include "lf/parse.h"
+#include "lfguard.h"
+#include "lfrig.h"
+
+extern "C" GType lf_cam_src_get_type(void);
+extern "C" GType lf_fragment_get_type(void);
+extern "C" GType lf_compositor_get_type(void);
+
+GST_DEBUG_CATEGORY_STATIC(lf_bins_debug);
+#define GST_CAT_DEFAULT lf_bins_debug
+
+G_BEGIN_DECLS
+#define LF_TYPE_CAMERA_HOST (lf_camera_host_get_type())
+G_DECLARE_DERIVABLE_TYPE(LfCameraHost, lf_camera_host, LF, CAMERA_HOST, GstBin)
+struct _LfCameraHostClass {
+  GstBinClass parent_class;
+  gboolean composite;  // lfarray: an lfcompositor after the fragments
+};
+#define LF_TYPE_ARRAY (lf_array_get_type())
+G_DECLARE_FINAL_TYPE(LfArray, lf_array, LF, ARRAY, LfCameraHost)
+G_END_DECLS
+
+namespace {
+
+enum { PROP_0, PROP_RIG, PROP_CAMERAS, PROP_FIRST_FORWARD };
+
+// A bin property that is set on each child of one kind.
+struct Forward {
+  GType (*child)();
+  const char* name;
+};
+const Forward kCameraHostForwards[] = {
+    {lf_cam_src_get_type, "mode"},          {lf_cam_src_get_type, "framerate"},
+    {lf_cam_src_get_type, "phase"},         {lf_cam_src_get_type, "is-live"},
+    {lf_cam_src_get_type, "num-buffers"},   {lf_cam_src_get_type, "loop"},
+    {lf_fragment_get_type, "encoding"},     {lf_fragment_get_type, "jpeg-quality"},
+    {lf_fragment_get_type, "max-pixels"},   {lf_fragment_get_type, "max-rate"},
+    {lf_fragment_get_type, "frame-timeout"}};
+const Forward kArrayForwards[] = {{lf_compositor_get_type, "viewer-id"},
+                                  {lf_compositor_get_type, "latency"},
+                                  {lf_compositor_get_type, "stereo"},
+                                  {lf_compositor_get_type, "width"},
+                                  {lf_compositor_get_type, "height"}};
+
+// The forwarded properties of a class: the camera host's, then lfarray's.
+std::vector<Forward> forwards(bool composite) {
+  std::vector<Forward> f(std::begin(kCameraHostForwards), std::end(kCameraHostForwards));
+  if (composite) f.insert(f.end(), std::begin(kArrayForwards), std::end(kArrayForwards));
+  return f;
+}
+
+struct Priv {
+  std::string rig, cameras;    // object lock
+  std::vector<GValue> values;  // forwarded property values (only those set)
+  std::vector<bool> set;
+  GstPad* sink = nullptr;  // ghost pads, targets set when built
+  GstPad* src = nullptr;
+  std::vector<GstElement*> children;
+};
+
+}  // namespace
+
+typedef struct {
+  Priv* priv;
+} LfCameraHostPrivate;
+
+G_DEFINE_TYPE_WITH_PRIVATE(LfCameraHost, lf_camera_host, GST_TYPE_BIN)
+struct _LfArray {
+  LfCameraHost parent;
+};
+G_DEFINE_TYPE(LfArray, lf_array, LF_TYPE_CAMERA_HOST)
+GST_ELEMENT_REGISTER_DEFINE(lfcamerahost, "lfcamerahost", GST_RANK_NONE, LF_TYPE_CAMERA_HOST)
+GST_ELEMENT_REGISTER_DEFINE(lfarray, "lfarray", GST_RANK_NONE, LF_TYPE_ARRAY)
+
+static Priv* priv_of(gpointer self) {
+  return static_cast<LfCameraHostPrivate*>(
+             lf_camera_host_get_instance_private(LF_CAMERA_HOST(self)))
+      ->priv;
+}
+static bool composite_of(gpointer self) {
+  return LF_CAMERA_HOST_GET_CLASS(self)->composite;
+}
+
+static GstStaticPadTemplate request_sink = GST_STATIC_PAD_TEMPLATE(
+    "sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS("application/x-lf-view-request"));
+static GstStaticPadTemplate fragment_src = GST_STATIC_PAD_TEMPLATE(
+    "src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS("application/x-lf-fragment"));
+static GstStaticPadTemplate video_src =
+    GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS,
+                            GST_STATIC_CAPS("video/x-raw, format = (string) { RGBA, RGBx, I420 }"));
+
+static void lf_camera_host_set_property(GObject* obj, guint id, const GValue* v, GParamSpec* ps) {
+  Priv* p = priv_of(obj);
+  GST_OBJECT_LOCK(obj);
+  if (id == PROP_RIG || id == PROP_CAMERAS) {
+    const gchar* s = g_value_get_string(v);
+    (id == PROP_RIG ? p->rig : p->cameras) = s ? s : "";
+  } else if (id - PROP_FIRST_FORWARD < p->values.size()) {
+    GValue& dst = p->values[id - PROP_FIRST_FORWARD];
+    if (G_IS_VALUE(&dst)) g_value_unset(&dst);
+    g_value_init(&dst, G_VALUE_TYPE(v));
+    g_value_copy(v, &dst);
+    p->set[id - PROP_FIRST_FORWARD] = true;
+  } else {
+    G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
+  }
+  GST_OBJECT_UNLOCK(obj);
+}
+
+static void lf_camera_host_get_property(GObject* obj, guint id, GValue* v, GParamSpec* ps) {
+  Priv* p = priv_of(obj);
+  GST_OBJECT_LOCK(obj);
+  if (id == PROP_RIG || id == PROP_CAMERAS) {
+    const std::string& s = id == PROP_RIG ? p->rig : p->cameras;
+    g_value_set_string(v, s.empty() ? nullptr : s.c_str());
+  } else if (id - PROP_FIRST_FORWARD < p->values.size()) {
+    if (p->set[id - PROP_FIRST_FORWARD])
+      g_value_copy(&p->values[id - PROP_FIRST_FORWARD], v);
+    else
+      g_param_value_set_default(ps, v);
+  } else {
+    G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
+  }
+  GST_OBJECT_UNLOCK(obj);
+}
+
+static GstElement* make(const char* factory, const std::string& name) {
+  GstElement* e = gst_element_factory_make(factory, name.c_str());
+  if (!e) throw std::runtime_error(std::string("GStreamer element '") + factory + "' is missing");
+  return e;
+}
+
+// Builds the graph from the rig (NULL->READY).
+static bool build(LfCameraHost* self) {
+  Priv* p = priv_of(self);
+  GST_OBJECT_LOCK(self);
+  const std::string rig_path = p->rig, cameras = p->cameras;
+  const std::vector<Forward> fw = forwards(composite_of(self));
+  std::vector<std::pair<Forward, GValue>> values;
+  for (size_t i = 0; i < fw.size(); ++i) {
+    if (!p->set[i]) continue;
+    GValue v = G_VALUE_INIT;
+    g_value_init(&v, G_VALUE_TYPE(&p->values[i]));
+    g_value_copy(&p->values[i], &v);
+    values.emplace_back(fw[i], v);
+  }
+  GST_OBJECT_UNLOCK(self);
+  const std::shared_ptr<const lf::Rig> rig = lfgst::open_rig(GST_ELEMENT(self), rig_path);
+  bool ok = rig != nullptr;
+  GError* err = nullptr;
+  if (ok &&
+      !lfgst::guard(
+          [&] {
+            const std::vector<int> chosen =
+                lf::parse_index_ranges(cameras, static_cast<int>(rig->cameras.size()), "cameras");
+            bool live = false;
+            for (auto& [f, v] : values)
+              if (g_str_equal(f.name, "is-live")) live = g_value_get_boolean(&v);
+            GstElement* tee = make("tee", "requests");
+            g_object_set(tee, "allow-not-linked", TRUE, nullptr);
+            GstElement* out = composite_of(self) ? make("lfcompositor", "compositor")
+                                                 : make("funnel", "fragments");
+            gst_bin_add_many(GST_BIN(self), tee, out, nullptr);
+            p->children = {tee, out};
+            auto apply = [&](GstElement* e, GType type) {
+              for (auto& [f, v] : values)
+                if (f.child() == type) g_object_set_property(G_OBJECT(e), f.name, &v);
+            };
+            if (composite_of(self)) {
+              g_object_set(out, "rig", rig_path.c_str(), nullptr);
+              apply(out, lf_compositor_get_type());
+            }
+            for (int i : chosen) {
+              const std::string id = std::to_string(rig->cameras[i].id);
+              GstElement* cam = make("lfcamsrc", "camera" + id);
+              GstElement* q = make("queue", "requests" + id);
+              GstElement* frag = make("lffragment", "fragment" + id);
+              g_object_set(cam, "rig", rig_path.c_str(), "camera-id", rig->cameras[i].id, nullptr);
+              g_object_set(frag, "rig", rig_path.c_str(), "camera-id", rig->cameras[i].id, nullptr);
+              apply(cam, lf_cam_src_get_type());
+              apply(frag, lf_fragment_get_type());
+              // Live: a request that waits behind two others is stale.
+              if (live)
+                g_object_set(q, "max-size-buffers", 2, "max-size-bytes", 0, "max-size-time",
+                             G_GUINT64_CONSTANT(0), nullptr),
+                    gst_util_set_object_arg(G_OBJECT(q), "leaky", "downstream");
+              else
+                g_object_set(q, "max-size-buffers", 4, nullptr);
+              gst_bin_add_many(GST_BIN(self), cam, q, frag, nullptr);
+              p->children.insert(p->children.end(), {cam, q, frag});
+              if (!gst_element_link_pads(tee, "src_%u", q, "sink") ||
+                  !gst_element_link_pads(q, "src", frag, "request") ||
+                  !gst_element_link_pads(cam, "src", frag, "sink") ||
+                  !gst_element_link_pads(frag, "src", out, "sink_%u"))
+                throw std::runtime_error("cannot link the graph of camera " + id);
+            }
+            GstPad* tsink = gst_element_get_static_pad(tee, "sink");
+            GstPad* osrc = gst_element_get_static_pad(out, "src");
+            gst_ghost_pad_set_target(GST_GHOST_PAD(p->sink), tsink);
+            gst_ghost_pad_set_target(GST_GHOST_PAD(p->src), osrc);
+            gst_object_unref(tsink);
+            gst_object_unref(osrc);
+            GST_INFO_OBJECT(self, "%zu cameras of %s", chosen.size(), rig_path.c_str());
+          },
+          &err)) {
+    GST_ELEMENT_ERROR(self, LIBRARY, SETTINGS, ("Cannot build the camera graph"),
+                      ("%s", err->message));
+    g_error_free(err);
+    ok = false;
+  }
+  for (auto& kv : values) g_value_unset(&kv.second);
+  return ok;
+}
+
+static void teardown(LfCameraHost* self) {
+  Priv* p = priv_of(self);
+  gst_ghost_pad_set_target(GST_GHOST_PAD(p->sink), nullptr);
+  gst_ghost_pad_set_target(GST_GHOST_PAD(p->src), nullptr);
+  for (GstElement* e : p->children) {
+    gst_element_set_state(e, GST_STATE_NULL);
+    gst_bin_remove(GST_BIN(self), e);
+  }
+  p->children.clear();
+}
+
+static GstStateChangeReturn lf_camera_host_change_state(GstElement* el, GstStateChange t) {
+  LfCameraHost* self = LF_CAMERA_HOST(el);
+  if (t == GST_STATE_CHANGE_NULL_TO_READY) {
+    teardown(self);
+    if (!build(self)) {
+      teardown(self);
+      return GST_STATE_CHANGE_FAILURE;
+    }
+  }
+  const GstStateChangeReturn ret =
+      GST_ELEMENT_CLASS(lf_camera_host_parent_class)->change_state(el, t);
+  if (t == GST_STATE_CHANGE_READY_TO_NULL) teardown(self);
+  return ret;
+}
+
+static void lf_camera_host_finalize(GObject* obj) {
+  Priv* p = priv_of(obj);
+  for (GValue& v : p->values)
+    if (G_IS_VALUE(&v)) g_value_unset(&v);
+  delete p;
+  G_OBJECT_CLASS(lf_camera_host_parent_class)->finalize(obj);
+}
+
+static void lf_camera_host_init(LfCameraHost* self) {
+  auto* ip = static_cast<LfCameraHostPrivate*>(lf_camera_host_get_instance_private(self));
+  ip->priv = new Priv();
+  Priv* p = ip->priv;
+  // Sized for lfarray's list (a superset); during this init the instance's
+  // class is still LfCameraHost's, even for an lfarray.
+  const size_t n = forwards(true).size();
+  p->values.resize(n);
+  for (GValue& v : p->values) v = G_VALUE_INIT;
+  p->set.assign(n, false);
+  GstElementClass* ec = GST_ELEMENT_GET_CLASS(self);
+  p->sink = gst_ghost_pad_new_no_target_from_template(
+      "sink", gst_element_class_get_pad_template(ec, "sink"));
+  p->src = gst_ghost_pad_new_no_target_from_template("src",
+                                                     gst_element_class_get_pad_template(ec, "src"));
+  gst_element_add_pad(GST_ELEMENT(self), p->sink);
+  gst_element_add_pad(GST_ELEMENT(self), p->src);
+}
+
+// A copy of a child's property (same name, type, range, default and text),
+// readable, writable and changeable in NULL or READY on the bin.
+static GParamSpec* copy_spec(GParamSpec* t) {
+  const GParamFlags rw = static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
+                                                  GST_PARAM_MUTABLE_READY);
+  const gchar* n = g_param_spec_get_name(t);
+  const gchar* nick = g_param_spec_get_nick(t);
+  const gchar* blurb = g_param_spec_get_blurb(t);
+  if (G_IS_PARAM_SPEC_ENUM(t))
+    return g_param_spec_enum(n, nick, blurb, t->value_type, G_PARAM_SPEC_ENUM(t)->default_value,
+                             rw);
+  if (G_IS_PARAM_SPEC_BOOLEAN(t))
+    return g_param_spec_boolean(n, nick, blurb, G_PARAM_SPEC_BOOLEAN(t)->default_value, rw);
+  if (G_IS_PARAM_SPEC_INT(t)) {
+    auto* i = G_PARAM_SPEC_INT(t);
+    return g_param_spec_int(n, nick, blurb, i->minimum, i->maximum, i->default_value, rw);
+  }
+  if (G_IS_PARAM_SPEC_UINT(t)) {
+    auto* i = G_PARAM_SPEC_UINT(t);
+    return g_param_spec_uint(n, nick, blurb, i->minimum, i->maximum, i->default_value, rw);
+  }
+  if (G_IS_PARAM_SPEC_UINT64(t)) {
+    auto* i = G_PARAM_SPEC_UINT64(t);
+    return g_param_spec_uint64(n, nick, blurb, i->minimum, i->maximum, i->default_value, rw);
+  }
+  if (G_IS_PARAM_SPEC_DOUBLE(t)) {
+    auto* d = G_PARAM_SPEC_DOUBLE(t);
+    return g_param_spec_double(n, nick, blurb, d->minimum, d->maximum, d->default_value, rw);
+  }
+  if (GST_IS_PARAM_SPEC_FRACTION(t)) {
+    auto* f = GST_PARAM_SPEC_FRACTION(t);
+    return gst_param_spec_fraction(n, nick, blurb, f->min_num, f->min_den, f->max_num, f->max_den,
+                                   f->def_num, f->def_den, rw);
+  }
+  g_error("lfbins: cannot forward property %s of type %s", n, g_type_name(t->value_type));
+  return nullptr;
+}
+
+// Installs the bin's own and forwarded properties on `oc`.
+static void install_properties(GObjectClass* oc, bool composite) {
+  const GParamFlags rw = static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
+                                                  GST_PARAM_MUTABLE_READY);
+  g_object_class_install_property(
+      oc, PROP_RIG,
+      g_param_spec_string("rig", "Rig", "Rig file (.json) or dataset folder", nullptr, rw));
+  g_object_class_install_property(
+      oc, PROP_CAMERAS,
+      g_param_spec_string("cameras", "Cameras",
+                          "Cameras of this host: rig-order indices and ranges, e.g. \"0-15\" or "
+                          "\"0,4,8\" (empty: all)",
+                          nullptr, rw));
+  guint id = PROP_FIRST_FORWARD;
+  for (const Forward& f : forwards(composite)) {
+    auto* child = static_cast<GObjectClass*>(g_type_class_ref(f.child()));
+    GParamSpec* target = g_object_class_find_property(child, f.name);
+    g_assert(target);
+    g_object_class_install_property(oc, id++, copy_spec(target));
+    g_type_class_unref(child);
+  }
+}
+
+static void lf_camera_host_class_init(LfCameraHostClass* klass) {
+  GObjectClass* oc = G_OBJECT_CLASS(klass);
+  GstElementClass* ec = GST_ELEMENT_CLASS(klass);
+  oc->set_property = lf_camera_host_set_property;
+  oc->get_property = lf_camera_host_get_property;
+  oc->finalize = lf_camera_host_finalize;
+  ec->change_state = lf_camera_host_change_state;
+  klass->composite = FALSE;
+  install_properties(oc, false);
+  gst_element_class_add_static_pad_template(ec, &request_sink);
+  gst_element_class_add_static_pad_template(ec, &fragment_src);
+  gst_element_class_set_static_metadata(
+      ec, "Light field camera host", "Source/Video/Bin",
+      "The cameras of one host built from the rig: an lfcamsrc and an lffragment per selected "
+      "camera, view requests in on one pad, their fragments out on one (Yang et al. 2002, "
+      "Figure 2)",
+      "lightfield-gst");
+  GST_DEBUG_CATEGORY_INIT(lf_bins_debug, "lfbins", 0, "light field bins");
+}
+
+static void lf_array_init(LfArray* self) {
+  // Video out: replaces the camera host's fragment pad.
+  Priv* p = priv_of(self);
+  gst_element_remove_pad(GST_ELEMENT(self), p->src);
+  p->src = gst_ghost_pad_new_no_target_from_template(
+      "src", gst_element_class_get_pad_template(GST_ELEMENT_GET_CLASS(self), "src"));
+  gst_element_add_pad(GST_ELEMENT(self), p->src);
+}
+
+static void lf_array_class_init(LfArrayClass* klass) {
+  GObjectClass* oc = G_OBJECT_CLASS(klass);
+  GstElementClass* ec = GST_ELEMENT_CLASS(klass);
+  LF_CAMERA_HOST_CLASS(klass)->composite = TRUE;
+  oc->set_property = lf_camera_host_set_property;  // GObject wants them per class
+  oc->get_property = lf_camera_host_get_property;
+  // The base class installed the camera host's properties; add lfarray's.
+  guint id = PROP_FIRST_FORWARD + G_N_ELEMENTS(kCameraHostForwards);
+  for (const Forward& f : kArrayForwards) {
+    auto* child = static_cast<GObjectClass*>(g_type_class_ref(f.child()));
+    g_object_class_install_property(oc, id++,
+                                    copy_spec(g_object_class_find_property(child, f.name)));
+    g_type_class_unref(child);
+  }
+  // Video out instead of fragments.
+  GstPadTemplate* src = gst_static_pad_template_get(&video_src);
+  gst_element_class_add_pad_template(ec, src);
+  gst_element_class_set_static_metadata(
+      ec, "Light field camera array", "Source/Video/Bin",
+      "A light field camera on one machine built from the rig: an lfcamsrc and an lffragment "
+      "per selected camera and an lfcompositor; view requests in, composited video out (Yang "
+      "et al. 2002, Figure 2)",
+      "lightfield-gst");
+}
