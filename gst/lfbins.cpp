@@ -228,8 +228,9 @@ static bool build(LfCameraHost* self) {
                 g_object_set(q, "max-size-buffers", 2, "max-size-bytes", 0, "max-size-time",
                              G_GUINT64_CONSTANT(0), nullptr),
                     gst_util_set_object_arg(G_OBJECT(q), "leaky", "downstream");
-              else
-                g_object_set(q, "max-size-buffers", 4, nullptr);
+              // Not live: the queue's defaults (requests of several viewers
+              // interleave; a short queue here can stall them behind one
+              // another).
               gst_bin_add_many(GST_BIN(self), cam, q, frag, nullptr);
               p->children.insert(p->children.end(), {cam, q, frag});
               if (!gst_element_link_pads(tee, "src_%u", q, "sink") ||

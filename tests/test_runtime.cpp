@@ -89,6 +89,9 @@ class Runtime : public ::testing::Test {
   // V viewers (lfviewrequest req<v> viewer-id=v -> funnel -> tee) share the
   // cameras; every fragment goes to every compositor c<v> viewer-id=v !
   // appsink out<v>. `props(v)` gives viewer v's lfviewrequest properties.
+  // The sinks do not preroll (async=false): a sink waiting in preroll would
+  // stop its compositor while the other viewers' fragments queue up behind
+  // its own in the shared fragment streams.
   static std::string pipeline(int viewers, const std::function<std::string(int)>& props, bool live,
                               const std::string& sink_caps = "format=RGBA") {
     std::string d = "funnel name=reqs ! tee name=t";
@@ -98,7 +101,7 @@ class Runtime : public ::testing::Test {
            " ! reqs.";
       d += " lfcompositor name=c" + std::to_string(v) + " rig=" + rig_path_ +
            " viewer-id=" + std::to_string(v) + " ! video/x-raw," + sink_caps +
-           " ! appsink name=out" + std::to_string(v) + " sync=false max-buffers=64";
+           " ! appsink name=out" + std::to_string(v) + " sync=false async=false max-buffers=64";
     }
     for (size_t i = 0; i < rig_.cameras.size(); ++i) {
       const std::string id = std::to_string(rig_.cameras[i].id), n = std::to_string(i);

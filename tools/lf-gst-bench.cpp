@@ -78,6 +78,79 @@ std::string pipeline(const std::string& rig, const lf::Rig& r, int W, int H, con
   return d.str();
 }
 
+// V viewers sharing the cameras (lfcamerahost: one fragment stream, teed to
+// every viewer's lfcompositor), non-live: viewer v's requests orbit with a
+// phase of its own.
+std::string viewers_pipeline(const std::string& rig, int W, int H, const std::string& fr,
+                             int viewers, int frames) {
+  std::ostringstream d;
+  d << "funnel name=reqs ! lfcamerahost rig=" << rig << " num-buffers=1 " << fr << " ! tee name=ft";
+  for (int v = 0; v < viewers; ++v) {
+    d << " lfviewrequest viewer-id=" << v << " rig=" << rig << " width=" << W << " height=" << H
+      << " orbit=" << 0.3 + 0.05 * v
+      << " path-frames=120 focal-plane=param:-0.2 num-buffers=" << frames << " ! reqs.";
+    d << " lfcompositor name=c" << v << " viewer-id=" << v << " rig=" << rig
+      << " ! appsink name=out" << v << " sync=false async=false max-buffers=4";
+    d << " ft. ! queue max-size-buffers=64 ! c" << v << ".sink_0";
+  }
+  return d.str();
+}
+
+// Runs V appsinks out0..out{V-1} to EOS; returns (frames, seconds) of the
+// steady part (after each sink's first frame).
+std::pair<size_t, double> run_viewers(const std::string& desc, int viewers) {
+  GError* err = nullptr;
+  GstElement* p = gst_parse_launch(desc.c_str(), &err);
+  if (!p || err) {
+    const std::string msg = std::string("pipeline: ") + (err ? err->message : "?");
+    g_clear_error(&err);
+    if (p) gst_object_unref(p);
+    throw std::runtime_error(msg);
+  }
+  std::vector<GstElement*> sinks;
+  for (int v = 0; v < viewers; ++v)
+    sinks.push_back(gst_bin_get_by_name(GST_BIN(p), ("out" + std::to_string(v)).c_str()));
+  gst_element_set_state(p, GST_STATE_PLAYING);
+  size_t n = 0;
+  double first = -1, last = 0;
+  std::string error;
+  GstBus* bus = gst_element_get_bus(p);
+  for (bool done = false; !done;) {
+    done = true;
+    bool any = false;
+    for (GstElement* s : sinks) {
+      if (gst_app_sink_is_eos(GST_APP_SINK(s))) continue;
+      done = false;
+      // No waiting on one sink while another has frames.
+      if (GstSample* sm = gst_app_sink_try_pull_sample(GST_APP_SINK(s), 0)) {
+        const double t = g_get_monotonic_time() / 1e6;
+        if (first < 0)
+          first = t;
+        else
+          ++n;
+        last = t;
+        gst_sample_unref(sm);
+        any = true;
+      }
+    }
+    if (!any && !done) g_usleep(200);
+    if (GstMessage* m = gst_bus_pop_filtered(bus, GST_MESSAGE_ERROR)) {
+      GError* e = nullptr;
+      gst_message_parse_error(m, &e, nullptr);
+      error = e->message;
+      g_clear_error(&e);
+      gst_message_unref(m);
+      done = true;
+    }
+  }
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(bus);
+  for (GstElement* s : sinks) gst_object_unref(s);
+  gst_object_unref(p);
+  if (!error.empty()) throw std::runtime_error("pipeline error: " + error);
+  return {n, last - first};
+}
+
 // Runs to EOS; returns output frame times (s, monotonic).
 std::vector<double> run(const std::string& desc, Probe* probe) {
   GError* err = nullptr;
@@ -140,6 +213,7 @@ double percentile(std::vector<double> v, double q) {
 int main(int argc, char** argv) {
   gchar *input = nullptr, *block = nullptr, *sizes_opt = nullptr, *encodings_opt = nullptr;
   gint frames = 300, rate = 30;
+  gchar* viewers_opt = nullptr;
   const GOptionEntry entries[] = {
       {"input", 0, 0, G_OPTION_ARG_STRING, &input,
        "Dataset folder or rig file (default ../shared/data/stanford-chess)", "PATH"},
@@ -152,6 +226,11 @@ int main(int argc, char** argv) {
       {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "Requests per throughput run (default 300)", "N"},
       {"latency-rate", 0, 0, G_OPTION_ARG_INT, &rate,
        "Request rate of the live latency run, Hz (default 30)", "HZ"},
+      {"viewers", 0, 0, G_OPTION_ARG_STRING, &viewers_opt,
+       "Instead: several viewers sharing the cameras (lfcamerahost, one compositor per "
+       "viewer), non-live at the first size and encoding; frames per second per viewer and "
+       "in all, and fragments per second",
+       "N,..."},
       {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
   // The plugin next to this program (build/gst) unless GST_PLUGIN_PATH says otherwise.
   if (!g_getenv("GST_PLUGIN_PATH")) {
@@ -182,6 +261,7 @@ int main(int argc, char** argv) {
   const std::string block_spec = str(block, "");
   const std::string sizes_spec = str(sizes_opt, "640x480,320x240");
   const std::string encodings_spec = str(encodings_opt, "raw,jpeg90");
+  const std::string viewers_spec = str(viewers_opt, "");
   try {
     const lf::Rig rig =
         cli::select_cameras(lf::load_rig_or_dataset(input_path), block_spec, 0, 1.0, true);
@@ -201,6 +281,28 @@ int main(int argc, char** argv) {
       }
       std::stringstream es(encodings_spec);
       while (std::getline(es, t, ',')) encodings.push_back(t);
+    }
+    if (!viewers_spec.empty()) {
+      const auto [W, H] = sizes.front();
+      const std::string& enc = encodings.front();
+      const std::string fr =
+          enc == "raw" ? "encoding=raw" : "encoding=jpeg jpeg-quality=" + enc.substr(4);
+      std::printf(
+          "## Viewers sharing %zu cameras, %dx%d, %s fragments, non-live, %d requests each "
+          "(%d cores)\n\n| viewers | fps per viewer | fps in all | fragments/s | "
+          "time per frame vs the first row |\n|---|---|---|---|---|\n",
+          rig.cameras.size(), W, H, enc.c_str(), frames,
+          static_cast<int>(std::thread::hardware_concurrency()));
+      double one = 0;
+      for (const int v : cli::parse_numbers(viewers_spec, "--viewers")) {
+        const auto [n, secs] = run_viewers(viewers_pipeline(rig_path, W, H, fr, v, frames), v);
+        const double all = secs > 0 ? n / secs : 0;
+        if (one == 0) one = all;  // frames per second in all of the first row
+        std::printf("| %d | %.1f | %.1f | %.0f | %.2f |\n", v, all / v, all,
+                    all * static_cast<double>(rig.cameras.size()), one / all);
+        std::fflush(stdout);
+      }
+      return 0;
     }
     std::printf("## GStreamer pipeline, %zu cameras, one machine (%d cores)\n\n",
                 rig.cameras.size(), static_cast<int>(std::thread::hardware_concurrency()));
