@@ -169,9 +169,7 @@ static void lf_camera_host_get_property(GObject* obj, guint id, GValue* v, GPara
 }
 
 static GstElement* make(const char* factory, const std::string& name) {
-  GstElement* e = gst_element_factory_make(factory, name.c_str());
-  if (!e) throw std::runtime_error(std::string("GStreamer element '") + factory + "' is missing");
-  return e;
+  return lfgst::make_element(factory, name.c_str());
 }
 
 // Builds the graph from the rig (NULL->READY).
@@ -348,8 +346,19 @@ static GParamSpec* copy_spec(GParamSpec* t) {
   return nullptr;
 }
 
-// Installs the bin's own and forwarded properties on `oc`.
-static void install_properties(GObjectClass* oc, bool composite) {
+// Installs copies of the children's properties `fw` on `oc` from id `id` on.
+static void install_forwards(GObjectClass* oc, guint id, const Forward* begin, const Forward* end) {
+  for (const Forward* f = begin; f != end; ++f) {
+    auto* child = static_cast<GObjectClass*>(g_type_class_ref(f->child()));
+    GParamSpec* target = g_object_class_find_property(child, f->name);
+    g_assert(target);
+    g_object_class_install_property(oc, id++, copy_spec(target));
+    g_type_class_unref(child);
+  }
+}
+
+// Installs the camera host's own and forwarded properties on `oc`.
+static void install_properties(GObjectClass* oc) {
   const GParamFlags rw = static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
                                                   GST_PARAM_MUTABLE_READY);
   g_object_class_install_property(
@@ -361,14 +370,8 @@ static void install_properties(GObjectClass* oc, bool composite) {
                           "Cameras of this host: rig-order indices and ranges, e.g. \"0-15\" or "
                           "\"0,4,8\" (empty: all)",
                           nullptr, rw));
-  guint id = PROP_FIRST_FORWARD;
-  for (const Forward& f : forwards(composite)) {
-    auto* child = static_cast<GObjectClass*>(g_type_class_ref(f.child()));
-    GParamSpec* target = g_object_class_find_property(child, f.name);
-    g_assert(target);
-    g_object_class_install_property(oc, id++, copy_spec(target));
-    g_type_class_unref(child);
-  }
+  install_forwards(oc, PROP_FIRST_FORWARD, std::begin(kCameraHostForwards),
+                   std::end(kCameraHostForwards));
 }
 
 static void lf_camera_host_class_init(LfCameraHostClass* klass) {
@@ -379,7 +382,7 @@ static void lf_camera_host_class_init(LfCameraHostClass* klass) {
   oc->finalize = lf_camera_host_finalize;
   ec->change_state = lf_camera_host_change_state;
   klass->composite = FALSE;
-  install_properties(oc, false);
+  install_properties(oc);
   gst_element_class_add_static_pad_template(ec, &request_sink);
   gst_element_class_add_static_pad_template(ec, &fragment_src);
   gst_element_class_set_static_metadata(
@@ -407,13 +410,8 @@ static void lf_array_class_init(LfArrayClass* klass) {
   oc->set_property = lf_camera_host_set_property;  // GObject wants them per class
   oc->get_property = lf_camera_host_get_property;
   // The base class installed the camera host's properties; add lfarray's.
-  guint id = PROP_FIRST_FORWARD + G_N_ELEMENTS(kCameraHostForwards);
-  for (const Forward& f : kArrayForwards) {
-    auto* child = static_cast<GObjectClass*>(g_type_class_ref(f.child()));
-    g_object_class_install_property(oc, id++,
-                                    copy_spec(g_object_class_find_property(child, f.name)));
-    g_type_class_unref(child);
-  }
+  install_forwards(oc, PROP_FIRST_FORWARD + G_N_ELEMENTS(kCameraHostForwards),
+                   std::begin(kArrayForwards), std::end(kArrayForwards));
   // Video out instead of fragments.
   GstPadTemplate* src = gst_static_pad_template_get(&video_src);
   gst_element_class_add_pad_template(ec, src);

@@ -139,12 +139,7 @@ static void lf_cam_src_property_set(GObject* obj, GParamSpec* ps, const GValue* 
 }
 LF_DEFINE_ELEMENT_GLUE(lf_cam_src, LF_CAM_SRC)
 
-// An element made by name; throws naming it when GStreamer lacks it.
-static GstElement* make(const char* factory) {
-  GstElement* e = gst_element_factory_make(factory, nullptr);
-  if (!e) throw std::runtime_error(std::string("GStreamer element '") + factory + "' is missing");
-  return e;
-}
+using lfgst::make_element;
 
 // decodebin / uridecodebin: link the first video pad to the converter.
 static void on_decoded_pad(GstElement*, GstPad* pad, gpointer convert) {
@@ -164,10 +159,10 @@ static void on_decoded_pad(GstElement*, GstPad* pad, gpointer convert) {
 // never spliced into a pipeline description.
 static GstElement* build_decoder(const Settings& s, const lf::Camera& cam, GstElement** sink) {
   GstElement* pipe = gst_pipeline_new(nullptr);
-  GstElement* convert = make("videoconvert");
-  GstElement* scale = make("videoscale");
-  GstElement* filter = make("capsfilter");
-  GstElement* app = make("appsink");
+  GstElement* convert = make_element("videoconvert");
+  GstElement* scale = make_element("videoscale");
+  GstElement* filter = make_element("capsfilter");
+  GstElement* app = make_element("appsink");
   GstCaps* caps = gst_caps_new_simple("video/x-raw", "format", G_TYPE_STRING, "RGBA", "width",
                                       G_TYPE_INT, cam.width, "height", G_TYPE_INT, cam.height,
                                       "pixel-aspect-ratio", GST_TYPE_FRACTION, 1, 1, nullptr);
@@ -177,13 +172,13 @@ static GstElement* build_decoder(const Settings& s, const lf::Camera& cam, GstEl
   gst_bin_add_many(GST_BIN(pipe), convert, scale, filter, app, nullptr);
   gst_element_link_many(convert, scale, filter, app, nullptr);
   if (s.mode == Mode::kV4l2) {
-    GstElement* src = make("v4l2src");
+    GstElement* src = make_element("v4l2src");
     g_object_set(src, "device", s.device.c_str(), nullptr);
     gst_bin_add(GST_BIN(pipe), src);
     gst_element_link(src, convert);
   } else if (s.location.find('%') != std::string::npos) {
-    GstElement* src = make("multifilesrc");
-    GstElement* dec = make("decodebin");
+    GstElement* src = make_element("multifilesrc");
+    GstElement* dec = make_element("decodebin");
     g_object_set(src, "location", s.location.c_str(), "loop", s.loop, nullptr);
     gst_bin_add_many(GST_BIN(pipe), src, dec, nullptr);
     gst_element_link(src, dec);
@@ -196,7 +191,7 @@ static GstElement* build_decoder(const Settings& s, const lf::Camera& cam, GstEl
       gst_object_unref(pipe);
       throw std::invalid_argument("location '" + s.location + "' is not a file or URI");
     }
-    GstElement* dec = make("uridecodebin");
+    GstElement* dec = make_element("uridecodebin");
     g_object_set(dec, "uri", uri, nullptr);
     g_free(uri);
     gst_bin_add(GST_BIN(pipe), dec);

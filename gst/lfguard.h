@@ -6,6 +6,7 @@
 #pragma once
 
 #include <glib.h>
+#include <gst/gst.h>
 
 #include <exception>
 
@@ -27,5 +28,10 @@ gboolean guard(F&& fn, GError** error) noexcept {
   }
   return FALSE;
 }
+
+// An element made by factory name (and instance name, or null); throws
+// std::runtime_error naming the factory when GStreamer lacks it. For code
+// that runs inside guard().
+GstElement* make_element(const char* factory, const char* name = nullptr);
 
 }  // namespace lfgst

@@ -269,8 +269,11 @@ static bool for_this_viewer(LfViewRequest* self, const GstStructure* st) {
   if (!named && gst_structure_get_int(st, "viewer-id", &sid) && sid >= 0)
     named = true, id = static_cast<guint>(sid);
   if (!named) return true;
-  const Settings s = lfgst::snapshot(GST_OBJECT(self), self->priv->settings);
-  return id == s.viewer_id || (s.stereo_baseline > 0 && id == s.viewer_id + 1);
+  GstObject* obj = GST_OBJECT(self);
+  const guint viewer = lfgst::read_setting(obj, self->priv->settings, &Settings::viewer_id);
+  const double baseline =
+      lfgst::read_setting(obj, self->priv->settings, &Settings::stereo_baseline);
+  return id == viewer || (baseline > 0 && id == viewer + 1);
 }
 
 // Sets eye-s/t/w and focal-depth from a navigation gesture, then notifies.

@@ -30,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "lf/parse.h"
 #include "lf/wire.h"
 
 namespace {
@@ -273,11 +274,13 @@ int main(int argc, char** argv) {
     return 2;
   }
   std::vector<int> ids;
-  if (cameras_opt) {
-    for (gchar **p = g_strsplit(cameras_opt, ",", -1), **q = p; *q; ++q) {
-      ids.push_back(std::atoi(*q));
-      if (!q[1]) g_strfreev(p);
-    }
+  try {
+    if (cameras_opt)
+      for (double v : lf::parse_number_list(cameras_opt, "--camera-ids"))
+        ids.push_back(static_cast<int>(v));
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "lf-hostile: error: %s\n", e.what());
+    return 2;
   }
   g_free(cameras_opt);
   if (ids.empty())
