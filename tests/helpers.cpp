@@ -3,12 +3,21 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
 #include <vector>
 
 namespace testing_lf {
 
 std::string data_path(const std::string& rel) {
-  return std::string(LF_SHARED_DATA) + "/" + rel;
+  // The environment (set by meson test) wins over the compiled-in default.
+  const char* env = std::getenv("LF_SHARED_DATA");
+  return std::string(env && *env ? env : LF_SHARED_DATA) + "/" + rel;
+}
+
+bool have_data(const std::string& dataset) {
+  std::error_code ec;
+  return std::filesystem::is_directory(data_path(dataset), ec);
 }
 
 WeightCheck check_weights(const lf::Rig& rig, const lf::ViewRequest& req) {

@@ -11,6 +11,21 @@ namespace testing_lf {
 // Path under ../shared/data.
 std::string data_path(const std::string& rel);
 
+// Whether the real dataset ../shared/data/<dataset> is present (a fresh clone
+// has none; scripts/get-data.sh fetches it).
+bool have_data(const std::string& dataset);
+
+// Skips the current test (or, in SetUpTestSuite, the suite), naming the
+// dataset it needs, when that dataset is absent. scripts/test.sh lists the
+// skipped tests and fails when anything is skipped while ../shared/data is
+// present, so a test never skips silently where the data exists.
+#define LF_NEEDS_DATA(dataset)                                                 \
+  do {                                                                         \
+    if (!testing_lf::have_data(dataset))                                       \
+      GTEST_SKIP() << "needs the real data " << testing_lf::data_path(dataset) \
+                   << " (absent; scripts/get-data.sh fetches it)";             \
+  } while (0)
+
 struct WeightCheck {
   size_t seen = 0;  // pixels whose line meets the camera surface (locate())
   size_t unseen = 0;

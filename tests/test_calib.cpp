@@ -44,6 +44,7 @@ std::vector<std::string> images(const std::string& dir, const std::string& prefi
 }
 
 TEST(Intrinsics, CaltechTwoRadialTermsMatchTheToolbox) {
+  LF_NEEDS_DATA("caltech-calib");
   // Bouguet's toolbox: fc = [657.46, 657.95], cc = [303.14, 242.57],
   // kc = [-0.2540, 0.1214, ...] (4-coefficient model; tangential terms tiny).
   const auto views = lf::calib::detect_chessboards(images("caltech-calib", "Image"));
@@ -65,6 +66,7 @@ TEST(Intrinsics, CaltechTwoRadialTermsMatchTheToolbox) {
 }
 
 TEST(Intrinsics, OpenCvLeftChessboardsMatchOpenCvsResult) {
+  LF_NEEDS_DATA("opencv-chessboard");
   // OpenCV's calibration of the left images: fx = fy = 535.92, cx = 342.28,
   // cy = 235.57 (5-coefficient model, fixed aspect ratio).
   const auto views = lf::calib::detect_chessboards(images("opencv-chessboard", "left"));
@@ -79,6 +81,7 @@ TEST(Intrinsics, OpenCvLeftChessboardsMatchOpenCvsResult) {
 }
 
 TEST(Intrinsics, RadialModelIsChosenByEvidence) {
+  LF_NEEDS_DATA("caltech-calib");
   // Caltech's lens has strong barrel distortion: k1 alone is not enough (k2
   // lowers the held-out error by 9 %); k3 is significant but buys < 1 %:
   // the paper's two radial terms.
@@ -93,6 +96,7 @@ TEST(Intrinsics, RadialModelIsChosenByEvidence) {
 }
 
 TEST(Intrinsics, BadInputIsAClearError) {
+  LF_NEEDS_DATA("stanford-chess");
   EXPECT_THROW(lf::calib::detect_chessboards({}), std::invalid_argument);
   try {
     lf::calib::detect_chessboards({"/nonexistent/a.png", "/nonexistent/b.png"});
@@ -137,6 +141,7 @@ struct SnavelyReference {
 };
 
 TEST(Bundle, Ladybug49AgreesWithTheReferenceSolve) {
+  LF_NEEDS_DATA("bal-ladybug-49");
   const std::string file = data_path("bal-ladybug-49/problem-49-7776-pre.txt");
   lf::calib::BundleProblem ours = lf::calib::read_bal(file);
   ASSERT_EQ(ours.num_cameras, 49);

@@ -59,6 +59,7 @@ double nearest_psnr(const Held& h, const lf::FocalPlane& p) {
 }
 
 TEST(RealData, StanfordChessLeaveOneOut) {
+  LF_NEEDS_DATA("stanford-chess");
   // 8x8 block of the 9x9 subset, images at half resolution (700x400),
   // 320x240 output; four interior cameras held out in turn.
   const lf::Rig rig = lf::scale_rig(
@@ -92,6 +93,7 @@ TEST(RealData, StanfordChessLeaveOneOut) {
 }
 
 TEST(RealData, HciCottonGroundTruthPlaneBeatsNearestCamera) {
+  LF_NEEDS_DATA("hci-cotton");
   const lf::Rig rig = lf::import_dataset(data_path("hci-cotton"));
   const auto images = lf::load_images(rig);
   const cv::Mat disp = lf::read_pfm(data_path("hci-cotton/gt_disp_lowres.pfm"));

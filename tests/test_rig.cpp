@@ -28,6 +28,7 @@ double hull_area(const lf::Rig& rig) {
 }
 
 TEST(Rig, StanfordChess) {
+  LF_NEEDS_DATA("stanford-chess");
   const lf::Rig rig = lf::import_dataset(data_path("stanford-chess"));
   ASSERT_EQ(rig.cameras.size(), 81u);
   EXPECT_EQ(rig.grid.rows, 9);
@@ -52,6 +53,7 @@ TEST(Rig, StanfordChess) {
 }
 
 TEST(Rig, HciCotton) {
+  LF_NEEDS_DATA("hci-cotton");
   const lf::Rig rig = lf::import_dataset(data_path("hci-cotton"));
   ASSERT_EQ(rig.cameras.size(), 81u);
   const lf::Camera& centre = rig.cameras[40];
@@ -71,6 +73,7 @@ TEST(Rig, HciCotton) {
 }
 
 TEST(Rig, BlenderShop) {
+  LF_NEEDS_DATA("blender-shop-9x9");
   const lf::Rig rig = lf::import_dataset(data_path("blender-shop-9x9"));
   ASSERT_EQ(rig.cameras.size(), 81u);
   EXPECT_NEAR(rig.cameras[0].intrinsics.fx, 800.0, 1e-9);
@@ -83,6 +86,7 @@ TEST(Rig, BlenderShop) {
 }
 
 TEST(Rig, MiddleburyRingIsUnstructured) {
+  LF_NEEDS_DATA("middlebury-temple");
   const lf::Rig rig = lf::import_dataset(data_path("middlebury-temple"));
   // templeSR0011 repeats templeSR0001's viewpoint: dropped with a warning.
   ASSERT_EQ(rig.cameras.size(), 15u);

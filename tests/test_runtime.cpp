@@ -145,7 +145,10 @@ bool same_view(const lf::ViewRequest& a, const lf::ViewRequest& b) {
 
 class Runtime : public ::testing::Test {
  protected:
+  // Every test here renders the Chess cameras: skipped, by name, without them.
+  void SetUp() override { LF_NEEDS_DATA("stanford-chess"); }
   static void SetUpTestSuite() {
+    if (!testing_lf::have_data("stanford-chess")) return;
     testing_lf::init_gstreamer_with_plugin();
     // A 2x2 block of the real Chess light field at half resolution.
     rig_path_ = (std::filesystem::temp_directory_path() / "lf-test-runtime-chess4.json").string();
