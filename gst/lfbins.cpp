@@ -13,6 +13,16 @@
  * camera's `lfcamsrc` or `lffragment` (their documentation is theirs). The
  * graph is built when the bin goes to READY, from the rig as it is then.
  *
+ * Recording and playback: `record=rec/cam%02d.mkv` also writes every
+ * camera's frames with their capture times (PTS) to one Matroska file per
+ * camera (`record-quality=0`: lossless raw RGB; 1..100: JPEG), with
+ * GStreamer's own muxer; `playback=rec/cam%02d.mkv` replaces the cameras by
+ * those files (`filesrc ! decodebin ! videoconvert ! clocksync`), played on
+ * the recorded capture schedule. Both make `lffragment` pick frames by
+ * capture time, so the same requests give the same fragments (bit-identical
+ * from a lossless recording). Send EOS to the pipeline to end a recording
+ * (the files are then complete).
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 udpsrc port=5000 caps=... ! rtpgstdepay ! \
@@ -66,7 +76,16 @@ G_END_DECLS
 
 namespace {
 
-enum { PROP_0, PROP_RIG, PROP_CAMERAS, PROP_FIRST_FORWARD };
+enum {
+  PROP_0,
+  PROP_RIG,
+  PROP_CAMERAS,
+  PROP_RECORD,
+  PROP_RECORD_QUALITY,
+  PROP_PLAYBACK,
+  PROP_FIRST_FORWARD
+};
+#define DEFAULT_RECORD_QUALITY 0
 
 // A bin property that is set on each child of one kind.
 struct Forward {
@@ -74,12 +93,12 @@ struct Forward {
   const char* name;
 };
 const Forward kCameraHostForwards[] = {
-    {lf_cam_src_get_type, "mode"},          {lf_cam_src_get_type, "framerate"},
-    {lf_cam_src_get_type, "phase"},         {lf_cam_src_get_type, "is-live"},
-    {lf_cam_src_get_type, "num-buffers"},   {lf_cam_src_get_type, "loop"},
-    {lf_fragment_get_type, "encoding"},     {lf_fragment_get_type, "jpeg-quality"},
-    {lf_fragment_get_type, "max-pixels"},   {lf_fragment_get_type, "max-rate"},
-    {lf_fragment_get_type, "frame-timeout"}};
+    {lf_cam_src_get_type, "mode"},           {lf_cam_src_get_type, "framerate"},
+    {lf_cam_src_get_type, "phase"},          {lf_cam_src_get_type, "is-live"},
+    {lf_cam_src_get_type, "num-buffers"},    {lf_cam_src_get_type, "loop"},
+    {lf_fragment_get_type, "encoding"},      {lf_fragment_get_type, "jpeg-quality"},
+    {lf_fragment_get_type, "max-pixels"},    {lf_fragment_get_type, "max-rate"},
+    {lf_fragment_get_type, "frame-timeout"}, {lf_fragment_get_type, "frame-select"}};
 const Forward kArrayForwards[] = {{lf_compositor_get_type, "viewer-id"},
                                   {lf_compositor_get_type, "latency"},
                                   {lf_compositor_get_type, "stereo"},
@@ -94,7 +113,9 @@ std::vector<Forward> forwards(bool composite) {
 }
 
 struct Priv {
-  std::string rig, cameras;    // object lock
+  std::string rig, cameras;      // object lock
+  std::string record, playback;  // file name patterns (camera_file_name), object lock
+  gint record_quality = DEFAULT_RECORD_QUALITY;
   std::vector<GValue> values;  // forwarded property values (only those set)
   std::vector<bool> set;
   GstPad* sink = nullptr;  // ghost pads, targets set when built
@@ -133,12 +154,27 @@ static GstStaticPadTemplate video_src =
     GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS,
                             GST_STATIC_CAPS("video/x-raw, format = (string) { RGBA, RGBx, I420 }"));
 
+static std::string& string_prop(Priv* p, guint id) {
+  switch (id) {
+    case PROP_RIG:
+      return p->rig;
+    case PROP_CAMERAS:
+      return p->cameras;
+    case PROP_RECORD:
+      return p->record;
+    default:
+      return p->playback;
+  }
+}
+
 static void lf_camera_host_set_property(GObject* obj, guint id, const GValue* v, GParamSpec* ps) {
   Priv* p = priv_of(obj);
   GST_OBJECT_LOCK(obj);
-  if (id == PROP_RIG || id == PROP_CAMERAS) {
+  if (id == PROP_RIG || id == PROP_CAMERAS || id == PROP_RECORD || id == PROP_PLAYBACK) {
     const gchar* s = g_value_get_string(v);
-    (id == PROP_RIG ? p->rig : p->cameras) = s ? s : "";
+    string_prop(p, id) = s ? s : "";
+  } else if (id == PROP_RECORD_QUALITY) {
+    p->record_quality = g_value_get_int(v);
   } else if (id - PROP_FIRST_FORWARD < p->values.size()) {
     GValue& dst = p->values[id - PROP_FIRST_FORWARD];
     if (G_IS_VALUE(&dst)) g_value_unset(&dst);
@@ -154,9 +190,11 @@ static void lf_camera_host_set_property(GObject* obj, guint id, const GValue* v,
 static void lf_camera_host_get_property(GObject* obj, guint id, GValue* v, GParamSpec* ps) {
   Priv* p = priv_of(obj);
   GST_OBJECT_LOCK(obj);
-  if (id == PROP_RIG || id == PROP_CAMERAS) {
-    const std::string& s = id == PROP_RIG ? p->rig : p->cameras;
+  if (id == PROP_RIG || id == PROP_CAMERAS || id == PROP_RECORD || id == PROP_PLAYBACK) {
+    const std::string& s = string_prop(p, id);
     g_value_set_string(v, s.empty() ? nullptr : s.c_str());
+  } else if (id == PROP_RECORD_QUALITY) {
+    g_value_set_int(v, p->record_quality);
   } else if (id - PROP_FIRST_FORWARD < p->values.size()) {
     if (p->set[id - PROP_FIRST_FORWARD])
       g_value_copy(&p->values[id - PROP_FIRST_FORWARD], v);
@@ -172,11 +210,98 @@ static GstElement* make(const char* factory, const std::string& name) {
   return lfgst::make_element(factory, name.c_str());
 }
 
+// Adds `e` to the bin and to the children torn down with it.
+static GstElement* adopt(GstBin* bin, Priv* p, GstElement* e) {
+  gst_bin_add(bin, e);
+  p->children.push_back(e);
+  return e;
+}
+
+static void link_or_throw(GstElement* a, GstElement* b, const std::string& what) {
+  if (!gst_element_link(a, b)) throw std::runtime_error("cannot link " + what);
+}
+
+// decodebin: links the first video pad to the converter.
+static void on_decoded_pad(GstElement*, GstPad* pad, gpointer convert) {
+  GstCaps* caps = gst_pad_get_current_caps(pad);
+  if (!caps) caps = gst_pad_query_caps(pad, nullptr);
+  const bool video =
+      caps && gst_caps_get_size(caps) > 0 &&
+      g_str_has_prefix(gst_structure_get_name(gst_caps_get_structure(caps, 0)), "video/");
+  if (caps) gst_caps_unref(caps);
+  GstPad* sink = gst_element_get_static_pad(GST_ELEMENT(convert), "sink");
+  if (video && !gst_pad_is_linked(sink)) gst_pad_link(pad, sink);
+  gst_object_unref(sink);
+}
+
+// Playback of one camera's recording: filesrc ! decodebin ! videoconvert !
+// RGBA at the camera's size ! clocksync, so frames come on their recorded
+// capture schedule (PTS = capture time). Returns the last element.
+static GstElement* add_playback(GstBin* bin, Priv* p, const std::string& file,
+                                const lf::Camera& cam, const std::string& id) {
+  GstElement* src = adopt(bin, p, make("filesrc", "playback" + id));
+  GstElement* dec = adopt(bin, p, make("decodebin", "decode" + id));
+  GstElement* convert = adopt(bin, p, make("videoconvert", "convert" + id));
+  GstElement* filter = adopt(bin, p, make("capsfilter", "rgba" + id));
+  GstElement* sync = adopt(bin, p, make("clocksync", "schedule" + id));
+  g_object_set(src, "location", file.c_str(), nullptr);
+  GstCaps* caps =
+      gst_caps_new_simple("video/x-raw", "format", G_TYPE_STRING, "RGBA", "width", G_TYPE_INT,
+                          cam.width, "height", G_TYPE_INT, cam.height, nullptr);
+  g_object_set(filter, "caps", caps, nullptr);
+  gst_caps_unref(caps);
+  link_or_throw(src, dec, "the playback of camera " + id);
+  g_signal_connect(dec, "pad-added", G_CALLBACK(on_decoded_pad), convert);
+  link_or_throw(convert, filter, "the playback of camera " + id);
+  link_or_throw(filter, sync, "the playback of camera " + id);
+  return sync;
+}
+
+// Recording of one camera: its frames split off to videoconvert ! RGB !
+// (jpegenc quality=Q when Q > 0) ! matroskamux (nanosecond timecodes, so
+// the capture times are kept exactly) ! filesink. Returns the tee whose
+// other branch feeds the fragment.
+static GstElement* add_recorder(GstBin* bin, Priv* p, GstElement* cam, const std::string& file,
+                                gint quality, const std::string& id) {
+  if (!GST_OBJECT_PARENT(cam)) adopt(bin, p, cam);
+  GstElement* tee = adopt(bin, p, make("tee", "split" + id));
+  GstElement* q = adopt(bin, p, make("queue", "record-queue" + id));
+  GstElement* convert = adopt(bin, p, make("videoconvert", "record-convert" + id));
+  GstElement* filter = adopt(bin, p, make("capsfilter", "record-rgb" + id));
+  GstElement* mux = adopt(bin, p, make("matroskamux", "mux" + id));
+  GstElement* sink = adopt(bin, p, make("filesink", "record" + id));
+  // The recording must not lose frames: up to 2 s of them wait for the disk.
+  g_object_set(q, "max-size-buffers", 0, "max-size-bytes", 0, "max-size-time",
+               static_cast<guint64>(2 * GST_SECOND), nullptr);
+  GstCaps* caps = gst_caps_new_simple("video/x-raw", "format", G_TYPE_STRING, "RGB", nullptr);
+  g_object_set(filter, "caps", caps, nullptr);
+  gst_caps_unref(caps);
+  g_object_set(mux, "timecodescale", static_cast<gint64>(1), nullptr);
+  g_object_set(sink, "location", file.c_str(), "async", FALSE, nullptr);
+  const std::string what = "the recording of camera " + id;
+  link_or_throw(cam, tee, what);
+  link_or_throw(tee, q, what);
+  link_or_throw(q, convert, what);
+  link_or_throw(convert, filter, what);
+  GstElement* last = filter;
+  if (quality > 0) {
+    GstElement* jpeg = adopt(bin, p, make("jpegenc", "record-jpeg" + id));
+    g_object_set(jpeg, "quality", quality, nullptr);
+    link_or_throw(filter, jpeg, what);
+    last = jpeg;
+  }
+  link_or_throw(last, mux, what);
+  link_or_throw(mux, sink, what);
+  return tee;
+}
+
 // Builds the graph from the rig (NULL->READY).
 static bool build(LfCameraHost* self) {
   Priv* p = priv_of(self);
   GST_OBJECT_LOCK(self);
   const std::string rig_path = p->rig, cameras = p->cameras;
+  const std::string record = p->record, playback = p->playback;
+  const gint record_quality = p->record_quality;
   const std::vector<Forward> fw = forwards(composite_of(self));
   std::vector<std::pair<Forward, GValue>> values;
   for (size_t i = 0; i < fw.size(); ++i) {
@@ -190,62 +315,86 @@ static bool build(LfCameraHost* self) {
   const std::shared_ptr<const lf::Rig> rig = lfgst::open_rig(GST_ELEMENT(self), rig_path);
   bool ok = rig != nullptr;
   GError* err = nullptr;
-  if (ok &&
-      !lfgst::guard(
-          [&] {
-            const std::vector<int> chosen =
-                lf::parse_index_ranges(cameras, static_cast<int>(rig->cameras.size()), "cameras");
-            bool live = false;
-            for (auto& [f, v] : values)
-              if (g_str_equal(f.name, "is-live")) live = g_value_get_boolean(&v);
-            GstElement* tee = make("tee", "requests");
-            g_object_set(tee, "allow-not-linked", TRUE, nullptr);
-            GstElement* out = composite_of(self) ? make("lfcompositor", "compositor")
-                                                 : make("funnel", "fragments");
-            gst_bin_add_many(GST_BIN(self), tee, out, nullptr);
-            p->children = {tee, out};
-            auto apply = [&](GstElement* e, GType type) {
-              for (auto& [f, v] : values)
-                if (f.child() == type) g_object_set_property(G_OBJECT(e), f.name, &v);
-            };
-            if (composite_of(self)) {
-              g_object_set(out, "rig", rig_path.c_str(), nullptr);
-              apply(out, lf_compositor_get_type());
-            }
-            for (int i : chosen) {
-              const std::string id = std::to_string(rig->cameras[i].id);
-              GstElement* cam = make("lfcamsrc", "camera" + id);
-              GstElement* q = make("queue", "requests" + id);
-              GstElement* frag = make("lffragment", "fragment" + id);
-              g_object_set(cam, "rig", rig_path.c_str(), "camera-id", rig->cameras[i].id, nullptr);
-              g_object_set(frag, "rig", rig_path.c_str(), "camera-id", rig->cameras[i].id, nullptr);
-              apply(cam, lf_cam_src_get_type());
-              apply(frag, lf_fragment_get_type());
-              // Live: a request that waits behind two others is stale.
-              if (live)
-                g_object_set(q, "max-size-buffers", 2, "max-size-bytes", 0, "max-size-time",
-                             G_GUINT64_CONSTANT(0), nullptr),
-                    gst_util_set_object_arg(G_OBJECT(q), "leaky", "downstream");
-              // Not live: the queue's defaults (requests of several viewers
-              // interleave; a short queue here can stall them behind one
-              // another).
-              gst_bin_add_many(GST_BIN(self), cam, q, frag, nullptr);
-              p->children.insert(p->children.end(), {cam, q, frag});
-              if (!gst_element_link_pads(tee, "src_%u", q, "sink") ||
-                  !gst_element_link_pads(q, "src", frag, "request") ||
-                  !gst_element_link_pads(cam, "src", frag, "sink") ||
-                  !gst_element_link_pads(frag, "src", out, "sink_%u"))
-                throw std::runtime_error("cannot link the graph of camera " + id);
-            }
-            GstPad* tsink = gst_element_get_static_pad(tee, "sink");
-            GstPad* osrc = gst_element_get_static_pad(out, "src");
-            gst_ghost_pad_set_target(GST_GHOST_PAD(p->sink), tsink);
-            gst_ghost_pad_set_target(GST_GHOST_PAD(p->src), osrc);
-            gst_object_unref(tsink);
-            gst_object_unref(osrc);
-            GST_INFO_OBJECT(self, "%zu cameras of %s", chosen.size(), rig_path.c_str());
-          },
-          &err)) {
+  if (ok && !lfgst::guard(
+                [&] {
+                  const std::vector<int> chosen = lf::parse_index_ranges(
+                      cameras, static_cast<int>(rig->cameras.size()), "cameras");
+                  bool live = false, frame_select_set = false;
+                  for (auto& [f, v] : values) {
+                    if (g_str_equal(f.name, "is-live")) live = g_value_get_boolean(&v);
+                    if (g_str_equal(f.name, "frame-select")) frame_select_set = true;
+                  }
+                  // Bad file name patterns fail here, before anything is made.
+                  if (!record.empty()) lf::camera_file_name(record, 0, "record");
+                  if (!playback.empty()) lf::camera_file_name(playback, 0, "playback");
+                  GstElement* tee = make("tee", "requests");
+                  g_object_set(tee, "allow-not-linked", TRUE, nullptr);
+                  GstElement* out = composite_of(self) ? make("lfcompositor", "compositor")
+                                                       : make("funnel", "fragments");
+                  gst_bin_add_many(GST_BIN(self), tee, out, nullptr);
+                  p->children = {tee, out};
+                  auto apply = [&](GstElement* e, GType type) {
+                    for (auto& [f, v] : values)
+                      if (f.child() == type) g_object_set_property(G_OBJECT(e), f.name, &v);
+                  };
+                  if (composite_of(self)) {
+                    g_object_set(out, "rig", rig_path.c_str(), nullptr);
+                    apply(out, lf_compositor_get_type());
+                  }
+                  for (int i : chosen) {
+                    const int cam_id = rig->cameras[i].id;
+                    const std::string id = std::to_string(cam_id);
+                    GstElement* q = make("queue", "requests" + id);
+                    GstElement* frag = make("lffragment", "fragment" + id);
+                    g_object_set(frag, "rig", rig_path.c_str(), "camera-id", cam_id, nullptr);
+                    apply(frag, lf_fragment_get_type());
+                    // A recording pairs frames with requests by capture time, live
+                    // and played back alike.
+                    if ((!record.empty() || !playback.empty()) && !frame_select_set)
+                      gst_util_set_object_arg(G_OBJECT(frag), "frame-select", "capture-time");
+                    GstElement* cam =
+                        playback.empty()
+                            ? make("lfcamsrc", "camera" + id)
+                            : add_playback(GST_BIN(self), p,
+                                           lf::camera_file_name(playback, cam_id, "playback"),
+                                           rig->cameras[i], id);
+                    if (playback.empty()) {
+                      g_object_set(cam, "rig", rig_path.c_str(), "camera-id", cam_id, nullptr);
+                      apply(cam, lf_cam_src_get_type());
+                    }
+                    if (!record.empty())
+                      cam = add_recorder(GST_BIN(self), p, cam,
+                                         lf::camera_file_name(record, cam_id, "record"),
+                                         record_quality, id);
+                    // Live: a request that waits behind two others is stale.
+                    if (live)
+                      g_object_set(q, "max-size-buffers", 2, "max-size-bytes", 0, "max-size-time",
+                                   G_GUINT64_CONSTANT(0), nullptr),
+                          gst_util_set_object_arg(G_OBJECT(q), "leaky", "downstream");
+                    // Not live: the queue's defaults (requests of several viewers
+                    // interleave; a short queue here can stall them behind one
+                    // another).
+                    if (!GST_OBJECT_PARENT(cam)) {
+                      gst_bin_add(GST_BIN(self), cam);
+                      p->children.push_back(cam);
+                    }
+                    gst_bin_add_many(GST_BIN(self), q, frag, nullptr);
+                    p->children.insert(p->children.end(), {q, frag});
+                    if (!gst_element_link_pads(tee, "src_%u", q, "sink") ||
+                        !gst_element_link_pads(q, "src", frag, "request") ||
+                        !gst_element_link_pads(cam, nullptr, frag, "sink") ||
+                        !gst_element_link_pads(frag, "src", out, "sink_%u"))
+                      throw std::runtime_error("cannot link the graph of camera " + id);
+                  }
+                  GstPad* tsink = gst_element_get_static_pad(tee, "sink");
+                  GstPad* osrc = gst_element_get_static_pad(out, "src");
+                  gst_ghost_pad_set_target(GST_GHOST_PAD(p->sink), tsink);
+                  gst_ghost_pad_set_target(GST_GHOST_PAD(p->src), osrc);
+                  gst_object_unref(tsink);
+                  gst_object_unref(osrc);
+                  GST_INFO_OBJECT(self, "%zu cameras of %s", chosen.size(), rig_path.c_str());
+                },
+                &err)) {
     GST_ELEMENT_ERROR(self, LIBRARY, SETTINGS, ("Cannot build the camera graph"),
                       ("%s", err->message));
     g_error_free(err);
@@ -370,6 +519,28 @@ static void install_properties(GObjectClass* oc) {
                           "Cameras of this host: rig-order indices and ranges, e.g. \"0-15\" or "
                           "\"0,4,8\" (empty: all)",
                           nullptr, rw));
+  g_object_class_install_property(
+      oc, PROP_RECORD,
+      g_param_spec_string(
+          "record", "Record",
+          "Record every camera's frames and capture times to a Matroska file (matroskamux, "
+          "nanosecond timecodes): a file name with one %d for the camera id, e.g. "
+          "\"rec/cam%02d.mkv\" (empty: no recording)",
+          nullptr, rw));
+  g_object_class_install_property(
+      oc, PROP_RECORD_QUALITY,
+      g_param_spec_int("record-quality", "Recording quality",
+                       "0: lossless (raw RGB); 1..100: JPEG at that quality", 0, 100,
+                       DEFAULT_RECORD_QUALITY, rw));
+  g_object_class_install_property(
+      oc, PROP_PLAYBACK,
+      g_param_spec_string(
+          "playback", "Playback",
+          "Play a recording (see record) instead of the cameras: same pattern; each camera's "
+          "frames come on their recorded capture schedule (clocksync). The camera properties "
+          "(mode, framerate, ...) are then unused. With record or playback, frame-select "
+          "defaults to capture-time, so the same requests give the same output",
+          nullptr, rw));
   install_forwards(oc, PROP_FIRST_FORWARD, std::begin(kCameraHostForwards),
                    std::end(kCameraHostForwards));
 }

@@ -201,6 +201,22 @@ static GstElement* build_decoder(const Settings& s, const lf::Camera& cam, GstEl
   return pipe;
 }
 
+// The first error the internal decoding pipeline posted ("" if none).
+static std::string decoder_error(GstElement* decoder, GstClockTime wait = 0) {
+  GstBus* bus = gst_element_get_bus(decoder);
+  GstMessage* m = gst_bus_timed_pop_filtered(bus, wait, GST_MESSAGE_ERROR);
+  gst_object_unref(bus);
+  if (!m) return "";
+  GError* e = nullptr;
+  gchar* dbg = nullptr;
+  gst_message_parse_error(m, &e, &dbg);
+  std::string what = std::string(e->message) + " (" + (dbg ? dbg : "") + ")";
+  g_clear_error(&e);
+  g_free(dbg);
+  gst_message_unref(m);
+  return what;
+}
+
 // Opens the camera's input for `st` (throws std::exception on failure).
 static void open_input(State* st) {
   const Settings& s = st->s;
@@ -213,9 +229,17 @@ static void open_input(State* st) {
             "mode=file needs 'location' (a file, or a printf pattern such as frames/%04d.png "
             "for an image sequence)");
       st->decoder = build_decoder(s, cam, &st->appsink);
-      if (gst_element_set_state(st->decoder, GST_STATE_PLAYING) == GST_STATE_CHANGE_FAILURE)
-        throw std::runtime_error("cannot open " +
-                                 (s.mode == Mode::kV4l2 ? "device " + s.device : s.location));
+      const std::string input = s.mode == Mode::kV4l2 ? "device " + s.device : s.location;
+      // Errors surface here, when the element starts (a missing file, a
+      // busy device, an undecodable stream), not later as a missing frame.
+      if (gst_element_set_state(st->decoder, GST_STATE_PLAYING) == GST_STATE_CHANGE_FAILURE ||
+          gst_element_get_state(st->decoder, nullptr, nullptr, 10 * GST_SECOND) ==
+              GST_STATE_CHANGE_FAILURE) {
+        const std::string why = decoder_error(st->decoder);
+        throw std::runtime_error("cannot open " + input + (why.empty() ? "" : ": " + why));
+      }
+      if (const std::string why = decoder_error(st->decoder); !why.empty())
+        throw std::runtime_error("cannot decode " + input + ": " + why);
       st->rgba = cv::Mat(cam.height, cam.width, CV_8UC4);  // size for caps
       break;
     }
@@ -292,6 +316,22 @@ static void free_mat(gpointer p) {
   delete static_cast<cv::Mat*>(p);
 }
 
+// The next decoded frame, waiting at most `timeout` in 50 ms slices: an error
+// of the decoding pipeline is posted as this element's error at once.
+static GstSample* pull_or_error(LfCamSrc* self, State* st, GstClockTime timeout) {
+  GstAppSink* sink = GST_APP_SINK(st->appsink);
+  for (GstClockTime waited = 0; waited < timeout; waited += 50 * GST_MSECOND) {
+    if (GstSample* s = gst_app_sink_try_pull_sample(sink, 50 * GST_MSECOND)) return s;
+    if (gst_app_sink_is_eos(sink)) return nullptr;
+    if (const std::string why = decoder_error(st->decoder); !why.empty()) {
+      GST_ELEMENT_ERROR(self, STREAM, DECODE, ("Cannot decode the camera input"),
+                        ("%s: %s", st->s.location.c_str(), why.c_str()));
+      return nullptr;
+    }
+  }
+  return nullptr;
+}
+
 static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
   LfCamSrc* self = LF_CAM_SRC(src);
   State* st = self->priv->state.get();
@@ -326,12 +366,13 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
       }
       if (!s && !st->last) s = gst_app_sink_try_pull_sample(sink, 5 * GST_SECOND);
     } else {
-      s = gst_app_sink_try_pull_sample(sink, 30 * GST_SECOND);
+      s = pull_or_error(self, st, 30 * GST_SECOND);
       if (!s && gst_app_sink_is_eos(sink) && set.loop &&
           gst_element_seek_simple(st->decoder, GST_FORMAT_TIME, GST_SEEK_FLAG_FLUSH, 0))
-        s = gst_app_sink_try_pull_sample(sink, 30 * GST_SECOND);
+        s = pull_or_error(self, st, 30 * GST_SECOND);
       if (!s) {
         if (gst_app_sink_is_eos(sink)) return GST_FLOW_EOS;
+        if (!st->last) return GST_FLOW_ERROR;  // pull_or_error posted the decoder's error
       }
     }
     if (s) {

@@ -7,9 +7,16 @@
  * newest frame (colour-corrected by the rig's 3x4 `colour` matrix,
  * lib/lf/colour.h) is warped into this camera's fragment of the requested
  * view (lib/lf/plan.h, lib/lf/render.h) and pushed on `src`, tagged in band
- * (lib/lf/wire.h). Cameras that do not contribute send an explicitly empty
- * fragment, so the compositor knows the request is complete. The fragment
- * caps carry the request caps' `framerate`.
+ * (lib/lf/wire.h). With `frame-select=capture-time` the frame is instead the
+ * one captured at the request's time: the newest whose capture time (its
+ * `LfCaptureMeta`, else its PTS) is at or before the request's PTS, waiting
+ * up to `frame-timeout` for it; so a live run and the playback of its
+ * recording pair the same frames with the same requests (lfcamerahost
+ * `record`/`playback`). Camera frames may come from any upstream element
+ * (e.g. `uridecodebin ! videoconvert ! videoscale ! video/x-raw,format=RGBA,
+ * width=W,height=H ! lffragment`); their PTS is then the capture time. Cameras that do not
+ * contribute send an explicitly empty fragment, so the compositor knows the request is complete.
+ * The fragment caps carry the request caps' `framerate`.
  *
  * The camera is named like lfcamsrc's: `camera-id`, or `row` and `col` of
  * the rig's grid.
@@ -23,6 +30,7 @@
  */
 #include <gst/video/video.h>
 
+#include <deque>
 #include <memory>
 
 #include "lf/colour.h"
@@ -47,6 +55,10 @@ G_END_DECLS
 
 namespace {
 enum class Encoding { kRaw = 0, kJpeg = 1 };
+enum class FrameSelect { kNewest = 0, kCaptureTime = 1 };
+// Frames kept for frame-select=capture-time (a request may be up to this many
+// frames behind the camera).
+constexpr size_t kFrameRing = 8;
 }  // namespace
 
 #define DEFAULT_ENCODING Encoding::kRaw
@@ -54,6 +66,7 @@ enum class Encoding { kRaw = 0, kJpeg = 1 };
 #define DEFAULT_MAX_PIXELS (G_GUINT64_CONSTANT(3840) * 2160)
 #define DEFAULT_MAX_RATE 240.0
 #define DEFAULT_FRAME_TIMEOUT GST_SECOND
+#define DEFAULT_FRAME_SELECT FrameSelect::kNewest
 
 #define LF_TYPE_FRAGMENT_ENCODING (lf_fragment_encoding_get_type())
 static GType lf_fragment_encoding_get_type() {
@@ -66,6 +79,20 @@ static GType lf_fragment_encoding_get_type() {
   return lfgst::enum_type(&type, "LfFragmentEncoding", values);
 }
 
+#define LF_TYPE_FRAGMENT_FRAME_SELECT (lf_fragment_frame_select_get_type())
+static GType lf_fragment_frame_select_get_type() {
+  static GType type = 0;
+  static const GEnumValue values[] = {
+      {static_cast<gint>(FrameSelect::kNewest), "The newest camera frame when the request comes",
+       "newest"},
+      {static_cast<gint>(FrameSelect::kCaptureTime),
+       "The frame captured at the request's time: the newest with capture time <= request PTS "
+       "(deterministic: a recording played back pairs the same frames)",
+       "capture-time"},
+      {0, nullptr, nullptr}};
+  return lfgst::enum_type(&type, "LfFragmentFrameSelect", values);
+}
+
 namespace {
 struct Settings : lfgst::CameraAddress {
   std::string rig;
@@ -74,6 +101,7 @@ struct Settings : lfgst::CameraAddress {
   guint64 max_pixels = DEFAULT_MAX_PIXELS;
   gdouble max_rate = DEFAULT_MAX_RATE;
   guint64 frame_timeout = DEFAULT_FRAME_TIMEOUT;
+  FrameSelect frame_select = DEFAULT_FRAME_SELECT;
 };
 
 // From READY->PAUSED to PAUSED->READY.
@@ -101,6 +129,9 @@ struct Priv {
   GMutex lock;
   GCond cond;
   GstBuffer* frame = nullptr;  // newest camera frame
+  // frame-select=capture-time: the last kFrameRing frames, oldest first,
+  // with their capture times (ns).
+  std::deque<std::pair<int64_t, GstBuffer*>> ring;
   GstVideoInfo vinfo;
   bool have_vinfo = false;
   bool video_eos = false;
@@ -110,7 +141,12 @@ struct Priv {
     g_cond_init(&cond);
     gst_video_info_init(&vinfo);
   }
+  void clear_ring() {
+    for (auto& f : ring) gst_buffer_unref(f.second);
+    ring.clear();
+  }
   ~Priv() {
+    clear_ring();
     gst_buffer_replace(&frame, nullptr);
     g_mutex_clear(&lock);
     g_cond_clear(&cond);
@@ -206,12 +242,25 @@ static gboolean lf_fragment_sink_event(GstPad*, GstObject* parent, GstEvent* eve
   return TRUE;
 }
 
+static int64_t capture_time_of(LfFragment* self, GstBuffer* frame, int camera_id);
+
 static GstFlowReturn lf_fragment_sink_chain(GstPad*, GstObject* parent, GstBuffer* buf) {
-  Priv* p = LF_FRAGMENT(parent)->priv;
+  LfFragment* self = LF_FRAGMENT(parent);
+  Priv* p = self->priv;
+  State* st = p->state.get();
+  const bool by_time = st && st->s.frame_select == FrameSelect::kCaptureTime;
+  const int64_t t = by_time ? capture_time_of(self, buf, st->rig->cameras[st->index].id) : -1;
   g_mutex_lock(&p->lock);
   const bool flushing = p->flushing;
   if (!flushing) {
     gst_buffer_replace(&p->frame, buf);
+    if (by_time) {
+      p->ring.emplace_back(t, gst_buffer_ref(buf));
+      if (p->ring.size() > kFrameRing) {
+        gst_buffer_unref(p->ring.front().second);
+        p->ring.pop_front();
+      }
+    }
     g_cond_broadcast(&p->cond);
   }
   g_mutex_unlock(&p->lock);
@@ -273,6 +322,34 @@ static int64_t capture_time_of(LfFragment* self, GstBuffer* frame, int camera_id
     return static_cast<int64_t>(meta_time);
   }
   return GST_BUFFER_PTS_IS_VALID(frame) ? static_cast<int64_t>(GST_BUFFER_PTS(frame)) : -1;
+}
+
+// frame-select=capture-time, with p->lock held: the frame for request time
+// `t` (ns): the newest captured at or before t. Waits (at most
+// frame-timeout) until that frame is known to be the one: a later frame has
+// come, or one within the frame period (from the caps) before t. Then the newest at or before t, or
+// the oldest kept when all are later (a request older than the ring). A new reference, or nullptr.
+static GstBuffer* frame_at(Priv* p, int64_t t) {
+  const State* st = p->state.get();
+  const int64_t period =
+      p->have_vinfo && GST_VIDEO_INFO_FPS_N(&p->vinfo) > 0
+          ? static_cast<int64_t>(gst_util_uint64_scale_int(
+                GST_SECOND, GST_VIDEO_INFO_FPS_D(&p->vinfo), GST_VIDEO_INFO_FPS_N(&p->vinfo)))
+          : -1;
+  const gint64 deadline =
+      g_get_monotonic_time() + static_cast<gint64>(st->s.frame_timeout / GST_USECOND);
+  auto settled = [&] {
+    if (p->ring.empty()) return false;
+    const int64_t newest = p->ring.back().first;
+    return newest > t || (period > 0 && newest > t - period);
+  };
+  while (!settled() && !p->flushing && !p->video_eos)
+    if (!g_cond_wait_until(&p->cond, &p->lock, deadline)) break;
+  if (p->ring.empty()) return p->frame ? gst_buffer_ref(p->frame) : nullptr;
+  GstBuffer* best = p->ring.front().second;
+  for (const auto& [time, b] : p->ring)
+    if (time <= t) best = b;
+  return gst_buffer_ref(best);
 }
 
 // Requests beyond the element's limits (a view larger than max-pixels, or
@@ -348,7 +425,11 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
     gst_buffer_unref(buf);
     return GST_FLOW_FLUSHING;
   }
-  GstBuffer* frame = p->frame ? gst_buffer_ref(p->frame) : nullptr;
+  GstBuffer* frame = nullptr;
+  if (st->s.frame_select == FrameSelect::kCaptureTime && GST_BUFFER_PTS_IS_VALID(buf))
+    frame = frame_at(p, static_cast<int64_t>(GST_BUFFER_PTS(buf)));
+  else if (p->frame)
+    frame = gst_buffer_ref(p->frame);
   GstVideoInfo info = p->vinfo;
   const bool have_info = p->have_vinfo;
   g_mutex_unlock(&p->lock);
@@ -422,6 +503,7 @@ static void lf_fragment_stop(LfFragment* self) {
   Priv* p = self->priv;
   g_mutex_lock(&p->lock);
   gst_buffer_replace(&p->frame, nullptr);
+  p->clear_ring();
   p->video_eos = false;
   p->have_vinfo = false;
   g_mutex_unlock(&p->lock);
@@ -488,7 +570,13 @@ static void lf_fragment_class_init(LfFragmentClass* klass) {
                                 "How long a request waits for the camera's first frame, ns; "
                                 "then it is dropped with a warning",
                                 0, G_MAXUINT64, DEFAULT_FRAME_TIMEOUT, lfgst::kReadWriteReady));
+  props.add(oc, &Settings::frame_select,
+            g_param_spec_enum("frame-select", "Frame selection",
+                              "Which camera frame a request is rendered from",
+                              LF_TYPE_FRAGMENT_FRAME_SELECT,
+                              static_cast<gint>(DEFAULT_FRAME_SELECT), lfgst::kReadWriteReady));
   gst_type_mark_as_plugin_api(LF_TYPE_FRAGMENT_ENCODING, static_cast<GstPluginAPIFlags>(0));
+  gst_type_mark_as_plugin_api(LF_TYPE_FRAGMENT_FRAME_SELECT, static_cast<GstPluginAPIFlags>(0));
   gst_element_class_add_static_pad_template(ec, &sink_template);
   gst_element_class_add_static_pad_template(ec, &request_template);
   gst_element_class_add_static_pad_template(ec, &src_template);

@@ -18,6 +18,6 @@ if [ -n "${DISPLAY:-}${WAYLAND_DISPLAY:-}" ]; then
   sink="tee name=vt ! queue ! videoconvert ! autovideosink vt. ! queue ! $sink"
 fi
 "$root/pipelines/lf-pipeline.sh" "$rig" \
-  "is-live=true framerate=10/1 num-buffers=$frames width=640 height=480 position="<0.01,0.02,0>" focal-plane=depth:1.25" \
+  "is-live=true framerate=10/1 num-buffers=$frames width=640 height=480 position=<0.01,0.02,0> focal-plane=depth:1.25" \
   "$sink" "mode=synthetic is-live=true framerate=10/1"
 echo "pipeline (4): $frames frames of the synthetic dynamic scene -> $out"

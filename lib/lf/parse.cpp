@@ -88,4 +88,40 @@ std::vector<int> parse_index_ranges(const std::string& s, int count, const std::
   return out;
 }
 
+std::string camera_file_name(const std::string& pattern, int camera_id, const std::string& what) {
+  std::string out;
+  int fields = 0;
+  for (size_t i = 0; i < pattern.size(); ++i) {
+    if (pattern[i] != '%') {
+      out += pattern[i];
+      continue;
+    }
+    if (i + 1 < pattern.size() && pattern[i + 1] == '%') {
+      out += '%';
+      ++i;
+      continue;
+    }
+    size_t j = i + 1;
+    int width = 0;
+    if (j < pattern.size() && pattern[j] == '0' && j + 1 < pattern.size() &&
+        pattern[j + 1] >= '1' && pattern[j + 1] <= '9') {
+      width = pattern[j + 1] - '0';
+      j += 2;
+    }
+    if (j >= pattern.size() || pattern[j] != 'd')
+      throw std::invalid_argument(what + " '" + pattern +
+                                  "': only one %d or %0Nd (N = 1..9) field is allowed");
+    std::string id = std::to_string(camera_id);
+    if (static_cast<int>(id.size()) < width) id.insert(0, width - id.size(), '0');
+    out += id;
+    ++fields;
+    i = j;
+  }
+  if (fields != 1)
+    throw std::invalid_argument(what + " '" + pattern +
+                                "' needs exactly one %d (the camera id), has " +
+                                std::to_string(fields));
+  return out;
+}
+
 }  // namespace lf

@@ -24,6 +24,13 @@ cv::Vec3d parse_point(const std::string& s, const std::string& what);
 // them. Throws std::invalid_argument naming `what` and the bad token.
 std::vector<int> parse_index_ranges(const std::string& s, int count, const std::string& what);
 
+// A per-camera file name from a pattern with exactly one "%d" or "%0Nd"
+// (N = 1..9), e.g. "rec/cam%02d.mkv" -> "rec/cam07.mkv" for camera 7; "%%"
+// is a literal '%'. The pattern is never used as a printf format. Throws
+// std::invalid_argument naming `what` when there is no such field, more than
+// one, or any other '%' sequence.
+std::string camera_file_name(const std::string& pattern, int camera_id, const std::string& what);
+
 // Parses a focal-plane specification: "infinity", "depth:Z" (rig units from
 // the camera plane), "param:A" (light-slab focal parameter) or
 // "plane:nx,ny,nz,d". Throws std::invalid_argument naming the problem.
