@@ -36,6 +36,7 @@
 #include <set>
 
 #include "lf/composite.h"
+#include "lf/focus_probe.h"
 #include "lf/fragment.h"
 #include "lf/wire.h"
 #include "lfcaps.h"
@@ -86,6 +87,18 @@ constexpr uint64_t kSequenceWindow = 4096;
 // hostile first fragment that anchored the window).
 constexpr gint64 kReanchorAfterUs = G_USEC_PER_SEC;
 constexpr size_t kMaxPending = 16;
+// A focus probe is scored when every camera answered every step, or this long
+// after its first fragment with what came (a dead camera).
+constexpr gint64 kProbeDeadlineUs = G_USEC_PER_SEC;
+
+// The focus probe being collected (lib/lf/focus_probe.h).
+struct Probe {
+  uint32_t id = 0;
+  guint viewer = 0;
+  gint64 started_us = 0;
+  lf::FocusProbeScore score;
+  std::set<uint64_t> seen;  // (camera << 16) | step
+};
 
 // From start (READY->PAUSED) to stop (PAUSED->READY); used on the aggregate
 // thread only (GstAggregator handles serialized sink events there too).
@@ -110,7 +123,8 @@ struct State {
   guint64 foreign_count = 0;
   gint64 foreign_since_us = -1;
   bool warned_foreign = false;
-  lfgst::WarnLimiter bad, foreign, unknown_camera, wrong_size, no_size, out_of_window;
+  std::unique_ptr<Probe> probe;
+  lfgst::WarnLimiter no_focus, bad, foreign, unknown_camera, wrong_size, no_size, out_of_window;
   ~State() {
     if (convert) gst_video_converter_free(convert);
   }
@@ -431,6 +445,73 @@ static void note_foreign(LfCompositor* self, State* st, guint viewer) {
                        st->foreign_count, (now - st->foreign_since_us) / 1e6, viewer));
 }
 
+// Sends `event` (taken) up every sink pad: to every camera branch and on to
+// lfviewrequest. True if any pad took it.
+static gboolean push_upstream(GstAggregator* agg, GstEvent* event) {
+  GST_OBJECT_LOCK(agg);
+  GList* pads = g_list_copy(GST_ELEMENT(agg)->sinkpads);
+  g_list_foreach(
+      pads, [](gpointer p, gpointer) { gst_object_ref(p); }, nullptr);
+  GST_OBJECT_UNLOCK(agg);
+  gboolean any = FALSE;
+  for (GList* l = pads; l; l = l->next)
+    any |= gst_pad_push_event(GST_PAD(l->data), gst_event_ref(event));
+  g_list_free_full(pads, gst_object_unref);
+  gst_event_unref(event);
+  return any;
+}
+
+// Scores the focus probe collected so far and sends the answer upstream as
+// an lf-focus event (viewer-id, probe-id, inverse-depth), which lfviewrequest
+// applies as its focal plane.
+static void finish_probe(LfCompositor* self, State* st) {
+  std::unique_ptr<Probe> probe = std::move(st->probe);
+  double q = 0;
+  if (!st->rig || !probe->score.best(*st->rig, &q)) {
+    LF_ELEMENT_WARNING_LIMITED(self, st->no_focus, STREAM, FAILED,
+                               ("Cannot focus at the clicked point"),
+                               "probe %u: too few pixels seen by two cameras (%zu fragments)",
+                               probe->id, probe->seen.size());
+    return;
+  }
+  lfgst::trace(GST_ELEMENT(self), "focused", probe->viewer, probe->id, -1,
+               static_cast<gint64>(q * 1e9));
+  GST_DEBUG_OBJECT(self, "focus probe %u: inverse depth %g", probe->id, q);
+  GstStructure* s =
+      gst_structure_new("lf-focus", "viewer-id", G_TYPE_UINT, probe->viewer, "probe-id",
+                        G_TYPE_UINT, probe->id, "inverse-depth", G_TYPE_DOUBLE, q, nullptr);
+  push_upstream(GST_AGGREGATOR(self), gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, s));
+}
+
+// A fragment of a focus probe (header already checked: our viewer, a known
+// camera): scored, never composited.
+static void absorb_probe(LfCompositor* self, State* st, const guint8* data, gsize size,
+                         const lf::FragmentHeader& head) {
+  const uint32_t id = lf::focus_probe_id(head.sequence);
+  const int step = lf::focus_probe_step(head.sequence);
+  if (step >= lf::kFocusProbeSteps || (st->probe && id < st->probe->id)) return;  // stale
+  lf::Fragment f;
+  const size_t side = 2 * lf::kFocusProbeRadius + 1;
+  GError* err = nullptr;
+  if (!lfgst::guard([&] { f = lf::parse_fragment(data, size, nullptr, side * side); }, &err)) {
+    LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE, ("Dropping a malformed fragment"),
+                               "%s", err->message);
+    g_error_free(err);
+    return;
+  }
+  if (!st->probe || id > st->probe->id) {
+    st->probe = std::make_unique<Probe>();
+    st->probe->id = id;
+    st->probe->viewer = f.viewer_id;
+    st->probe->started_us = g_get_monotonic_time();
+  }
+  Probe& pr = *st->probe;
+  if (!pr.seen.insert((uint64_t{f.camera_id} << 16) | static_cast<uint64_t>(step)).second) return;
+  pr.score.add(step, f);
+  const size_t cameras = st->rig ? st->rig->cameras.size() : 0;
+  if (cameras > 0 && pr.seen.size() >= cameras * lf::kFocusProbeSteps) finish_probe(self, st);
+}
+
 // Parses one fragment buffer and files it under its request. What a peer
 // sends is checked from the header before anything is decoded: the viewer,
 // the camera, the sequence window and the output size; then the payload is
@@ -456,6 +537,8 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
     LF_ELEMENT_WARNING_LIMITED(self, st->unknown_camera, STREAM, DECODE,
                                ("Dropping a fragment of an unknown camera"),
                                "camera %u is not in the rig", head.camera_id);
+  } else if (lf::is_focus_probe(head.sequence)) {
+    absorb_probe(self, st, map.data, map.size, head);
   } else if (!st->view_size(&w, &h)) {
     LF_ELEMENT_WARNING_LIMITED(self, st->no_size, STREAM, FORMAT,
                                ("No output size: dropping fragments"),
@@ -560,6 +643,8 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
     if (!gst_aggregator_pad_is_eos(GST_AGGREGATOR_PAD(l->data))) all_eos = false;
   g_list_free_full(pads, gst_object_unref);
 
+  if (st->probe && g_get_monotonic_time() - st->probe->started_us > kProbeDeadlineUs)
+    finish_probe(self, st);
   const size_t expected = expected_fragments(self);
   GstFlowReturn ret = GST_FLOW_OK;
   // Complete requests, in order; at a deadline (or end of stream), also the
@@ -658,17 +743,7 @@ static gboolean lf_compositor_src_event(GstAggregator* agg, GstEvent* event) {
     gst_structure_set(gst_event_writable_structure(event), "viewer-id", G_TYPE_UINT,
                       static_cast<guint>(viewer), nullptr);
   }
-  GST_OBJECT_LOCK(agg);
-  GList* pads = g_list_copy(GST_ELEMENT(agg)->sinkpads);
-  g_list_foreach(
-      pads, [](gpointer p, gpointer) { gst_object_ref(p); }, nullptr);
-  GST_OBJECT_UNLOCK(agg);
-  gboolean any = FALSE;
-  for (GList* l = pads; l; l = l->next)
-    any |= gst_pad_push_event(GST_PAD(l->data), gst_event_ref(event));
-  g_list_free_full(pads, gst_object_unref);
-  gst_event_unref(event);
-  return any;
+  return push_upstream(agg, event);
 }
 
 static void on_latency_changed(GObject* obj, GParamSpec*, gpointer) {

@@ -34,6 +34,7 @@
 #include <memory>
 
 #include "lf/colour.h"
+#include "lf/focus_probe.h"
 #include "lf/plan.h"
 #include "lf/render.h"
 #include "lf/wire.h"
@@ -129,8 +130,8 @@ struct Priv {
   GMutex lock;
   GCond cond;
   GstBuffer* frame = nullptr;  // newest camera frame
-  // frame-select=capture-time: the last kFrameRing frames, oldest first,
-  // with their capture times (ns).
+  // The last frames (kFrameRing for frame-select=capture-time, else two),
+  // oldest first, with their capture times (ns).
   std::deque<std::pair<int64_t, GstBuffer*>> ring;
   GstVideoInfo vinfo;
   bool have_vinfo = false;
@@ -248,18 +249,18 @@ static GstFlowReturn lf_fragment_sink_chain(GstPad*, GstObject* parent, GstBuffe
   LfFragment* self = LF_FRAGMENT(parent);
   Priv* p = self->priv;
   State* st = p->state.get();
-  const bool by_time = st && st->s.frame_select == FrameSelect::kCaptureTime;
-  const int64_t t = by_time ? capture_time_of(self, buf, st->rig->cameras[st->index].id) : -1;
+  // The ring: the last kFrameRing frames for frame-select=capture-time,
+  // else the last two (focus probes pick by capture time whatever the mode).
+  const size_t keep = st && st->s.frame_select == FrameSelect::kCaptureTime ? kFrameRing : 2;
+  const int64_t t = st ? capture_time_of(self, buf, st->rig->cameras[st->index].id) : -1;
   g_mutex_lock(&p->lock);
   const bool flushing = p->flushing;
   if (!flushing) {
     gst_buffer_replace(&p->frame, buf);
-    if (by_time) {
-      p->ring.emplace_back(t, gst_buffer_ref(buf));
-      if (p->ring.size() > kFrameRing) {
-        gst_buffer_unref(p->ring.front().second);
-        p->ring.pop_front();
-      }
+    p->ring.emplace_back(t, gst_buffer_ref(buf));
+    while (p->ring.size() > keep) {
+      gst_buffer_unref(p->ring.front().second);
+      p->ring.pop_front();
     }
     g_cond_broadcast(&p->cond);
   }
@@ -426,7 +427,10 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
     return GST_FLOW_FLUSHING;
   }
   GstBuffer* frame = nullptr;
-  if (st->s.frame_select == FrameSelect::kCaptureTime && GST_BUFFER_PTS_IS_VALID(buf))
+  // A focus probe's steps must all see the frames of one capture instant, in
+  // every camera: by capture time whatever frame-select says.
+  if ((st->s.frame_select == FrameSelect::kCaptureTime || lf::is_focus_probe(req.sequence)) &&
+      GST_BUFFER_PTS_IS_VALID(buf))
     frame = frame_at(p, static_cast<int64_t>(GST_BUFFER_PTS(buf)));
   else if (p->frame)
     frame = gst_buffer_ref(p->frame);

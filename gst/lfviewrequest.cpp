@@ -43,6 +43,22 @@
  * (`eye-w`), r resets the eye offset and the focal depth. The properties
  * follow, so an application reads back where the viewer went.
  *
+ * ## Click to focus
+ *
+ * A right click (button 3), or a click with Control held, focuses on the
+ * scene at that output pixel, from the images alone: the next tick's request
+ * goes out with a focus probe (lib/lf/focus_probe.h): 32 requests for a
+ * 33 x 33 pixel window around the pixel (radius 16), one per candidate plane
+ * parallel to the camera plane (0 to 24 px of neighbour parallax), seen from
+ * the centre of the aperture triangle under that pixel. The cameras answer
+ * with ordinary fragments; `lfcompositor` scores each plane by the weighted
+ * colour variance among the cameras (photo-consistency) and sends an
+ * upstream `lf-focus` event (`viewer-id`, `probe-id`, `inverse-depth`, rig
+ * units^-1), which sets `focal-depth` here. `continuous-focus=true` keeps
+ * focusing at the last clicked point (the view centre before any click): a
+ * probe every 5 requests, each answer moving the plane half way (smoothing
+ * in inverse depth).
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 lfviewrequest rig=rig.json position="<0,0,0>" focal-plane=depth:2 \
@@ -59,6 +75,7 @@
 #include <vector>
 
 #include "lf/focus.h"
+#include "lf/focus_probe.h"
 #include "lf/parse.h"
 #include "lf/view_builder.h"
 #include "lf/wire.h"
@@ -110,6 +127,7 @@ struct Settings {
   lfgst::Fraction framerate{DEFAULT_FPS_N, DEFAULT_FPS_D};
   bool live = DEFAULT_IS_LIVE;
   gdouble stereo_baseline = DEFAULT_STEREO_BASELINE;
+  bool continuous_focus = false;
 };
 
 // The views and focal plane that the view settings describe.
@@ -133,7 +151,20 @@ struct State {
   bool dragging = false;
   double drag_x = 0, drag_y = 0;
   guint32 last_seqnum = GST_SEQNUM_INVALID;
+  // Click to focus (Priv::lock): a probe to send with the next request, the
+  // ids of the last click's probe and of the last one applied.
+  bool probe_pending = false;
+  double probe_x = 0, probe_y = 0;
+  guint32 next_probe = 1, click_probe = 0, applied_probe = 0;
+  // Continuous focus: its point (the last click; < 0: the view centre) and
+  // its newest probe.
+  double focus_x = -1, focus_y = -1;
+  guint32 continuous_probe = 0;
 };
+// Continuous focus: a probe every this many requests; each answer moves the
+// focal plane this fraction of the way (in inverse depth).
+constexpr guint64 kContinuousFocusEvery = 5;
+constexpr double kContinuousFocusGain = 0.5;
 
 struct Priv {
   Settings settings;  // properties (object lock)
@@ -315,6 +346,15 @@ static void handle_navigation(LfViewRequest* self, GstEvent* event) {
   switch (gst_navigation_event_get_type(event)) {
     case GST_NAVIGATION_EVENT_MOUSE_BUTTON_PRESS:
       if (gst_navigation_event_parse_mouse_button_event(event, &button, &x, &y)) {
+        // Click to focus: button 3 (right), or button 1 with Control.
+        GstNavigationModifierType mods = GST_NAVIGATION_MODIFIER_NONE;
+        gst_navigation_event_parse_modifier_state(event, &mods);
+        if (button == 3 || (button == 1 && (mods & GST_NAVIGATION_MODIFIER_CONTROL_MASK))) {
+          st->probe_pending = true, st->probe_x = x, st->probe_y = y;
+          st->focus_x = x, st->focus_y = y;
+          GST_DEBUG_OBJECT(self, "click to focus at (%g, %g)", x, y);
+          break;
+        }
         if (button == 1) st->dragging = true, st->drag_x = x, st->drag_y = y;
         // X sinks (ximagesink, xvimagesink) send the wheel as buttons 4/5.
         if (button == 4 || button == 5) scroll = true, dy = button == 4 ? 1 : -1;
@@ -448,8 +488,49 @@ static void handle_view_event(LfViewRequest* self, GstEvent* event) {
   for (auto& kv : values) g_value_unset(&kv.second);
 }
 
+// An lf-focus event (lfcompositor's answer to a focus probe): the focal
+// plane goes to the inverse depth found, once per probe.
+static void handle_focus_event(LfViewRequest* self, GstEvent* event) {
+  Priv* p = self->priv;
+  const GstStructure* s = gst_event_get_structure(event);
+  guint probe = 0;
+  gdouble q = 0;
+  if (!gst_structure_get_uint(s, "probe-id", &probe) ||
+      !gst_structure_get_double(s, "inverse-depth", &q) || !std::isfinite(q) || q < 0) {
+    LF_ELEMENT_WARNING_LIMITED(self, p->bad_event, STREAM, FAILED,
+                               ("Ignoring a malformed lf-focus event"), "%s",
+                               "needs probe-id (uint) and inverse-depth (double >= 0)");
+    return;
+  }
+  g_mutex_lock(&p->lock);
+  State* st = p->state.get();
+  // Only the newest click's or continuous probe's answer, once (every camera
+  // branch forwards it).
+  const bool click = st && probe == st->click_probe;
+  const bool fresh = st && (click || probe == st->continuous_probe) && probe != st->applied_probe;
+  if (fresh) st->applied_probe = probe;
+  const Settings v = lfgst::snapshot(GST_OBJECT(self), p->settings);
+  const cv::Vec3d eye(v.eye_s, v.eye_t, v.eye_w);
+  double now_q = 0;
+  if (fresh && !click) {
+    // Continuous: part of the way from the plane in use (smoothing).
+    now_q =
+        v.focal_depth > 0 ? 1.0 / v.focal_depth : lf::inverse_depth_of(*st->rig, st->views->plane);
+    q = now_q + kContinuousFocusGain * (q - now_q);
+  }
+  g_mutex_unlock(&p->lock);
+  if (!fresh) return;
+  const double depth = q > 1.0 / MAX_COORD ? 1.0 / q : MAX_COORD;
+  GST_DEBUG_OBJECT(self, "focused by probe %u: depth %g", probe, depth);
+  set_navigated(self, eye, depth);
+}
+
 static gboolean lf_view_request_event(GstBaseSrc* src, GstEvent* event) {
   LfViewRequest* self = LF_VIEW_REQUEST(src);
+  if (GST_EVENT_TYPE(event) == GST_EVENT_CUSTOM_UPSTREAM && gst_event_has_name(event, "lf-focus")) {
+    if (for_this_viewer(self, gst_event_get_structure(event))) handle_focus_event(self, event);
+    return TRUE;
+  }
   if (GST_EVENT_TYPE(event) == GST_EVENT_NAVIGATION) {
     if (for_this_viewer(self, gst_event_get_structure(event))) handle_navigation(self, event);
     return TRUE;
@@ -545,6 +626,32 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
     g_error_free(err);
     req.view = views->sequence.at(k, rig);
   }
+  // Click to focus: the probe's requests go with this tick's request.
+  std::vector<lf::ViewRequest> probes;
+  const bool continuous =
+      lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::continuous_focus);
+  g_mutex_lock(&p->lock);
+  bool continuous_now = false;
+  if (continuous && !st->probe_pending && k % kContinuousFocusEvery == 0) {
+    st->probe_pending = continuous_now = true;
+    st->probe_x = st->focus_x >= 0 ? st->focus_x : 0.5 * (req.view.width - 1);
+    st->probe_y = st->focus_y >= 0 ? st->focus_y : 0.5 * (req.view.height - 1);
+  }
+  if (st->probe_pending) {
+    st->probe_pending = false;
+    (continuous_now ? st->continuous_probe : st->click_probe) = st->next_probe++;
+    GError* perr = nullptr;
+    if (!lfgst::guard(
+            [&] {
+              probes =
+                  lf::focus_probe_requests(rig, req, st->probe_x, st->probe_y, st->next_probe - 1);
+            },
+            &perr)) {
+      GST_WARNING_OBJECT(self, "no focus probe: %s", perr->message);
+      g_error_free(perr);
+    }
+  }
+  g_mutex_unlock(&p->lock);
   if (s.stereo_baseline > 0) {
     // Left and right eyes along the view's x axis (viewer ids v, v + 1).
     const cv::Vec3d x(req.view.R(0, 0), req.view.R(0, 1), req.view.R(0, 2));
@@ -553,9 +660,18 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
     right.view.position += x * (0.5 * s.stereo_baseline);
     req.view.position -= x * (0.5 * s.stereo_baseline);
     // One tick = one buffer list (num-buffers counts ticks).
-    GstBufferList* list = gst_buffer_list_new_sized(2);
+    GstBufferList* list = gst_buffer_list_new_sized(2 + probes.size());
     gst_buffer_list_add(list, request_buffer(src, req, pts, period));
     gst_buffer_list_add(list, request_buffer(src, right, pts, period));
+    for (const lf::ViewRequest& r : probes)
+      gst_buffer_list_add(list, request_buffer(src, r, pts, period));
+    gst_base_src_submit_buffer_list(src, list);
+    *out = nullptr;
+  } else if (!probes.empty()) {
+    GstBufferList* list = gst_buffer_list_new_sized(1 + probes.size());
+    gst_buffer_list_add(list, request_buffer(src, req, pts, period));
+    for (const lf::ViewRequest& r : probes)
+      gst_buffer_list_add(list, request_buffer(src, r, pts, period));
     gst_base_src_submit_buffer_list(src, list);
     *out = nullptr;
   } else {
@@ -643,6 +759,13 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
                                 "plane:nx,ny,nz,d (world frame, n.X + d = 0); used while "
                                 "focal-depth is 0",
                                 DEFAULT_FOCAL_PLANE, play));
+  props.add(oc, &Settings::continuous_focus,
+            g_param_spec_boolean(
+                "continuous-focus", "Continuous focus",
+                "Keep focusing at the last clicked point (the view centre before any click): "
+                "a focus probe every 5 requests, each answer moving the focal plane half way "
+                "(in inverse depth)",
+                FALSE, play));
   spec_focal_depth = g_param_spec_double(
       "focal-depth", "Focal depth",
       "Focal plane parallel to the camera plane at this depth, rig units along its normal "

@@ -48,16 +48,18 @@ class Recording : public ::testing::Test {
   static fs::path dir_;
 
   // Runs `array_props` (lfarray's) under 15 live requests at 10 Hz to EOS;
-  // the output frames by request time (PTS). The compositor's deadline is
-  // 1 s, so that on a busy machine every frame is complete in both runs (a
-  // frame composited without a late fragment differs, by design).
+  // the output frames by request time (PTS). The compositor's deadline and
+  // the fragments' wait for their frame are 3 s, so that on a busy machine
+  // (and in the sanitizer build) every frame is complete and every request
+  // finds its frame in both runs (a frame composited without a late fragment
+  // differs, by design); complete frames go out at once whatever the deadline.
   static std::map<GstClockTime, cv::Mat> run(const std::string& array_props,
                                              std::string* error = nullptr) {
     const std::string rig = (dir_ / "rig.json").string();
     const std::string desc = "lfviewrequest rig=" + rig +
                              " is-live=true framerate=10/1 num-buffers=15 width=160 height=120 "
                              "position=\"<0.02,0.01,0>\" focal-plane=depth:1.25 ! lfarray rig=" +
-                             rig + " latency=1000000000 " + array_props +
+                             rig + " latency=3000000000 frame-timeout=3000000000 " + array_props +
                              " ! video/x-raw,format=RGBA ! appsink name=out sync=false";
     GError* err = nullptr;
     GstElement* p = gst_parse_launch(desc.c_str(), &err);

@@ -1,0 +1,155 @@
+#include "lf/focus_probe.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "lf/focus.h"
+#include "lf/view_builder.h"
+
+namespace lf {
+
+double focus_probe_inverse_depth(const Rig& rig, int step) {
+  const double f = rig.cameras.at(0).intrinsics.fx;
+  const double q_max = kFocusProbeMaxParallaxPx / (f * rig.typical_spacing());
+  return q_max * step / (kFocusProbeSteps - 1);
+}
+
+// The probe's eye: the centre of the aperture simplex (triangle, segment or
+// point) around where the ray meets the camera plane (clamped onto the
+// array), on the camera plane, so that every pixel of the probe blends all
+// of the simplex's cameras with equal weight (an eye at a camera would see
+// through that camera alone: nothing to compare).
+static cv::Vec3d probe_eye(const Rig& rig, const cv::Vec3d& eye, const cv::Vec3d& d) {
+  const CameraPlane& P = rig.plane();
+  const double dn = d.dot(P.normal);
+  const cv::Vec3d hit =
+      std::abs(dn) > 1e-12 ? cv::Vec3d(eye - d * (P.signed_distance(eye) / dn)) : eye;
+  const cv::Vec2d p = clamp_to_array(rig, P.to_plane(hit));
+  const auto& pos = rig.plane_positions();
+  double best = -1e300;
+  cv::Vec2d centre = p;
+  for (const Simplex& sx : rig.simplices()) {
+    // Smallest barycentric-like margin: the distance to the simplex's nearest
+    // facet (positive inside); the simplex that contains p has the largest.
+    double margin = 1e300;
+    for (int i = 0; i < sx.size && sx.size > 1; ++i)
+      margin = std::min(margin, sx.sign[i] * rig.facets()[sx.facet[i]](p));
+    if (sx.size == 1) margin = -cv::norm(pos[sx.cams[0]] - p);
+    if (margin <= best) continue;
+    best = margin;
+    centre = {0, 0};
+    for (int i = 0; i < sx.size; ++i) centre += pos[sx.cams[i]] / sx.size;
+  }
+  return P.origin + P.u * centre[0] + P.v * centre[1];
+}
+
+std::vector<ViewRequest> focus_probe_requests(const Rig& rig, const ViewRequest& view, double x,
+                                              double y, uint32_t probe_id) {
+  const int r = kFocusProbeRadius, side = 2 * r + 1;
+  const VirtualView& v = view.view;
+  const Intrinsics k = v.intrinsics();
+  // The clicked pixel's ray, world frame.
+  cv::Vec3d d = v.R.t() * cv::Vec3d((x - k.cx) / k.fx, (y - k.cy) / k.fy, 1.0);
+  d /= cv::norm(d);
+  const CameraPlane& P = rig.plane();
+  const cv::Vec3d C = probe_eye(rig, v.position, d);
+  VirtualView w = v;
+  w.position = C;
+  w.width = w.height = side;
+  // Same focal length in pixels: fy = (side / 2) / tan(vfov_w / 2).
+  w.vfov_deg = 2.0 * std::atan(0.5 * side / k.fy) * 180.0 / M_PI;
+  std::vector<ViewRequest> out;
+  for (int s = 0; s < kFocusProbeSteps; ++s) {
+    const double q = focus_probe_inverse_depth(rig, s);
+    // Where the ray meets the candidate plane (or its direction, at
+    // infinity), seen from the probe's eye: the window is centred there.
+    cv::Vec3d c;
+    const double dn = d.dot(P.normal);
+    if (q > 0 && dn > 1e-12) {
+      const cv::Vec3d X = v.position + d * ((1.0 / q - P.signed_distance(v.position)) / dn);
+      c = v.R * (X - C);
+    } else {
+      c = v.R * d;
+    }
+    if (c[2] <= 0) continue;  // behind the probe's eye: no window
+    ViewRequest req = view;
+    req.view = w;
+    req.view.shift_x = k.cx - (k.fx * c[0] / c[2] + k.cx);
+    req.view.shift_y = k.cy - (k.fy * c[1] / c[2] + k.cy);
+    req.sequence = focus_probe_sequence(probe_id, s);
+    req.focal_plane = plane_at_inverse_depth(rig, q);
+    out.push_back(req);
+  }
+  return out;
+}
+
+FocusProbeScore::FocusProbeScore()
+    : sums_(static_cast<size_t>(kFocusProbeSteps) * kSide * kSide * 7, 0.0),
+      cameras_(static_cast<size_t>(kFocusProbeSteps) * kSide * kSide, 0),
+      count_(kFocusProbeSteps, 0) {}
+
+void FocusProbeScore::add(int step, const Fragment& f) {
+  if (step < 0 || step >= kFocusProbeSteps || f.out_width != kSide || f.out_height != kSide) return;
+  count_[step]++;
+  const uint8_t* px = f.pixels.data();
+  for (int row = 0; row < f.rect.height; ++row) {
+    const int y = f.rect.y + row;
+    for (int x = f.spans[row][0]; x < f.spans[row][1]; ++x, px += 4) {
+      const double w = px[3] / 255.0;
+      if (w <= 0) continue;
+      const size_t i = (static_cast<size_t>(step) * kSide + y) * kSide + x;
+      double* s = &sums_[i * 7];
+      s[0] += w;
+      for (int c = 0; c < 3; ++c) {
+        const double colour = px[c] / w;  // un-premultiplied, 8-bit levels
+        s[1 + c] += w * colour;
+        s[4 + c] += w * colour * colour;
+      }
+      cameras_[i]++;
+    }
+  }
+}
+
+std::vector<double> FocusProbeScore::costs() const {
+  std::vector<double> out(kFocusProbeSteps, -1.0);
+  for (int s = 0; s < kFocusProbeSteps; ++s) {
+    double total = 0;
+    int n = 0;
+    for (int p = 0; p < kSide * kSide; ++p) {
+      const size_t i = static_cast<size_t>(s) * kSide * kSide + p;
+      if (cameras_[i] < 2) continue;
+      const double* v = &sums_[i * 7];
+      double var = 0;
+      for (int c = 0; c < 3; ++c) {
+        const double mean = v[1 + c] / v[0];
+        var += std::max(0.0, v[4 + c] / v[0] - mean * mean);
+      }
+      total += std::min(25.0, std::sqrt(var / 3));
+      ++n;
+    }
+    if (n > 0) out[s] = total / n;
+  }
+  return out;
+}
+
+bool FocusProbeScore::best(const Rig& rig, double* inverse_depth) const {
+  const std::vector<double> c = costs();
+  int scored = 0, b = -1;
+  for (int s = 0; s < kFocusProbeSteps; ++s) {
+    if (c[s] < 0) continue;
+    ++scored;
+    if (b < 0 || c[s] < c[b]) b = s;
+  }
+  if (scored < kFocusProbeSteps / 2 || b < 0) return false;
+  double step = b;
+  // Parabola through the neighbours (where both were scored).
+  if (b > 0 && b + 1 < kFocusProbeSteps && c[b - 1] >= 0 && c[b + 1] >= 0) {
+    const double den = c[b - 1] - 2 * c[b] + c[b + 1];
+    if (den > 1e-12) step = b + 0.5 * (c[b - 1] - c[b + 1]) / den;
+  }
+  const double q_max = focus_probe_inverse_depth(rig, kFocusProbeSteps - 1);
+  *inverse_depth = q_max * step / (kFocusProbeSteps - 1);
+  return true;
+}
+
+}  // namespace lf

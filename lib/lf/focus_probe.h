@@ -1,0 +1,96 @@
+// Click to focus from the fragments themselves (issue 14). A focus probe asks
+// the cameras, through ordinary view requests, for a small window of the
+// view around the clicked pixel, once per candidate plane parallel to the
+// camera plane (a plane sweep). Each camera answers with its fragment, as for
+// any request: only the pixels its aperture weight covers, already warped
+// through the candidate plane. Where the plane passes through the scene at
+// that pixel the contributing cameras agree; the compositor scores each
+// plane by the aperture-weighted colour variance among the cameras' fragments
+// (photo-consistency, as lf::AutofocusContext does from whole images) and
+// picks the plane of least variance, refined by a parabola. No camera image
+// leaves its host, and nothing but the wire format's requests and fragments
+// is needed, so it works the same over RTP.
+//
+// Protocol: probe requests carry the viewer's id and a sequence number with
+// bits 48..63 = 0x4000 (kFocusProbeBit), the probe id in bits 16..47 and the
+// step k in bits 0..15 (so they never collide with lfviewrequest's frame
+// requests, whose sequences stay below 2^62). The compositor collects one
+// probe at a time (a newer id replaces an unfinished one) and answers only
+// the viewer it composites; lfviewrequest applies only answers to the probes
+// it sent, so forged probe fragments can at worst delay a focus by the
+// probe deadline (1 s). Steps k = 0 .. kFocusProbeSteps-1 sweep inverse depth
+// q_k = q_max * k / (steps - 1) with q_max giving kFocusProbeMaxParallaxPx of
+// parallax between neighbouring cameras (0: the plane at infinity). The
+// window is (2 * kFocusProbeRadius + 1) pixels square, centred on the pixel.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "lf/fragment.h"
+#include "lf/rig.h"
+#include "lf/view.h"
+
+namespace lf {
+
+constexpr uint64_t kFocusProbeBit = uint64_t{1} << 62;
+constexpr int kFocusProbeSteps = 32;
+constexpr int kFocusProbeRadius = 16;  // output pixels: a 33 x 33 window
+constexpr double kFocusProbeMaxParallaxPx = 24.0;
+
+// Exactly the probe pattern: bits 48..63 = 0x4000 and a step below
+// kFocusProbeSteps (so a hostile or restarted viewer's huge frame sequence,
+// e.g. 2^63 - 1, is still a frame request).
+inline bool is_focus_probe(uint64_t sequence) {
+  return (sequence >> 48) == (kFocusProbeBit >> 48) && (sequence & 0xffff) < kFocusProbeSteps;
+}
+inline uint64_t focus_probe_sequence(uint32_t probe_id, int step) {
+  return kFocusProbeBit | (uint64_t{probe_id} << 16) | static_cast<uint16_t>(step);
+}
+inline uint32_t focus_probe_id(uint64_t sequence) {
+  return static_cast<uint32_t>((sequence >> 16) & 0xffffffffu);
+}
+inline int focus_probe_step(uint64_t sequence) {
+  return static_cast<int>(sequence & 0xffff);
+}
+
+// Inverse depth (rig units^-1, along the camera plane's normal) of step k.
+double focus_probe_inverse_depth(const Rig& rig, int step);
+
+// The kFocusProbeSteps requests of a probe at output pixel (x, y) of `view`.
+// Step k's window is centred on the point where the pixel's ray meets
+// candidate plane k, seen from the probe's eye: the centre of the aperture
+// triangle around where the ray meets the camera plane, on the camera plane
+// (so all three of its cameras blend with equal weight; an eye at a camera
+// would see through that camera alone). Same orientation and focal length
+// as the view. Sequences from focus_probe_sequence. Steps whose point lies
+// behind the probe's eye are left out.
+std::vector<ViewRequest> focus_probe_requests(const Rig& rig, const ViewRequest& view, double x,
+                                              double y, uint32_t probe_id);
+
+// Accumulates the fragments of one probe and scores its planes.
+class FocusProbeScore {
+ public:
+  FocusProbeScore();
+  // A fragment of step `step` (premultiplied RGBA, alpha = aperture weight).
+  // Fragments of another size than the window are ignored.
+  void add(int step, const Fragment& f);
+  // Fragments added for `step` (any camera, empty ones included).
+  int fragments(int step) const { return count_[step]; }
+  // Mean over window pixels seen by at least two cameras of the weighted
+  // colour standard deviation among the cameras (8-bit levels, truncated at
+  // 25 for occlusions), per step; -1 where no pixel had two cameras.
+  std::vector<double> costs() const;
+  // The inverse depth of least cost, refined by a parabola through its
+  // neighbours; false when fewer than half the steps could be scored.
+  bool best(const Rig& rig, double* inverse_depth) const;
+
+ private:
+  static constexpr int kSide = 2 * kFocusProbeRadius + 1;
+  // Per step and window pixel: sum w, sum w c (3), sum w c^2 (3), cameras.
+  std::vector<double> sums_;
+  std::vector<int> cameras_;
+  std::vector<int> count_;
+};
+
+}  // namespace lf
