@@ -221,19 +221,6 @@ static void link_or_throw(GstElement* a, GstElement* b, const std::string& what)
   if (!gst_element_link(a, b)) throw std::runtime_error("cannot link " + what);
 }
 
-// decodebin: links the first video pad to the converter.
-static void on_decoded_pad(GstElement*, GstPad* pad, gpointer convert) {
-  GstCaps* caps = gst_pad_get_current_caps(pad);
-  if (!caps) caps = gst_pad_query_caps(pad, nullptr);
-  const bool video =
-      caps && gst_caps_get_size(caps) > 0 &&
-      g_str_has_prefix(gst_structure_get_name(gst_caps_get_structure(caps, 0)), "video/");
-  if (caps) gst_caps_unref(caps);
-  GstPad* sink = gst_element_get_static_pad(GST_ELEMENT(convert), "sink");
-  if (video && !gst_pad_is_linked(sink)) gst_pad_link(pad, sink);
-  gst_object_unref(sink);
-}
-
 // Playback of one camera's recording: filesrc ! decodebin ! videoconvert !
 // RGBA at the camera's size ! clocksync, so frames come on their recorded
 // capture schedule (PTS = capture time). Returns the last element.
@@ -251,7 +238,7 @@ static GstElement* add_playback(GstBin* bin, Priv* p, const std::string& file,
   g_object_set(filter, "caps", caps, nullptr);
   gst_caps_unref(caps);
   link_or_throw(src, dec, "the playback of camera " + id);
-  g_signal_connect(dec, "pad-added", G_CALLBACK(on_decoded_pad), convert);
+  lfgst::link_decoded_video(dec, convert);
   link_or_throw(convert, filter, "the playback of camera " + id);
   link_or_throw(filter, sync, "the playback of camera " + id);
   return sync;

@@ -141,19 +141,6 @@ LF_DEFINE_ELEMENT_GLUE(lf_cam_src, LF_CAM_SRC)
 
 using lfgst::make_element;
 
-// decodebin / uridecodebin: link the first video pad to the converter.
-static void on_decoded_pad(GstElement*, GstPad* pad, gpointer convert) {
-  GstCaps* caps = gst_pad_get_current_caps(pad);
-  if (!caps) caps = gst_pad_query_caps(pad, nullptr);
-  const bool video =
-      caps && gst_caps_get_size(caps) > 0 &&
-      g_str_has_prefix(gst_structure_get_name(gst_caps_get_structure(caps, 0)), "video/");
-  if (caps) gst_caps_unref(caps);
-  GstPad* sink = gst_element_get_static_pad(GST_ELEMENT(convert), "sink");
-  if (video && !gst_pad_is_linked(sink)) gst_pad_link(pad, sink);
-  gst_object_unref(sink);
-}
-
 // The internal decoding pipeline (file and v4l2 modes), built from elements
 // with their properties set directly: user strings (location, device) are
 // never spliced into a pipeline description.
@@ -182,7 +169,7 @@ static GstElement* build_decoder(const Settings& s, const lf::Camera& cam, GstEl
     g_object_set(src, "location", s.location.c_str(), "loop", s.loop, nullptr);
     gst_bin_add_many(GST_BIN(pipe), src, dec, nullptr);
     gst_element_link(src, dec);
-    g_signal_connect(dec, "pad-added", G_CALLBACK(on_decoded_pad), convert);
+    lfgst::link_decoded_video(dec, convert);
   } else {
     gchar* uri = gst_uri_is_valid(s.location.c_str())
                      ? g_strdup(s.location.c_str())
@@ -195,7 +182,7 @@ static GstElement* build_decoder(const Settings& s, const lf::Camera& cam, GstEl
     g_object_set(dec, "uri", uri, nullptr);
     g_free(uri);
     gst_bin_add(GST_BIN(pipe), dec);
-    g_signal_connect(dec, "pad-added", G_CALLBACK(on_decoded_pad), convert);
+    lfgst::link_decoded_video(dec, convert);
   }
   *sink = GST_ELEMENT(gst_object_ref(app));
   return pipe;

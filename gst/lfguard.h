@@ -34,4 +34,8 @@ gboolean guard(F&& fn, GError** error) noexcept {
 // that runs inside guard().
 GstElement* make_element(const char* factory, const char* name = nullptr);
 
+// Links the first video pad that `decoder` (decodebin, uridecodebin) adds to
+// `convert`'s sink pad.
+void link_decoded_video(GstElement* decoder, GstElement* convert);
+
 }  // namespace lfgst

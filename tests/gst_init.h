@@ -22,7 +22,9 @@
 // (gquark.c; many installed plugins), and only a full stack shows that the
 // block came from a library constructor (tests/lsan.supp: _dl_init).
 // ASAN_OPTIONS from the environment still take precedence.
-extern "C" const char* __asan_default_options() { return "fast_unwind_on_malloc=0"; }
+extern "C" const char* __asan_default_options() {
+  return "fast_unwind_on_malloc=0";
+}
 #endif
 
 namespace testing_lf {
@@ -43,6 +45,21 @@ inline void init_gstreamer_with_plugin() {
            "gstreamer:gst-plugins-base:gst-plugins-good:lightfield-gst", TRUE);
 #endif
   gst_init(nullptr, nullptr);
+}
+
+// The debug text of an error (or warning) message, which it unrefs.
+inline std::string take_error_debug(GstMessage* m) {
+  GError* e = nullptr;
+  gchar* dbg = nullptr;
+  if (GST_MESSAGE_TYPE(m) == GST_MESSAGE_WARNING)
+    gst_message_parse_warning(m, &e, &dbg);
+  else
+    gst_message_parse_error(m, &e, &dbg);
+  std::string out = std::string(e ? e->message : "") + ": " + (dbg ? dbg : "");
+  g_clear_error(&e);
+  g_free(dbg);
+  gst_message_unref(m);
+  return out;
 }
 
 }  // namespace testing_lf

@@ -84,19 +84,16 @@ class Recording : public ::testing::Test {
       GstMessage* msg = gst_bus_timed_pop_filtered(
           bus, 20 * GST_MSECOND, static_cast<GstMessageType>(GST_MESSAGE_EOS | GST_MESSAGE_ERROR));
       if (!msg) continue;
-      if (GST_MESSAGE_TYPE(msg) == GST_MESSAGE_ERROR) {
-        GError* e = nullptr;
-        gchar* dbg = nullptr;
-        gst_message_parse_error(msg, &e, &dbg);
-        if (error)
-          *error = std::string(e->message) + ": " + (dbg ? dbg : "");
-        else
-          ADD_FAILURE() << e->message << ": " << (dbg ? dbg : "");
-        g_clear_error(&e);
-        g_free(dbg);
-      }
-      gst_message_unref(msg);
       done = true;
+      if (GST_MESSAGE_TYPE(msg) != GST_MESSAGE_ERROR) {
+        gst_message_unref(msg);
+        continue;
+      }
+      const std::string why = testing_lf::take_error_debug(msg);
+      if (error)
+        *error = why;
+      else
+        ADD_FAILURE() << why;
     }
     EXPECT_TRUE(done) << "no EOS or error within 30 s";
     gst_object_unref(bus);
@@ -199,14 +196,9 @@ TEST(CameraFromFile, ErrorsAreImmediateAndSayWhy) {
     GstMessage* m = gst_bus_timed_pop_filtered(bus, 5 * GST_SECOND, GST_MESSAGE_ERROR);
     EXPECT_LT(g_get_monotonic_time() - t0, 10 * G_USEC_PER_SEC) << file;
     ASSERT_NE(m, nullptr) << file;
-    GError* e = nullptr;
-    gchar* dbg = nullptr;
-    gst_message_parse_error(m, &e, &dbg);
-    EXPECT_NE(std::string(dbg).find(why), std::string::npos) << dbg;
-    EXPECT_NE(std::string(dbg).find(file), std::string::npos) << dbg;
-    g_clear_error(&e);
-    g_free(dbg);
-    gst_message_unref(m);
+    const std::string dbg = testing_lf::take_error_debug(m);
+    EXPECT_NE(dbg.find(why), std::string::npos) << dbg;
+    EXPECT_NE(dbg.find(file), std::string::npos) << dbg;
     gst_object_unref(bus);
     gst_element_set_state(p, GST_STATE_NULL);
     gst_object_unref(p);

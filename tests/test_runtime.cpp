@@ -605,13 +605,8 @@ TEST_F(Runtime, BinsBuildTheSameGraphAsTheHandBuiltOne) {
   GstBus* bus = gst_element_get_bus(p);
   GstMessage* m = gst_bus_pop_filtered(bus, GST_MESSAGE_ERROR);
   ASSERT_NE(m, nullptr);
-  GError* e = nullptr;
-  gchar* dbg = nullptr;
-  gst_message_parse_error(m, &e, &dbg);
-  EXPECT_NE(std::string(dbg).find("'9' is not an index in 0..3"), std::string::npos) << dbg;
-  g_clear_error(&e);
-  g_free(dbg);
-  gst_message_unref(m);
+  const std::string dbg = testing_lf::take_error_debug(m);
+  EXPECT_NE(dbg.find("'9' is not an index in 0..3"), std::string::npos) << dbg;
   gst_object_unref(bus);
   gst_element_set_state(p, GST_STATE_NULL);
   gst_object_unref(p);
