@@ -571,8 +571,9 @@ static void lf_fragment_class_init(LfFragmentClass* klass) {
                                 0, 1e6, DEFAULT_MAX_RATE, lfgst::kReadWriteReady));
   props.add(oc, &Settings::frame_timeout,
             g_param_spec_uint64("frame-timeout", "Frame timeout",
-                                "How long a request waits for the camera's first frame, ns; "
-                                "then it is dropped with a warning",
+                                "How long a request waits for a camera frame (the first one; with "
+                                "frame-select=capture-time or for a focus probe, the one of its "
+                                "time), ns; a request without a frame is dropped with a warning",
                                 0, G_MAXUINT64, DEFAULT_FRAME_TIMEOUT, lfgst::kReadWriteReady));
   props.add(oc, &Settings::frame_select,
             g_param_spec_enum("frame-select", "Frame selection",
