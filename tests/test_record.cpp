@@ -21,6 +21,16 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// The sanitizer build runs several times slower: the same runs on a slower
+// schedule (every assertion the same).
+#ifdef LF_TEST_ASAN
+constexpr int kSlow = 5;
+#else
+constexpr int kSlow = 1;
+#endif
+const std::string kRate = "framerate=" + std::to_string(10) + "/" + std::to_string(kSlow);
+const std::string kWait = std::to_string(3000000000LL * kSlow);
+
 TEST(Parse, CameraFileNames) {
   EXPECT_EQ(lf::camera_file_name("rec/cam%02d.mkv", 7, "record"), "rec/cam07.mkv");
   EXPECT_EQ(lf::camera_file_name("c%d", 123, "record"), "c123");
@@ -56,10 +66,11 @@ class Recording : public ::testing::Test {
   static std::map<GstClockTime, cv::Mat> run(const std::string& array_props,
                                              std::string* error = nullptr) {
     const std::string rig = (dir_ / "rig.json").string();
-    const std::string desc = "lfviewrequest rig=" + rig +
-                             " is-live=true framerate=10/1 num-buffers=15 width=160 height=120 "
+    const std::string desc = "lfviewrequest rig=" + rig + " is-live=true " + kRate +
+                             " num-buffers=15 width=160 height=120 "
                              "position=\"<0.02,0.01,0>\" focal-plane=depth:1.25 ! lfarray rig=" +
-                             rig + " latency=3000000000 frame-timeout=3000000000 " + array_props +
+                             rig + " latency=" + kWait + " frame-timeout=" + kWait + " " +
+                             array_props +
                              " ! video/x-raw,format=RGBA ! appsink name=out sync=false";
     GError* err = nullptr;
     GstElement* p = gst_parse_launch(desc.c_str(), &err);
@@ -70,7 +81,7 @@ class Recording : public ::testing::Test {
     GstElement* sink = gst_bin_get_by_name(GST_BIN(p), "out");
     gst_element_set_state(p, GST_STATE_PLAYING);
     GstBus* bus = gst_element_get_bus(p);
-    const gint64 give_up = g_get_monotonic_time() + 30 * G_USEC_PER_SEC;
+    const gint64 give_up = g_get_monotonic_time() + 30 * kSlow * G_USEC_PER_SEC;
     bool done = false;
     while (!done && g_get_monotonic_time() < give_up) {
       while (GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 0)) {
@@ -95,7 +106,7 @@ class Recording : public ::testing::Test {
       else
         ADD_FAILURE() << why;
     }
-    EXPECT_TRUE(done) << "no EOS or error within 30 s";
+    EXPECT_TRUE(done) << "no EOS or error within " << 30 * kSlow << " s";
     gst_object_unref(bus);
     gst_element_set_state(p, GST_STATE_NULL);
     gst_object_unref(sink);
@@ -106,11 +117,11 @@ class Recording : public ::testing::Test {
 fs::path Recording::dir_;
 
 // The live cameras: synthetic, 10 Hz, 20 frames (the requests end first).
-const char* kLiveCameras = "mode=synthetic is-live=true framerate=10/1 num-buffers=20";
+const std::string kLiveCameras = "mode=synthetic is-live=true " + kRate + " num-buffers=20";
 
 TEST_F(Recording, LosslessPlaybackEqualsTheLiveRunFrameByFrame) {
   const std::string pattern = (dir_ / "lossless%02d.mkv").string();
-  const auto live = run(std::string(kLiveCameras) + " record=" + pattern);
+  const auto live = run(kLiveCameras + " record=" + pattern);
   for (int id = 0; id < 4; ++id)
     EXPECT_TRUE(fs::exists(lf::camera_file_name(pattern, id, "record"))) << id;
   std::printf("lossless recording: %zu bytes per camera, %zu live frames\n",
@@ -138,7 +149,7 @@ TEST_F(Recording, LosslessPlaybackEqualsTheLiveRunFrameByFrame) {
 
 TEST_F(Recording, JpegRecordingPlaysBackClose) {
   const std::string pattern = (dir_ / "jpeg%d.mkv").string();
-  const auto live = run(std::string(kLiveCameras) + " record=" + pattern + " record-quality=90");
+  const auto live = run(kLiveCameras + " record=" + pattern + " record-quality=90");
   const auto played = run("playback=" + pattern);
   ASSERT_GE(live.size(), 12u);
   size_t common = 0;
