@@ -250,7 +250,6 @@ static GstElement* add_playback(GstBin* bin, Priv* p, const std::string& file,
 // other branch feeds the fragment.
 static GstElement* add_recorder(GstBin* bin, Priv* p, GstElement* cam, const std::string& file,
                                 gint quality, const std::string& id) {
-  if (!GST_OBJECT_PARENT(cam)) adopt(bin, p, cam);
   GstElement* tee = adopt(bin, p, make("tee", "split" + id));
   GstElement* q = adopt(bin, p, make("queue", "record-queue" + id));
   GstElement* convert = adopt(bin, p, make("videoconvert", "record-convert" + id));
@@ -331,23 +330,23 @@ static bool build(LfCameraHost* self) {
                   for (int i : chosen) {
                     const int cam_id = rig->cameras[i].id;
                     const std::string id = std::to_string(cam_id);
-                    GstElement* q = make("queue", "requests" + id);
-                    GstElement* frag = make("lffragment", "fragment" + id);
+                    GstElement* q = adopt(GST_BIN(self), p, make("queue", "requests" + id));
+                    GstElement* frag = adopt(GST_BIN(self), p, make("lffragment", "fragment" + id));
                     g_object_set(frag, "rig", rig_path.c_str(), "camera-id", cam_id, nullptr);
                     apply(frag, lf_fragment_get_type());
                     // A recording pairs frames with requests by capture time, live
                     // and played back alike.
                     if ((!record.empty() || !playback.empty()) && !frame_select_set)
                       gst_util_set_object_arg(G_OBJECT(frag), "frame-select", "capture-time");
-                    GstElement* cam =
-                        playback.empty()
-                            ? make("lfcamsrc", "camera" + id)
-                            : add_playback(GST_BIN(self), p,
-                                           lf::camera_file_name(playback, cam_id, "playback"),
-                                           rig->cameras[i], id);
+                    GstElement* cam;
                     if (playback.empty()) {
+                      cam = adopt(GST_BIN(self), p, make("lfcamsrc", "camera" + id));
                       g_object_set(cam, "rig", rig_path.c_str(), "camera-id", cam_id, nullptr);
                       apply(cam, lf_cam_src_get_type());
+                    } else {
+                      cam = add_playback(GST_BIN(self), p,
+                                         lf::camera_file_name(playback, cam_id, "playback"),
+                                         rig->cameras[i], id);
                     }
                     if (!record.empty())
                       cam = add_recorder(GST_BIN(self), p, cam,
@@ -361,12 +360,6 @@ static bool build(LfCameraHost* self) {
                     // Not live: the queue's defaults (requests of several viewers
                     // interleave; a short queue here can stall them behind one
                     // another).
-                    if (!GST_OBJECT_PARENT(cam)) {
-                      gst_bin_add(GST_BIN(self), cam);
-                      p->children.push_back(cam);
-                    }
-                    gst_bin_add_many(GST_BIN(self), q, frag, nullptr);
-                    p->children.insert(p->children.end(), {q, frag});
                     if (!gst_element_link_pads(tee, "src_%u", q, "sink") ||
                         !gst_element_link_pads(q, "src", frag, "request") ||
                         !gst_element_link_pads(cam, nullptr, frag, "sink") ||

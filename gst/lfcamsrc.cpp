@@ -189,9 +189,9 @@ static GstElement* build_decoder(const Settings& s, const lf::Camera& cam, GstEl
 }
 
 // The first error the internal decoding pipeline posted ("" if none).
-static std::string decoder_error(GstElement* decoder, GstClockTime wait = 0) {
+static std::string decoder_error(GstElement* decoder) {
   GstBus* bus = gst_element_get_bus(decoder);
-  GstMessage* m = gst_bus_timed_pop_filtered(bus, wait, GST_MESSAGE_ERROR);
+  GstMessage* m = gst_bus_pop_filtered(bus, GST_MESSAGE_ERROR);
   gst_object_unref(bus);
   if (!m) return "";
   GError* e = nullptr;

@@ -489,9 +489,9 @@ static void absorb_probe(LfCompositor* self, State* st, const guint8* data, gsiz
                          const lf::FragmentHeader& head) {
   const uint32_t id = lf::focus_probe_id(head.sequence);
   const int step = lf::focus_probe_step(head.sequence);
-  if (step >= lf::kFocusProbeSteps || (st->probe && id < st->probe->id)) return;  // stale
+  if (st->probe && id < st->probe->id) return;  // stale
   lf::Fragment f;
-  const size_t side = 2 * lf::kFocusProbeRadius + 1;
+  const size_t side = lf::kFocusProbeSide;
   GError* err = nullptr;
   if (!lfgst::guard([&] { f = lf::parse_fragment(data, size, nullptr, side * side); }, &err)) {
     LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE, ("Dropping a malformed fragment"),

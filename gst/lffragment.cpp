@@ -12,11 +12,13 @@
  * `LfCaptureMeta`, else its PTS) is at or before the request's PTS, waiting
  * up to `frame-timeout` for it; so a live run and the playback of its
  * recording pair the same frames with the same requests (lfcamerahost
- * `record`/`playback`). Camera frames may come from any upstream element
- * (e.g. `uridecodebin ! videoconvert ! videoscale ! video/x-raw,format=RGBA,
- * width=W,height=H ! lffragment`); their PTS is then the capture time. Cameras that do not
- * contribute send an explicitly empty fragment, so the compositor knows the request is complete.
- * The fragment caps carry the request caps' `framerate`.
+ * `record`/`playback`). Focus probes (lib/lf/focus_probe.h) always pick by
+ * capture time. Camera frames may come from any upstream element (e.g.
+ * `uridecodebin ! videoconvert ! videoscale ! video/x-raw,format=RGBA,
+ * width=W,height=H ! lffragment`); their PTS is then the capture time.
+ * Cameras that do not contribute send an explicitly empty fragment, so the
+ * compositor knows the request is complete. The fragment caps carry the
+ * request caps' `framerate`.
  *
  * The camera is named like lfcamsrc's: `camera-id`, or `row` and `col` of
  * the rig's grid.
@@ -129,9 +131,8 @@ struct Priv {
   // Camera frames and request waits, guarded by `lock`.
   GMutex lock;
   GCond cond;
-  GstBuffer* frame = nullptr;  // newest camera frame
-  // The last frames (kFrameRing for frame-select=capture-time, else two),
-  // oldest first, with their capture times (ns).
+  // The last camera frames (kFrameRing for frame-select=capture-time, else
+  // two), oldest first, with their capture times (ns); back(): the newest.
   std::deque<std::pair<int64_t, GstBuffer*>> ring;
   GstVideoInfo vinfo;
   bool have_vinfo = false;
@@ -148,7 +149,6 @@ struct Priv {
   }
   ~Priv() {
     clear_ring();
-    gst_buffer_replace(&frame, nullptr);
     g_mutex_clear(&lock);
     g_cond_clear(&cond);
   }
@@ -256,7 +256,6 @@ static GstFlowReturn lf_fragment_sink_chain(GstPad*, GstObject* parent, GstBuffe
   g_mutex_lock(&p->lock);
   const bool flushing = p->flushing;
   if (!flushing) {
-    gst_buffer_replace(&p->frame, buf);
     p->ring.emplace_back(t, gst_buffer_ref(buf));
     while (p->ring.size() > keep) {
       gst_buffer_unref(p->ring.front().second);
@@ -328,8 +327,9 @@ static int64_t capture_time_of(LfFragment* self, GstBuffer* frame, int camera_id
 // frame-select=capture-time, with p->lock held: the frame for request time
 // `t` (ns): the newest captured at or before t. Waits (at most
 // frame-timeout) until that frame is known to be the one: a later frame has
-// come, or one within the frame period (from the caps) before t. Then the newest at or before t, or
-// the oldest kept when all are later (a request older than the ring). A new reference, or nullptr.
+// come, or one within the frame period (from the caps) before t. Then the
+// newest at or before t, or the oldest kept when all are later (a request
+// older than the ring). A new reference, or nullptr.
 static GstBuffer* frame_at(Priv* p, int64_t t) {
   const State* st = p->state.get();
   const int64_t period =
@@ -346,7 +346,7 @@ static GstBuffer* frame_at(Priv* p, int64_t t) {
   };
   while (!settled() && !p->flushing && !p->video_eos)
     if (!g_cond_wait_until(&p->cond, &p->lock, deadline)) break;
-  if (p->ring.empty()) return p->frame ? gst_buffer_ref(p->frame) : nullptr;
+  if (p->ring.empty()) return nullptr;
   GstBuffer* best = p->ring.front().second;
   for (const auto& [time, b] : p->ring)
     if (time <= t) best = b;
@@ -419,7 +419,7 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
   const gint64 deadline =
       g_get_monotonic_time() + static_cast<gint64>(st->s.frame_timeout / GST_USECOND);
   g_mutex_lock(&p->lock);
-  while (!p->frame && !p->flushing && !p->video_eos)
+  while (p->ring.empty() && !p->flushing && !p->video_eos)
     if (!g_cond_wait_until(&p->cond, &p->lock, deadline)) break;
   if (p->flushing) {
     g_mutex_unlock(&p->lock);
@@ -432,8 +432,8 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
   if ((st->s.frame_select == FrameSelect::kCaptureTime || lf::is_focus_probe(req.sequence)) &&
       GST_BUFFER_PTS_IS_VALID(buf))
     frame = frame_at(p, static_cast<int64_t>(GST_BUFFER_PTS(buf)));
-  else if (p->frame)
-    frame = gst_buffer_ref(p->frame);
+  else if (!p->ring.empty())
+    frame = gst_buffer_ref(p->ring.back().second);
   GstVideoInfo info = p->vinfo;
   const bool have_info = p->have_vinfo;
   g_mutex_unlock(&p->lock);
@@ -506,7 +506,6 @@ static gboolean lf_fragment_start(LfFragment* self) {
 static void lf_fragment_stop(LfFragment* self) {
   Priv* p = self->priv;
   g_mutex_lock(&p->lock);
-  gst_buffer_replace(&p->frame, nullptr);
   p->clear_ring();
   p->video_eos = false;
   p->have_vinfo = false;

@@ -151,15 +151,13 @@ struct State {
   bool dragging = false;
   double drag_x = 0, drag_y = 0;
   guint32 last_seqnum = GST_SEQNUM_INVALID;
-  // Click to focus (Priv::lock): a probe to send with the next request, the
-  // ids of the last click's probe and of the last one applied.
+  // Click to focus (Priv::lock): whether a click's probe goes with the next
+  // request; the point to focus on (the last click; < 0: the view centre,
+  // for continuous focus); the ids of the last click's probe, of the last
+  // continuous one and of the last one applied.
   bool probe_pending = false;
-  double probe_x = 0, probe_y = 0;
-  guint32 next_probe = 1, click_probe = 0, applied_probe = 0;
-  // Continuous focus: its point (the last click; < 0: the view centre) and
-  // its newest probe.
   double focus_x = -1, focus_y = -1;
-  guint32 continuous_probe = 0;
+  guint32 next_probe = 1, click_probe = 0, continuous_probe = 0, applied_probe = 0;
 };
 // Continuous focus: a probe every this many requests; each answer moves the
 // focal plane this fraction of the way (in inverse depth).
@@ -350,8 +348,7 @@ static void handle_navigation(LfViewRequest* self, GstEvent* event) {
         GstNavigationModifierType mods = GST_NAVIGATION_MODIFIER_NONE;
         gst_navigation_event_parse_modifier_state(event, &mods);
         if (button == 3 || (button == 1 && (mods & GST_NAVIGATION_MODIFIER_CONTROL_MASK))) {
-          st->probe_pending = true, st->probe_x = x, st->probe_y = y;
-          st->focus_x = x, st->focus_y = y;
+          st->probe_pending = true, st->focus_x = x, st->focus_y = y;
           GST_DEBUG_OBJECT(self, "click to focus at (%g, %g)", x, y);
           break;
         }
@@ -626,56 +623,45 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
     g_error_free(err);
     req.view = views->sequence.at(k, rig);
   }
-  // Click to focus: the probe's requests go with this tick's request.
+  // Click to focus: the probe's requests go with this tick's request (a
+  // click's, else every kContinuousFocusEvery ticks a continuous one).
   std::vector<lf::ViewRequest> probes;
   const bool continuous =
       lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::continuous_focus);
   g_mutex_lock(&p->lock);
-  bool continuous_now = false;
-  if (continuous && !st->probe_pending && k % kContinuousFocusEvery == 0) {
-    st->probe_pending = continuous_now = true;
-    st->probe_x = st->focus_x >= 0 ? st->focus_x : 0.5 * (req.view.width - 1);
-    st->probe_y = st->focus_y >= 0 ? st->focus_y : 0.5 * (req.view.height - 1);
-  }
-  if (st->probe_pending) {
+  if (st->probe_pending || (continuous && k % kContinuousFocusEvery == 0)) {
+    const guint32 id = st->next_probe++;
+    (st->probe_pending ? st->click_probe : st->continuous_probe) = id;
     st->probe_pending = false;
-    (continuous_now ? st->continuous_probe : st->click_probe) = st->next_probe++;
+    const double x = st->focus_x >= 0 ? st->focus_x : 0.5 * (req.view.width - 1);
+    const double y = st->focus_y >= 0 ? st->focus_y : 0.5 * (req.view.height - 1);
     GError* perr = nullptr;
-    if (!lfgst::guard(
-            [&] {
-              probes =
-                  lf::focus_probe_requests(rig, req, st->probe_x, st->probe_y, st->next_probe - 1);
-            },
-            &perr)) {
+    if (!lfgst::guard([&] { probes = lf::focus_probe_requests(rig, req, x, y, id); }, &perr)) {
       GST_WARNING_OBJECT(self, "no focus probe: %s", perr->message);
       g_error_free(perr);
     }
   }
   g_mutex_unlock(&p->lock);
+  std::vector<lf::ViewRequest> tick{req};
   if (s.stereo_baseline > 0) {
     // Left and right eyes along the view's x axis (viewer ids v, v + 1).
     const cv::Vec3d x(req.view.R(0, 0), req.view.R(0, 1), req.view.R(0, 2));
     lf::ViewRequest right = req;
     right.viewer_id = fixed.viewer_id + 1;
     right.view.position += x * (0.5 * s.stereo_baseline);
-    req.view.position -= x * (0.5 * s.stereo_baseline);
-    // One tick = one buffer list (num-buffers counts ticks).
-    GstBufferList* list = gst_buffer_list_new_sized(2 + probes.size());
-    gst_buffer_list_add(list, request_buffer(src, req, pts, period));
-    gst_buffer_list_add(list, request_buffer(src, right, pts, period));
-    for (const lf::ViewRequest& r : probes)
-      gst_buffer_list_add(list, request_buffer(src, r, pts, period));
-    gst_base_src_submit_buffer_list(src, list);
-    *out = nullptr;
-  } else if (!probes.empty()) {
-    GstBufferList* list = gst_buffer_list_new_sized(1 + probes.size());
-    gst_buffer_list_add(list, request_buffer(src, req, pts, period));
-    for (const lf::ViewRequest& r : probes)
-      gst_buffer_list_add(list, request_buffer(src, r, pts, period));
-    gst_base_src_submit_buffer_list(src, list);
-    *out = nullptr;
-  } else {
+    tick[0].view.position -= x * (0.5 * s.stereo_baseline);
+    tick.push_back(right);
+  }
+  tick.insert(tick.end(), probes.begin(), probes.end());
+  if (tick.size() == 1) {
     *out = request_buffer(src, req, pts, period);
+  } else {
+    // One tick = one buffer list (num-buffers counts ticks).
+    GstBufferList* list = gst_buffer_list_new_sized(tick.size());
+    for (const lf::ViewRequest& r : tick)
+      gst_buffer_list_add(list, request_buffer(src, r, pts, period));
+    gst_base_src_submit_buffer_list(src, list);
+    *out = nullptr;
   }
   st->sequence++;
   return GST_FLOW_OK;

@@ -92,17 +92,27 @@ TEST(FocusProbe, FindsTheDepthUnderTheClickedPixel) {
   EXPECT_EQ(lf::focus_probe_step(lf::focus_probe_sequence(0xffffffffu, 31)), 31);
 }
 
-// Through a live pipeline: a right click at the sink focuses the view on
-// what is under it, from the fragments alone; measured: click -> focused
-// frame.
-TEST(ClickToFocus, ARightClickFocusesOnThePointUnderIt) {
-  testing_lf::init_gstreamer_with_plugin();
+// A synthetic 3x3 array (5 cm apart) in a rig file, and its scene.
+class ClickToFocus : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    testing_lf::init_gstreamer_with_plugin();
+    lf::save_rig(lf::synthetic_grid_rig(3, 3, 0.05, kW, kH), rig_path);
+    rig = lf::load_rig(rig_path);
+    scene = lf::SyntheticScene::for_rig(rig);
+  }
+  void TearDown() override { std::filesystem::remove(rig_path); }
   const std::string rig_path = (std::filesystem::temp_directory_path() /
                                 ("lf-test-focus-" + std::to_string(getpid()) + ".json"))
                                    .string();
-  lf::save_rig(lf::synthetic_grid_rig(3, 3, 0.05, kW, kH), rig_path);
-  const lf::Rig rig = lf::load_rig(rig_path);
-  const lf::SyntheticScene scene = lf::SyntheticScene::for_rig(rig);
+  lf::Rig rig;
+  lf::SyntheticScene scene;
+};
+
+// Through a live pipeline: a right click at the sink focuses the view on
+// what is under it, from the fragments alone; measured: click -> focused
+// frame.
+TEST_F(ClickToFocus, ARightClickFocusesOnThePointUnderIt) {
   lf::ViewSettings vs;
   vs.width = kW, vs.height = kH;
   const lf::VirtualView view = lf::build_views(rig, vs).at(0, rig);
@@ -168,19 +178,11 @@ TEST(ClickToFocus, ARightClickFocusesOnThePointUnderIt) {
   gst_object_unref(req);
   gst_object_unref(out);
   gst_object_unref(p);
-  std::filesystem::remove(rig_path);
 }
 
 // continuous-focus=true: with no click, the view centre (always on the
 // moving disc) is kept in focus; the plane converges from the background.
-TEST(ClickToFocus, ContinuousFocusConvergesOnTheCentre) {
-  testing_lf::init_gstreamer_with_plugin();
-  const std::string rig_path = (std::filesystem::temp_directory_path() /
-                                ("lf-test-cfocus-" + std::to_string(getpid()) + ".json"))
-                                   .string();
-  lf::save_rig(lf::synthetic_grid_rig(3, 3, 0.05, kW, kH), rig_path);
-  const lf::Rig rig = lf::load_rig(rig_path);
-  const lf::SyntheticScene scene = lf::SyntheticScene::for_rig(rig);
+TEST_F(ClickToFocus, ContinuousFocusConvergesOnTheCentre) {
   const double px = 1.0 / (rig.cameras[0].intrinsics.fx * rig.typical_spacing());
   const std::string desc = "lfviewrequest name=req rig=" + rig_path + " " + kLive +
                            " focal-depth=" + std::to_string(scene.far_depth) +
@@ -211,7 +213,6 @@ TEST(ClickToFocus, ContinuousFocusConvergesOnTheCentre) {
   gst_element_set_state(p, GST_STATE_NULL);
   gst_object_unref(req);
   gst_object_unref(p);
-  std::filesystem::remove(rig_path);
 }
 
 }  // namespace

@@ -45,7 +45,7 @@ static cv::Vec3d probe_eye(const Rig& rig, const cv::Vec3d& eye, const cv::Vec3d
 
 std::vector<ViewRequest> focus_probe_requests(const Rig& rig, const ViewRequest& view, double x,
                                               double y, uint32_t probe_id) {
-  const int r = kFocusProbeRadius, side = 2 * r + 1;
+  const int side = kFocusProbeSide;
   const VirtualView& v = view.view;
   const Intrinsics k = v.intrinsics();
   // The clicked pixel's ray, world frame.
@@ -85,12 +85,10 @@ std::vector<ViewRequest> focus_probe_requests(const Rig& rig, const ViewRequest&
 
 FocusProbeScore::FocusProbeScore()
     : sums_(static_cast<size_t>(kFocusProbeSteps) * kSide * kSide * 7, 0.0),
-      cameras_(static_cast<size_t>(kFocusProbeSteps) * kSide * kSide, 0),
-      count_(kFocusProbeSteps, 0) {}
+      cameras_(static_cast<size_t>(kFocusProbeSteps) * kSide * kSide, 0) {}
 
 void FocusProbeScore::add(int step, const Fragment& f) {
   if (step < 0 || step >= kFocusProbeSteps || f.out_width != kSide || f.out_height != kSide) return;
-  count_[step]++;
   const uint8_t* px = f.pixels.data();
   for (int row = 0; row < f.rect.height; ++row) {
     const int y = f.rect.y + row;

@@ -36,6 +36,7 @@ namespace lf {
 constexpr uint64_t kFocusProbeBit = uint64_t{1} << 62;
 constexpr int kFocusProbeSteps = 32;
 constexpr int kFocusProbeRadius = 16;  // output pixels: a 33 x 33 window
+constexpr int kFocusProbeSide = 2 * kFocusProbeRadius + 1;
 constexpr double kFocusProbeMaxParallaxPx = 24.0;
 
 // Exactly the probe pattern: bits 48..63 = 0x4000 and a step below
@@ -75,8 +76,6 @@ class FocusProbeScore {
   // A fragment of step `step` (premultiplied RGBA, alpha = aperture weight).
   // Fragments of another size than the window are ignored.
   void add(int step, const Fragment& f);
-  // Fragments added for `step` (any camera, empty ones included).
-  int fragments(int step) const { return count_[step]; }
   // Mean over window pixels seen by at least two cameras of the weighted
   // colour standard deviation among the cameras (8-bit levels, truncated at
   // 25 for occlusions), per step; -1 where no pixel had two cameras.
@@ -86,11 +85,10 @@ class FocusProbeScore {
   bool best(const Rig& rig, double* inverse_depth) const;
 
  private:
-  static constexpr int kSide = 2 * kFocusProbeRadius + 1;
+  static constexpr int kSide = kFocusProbeSide;
   // Per step and window pixel: sum w, sum w c (3), sum w c^2 (3), cameras.
   std::vector<double> sums_;
   std::vector<int> cameras_;
-  std::vector<int> count_;
 };
 
 }  // namespace lf
