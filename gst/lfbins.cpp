@@ -121,6 +121,9 @@ struct Priv {
   GstPad* sink = nullptr;  // ghost pads, targets set when built
   GstPad* src = nullptr;
   std::vector<GstElement*> children;
+  // Playback sources (decodebin, filesrc), started only once the rest of the
+  // graph is PAUSED (see add_playback).
+  std::vector<GstElement*> deferred;
 };
 
 }  // namespace
@@ -237,6 +240,13 @@ static GstElement* add_playback(GstBin* bin, Priv* p, const std::string& file,
                           cam.width, "height", G_TYPE_INT, cam.height, nullptr);
   g_object_set(filter, "caps", caps, nullptr);
   gst_caps_unref(caps);
+  // The decoder's pads appear only when it runs, so the bin cannot order it
+  // after the converter: started before it, it would push into a converter
+  // still in READY, be refused (FLUSHING) and stop without an error. They
+  // start when the bin is PAUSED (lf_camera_host_change_state).
+  gst_element_set_locked_state(dec, TRUE);
+  gst_element_set_locked_state(src, TRUE);
+  p->deferred.insert(p->deferred.end(), {dec, src});
   link_or_throw(src, dec, "the playback of camera " + id);
   lfgst::link_decoded_video(dec, convert);
   link_or_throw(convert, filter, "the playback of camera " + id);
@@ -393,6 +403,7 @@ static void teardown(LfCameraHost* self) {
     gst_bin_remove(GST_BIN(self), e);
   }
   p->children.clear();
+  p->deferred.clear();
 }
 
 static GstStateChangeReturn lf_camera_host_change_state(GstElement* el, GstStateChange t) {
@@ -404,8 +415,16 @@ static GstStateChangeReturn lf_camera_host_change_state(GstElement* el, GstState
       return GST_STATE_CHANGE_FAILURE;
     }
   }
-  const GstStateChangeReturn ret =
-      GST_ELEMENT_CLASS(lf_camera_host_parent_class)->change_state(el, t);
+  GstStateChangeReturn ret = GST_ELEMENT_CLASS(lf_camera_host_parent_class)->change_state(el, t);
+  if (t == GST_STATE_CHANGE_READY_TO_PAUSED && ret != GST_STATE_CHANGE_FAILURE) {
+    // Playback sources last, decoders before their file sources.
+    Priv* p = priv_of(self);
+    for (GstElement* e : p->deferred) {
+      gst_element_set_locked_state(e, FALSE);
+      if (!gst_element_sync_state_with_parent(e)) ret = GST_STATE_CHANGE_FAILURE;
+    }
+    p->deferred.clear();
+  }
   if (t == GST_STATE_CHANGE_READY_TO_NULL) teardown(self);
   return ret;
 }

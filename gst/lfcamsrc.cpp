@@ -188,10 +188,11 @@ static GstElement* build_decoder(const Settings& s, const lf::Camera& cam, GstEl
   return pipe;
 }
 
-// The first error the internal decoding pipeline posted ("" if none).
-static std::string decoder_error(GstElement* decoder) {
+// The first error the internal decoding pipeline posted ("" if none),
+// waiting up to `wait` for it.
+static std::string decoder_error(GstElement* decoder, GstClockTime wait = 0) {
   GstBus* bus = gst_element_get_bus(decoder);
-  GstMessage* m = gst_bus_pop_filtered(bus, GST_MESSAGE_ERROR);
+  GstMessage* m = gst_bus_timed_pop_filtered(bus, wait, GST_MESSAGE_ERROR);
   gst_object_unref(bus);
   if (!m) return "";
   GError* e = nullptr;
@@ -222,7 +223,9 @@ static void open_input(State* st) {
       if (gst_element_set_state(st->decoder, GST_STATE_PLAYING) == GST_STATE_CHANGE_FAILURE ||
           gst_element_get_state(st->decoder, nullptr, nullptr, 10 * GST_SECOND) ==
               GST_STATE_CHANGE_FAILURE) {
-        const std::string why = decoder_error(st->decoder);
+        // The failure can be seen before its error message is posted (it
+        // comes from the decoder's thread): wait for the reason a little.
+        const std::string why = decoder_error(st->decoder, GST_SECOND);
         throw std::runtime_error("cannot open " + input + (why.empty() ? "" : ": " + why));
       }
       if (const std::string why = decoder_error(st->decoder); !why.empty())
