@@ -9,8 +9,11 @@
  * view (lib/lf/plan.h, lib/lf/render.h) and pushed on `src`, tagged in band
  * (lib/lf/wire.h). With `frame-select=capture-time` the frame is instead the
  * one captured at the request's time: the newest whose capture time (its
- * `LfCaptureMeta`, else its PTS) is at or before the request's PTS, waiting
- * up to `frame-timeout` for it; so a live run and the playback of its
+ * `LfCaptureMeta`, else its PTS) is at or before the request's time (the
+ * viewer's PTS, carried in the request, lib/lf/wire.h, so network delay does
+ * not change it; else the request buffer's PTS), waiting up to
+ * `frame-timeout` for it; so every camera of a deployment warps frames of
+ * one capture instant for a request, and a live run and the playback of its
  * recording pair the same frames with the same requests (lfcamerahost
  * `record`/`playback`). Focus probes (lib/lf/focus_probe.h) always pick by
  * capture time. Camera frames may come from any upstream element (e.g.
@@ -89,8 +92,9 @@ static GType lf_fragment_frame_select_get_type() {
       {static_cast<gint>(FrameSelect::kNewest), "The newest camera frame when the request comes",
        "newest"},
       {static_cast<gint>(FrameSelect::kCaptureTime),
-       "The frame captured at the request's time: the newest with capture time <= request PTS "
-       "(deterministic: a recording played back pairs the same frames)",
+       "The frame captured at the request's time: the newest with capture time <= the time the "
+       "request carries (the viewer's PTS; deterministic: every camera picks the same capture "
+       "instant whatever the network delay, and a recording played back pairs the same frames)",
        "capture-time"},
       {0, nullptr, nullptr}};
   return lfgst::enum_type(&type, "LfFragmentFrameSelect", values);
@@ -429,9 +433,15 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
   GstBuffer* frame = nullptr;
   // A focus probe's steps must all see the frames of one capture instant, in
   // every camera: by capture time whatever frame-select says.
+  // The request's time: the one it carries (the viewer's PTS, whatever the
+  // network delay), else its buffer's PTS (its arrival time after RTP).
+  const int64_t req_time = req.time_ns >= 0 ? req.time_ns
+                           : GST_BUFFER_PTS_IS_VALID(buf)
+                               ? static_cast<int64_t>(GST_BUFFER_PTS(buf))
+                               : -1;
   if ((st->s.frame_select == FrameSelect::kCaptureTime || lf::is_focus_probe(req.sequence)) &&
-      GST_BUFFER_PTS_IS_VALID(buf))
-    frame = frame_at(p, static_cast<int64_t>(GST_BUFFER_PTS(buf)));
+      req_time >= 0)
+    frame = frame_at(p, req_time);
   else if (!p->ring.empty())
     frame = gst_buffer_ref(p->ring.back().second);
   GstVideoInfo info = p->vinfo;

@@ -544,7 +544,9 @@ static GstBuffer* request_buffer(GstBaseSrc* src, const lf::ViewRequest& req, Gs
                                  GstClockTime period) {
   lfgst::trace(GST_ELEMENT(src), "issue", req.viewer_id, req.sequence, -1,
                static_cast<gint64>(pts));
-  const std::vector<uint8_t> bytes = lf::serialize_request(req);
+  lf::ViewRequest timed = req;  // the request is for its PTS (cameras: frame-select)
+  timed.time_ns = GST_CLOCK_TIME_IS_VALID(pts) ? static_cast<int64_t>(pts) : -1;
+  const std::vector<uint8_t> bytes = lf::serialize_request(timed);
   GstBuffer* buf = gst_buffer_new_memdup(bytes.data(), bytes.size());
   GST_BUFFER_PTS(buf) = pts;
   GST_BUFFER_DTS(buf) = pts;

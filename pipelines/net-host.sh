@@ -28,8 +28,11 @@
 #   VIEW         lfviewrequest properties (viewer)
 #                [orbit=0.6 dolly=15 path-frames=120 width=640 height=480]
 #   PHASE_NS     capture phase: cameras capture at k / FPS + PHASE_NS, requests
-#                are issued at k / FPS; half a period apart, every fragment of
-#                a request uses the same capture instant        [half a period]
+#                are issued at k / FPS. Every camera warps the frame captured
+#                at the request's arrival time on the shared clock (lffragment
+#                frame-select=capture-time), so all fragments of a request come
+#                from one capture instant even when a busy host captures late;
+#                half a period apart, that frame is already there [half a period]
 #   OUTPUT       viewer: sink for the decoded output video                  [fakesink]
 #   DURATION     stop after this many seconds (default: run until killed)
 #   LOSS         probability (0..1) to drop each outgoing RTP packet, for tests
@@ -133,7 +136,7 @@ case "$role" in
     done
     # One request stream in, one fragment stream out (the lfcamerahost bin).
     desc="$src $(receive "$rtp_caps" $SSRC_REQUESTS) ! rtpgstdepay"
-    desc+=" ! lfcamerahost rig=$RIG cameras=$mine is-live=true framerate=$FPS/1 phase=$PHASE_NS"
+    desc+=" ! lfcamerahost rig=$RIG cameras=$mine is-live=true framerate=$FPS/1 phase=$PHASE_NS frame-select=capture-time"
     desc+=" encoding=$ENCODING jpeg-quality=$QUALITY"
     desc+=" ! rtpgstpay config-interval=1 ssrc=$((SSRC_FRAGMENTS + host)) ! $(protect)$loss"
     desc+="udpsink host=$COMPOSITOR port=$((FRAGMENT_PORT + host)) $sender"

@@ -435,7 +435,7 @@ TEST_F(Gst, MalformedRequestsAndFragmentsAreDroppedWithAWarning) {
   GstElement* in = gst_bin_get_by_name(GST_BIN(p), "in");
   GstElement* out = gst_bin_get_by_name(GST_BIN(p), "out");
   gst_element_set_state(p, GST_STATE_PLAYING);
-  std::vector<uint8_t> garbage(144, 0x41);
+  std::vector<uint8_t> garbage(lf::kRequestSize, 0x41);
   std::memcpy(garbage.data(), "LFVR", 4);
   gst_app_src_push_buffer(GST_APP_SRC(in), gst_buffer_new_memdup(garbage.data(), garbage.size()));
   gst_app_src_push_buffer(GST_APP_SRC(in), gst_buffer_new_memdup("x", 1));

@@ -42,6 +42,7 @@ lf::ViewRequest sample_request() {
   r.view.shift_x = 3.25;
   r.view.shift_y = -1.5;
   r.focal_plane = lf::FocalPlane::through({0, 0, 7}, {0.1, 0.2, 1});
+  r.time_ns = 1234567890123;
   return r;
 }
 
@@ -196,10 +197,16 @@ TEST(Wire, RequestRoundTrip) {
   EXPECT_EQ(s.view.shift_x, 3.25);
   EXPECT_EQ(s.focal_plane.n, r.focal_plane.n);
   EXPECT_EQ(s.focal_plane.d, r.focal_plane.d);
-  // Big-endian on the wire: magic then version 1.
+  EXPECT_EQ(s.time_ns, r.time_ns);
+  // Big-endian on the wire: magic then version 2.
   EXPECT_EQ(std::string(b.begin(), b.begin() + 4), "LFVR");
   EXPECT_EQ(b[4], 0);
-  EXPECT_EQ(b[5], 1);
+  EXPECT_EQ(b[5], 2);
+  // An unknown time travels as -1.
+  lf::ViewRequest u = r;
+  u.time_ns = -5;
+  const auto ub = lf::serialize_request(u);
+  EXPECT_EQ(lf::parse_request(ub.data(), ub.size()).time_ns, -1);
 }
 
 TEST(Wire, TruncatedInputIsRejectedAtEveryLength) {
@@ -306,9 +313,31 @@ TEST(Wire, InvalidRequestsAreRejected) {
   // Non-unit quaternion with a valid CRC.
   auto q = b;
   q[44] ^= 0x10;
-  uLong c = crc32(crc32(0L, Z_NULL, 0), q.data(), 140);
-  for (int i = 0; i < 4; ++i) q[140 + i] = static_cast<uint8_t>(c >> (24 - 8 * i));
+  auto resign = [](std::vector<uint8_t>& v) {
+    const uLong c = crc32(crc32(0L, Z_NULL, 0), v.data(), 148);
+    for (int i = 0; i < 4; ++i) v[148 + i] = static_cast<uint8_t>(c >> (24 - 8 * i));
+  };
+  resign(q);
   EXPECT_THROW(lf::parse_request(q.data(), q.size()), lf::WireError);
+  auto expect_request_error = [](const std::vector<uint8_t>& v, const std::string& word) {
+    try {
+      lf::parse_request(v.data(), v.size());
+      ADD_FAILURE() << "accepted (" << word << ")";
+    } catch (const lf::WireError& e) {
+      EXPECT_NE(std::string(e.what()).find(word), std::string::npos) << e.what();
+    }
+  };
+  // A time below -1 with a valid CRC.
+  auto t = b;
+  for (int i = 140; i < 148; ++i) t[i] = 0xff;
+  t[147] = 0xfe;  // -2
+  resign(t);
+  expect_request_error(t, "negative");
+  // Version 1 (no time) is refused by name.
+  auto v1 = b;
+  v1[5] = 1;
+  resign(v1);
+  expect_request_error(v1, "unsupported version 1");
   // Serializing an invalid request refuses.
   r.view.vfov_deg = 200;
   EXPECT_THROW(lf::serialize_request(r), std::invalid_argument);

@@ -60,6 +60,13 @@ struct ViewRequest {
   VirtualView view;
   FocalPlane focal_plane;
   Aperture aperture = Aperture::kTent;
+  // The instant the request is for (ns of running time on the pipeline
+  // clock; in a deployment, the shared network clock and base time), or -1
+  // when unknown. Set by the viewer from the request's PTS, so a camera host
+  // knows it whatever the network delay: with lffragment
+  // frame-select=capture-time every camera warps the frame captured at or
+  // before it, all from one capture instant.
+  int64_t time_ns = -1;
 };
 
 // Throws std::invalid_argument naming the field when a request cannot be

@@ -473,7 +473,7 @@ std::vector<uint8_t> serialize_request(const ViewRequest& req) {
   out.reserve(kRequestSize);
   Writer w(out);
   w.bytes("LFVR", 4);
-  w.u16(1);
+  w.u16(2);
   w.u16(kRequestSize);
   w.u32(req.viewer_id);
   w.u64(req.sequence);
@@ -489,6 +489,7 @@ std::vector<uint8_t> serialize_request(const ViewRequest& req) {
   w.f64(req.focal_plane.d);
   w.u8(static_cast<uint8_t>(req.aperture));
   w.u8(0), w.u8(0), w.u8(0);
+  w.u64(static_cast<uint64_t>(req.time_ns < 0 ? -1 : req.time_ns));
   w.u32(crc(out.data(), out.size()));
   return out;
 }
@@ -502,7 +503,8 @@ ViewRequest parse_request(const uint8_t* data, size_t size) {
   Reader r(data, size, "view request");
   for (int i = 0; i < 4; ++i) r.u8();
   const uint16_t version = r.u16();
-  if (version != 1) bad("unsupported version " + std::to_string(version));
+  if (version != 2)
+    bad("unsupported version " + std::to_string(version) + " (this build speaks version 2)");
   const uint16_t total = r.u16();
   if (total != kRequestSize || size != kRequestSize)
     bad("size " + std::to_string(size) + " (announced " + std::to_string(total) + "), expected " +
@@ -522,9 +524,11 @@ ViewRequest parse_request(const uint8_t* data, size_t size) {
   req.focal_plane.d = r.f64();
   const uint8_t ap = r.u8();
   const uint8_t r0 = r.u8(), r1 = r.u8(), r2 = r.u8();
+  req.time_ns = static_cast<int64_t>(r.u64());
   const uint32_t sum = r.u32();
   if (crc(data, kRequestSize - 4) != sum) bad("CRC mismatch (corrupt data)");
   if (r0 || r1 || r2) bad("reserved bytes are not zero");
+  if (req.time_ns < -1) bad("time " + std::to_string(req.time_ns) + " ns is negative");
   if (ap != 0) bad("unknown aperture " + std::to_string(ap));
   const double qn = cv::norm(q);
   if (!std::isfinite(qn) || std::abs(qn - 1.0) > 1e-6) bad("orientation quaternion is not unit");

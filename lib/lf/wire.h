@@ -29,12 +29,13 @@
 //         the rest of the payload). Pixels outside the spans are ignored (the
 //         sender fills them from the nearest span pixels).
 //
-// View request, version 1: 144 bytes
-//   0 "LFVR", 4 version u16 = 1, 6 size u16 = 144, 8 viewer_id u32, 12 sequence u64,
+// View request, version 2: 152 bytes
+//   0 "LFVR", 4 version u16 = 2, 6 size u16 = 152, 8 viewer_id u32, 12 sequence u64,
 //  20 position f64 x 3, 44 orientation quaternion (w, x, y, z) f64 x 4 (world -> view,
 //     unit within 1e-6), 76 vfov_deg f64, 84 width u16, 86 height u16,
 //  88 shift_x f64, 96 shift_y f64, 104 focal plane n f64 x 3, 128 d f64,
-// 136 aperture u8, 137 reserved 3 bytes (0), 140 crc32 u32 (bytes 0..139).
+// 136 aperture u8, 137 reserved 3 bytes (0), 140 time_ns i64 (>= -1),
+// 148 crc32 u32 (bytes 0..147). Version 1 (144 bytes, no time) is refused.
 #pragma once
 
 #include <cstdint>
@@ -54,7 +55,7 @@ struct WireError : std::runtime_error {
 };
 
 constexpr size_t kFragmentHeaderSize = 56;
-constexpr size_t kRequestSize = 144;
+constexpr size_t kRequestSize = 152;
 constexpr size_t kMaxPayload = 64u << 20;
 // Default cap on a parsed fragment's rectangle: 8192 x 8192 pixels.
 constexpr size_t kMaxFragmentPixels = size_t{8192} * 8192;
