@@ -602,6 +602,16 @@ static int64_t queued_sequence(GstBuffer* buf) {
   return seq;
 }
 
+// The running time now on the element's clock, or GST_CLOCK_TIME_NONE.
+static GstClockTime running_now(GstElement* e) {
+  GstClock* clock = gst_element_get_clock(e);
+  if (!clock) return GST_CLOCK_TIME_NONE;
+  const GstClockTime now = gst_clock_get_time(clock);
+  gst_object_unref(clock);
+  const GstClockTime base = gst_element_get_base_time(e);
+  return now > base ? now - base : 0;
+}
+
 static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeout) {
   LfCompositor* self = LF_COMPOSITOR(agg);
   State* st = self->priv->state.get();
@@ -612,19 +622,36 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
   g_list_foreach(
       pads, [](gpointer p, gpointer) { gst_object_ref(p); }, nullptr);
   GST_OBJECT_UNLOCK(self);
+  // Not live: one buffer per pad per call, so pads stay in step (a pop
+  // unblocks the upstream push, so popping in a loop would race ahead on
+  // fast pads). Live: every fragment queued so far, at most one request's
+  // worth per pad (get_next_time() has this called as soon as any pad has
+  // a fragment); the viewer's clock paces the pads.
+  const GstClockTime latency = gst_aggregator_get_latency(agg);
+  const bool live = GST_CLOCK_TIME_IS_VALID(latency);
+  const size_t per_pad = live ? std::max<size_t>(1, expected_fragments(self)) : 1;
   for (GList* l = pads; l; l = l->next) {
     GstAggregatorPad* pad = GST_AGGREGATOR_PAD(l->data);
-    // One buffer per pad per call: pads stay in step (a pop unblocks the
-    // upstream push, so popping in a loop would race ahead on fast pads).
-    if (GstBuffer* buf = gst_aggregator_pad_pop_buffer(pad)) {
+    for (size_t i = 0; i < per_pad; ++i) {
+      GstBuffer* buf = gst_aggregator_pad_pop_buffer(pad);
+      if (!buf) break;
       absorb(self, pad, buf);
       gst_buffer_unref(buf);
     }
   }
+  // `timeout` also comes when a fragment arrived (get_next_time()); the
+  // deadline is the oldest pending request's running time plus the latency.
+  bool deadline = false;
+  if (timeout && !st->pending.empty()) {
+    const GstClockTime rt = st->pending.begin()->second.running_time;
+    const GstClockTime now = running_now(GST_ELEMENT(agg));
+    deadline = !GST_CLOCK_TIME_IS_VALID(rt) || !GST_CLOCK_TIME_IS_VALID(now) || !live ||
+               now >= rt + latency;
+  }
   // At the deadline (a silent pad: a dead host), also take every queued
   // fragment of the requests up to the one due, so the live pads' fragments
   // all make it into the frame (a pad may carry many cameras' fragments).
-  if (timeout && !st->pending.empty()) {
+  if (deadline) {
     const int64_t due = static_cast<int64_t>(st->pending.begin()->first);
     for (GList* l = pads; l; l = l->next) {
       GstAggregatorPad* pad = GST_AGGREGATOR_PAD(l->data);
@@ -652,12 +679,12 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
   while (!st->pending.empty() && ret == GST_FLOW_OK) {
     auto it = st->pending.begin();
     const bool complete = it->second.cameras.size() >= expected;
-    if (!(complete || timeout || all_eos || st->pending.size() > kMaxPending)) break;
+    if (!(complete || deadline || all_eos || st->pending.size() > kMaxPending)) break;
     if (!complete)
       GST_DEBUG_OBJECT(self,
                        "request %" G_GUINT64_FORMAT
-                       " incomplete: %zu of %zu fragments (timeout %d, eos %d, pending %zu)",
-                       it->first, it->second.cameras.size(), expected, timeout, all_eos,
+                       " incomplete: %zu of %zu fragments (deadline %d, eos %d, pending %zu)",
+                       it->first, it->second.cameras.size(), expected, deadline, all_eos,
                        st->pending.size());
     ret = emit(self, it->first, it->second, complete);
     st->pending.erase(it);
@@ -666,9 +693,13 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
   return ret;
 }
 
-// Live deadline: the running time of the oldest pending request (the
-// aggregator adds its latency). With nothing pending, wait for data: a
-// deadline in the past would make the aggregator spin.
+// Live: when aggregate() should run next, as a running time to which the
+// aggregator adds its latency. At once when any pad has a fragment queued:
+// the aggregator itself waits for a buffer on every pad, but one pad
+// carries many cameras' fragments, so a request's last fragments would wait
+// for the next request's on the other pads (a whole period) or for the
+// deadline. Else the deadline of the oldest pending request. With nothing
+// pending, wait for data: a deadline in the past would make it spin.
 static GstClockTime lf_compositor_get_next_time(GstAggregator* agg) {
   LfCompositor* self = LF_COMPOSITOR(agg);
   GstClockTime t = GST_CLOCK_TIME_NONE;
@@ -682,9 +713,11 @@ static GstClockTime lf_compositor_get_next_time(GstAggregator* agg) {
   GST_OBJECT_LOCK(self);
   for (GList* l = GST_ELEMENT(self)->sinkpads; l; l = l->next) {
     GstAggregatorPad* pad = GST_AGGREGATOR_PAD(l->data);
+    // 0 + latency: a time past (the latency into the run) so at once.
+    // (gst_aggregator_get_latency() would deadlock here: the caller holds
+    // the aggregator's source lock.)
     if (GstBuffer* b = gst_aggregator_pad_peek_buffer(pad)) {
-      if (GST_BUFFER_PTS_IS_VALID(b))
-        earliest(gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, GST_BUFFER_PTS(b)));
+      earliest(0);
       gst_buffer_unref(b);
     }
   }
