@@ -12,6 +12,8 @@
 #     rejoins (complete frames again);
 #  3. 5 % packet loss on every link, view requests sent by unicast fan-out
 #     instead of multicast: output keeps flowing, nothing hangs.
+# Requests issued before every camera had captured its first frame (hosts
+# start at their own pace) are startup; lf-trace leaves them out.
 # usage: net-deploy-check.sh BUILD_DIR SHARED_DATA_DIR
 set -euo pipefail
 build="$(cd "$1" && pwd)"; data="$2"
@@ -23,8 +25,15 @@ root="$(cd "$(dirname "$0")/.." && pwd)"
 export LF_BUILD_DIR="$build"  # for the pipeline and tool scripts it runs
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
-export RIG="$work/rig.json" FPS=15 LATENCY_MS=40 ENCODING=jpeg QUALITY=90
-view="orbit=0.6 dolly=15 path-frames=120 width=640 height=480"
+# 6 processes share this machine's cores, and the checks must hold with other
+# work running: the paper's 320x240 at 10 fps keeps the load at about half a
+# core, and the deadline is about 3x the p95 round trip measured with three
+# busy loops on a 2-core machine (27 ms median, 44 ms p95), so the checks test
+# the deployment, not the machine.
+export RIG="$work/rig.json" FPS=10 LATENCY_MS=120 ENCODING=jpeg QUALITY=90
+normal_s=8 kill_s=15 loss_s=8
+export START_MS=6000  # hosts load their images before the shared base time, even when busy
+view="orbit=0.6 dolly=15 path-frames=120 width=320 height=240"  # the paper's output size
 export VIEW="$view"
 "$build/tools/lf-rig" --input "$data/stanford-chess" --block 0,0,8,8 --input-scale 0.5 --out "$RIG"
 period=$(awk -v f=$FPS 'BEGIN{print 1000 / f}')
@@ -44,13 +53,14 @@ LF_TRACE="$work/ref.trace" "$root/pipelines/lf-pipeline.sh" "$RIG" "$view num-bu
   fakesink "num-buffers=1" "encoding=$ENCODING jpeg-quality=$QUALITY"
 
 echo "== 1. normal run"
-"$root/tools/lf-netem.sh" run "$work/normal" 6 normal
+"$root/tools/lf-netem.sh" run "$work/normal" $normal_s normal
 "$build/tools/lf-trace" --cameras 64 --fps $FPS --reference "$work/ref.trace" "$work"/normal/*.trace \
   > "$work/normal.txt"
 cat "$work/normal.txt"
 cat "$work/normal/clock-offsets"
 summary "$work/normal.txt"
-check "$work/normal.txt" "at least 70 requests issued" 'v["issued"] >= 70'
+check "$work/normal.txt" "at least 70 % of $((FPS * normal_s)) requests issued" \
+  'v["issued"] >= 0.7 * '"$FPS * $normal_s"
 check "$work/normal.txt" "every request composited" 'v["composited"] >= v["issued"] - 1'
 check "$work/normal.txt" "frames complete (64 fragments)" 'v["complete"] >= 0.95 * v["composited"]'
 check "$work/normal.txt" "frames identical to the single-machine pipeline" \
@@ -72,7 +82,7 @@ else
 fi
 
 echo "== 2. camera host killed and restarted"
-"$root/tools/lf-netem.sh" run "$work/kill" 9 kill
+"$root/tools/lf-netem.sh" run "$work/kill" $kill_s kill
 "$build/tools/lf-trace" --cameras 64 --fps $FPS --timeline "$work"/kill/*.trace > "$work/kill.txt"
 cat "$work/kill.txt"
 summary "$work/kill.txt"
@@ -88,12 +98,12 @@ check "$work/kill.txt" "no gap longer than period + deadline + 50 ms" \
 check "$work/kill.txt" "the restarted host rejoins (last frames complete)" 'v["last-15-complete"] >= 12'
 
 echo "== 3. 5 % packet loss (view requests by unicast fan-out)"
-LOSS=0.05 REQUESTS=unicast "$root/tools/lf-netem.sh" run "$work/loss" 6 loss
+LOSS=0.05 REQUESTS=unicast "$root/tools/lf-netem.sh" run "$work/loss" $loss_s loss
 cat "$work/loss/loss"
 "$build/tools/lf-trace" --cameras 64 --fps $FPS "$work"/loss/*.trace > "$work/loss.txt"
 cat "$work/loss.txt"
 summary "$work/loss.txt"
 check "$work/loss.txt" "output keeps flowing under loss" \
-  'v["composited"] >= 0.85 * v["issued"] && v["issued"] >= 70'
+  'v["composited"] >= 0.85 * v["issued"] && v["issued"] >= 0.7 * '"$FPS * $loss_s"
 check "$work/loss.txt" "no gap longer than 4 periods" 'v["max-gap-ms"] < 4 * '"$period"
 exit $fail

@@ -16,7 +16,8 @@
 #             camera host, the compositor's fragment ports and the viewer)
 # Every scenario samples each host's resident memory every 5 s (OUTDIR/rss:
 # seconds, host, VmRSS kB) and writes its peak (OUTDIR/rss-peak: host,
-# VmHWM kB).
+# VmHWM kB), and each host's UDP counters at the end (OUTDIR/udp: datagrams
+# received, dropped for a full socket buffer, errors).
 # Environment: RIG (required), HOSTS [4], REQUESTS=unicast for a unicast
 # fan-out of the view requests (default: multicast), and net-host.sh's settings (FPS,
 # ENCODING, VIEW, LATENCY_MS, ...). Writes OUTDIR/{comp,view,cam*}.trace,
@@ -27,7 +28,7 @@ root="$(cd "$(dirname "$0")/.." && pwd)"
 build="${LF_BUILD_DIR:-$root/build}"  # the build directory (scripts/setup.sh: LF_BUILD_DIR)
 cmd="${1:-}"; out="${2:-}"; seconds="${3:-}"; scenario="${4:-normal}"
 if [ "$cmd" != run ] || [ -z "$out" ] || [ -z "$seconds" ]; then
-  sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'
+  sed -n '2,20p' "$0" | sed 's/^# \{0,1\}//'
   exit 2
 fi
 : "${RIG:?RIG must name the rig file}"
@@ -45,6 +46,9 @@ ip[comp]=10.77.0.2; ip[view]=10.77.0.3; ip[evil]=10.77.0.9
 for ((k = 0; k < HOSTS; k++)); do ip[cam$k]=10.77.0.$((10 + k)); done
 
 cleanup() {
+  # The viewer first, so the requests it issued last are answered and
+  # composited before the cameras and the compositor go.
+  if [ -n "${pid[view]:-}" ]; then kill "${pid[view]}" 2>/dev/null || true; sleep 0.5; fi
   for h in "${!pid[@]}"; do kill "${pid[$h]}" 2>/dev/null || true; done
   sleep 0.3
   for h in "${!pid[@]}"; do kill -9 "${pid[$h]}" 2>/dev/null || true; done
@@ -164,6 +168,14 @@ for h in "${!pid[@]}"; do
   echo "$h $(awk '/^VmHWM:/{print $2}' "/proc/${pid[$h]}/status" 2>/dev/null || echo gone)" >> "$out/rss-peak"
 done
 if [ -n "${evil:-}" ]; then wait "$evil" || true; fi
+# UDP counters of each host's namespace (/proc/net/snmp): datagrams received,
+# and those the kernel dropped for a full socket buffer (a receiver that did
+# not read in time) or other errors.
+echo "host in-datagrams rcvbuf-errors in-errors" > "$out/udp"
+for h in "${hosts[@]}"; do
+  ip netns exec "$tag$h" awk -v h="$h" '$1 == "Udp:" && $2 ~ /^[0-9]/ {print h, $2, $6, $4}' \
+    /proc/net/snmp >> "$out/udp" 2>/dev/null || true
+done
 status=0
 for h in "${!pid[@]}"; do
   if ! kill -0 "${pid[$h]}" 2>/dev/null; then

@@ -36,7 +36,8 @@ const char* kHelp = R"(lf-trace: latency, bandwidth and output of a traced run (
 usage: lf-trace [options] TRACE...
   --cameras N        fragments in a complete request (default: the most seen)
   --fps F            capture rate, for the alignment check (default 15)
-  --skip N           ignore the first N requests of each viewer (warm-up; default 3)
+  --skip N           ignore the first N requests of each viewer (warm-up; default 3),
+                     after those issued before every camera had captured (startup)
   --reference TRACE  compare composited frames (CRC-32) with this trace's
   --plot FILE        write the latency breakdown as a PNG
   --timeline         print output frames and fragments per second
@@ -213,6 +214,23 @@ int main(int argc, char** argv) {
     }
     std::map<Key, Request> req = collect(events);
     const int skip = args.integer("--skip", 3);
+    // Startup: requests issued before every camera had captured its first
+    // frame cannot have all fragments (hosts start at their own pace), so
+    // they are left out like the first --skip ones.
+    std::map<int, int64_t> first_capture;
+    for (const Event& e : events)
+      if (e.name == "capture" && e.camera >= 0) {
+        auto [it, fresh] = first_capture.emplace(e.camera, e.t);
+        if (!fresh) it->second = std::min(it->second, e.t);
+      }
+    int64_t all_up = INT64_MIN;
+    for (const auto& [c, t] : first_capture) all_up = std::max(all_up, t);
+    size_t startup = 0;
+    for (auto it = req.begin(); it != req.end();)
+      if (it->second.issued >= 0 && it->second.issued < all_up)
+        it = req.erase(it), ++startup;
+      else
+        ++it;
     {
       std::map<unsigned, uint64_t> first;
       for (const auto& [k, r] : req)
@@ -251,6 +269,10 @@ int main(int argc, char** argv) {
         expected);
     std::printf("| %zu | %zu | %zu | %zu | %.1f |\n", issued, composited, complete,
                 composited - complete, max_gap);
+    std::printf(
+        "\nLeft out: %zu requests issued before all %zu cameras had captured (startup), then "
+        "the first %d.\n",
+        startup, first_capture.size(), skip);
 
     if (args.has("--timeline") && !out_times.empty()) {
       std::printf("\n| second | frames | mean fragments per frame |\n|---|---|---|\n");
@@ -425,6 +447,7 @@ int main(int argc, char** argv) {
     std::printf("\n## summary\n");
     std::printf("issued %zu\ncomposited %zu\ncomplete %zu\nexpected-fragments %d\n", issued,
                 composited, complete, expected);
+    std::printf("startup-left-out %zu\n", startup);
     std::printf("max-gap-ms %.2f\nbytes-per-frame %.0f\n", max_gap, mean_bytes);
     std::printf("round-trip-median-ms %.2f\nround-trip-p95-ms %.2f\n", quantile(rt, 0.5),
                 quantile(rt, 0.95));
