@@ -1,5 +1,6 @@
 // The lightfield plugin: lfcamsrc, lffragment, lfcompositor, lfviewrequest,
-// and the bins built from a rig, lfcamerahost and lfarray.
+// the bins built from a rig, lfcamerahost and lfarray, and lffragmentdemux
+// (fragments routed to one pad per viewer).
 // Package, version and origin come from the build (meson.build,
 // meson_options.txt: package-name, package-origin) through config.h.
 #include <gst/gst.h>
@@ -12,6 +13,7 @@ GST_ELEMENT_REGISTER_DECLARE(lfcompositor);
 GST_ELEMENT_REGISTER_DECLARE(lfviewrequest);
 GST_ELEMENT_REGISTER_DECLARE(lfcamerahost);
 GST_ELEMENT_REGISTER_DECLARE(lfarray);
+GST_ELEMENT_REGISTER_DECLARE(lffragmentdemux);
 
 static gboolean plugin_init(GstPlugin* plugin) {
   gboolean ok = FALSE;
@@ -21,6 +23,7 @@ static gboolean plugin_init(GstPlugin* plugin) {
   ok |= GST_ELEMENT_REGISTER(lfviewrequest, plugin);
   ok |= GST_ELEMENT_REGISTER(lfcamerahost, plugin);
   ok |= GST_ELEMENT_REGISTER(lfarray, plugin);
+  ok |= GST_ELEMENT_REGISTER(lffragmentdemux, plugin);
   return ok;
 }
 

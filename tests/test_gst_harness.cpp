@@ -209,6 +209,55 @@ TEST_F(Harness, CompositorCapsAndBadInput) {
   gst_harness_teardown(h);
 }
 
+// lffragmentdemux: each fragment to its viewer's pad only; garbage and
+// fragments of viewers without a pad dropped (counted), never a crash.
+TEST_F(Harness, FragmentDemuxRoutesByViewer) {
+  GstHarness* h = gst_harness_new_with_padnames("lffragmentdemux", "sink", nullptr);
+  gst_harness_set_src_caps_str(h, "application/x-lf-fragment,encoding=raw,width=80,height=60");
+  GstHarness* v2 = gst_harness_new_with_element(h->element, nullptr, "src_2");
+  GstHarness* v5 = gst_harness_new_with_element(h->element, nullptr, "src_5");
+  gst_harness_play(h);
+  auto fragment = [](uint32_t viewer, uint64_t seq) {
+    lf::Fragment f;
+    f.viewer_id = viewer;
+    f.sequence = seq;
+    f.camera_id = 1;
+    f.out_width = 80;
+    f.out_height = 60;
+    return bytes(lf::serialize_fragment(f, lf::Encoding::kRaw), seq * GST_SECOND);
+  };
+  EXPECT_EQ(gst_harness_push(h, bytes({'L', 'F', 'F', 'R', 0, 1}, 0)), GST_FLOW_OK);  // garbage
+  EXPECT_EQ(gst_harness_push(h, fragment(2, 1)), GST_FLOW_OK);
+  EXPECT_EQ(gst_harness_push(h, fragment(7, 2)), GST_FLOW_OK);  // nobody's
+  EXPECT_EQ(gst_harness_push(h, fragment(5, 3)), GST_FLOW_OK);
+  EXPECT_EQ(gst_harness_push(h, fragment(2, 4)), GST_FLOW_OK);
+  ASSERT_EQ(gst_harness_buffers_received(v2), 2u);
+  ASSERT_EQ(gst_harness_buffers_received(v5), 1u);
+  for (uint64_t want : {1u, 4u}) {
+    GstBuffer* b = gst_harness_pull(v2);
+    GstMapInfo m;
+    gst_buffer_map(b, &m, GST_MAP_READ);
+    EXPECT_EQ(lf::peek_fragment_header(m.data, m.size).sequence, want);
+    gst_buffer_unmap(b, &m);
+    gst_buffer_unref(b);
+  }
+  // The new pads got the stream's caps.
+  GstCaps* caps = gst_pad_get_current_caps(v5->sinkpad);
+  ASSERT_NE(caps, nullptr);
+  EXPECT_STREQ(gst_structure_get_name(gst_caps_get_structure(caps, 0)),
+               "application/x-lf-fragment");
+  gst_caps_unref(caps);
+  guint64 routed = 0, unrouted = 0;
+  g_object_get(h->element, "routed", &routed, "unrouted", &unrouted, nullptr);
+  EXPECT_EQ(routed, 3u);
+  EXPECT_EQ(unrouted, 1u);
+  // A pad name that is not src_<viewer id> is refused.
+  EXPECT_EQ(gst_element_request_pad_simple(h->element, "src_x"), nullptr);
+  gst_harness_teardown(v5);
+  gst_harness_teardown(v2);
+  gst_harness_teardown(h);
+}
+
 }  // namespace
 
 // The elements' rig cache (gst/lfrig.h): one entry per file whatever the

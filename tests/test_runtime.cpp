@@ -163,13 +163,15 @@ class Runtime : public ::testing::Test {
   static std::vector<cv::Mat> images_;
 
   // V viewers (lfviewrequest req<v> viewer-id=v -> funnel -> tee) share the
-  // cameras; every fragment goes to every compositor c<v> viewer-id=v !
-  // appsink out<v>. `props(v)` gives viewer v's lfviewrequest properties.
+  // cameras; each camera's fragments go through lffragmentdemux ft<i> (its
+  // pad src_<v> to compositor c<v> viewer-id=v ! appsink out<v>), or with
+  // `tee` every fragment to every compositor. `props(v)` gives viewer v's
+  // lfviewrequest properties.
   // The sinks do not preroll (async=false): a sink waiting in preroll would
   // stop its compositor while the other viewers' fragments queue up behind
   // its own in the shared fragment streams.
   static std::string pipeline(int viewers, const std::function<std::string(int)>& props, bool live,
-                              const std::string& sink_caps = "format=RGBA") {
+                              const std::string& sink_caps = "format=RGBA", bool tee = false) {
     std::string d = "funnel name=reqs ! tee name=t";
     for (int v = 0; v < viewers; ++v) {
       d += " lfviewrequest name=req" + std::to_string(v) + " rig=" + rig_path_ +
@@ -184,9 +186,10 @@ class Runtime : public ::testing::Test {
       d += " lfcamsrc rig=" + rig_path_ + " camera-id=" + id +
            (live ? " is-live=true framerate=30/1" : " num-buffers=1") + " ! f" + n + ".sink";
       d += " t. ! queue ! lffragment name=f" + n + " rig=" + rig_path_ + " camera-id=" + id +
-           " ! tee name=ft" + n;
+           (tee ? " ! tee name=ft" : " ! lffragmentdemux name=ft") + n;
       for (int v = 0; v < viewers; ++v)
-        d += " ft" + n + ". ! queue ! c" + std::to_string(v) + ".sink_" + n;
+        d += " ft" + n + (tee ? "." : ".src_" + std::to_string(v)) + " ! queue ! c" +
+             std::to_string(v) + ".sink_" + n;
     }
     return d;
   }
@@ -508,6 +511,17 @@ TEST_F(Runtime, ViewersShareTheCamerasAndEachEqualsItsSingleViewerOutput) {
       for (size_t k = 0; k < 3; ++k)
         EXPECT_EQ(differing(got[k], alone[v][k]), 0) << viewers << " viewers, viewer " << v;
     }
+    // Each camera's demuxer sent every fragment to its viewer's pad only:
+    // 3 requests per viewer, none unrouted.
+    for (size_t i = 0; i < rig_.cameras.size(); ++i) {
+      GstElement* d = gst_bin_get_by_name(GST_BIN(r.p), ("ft" + std::to_string(i)).c_str());
+      ASSERT_NE(d, nullptr);
+      guint64 routed = 0, unrouted = 0;
+      g_object_get(d, "routed", &routed, "unrouted", &unrouted, nullptr);
+      gst_object_unref(d);
+      EXPECT_EQ(routed, 3u * viewers) << "camera " << i << ", " << viewers << " viewers";
+      EXPECT_EQ(unrouted, 0u) << "camera " << i;
+    }
   }
 }
 
@@ -532,9 +546,11 @@ TEST_F(Runtime, CompositorFollowsADownstreamSize) {
 }
 
 TEST_F(Runtime, CompositorWarnsWhenItsViewerNeverComes) {
-  // Requests of viewer 0, compositor waiting for viewer 5.
+  // Requests of viewer 0, compositor waiting for viewer 5 (every fragment
+  // reaches it through a tee).
   std::string desc = pipeline(
-      1, [](int) { return std::string("width=80 height=60 framerate=30/1"); }, true);
+      1, [](int) { return std::string("width=80 height=60 framerate=30/1"); }, true, "format=RGBA",
+      true);
   desc.replace(desc.find("name=c0 rig=" + rig_path_ + " viewer-id=0"),
                std::string("name=c0 rig=" + rig_path_ + " viewer-id=0").size(),
                "name=c0 rig=" + rig_path_ + " viewer-id=5");

@@ -1,0 +1,248 @@
+/**
+ * SECTION:element-lffragmentdemux
+ * @title: lffragmentdemux
+ *
+ * Routes a fragment stream to one source pad per viewer, so several viewers
+ * can share one set of cameras (Yang et al. 2002: "multiple viewers navigate
+ * virtual cameras") and each viewer's lfcompositor gets only its own
+ * fragments. Request a pad `src_%u` for viewer id `%u` (the `viewer-id` of
+ * that viewer's lfviewrequest and lfcompositor; a stereo viewer N also uses
+ * N + 1, its right eye). Each fragment goes to the pad of the viewer in its
+ * header (lib/lf/wire.h; read without decoding the payload) or, when no
+ * such pad exists, nowhere: the viewer ids a peer writes only select among
+ * the pads the application asked for, so a peer cannot make this element
+ * allocate anything. A malformed buffer is dropped with a rate-limited
+ * warning. Events from downstream (navigation, `lf-view`, `lf-focus`) go
+ * upstream unchanged, towards the viewers' lfviewrequest.
+ *
+ * With a `tee` instead, every compositor receives and inspects every
+ * viewer's fragments: the work per frame grows with the square of the
+ * number of viewers.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 funnel name=reqs ! lfcamerahost rig=rig.json ! lffragmentdemux name=d \
+ *   lfviewrequest viewer-id=0 rig=rig.json ! reqs. \
+ *   lfviewrequest viewer-id=1 rig=rig.json orbit=0.5 ! reqs. \
+ *   d.src_0 ! queue ! lfcompositor viewer-id=0 rig=rig.json ! videoconvert ! autovideosink \
+ *   d.src_1 ! queue ! lfcompositor viewer-id=1 rig=rig.json ! videoconvert ! autovideosink
+ * ]|
+ */
+#include <gst/base/gstflowcombiner.h>
+#include <gst/gst.h>
+
+#include <atomic>
+#include <map>
+
+#include "lf/wire.h"
+#include "lfcaps.h"
+#include "lfguard.h"
+#include "lfwarn.h"
+
+GST_DEBUG_CATEGORY_STATIC(lf_fragment_demux_debug);
+#define GST_CAT_DEFAULT lf_fragment_demux_debug
+
+G_BEGIN_DECLS
+#define LF_TYPE_FRAGMENT_DEMUX (lf_fragment_demux_get_type())
+G_DECLARE_FINAL_TYPE(LfFragmentDemux, lf_fragment_demux, LF, FRAGMENT_DEMUX, GstElement)
+G_END_DECLS
+
+namespace {
+
+enum { PROP_0, PROP_ROUTED, PROP_UNROUTED };
+
+struct Priv {
+  // viewer id -> its source pad (a reference); guarded by the object lock.
+  std::map<guint, GstPad*> pads;
+  GstFlowCombiner* combiner = gst_flow_combiner_new();  // guarded by the stream lock
+  std::atomic<guint64> routed{0}, unrouted{0};
+  lfgst::WarnLimiter bad;
+  ~Priv() {
+    for (auto& [id, pad] : pads) gst_object_unref(pad);
+    gst_flow_combiner_free(combiner);
+  }
+};
+
+}  // namespace
+
+struct _LfFragmentDemux {
+  GstElement parent;
+  GstPad* sinkpad;
+  Priv* priv;
+};
+
+G_DEFINE_TYPE(LfFragmentDemux, lf_fragment_demux, GST_TYPE_ELEMENT)
+GST_ELEMENT_REGISTER_DEFINE(lffragmentdemux, "lffragmentdemux", GST_RANK_NONE,
+                            LF_TYPE_FRAGMENT_DEMUX)
+
+static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE(
+    "sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS(LF_FRAGMENT_CAPS));
+static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE(
+    "src_%u", GST_PAD_SRC, GST_PAD_REQUEST, GST_STATIC_CAPS(LF_FRAGMENT_CAPS));
+
+static GstFlowReturn lf_fragment_demux_chain(GstPad*, GstObject* parent, GstBuffer* buf) {
+  LfFragmentDemux* self = LF_FRAGMENT_DEMUX(parent);
+  Priv* p = self->priv;
+  lf::FragmentHeader head;
+  GError* err = nullptr;
+  GstMapInfo map;
+  gboolean ok = FALSE;
+  if (gst_buffer_map(buf, &map, GST_MAP_READ)) {
+    ok = lfgst::guard([&] { head = lf::peek_fragment_header(map.data, map.size); }, &err);
+    gst_buffer_unmap(buf, &map);
+  } else {
+    g_set_error_literal(&err, lfgst::error_quark(), 0, "cannot map the buffer");
+  }
+  if (!ok) {
+    LF_ELEMENT_WARNING_LIMITED(self, p->bad, STREAM, DEMUX, ("Dropping a malformed fragment"), "%s",
+                               err->message);
+    g_error_free(err);
+    gst_buffer_unref(buf);
+    return GST_FLOW_OK;
+  }
+  GST_OBJECT_LOCK(self);
+  auto it = p->pads.find(head.viewer_id);
+  GstPad* pad = it == p->pads.end() ? nullptr : GST_PAD(gst_object_ref(it->second));
+  GST_OBJECT_UNLOCK(self);
+  if (!pad) {
+    GST_LOG_OBJECT(self, "fragment of viewer %u: no pad src_%u, dropped", head.viewer_id,
+                   head.viewer_id);
+    ++p->unrouted;
+    gst_buffer_unref(buf);
+    return GST_FLOW_OK;
+  }
+  ++p->routed;
+  const GstFlowReturn ret = gst_pad_push(pad, buf);
+  // Stream lock held (chain): the combiner is this thread's.
+  const GstFlowReturn combined = gst_flow_combiner_update_pad_flow(p->combiner, pad, ret);
+  gst_object_unref(pad);
+  // One viewer gone (unlinked) must not stop the others.
+  return combined == GST_FLOW_NOT_LINKED ? GST_FLOW_OK : combined;
+}
+
+// Sticky events (stream-start, caps, segment) the new pad needs before data.
+static gboolean copy_sticky(GstPad*, GstEvent** event, gpointer srcpad) {
+  gst_pad_store_sticky_event(GST_PAD(srcpad), *event);
+  return TRUE;
+}
+
+static GstPad* lf_fragment_demux_request_new_pad(GstElement* element, GstPadTemplate* templ,
+                                                 const gchar* name, const GstCaps*) {
+  LfFragmentDemux* self = LF_FRAGMENT_DEMUX(element);
+  Priv* p = self->priv;
+  guint id = 0;
+  GST_OBJECT_LOCK(self);
+  if (name) {
+    gchar* end = nullptr;
+    const guint64 v = g_ascii_strtoull(name + 4, &end, 10);
+    if (!g_str_has_prefix(name, "src_") || end == name + 4 || *end != '\0' || v > G_MAXUINT32) {
+      GST_OBJECT_UNLOCK(self);
+      GST_WARNING_OBJECT(self, "pad name '%s' is not src_<viewer id>", name);
+      return nullptr;
+    }
+    id = static_cast<guint>(v);
+  } else {
+    while (p->pads.count(id)) ++id;
+  }
+  if (p->pads.count(id)) {
+    GST_OBJECT_UNLOCK(self);
+    GST_WARNING_OBJECT(self, "viewer %u has a pad already", id);
+    return nullptr;
+  }
+  gchar* pad_name = g_strdup_printf("src_%u", id);
+  GstPad* pad = gst_pad_new_from_template(templ, pad_name);
+  g_free(pad_name);
+  p->pads[id] = GST_PAD(gst_object_ref(pad));
+  GST_OBJECT_UNLOCK(self);
+  gst_pad_use_fixed_caps(pad);
+  gst_pad_set_active(pad, TRUE);  // an inactive pad refuses sticky events
+  gst_pad_sticky_events_foreach(self->sinkpad, copy_sticky, pad);
+  GST_PAD_STREAM_LOCK(self->sinkpad);
+  gst_flow_combiner_add_pad(p->combiner, pad);
+  GST_PAD_STREAM_UNLOCK(self->sinkpad);
+  gst_element_add_pad(element, pad);
+  return pad;
+}
+
+static void lf_fragment_demux_release_pad(GstElement* element, GstPad* pad) {
+  LfFragmentDemux* self = LF_FRAGMENT_DEMUX(element);
+  Priv* p = self->priv;
+  GST_OBJECT_LOCK(self);
+  for (auto it = p->pads.begin(); it != p->pads.end(); ++it)
+    if (it->second == pad) {
+      gst_object_unref(it->second);
+      p->pads.erase(it);
+      break;
+    }
+  GST_OBJECT_UNLOCK(self);
+  GST_PAD_STREAM_LOCK(self->sinkpad);
+  gst_flow_combiner_remove_pad(p->combiner, pad);
+  GST_PAD_STREAM_UNLOCK(self->sinkpad);
+  gst_pad_set_active(pad, FALSE);
+  gst_element_remove_pad(element, pad);
+}
+
+static gboolean lf_fragment_demux_sink_event(GstPad* pad, GstObject* parent, GstEvent* event) {
+  if (GST_EVENT_TYPE(event) == GST_EVENT_FLUSH_STOP) {
+    LfFragmentDemux* self = LF_FRAGMENT_DEMUX(parent);
+    gst_flow_combiner_reset(self->priv->combiner);  // serialised: stream lock held
+  }
+  return gst_pad_event_default(pad, parent, event);  // to every source pad
+}
+
+static void lf_fragment_demux_get_property(GObject* object, guint id, GValue* value,
+                                           GParamSpec* pspec) {
+  Priv* p = LF_FRAGMENT_DEMUX(object)->priv;
+  switch (id) {
+    case PROP_ROUTED:
+      g_value_set_uint64(value, p->routed.load());
+      break;
+    case PROP_UNROUTED:
+      g_value_set_uint64(value, p->unrouted.load());
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID(object, id, pspec);
+  }
+}
+
+static void lf_fragment_demux_finalize(GObject* object) {
+  delete LF_FRAGMENT_DEMUX(object)->priv;
+  G_OBJECT_CLASS(lf_fragment_demux_parent_class)->finalize(object);
+}
+
+static void lf_fragment_demux_init(LfFragmentDemux* self) {
+  self->priv = new Priv();
+  self->sinkpad = gst_pad_new_from_static_template(&sink_template, "sink");
+  gst_pad_set_chain_function(self->sinkpad, GST_DEBUG_FUNCPTR(lf_fragment_demux_chain));
+  gst_pad_set_event_function(self->sinkpad, GST_DEBUG_FUNCPTR(lf_fragment_demux_sink_event));
+  GST_PAD_SET_PROXY_CAPS(self->sinkpad);
+  gst_element_add_pad(GST_ELEMENT(self), self->sinkpad);
+}
+
+static void lf_fragment_demux_class_init(LfFragmentDemuxClass* klass) {
+  GObjectClass* oc = G_OBJECT_CLASS(klass);
+  GstElementClass* ec = GST_ELEMENT_CLASS(klass);
+  oc->get_property = lf_fragment_demux_get_property;
+  oc->finalize = lf_fragment_demux_finalize;
+  g_object_class_install_property(
+      oc, PROP_ROUTED,
+      g_param_spec_uint64("routed", "Routed", "Fragments pushed to a viewer's pad so far", 0,
+                          G_MAXUINT64, 0,
+                          static_cast<GParamFlags>(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
+  g_object_class_install_property(
+      oc, PROP_UNROUTED,
+      g_param_spec_uint64(
+          "unrouted", "Unrouted", "Fragments dropped so far because their viewer has no pad", 0,
+          G_MAXUINT64, 0, static_cast<GParamFlags>(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
+  ec->request_new_pad = GST_DEBUG_FUNCPTR(lf_fragment_demux_request_new_pad);
+  ec->release_pad = GST_DEBUG_FUNCPTR(lf_fragment_demux_release_pad);
+  gst_element_class_add_static_pad_template(ec, &sink_template);
+  gst_element_class_add_static_pad_template(ec, &src_template);
+  gst_element_class_set_static_metadata(
+      ec, "Light field fragment demuxer", "Demuxer/Network",
+      "Routes fragments to one source pad per viewer (src_<viewer id>), so viewers sharing the "
+      "cameras each get only their own (Yang et al. 2002)",
+      "lightfield-gst");
+  GST_DEBUG_CATEGORY_INIT(lf_fragment_demux_debug, "lffragmentdemux", 0,
+                          "light field fragment demuxer");
+}
