@@ -78,20 +78,22 @@ std::string pipeline(const std::string& rig, const lf::Rig& r, int W, int H, con
   return d.str();
 }
 
-// V viewers sharing the cameras (lfcamerahost: one fragment stream, teed to
-// every viewer's lfcompositor), non-live: viewer v's requests orbit with a
-// phase of its own.
+// V viewers sharing the cameras (lfcamerahost: one fragment stream, routed
+// by lffragmentdemux to each viewer's lfcompositor, or with `tee` to every
+// one), non-live: viewer v's requests orbit with a phase of its own.
 std::string viewers_pipeline(const std::string& rig, int W, int H, const std::string& fr,
-                             int viewers, int frames) {
+                             int viewers, int frames, bool tee) {
   std::ostringstream d;
-  d << "funnel name=reqs ! lfcamerahost rig=" << rig << " num-buffers=1 " << fr << " ! tee name=ft";
+  d << "funnel name=reqs ! lfcamerahost rig=" << rig << " num-buffers=1 " << fr
+    << (tee ? " ! tee name=ft" : " ! lffragmentdemux name=ft");
   for (int v = 0; v < viewers; ++v) {
     d << " lfviewrequest viewer-id=" << v << " rig=" << rig << " width=" << W << " height=" << H
       << " orbit=" << 0.3 + 0.05 * v
       << " path-frames=120 focal-plane=param:-0.2 num-buffers=" << frames << " ! reqs.";
     d << " lfcompositor name=c" << v << " viewer-id=" << v << " rig=" << rig
       << " ! appsink name=out" << v << " sync=false async=false max-buffers=4";
-    d << " ft. ! queue max-size-buffers=64 ! c" << v << ".sink_0";
+    d << " ft." << (tee ? "" : "src_" + std::to_string(v)) << " ! queue max-size-buffers=64 ! c"
+      << v << ".sink_0";
   }
   return d.str();
 }
@@ -228,7 +230,8 @@ int main(int argc, char** argv) {
        "Request rate of the live latency run, Hz (default 30)", "HZ"},
       {"viewers", 0, 0, G_OPTION_ARG_STRING, &viewers_opt,
        "Instead: several viewers sharing the cameras (lfcamerahost, one compositor per "
-       "viewer), non-live at the first size and encoding; frames per second per viewer and "
+       "viewer, fragments routed by lffragmentdemux, and teed for comparison), non-live at "
+       "the first size and encoding; frames per second per viewer and "
        "in all, and fragments per second",
        "N,..."},
       {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
@@ -289,19 +292,23 @@ int main(int argc, char** argv) {
           enc == "raw" ? "encoding=raw" : "encoding=jpeg jpeg-quality=" + enc.substr(4);
       std::printf(
           "## Viewers sharing %zu cameras, %dx%d, %s fragments, non-live, %d requests each "
-          "(%d cores)\n\n| viewers | fps per viewer | fps in all | fragments/s | "
-          "time per frame vs the first row |\n|---|---|---|---|---|\n",
+          "(%d cores); fragments routed to each viewer's compositor by lffragmentdemux, "
+          "and for comparison teed to every compositor\n\n| viewers | routing | fps per "
+          "viewer | fps in all | fragments/s | time per frame vs the first row |\n"
+          "|---|---|---|---|---|---|\n",
           rig.cameras.size(), W, H, enc.c_str(), frames,
           static_cast<int>(std::thread::hardware_concurrency()));
-      double one = 0;
-      for (const int v : cli::parse_numbers(viewers_spec, "--viewers")) {
-        const auto [n, secs] = run_viewers(viewers_pipeline(rig_path, W, H, fr, v, frames), v);
-        const double all = secs > 0 ? n / secs : 0;
-        if (one == 0) one = all;  // frames per second in all of the first row
-        std::printf("| %d | %.1f | %.1f | %.0f | %.2f |\n", v, all / v, all,
-                    all * static_cast<double>(rig.cameras.size()), one / all);
-        std::fflush(stdout);
-      }
+      double one[2] = {0, 0};  // frames per second in all of the first row, per routing
+      for (const int v : cli::parse_numbers(viewers_spec, "--viewers"))
+        for (const bool tee : {false, true}) {
+          const auto [n, secs] =
+              run_viewers(viewers_pipeline(rig_path, W, H, fr, v, frames, tee), v);
+          const double all = secs > 0 ? n / secs : 0;
+          if (one[tee] == 0) one[tee] = all;
+          std::printf("| %d | %s | %.1f | %.1f | %.0f | %.2f |\n", v, tee ? "tee" : "demux",
+                      all / v, all, all * static_cast<double>(rig.cameras.size()), one[tee] / all);
+          std::fflush(stdout);
+        }
       return 0;
     }
     std::printf("## GStreamer pipeline, %zu cameras, one machine (%d cores)\n\n",
