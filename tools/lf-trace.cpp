@@ -451,8 +451,9 @@ int main(int argc, char** argv) {
     std::printf("max-gap-ms %.2f\nbytes-per-frame %.0f\n", max_gap, mean_bytes);
     std::printf("round-trip-median-ms %.2f\nround-trip-p95-ms %.2f\n", quantile(rt, 0.5),
                 quantile(rt, 0.95));
-    std::printf("capture-spread-max-ms %.3f\nperiod-ms %.3f\n",
-                spread.empty() ? -1.0 : quantile(spread, 1), period);
+    std::printf("capture-spread-max-ms %.3f\ncapture-spread-p95-ms %.3f\nperiod-ms %.3f\n",
+                spread.empty() ? -1.0 : quantile(spread, 1),
+                spread.empty() ? -1.0 : quantile(spread, 0.95), period);
     std::printf("used-capture-spread-max-ms %.3f\n",
                 used_spread.empty() ? -1.0 : quantile(used_spread, 1));
     {
