@@ -702,26 +702,25 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
 // pending, wait for data: a deadline in the past would make it spin.
 static GstClockTime lf_compositor_get_next_time(GstAggregator* agg) {
   LfCompositor* self = LF_COMPOSITOR(agg);
-  GstClockTime t = GST_CLOCK_TIME_NONE;
-  auto earliest = [&t](GstClockTime rt) {
-    if (GST_CLOCK_TIME_IS_VALID(rt) && (t == GST_CLOCK_TIME_NONE || rt < t)) t = rt;
-  };
-  // Requests already collected (aggregate() runs on this same thread)...
-  if (State* st = self->priv->state.get())
-    for (const auto& entry : st->pending) earliest(entry.second.running_time);
-  // ... and fragments still waiting in the pads.
+  // A fragment waiting in a pad: running time 0, so 0 + latency, a time
+  // already past once the run is that old. (gst_aggregator_get_latency()
+  // would deadlock here: the caller holds the aggregator's source lock.)
+  bool queued = false;
   GST_OBJECT_LOCK(self);
-  for (GList* l = GST_ELEMENT(self)->sinkpads; l; l = l->next) {
-    GstAggregatorPad* pad = GST_AGGREGATOR_PAD(l->data);
-    // 0 + latency: a time past (the latency into the run) so at once.
-    // (gst_aggregator_get_latency() would deadlock here: the caller holds
-    // the aggregator's source lock.)
-    if (GstBuffer* b = gst_aggregator_pad_peek_buffer(pad)) {
-      earliest(0);
+  for (GList* l = GST_ELEMENT(self)->sinkpads; l && !queued; l = l->next)
+    if (GstBuffer* b = gst_aggregator_pad_peek_buffer(GST_AGGREGATOR_PAD(l->data))) {
+      queued = true;
       gst_buffer_unref(b);
     }
-  }
   GST_OBJECT_UNLOCK(self);
+  if (queued) return 0;
+  // Else the oldest pending request (aggregate() runs on this same thread).
+  GstClockTime t = GST_CLOCK_TIME_NONE;
+  if (State* st = self->priv->state.get())
+    for (const auto& entry : st->pending) {
+      const GstClockTime rt = entry.second.running_time;
+      if (GST_CLOCK_TIME_IS_VALID(rt) && (t == GST_CLOCK_TIME_NONE || rt < t)) t = rt;
+    }
   return t;
 }
 

@@ -431,14 +431,14 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
     return GST_FLOW_FLUSHING;
   }
   GstBuffer* frame = nullptr;
-  // A focus probe's steps must all see the frames of one capture instant, in
-  // every camera: by capture time whatever frame-select says.
   // The request's time: the one it carries (the viewer's PTS, whatever the
   // network delay), else its buffer's PTS (its arrival time after RTP).
   const int64_t req_time = req.time_ns >= 0 ? req.time_ns
                            : GST_BUFFER_PTS_IS_VALID(buf)
                                ? static_cast<int64_t>(GST_BUFFER_PTS(buf))
                                : -1;
+  // A focus probe's steps must all see the frames of one capture instant, in
+  // every camera: by capture time whatever frame-select says.
   if ((st->s.frame_select == FrameSelect::kCaptureTime || lf::is_focus_probe(req.sequence)) &&
       req_time >= 0)
     frame = frame_at(p, req_time);

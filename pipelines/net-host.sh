@@ -29,10 +29,11 @@
 #                [orbit=0.6 dolly=15 path-frames=120 width=640 height=480]
 #   PHASE_NS     capture phase: cameras capture at k / FPS + PHASE_NS, requests
 #                are issued at k / FPS. Every camera warps the frame captured
-#                at the request's arrival time on the shared clock (lffragment
-#                frame-select=capture-time), so all fragments of a request come
-#                from one capture instant even when a busy host captures late;
-#                half a period apart, that frame is already there [half a period]
+#                at or before the time the request carries (the viewer's PTS on
+#                the shared clock; lffragment frame-select=capture-time), so all
+#                fragments of a request come from one capture instant even when
+#                a busy host captures late or a request arrives late; half a
+#                period apart, that frame is already there     [half a period]
 #   OUTPUT       viewer: sink for the decoded output video                  [fakesink]
 #   DURATION     stop after this many seconds (default: run until killed)
 #   LOSS         probability (0..1) to drop each outgoing RTP packet, for tests
