@@ -28,7 +28,7 @@ trap 'rm -rf "$work"' EXIT
 # 6 processes share this machine's cores, and the checks must hold with other
 # work running: the paper's 320x240 at 10 fps keeps the load at about half a
 # core. Complete frames leave the compositor as soon as their last fragment
-# is in (27 ms median, 44 ms p95 with three busy loops on a 2-core machine),
+# is in (27-29 ms median, 36-48 ms p95 with three busy loops, 2 cores),
 # so a long deadline costs nothing; it is 300 ms because this shared VM
 # stalls now and then for up to 150 ms (capture spread of one frame, CI),
 # and a stall must not be taken for a lost fragment.
