@@ -138,6 +138,11 @@ struct Priv {
   // The last camera frames (kFrameRing for frame-select=capture-time, else
   // two), oldest first, with their capture times (ns); back(): the newest.
   std::deque<std::pair<int64_t, GstBuffer*>> ring;
+  // The frame the current focus probe's first step took: its other 31
+  // steps use it too, even after newer frames pushed it out of the ring (a
+  // busy camera warps the steps while frames keep coming).
+  uint32_t probe_id = 0;
+  GstBuffer* probe_frame = nullptr;
   GstVideoInfo vinfo;
   bool have_vinfo = false;
   bool video_eos = false;
@@ -150,6 +155,7 @@ struct Priv {
   void clear_ring() {
     for (auto& f : ring) gst_buffer_unref(f.second);
     ring.clear();
+    gst_buffer_replace(&probe_frame, nullptr);
   }
   ~Priv() {
     clear_ring();
@@ -332,9 +338,9 @@ static int64_t capture_time_of(LfFragment* self, GstBuffer* frame, int camera_id
 // `t` (ns): the newest captured at or before t. Waits (at most
 // frame-timeout) until that frame is known to be the one: a later frame has
 // come, or one within the frame period (from the caps) before t. Then the
-// newest at or before t, or the oldest kept when all are later (a request
-// older than the ring). A new reference, or nullptr.
-static GstBuffer* frame_at(Priv* p, int64_t t) {
+// newest at or before t, or when all are later (a request older than the
+// ring) the oldest kept, or with `exact` none. A new reference, or nullptr.
+static GstBuffer* frame_at(Priv* p, int64_t t, bool exact = false) {
   const State* st = p->state.get();
   const int64_t period =
       p->have_vinfo && GST_VIDEO_INFO_FPS_N(&p->vinfo) > 0
@@ -350,7 +356,7 @@ static GstBuffer* frame_at(Priv* p, int64_t t) {
   };
   while (!settled() && !p->flushing && !p->video_eos)
     if (!g_cond_wait_until(&p->cond, &p->lock, deadline)) break;
-  if (p->ring.empty()) return nullptr;
+  if (p->ring.empty() || (exact && p->ring.front().first > t)) return nullptr;
   GstBuffer* best = p->ring.front().second;
   for (const auto& [time, b] : p->ring)
     if (time <= t) best = b;
@@ -438,15 +444,30 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
                                ? static_cast<int64_t>(GST_BUFFER_PTS(buf))
                                : -1;
   // A focus probe's steps must all see the frames of one capture instant, in
-  // every camera: by capture time whatever frame-select says.
-  if ((st->s.frame_select == FrameSelect::kCaptureTime || lf::is_focus_probe(req.sequence)) &&
-      req_time >= 0)
-    frame = frame_at(p, req_time);
-  else if (!p->ring.empty())
+  // every camera: by capture time whatever frame-select says, and one frame
+  // for all steps of a probe.
+  const bool probe = lf::is_focus_probe(req.sequence);
+  if (probe && p->probe_frame && p->probe_id == lf::focus_probe_id(req.sequence)) {
+    frame = gst_buffer_ref(p->probe_frame);
+  } else if ((st->s.frame_select == FrameSelect::kCaptureTime || probe) && req_time >= 0) {
+    // A probe's instant already out of the ring (a camera lagging): this
+    // camera sits the probe out rather than answer from another instant.
+    frame = frame_at(p, req_time, probe);
+    if (probe && frame) {
+      p->probe_id = lf::focus_probe_id(req.sequence);
+      gst_buffer_replace(&p->probe_frame, frame);
+    }
+  } else if (!p->ring.empty())
     frame = gst_buffer_ref(p->ring.back().second);
   GstVideoInfo info = p->vinfo;
   const bool have_info = p->have_vinfo;
   g_mutex_unlock(&p->lock);
+  if (!frame && probe && req_time >= 0 && have_info) {
+    GST_DEBUG_OBJECT(self, "focus probe %u: its instant is no longer here, sat out",
+                     lf::focus_probe_id(req.sequence));
+    gst_buffer_unref(buf);
+    return GST_FLOW_OK;
+  }
   GstVideoFrame vf;
   if (!frame || !have_info || !gst_video_frame_map(&vf, &info, frame, GST_MAP_READ)) {
     LF_ELEMENT_WARNING_LIMITED(
