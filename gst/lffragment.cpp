@@ -16,7 +16,8 @@
  * one capture instant for a request, and a live run and the playback of its
  * recording pair the same frames with the same requests (lfcamerahost
  * `record`/`playback`). Focus probes (lib/lf/focus_probe.h) always pick by
- * capture time. Camera frames may come from any upstream element (e.g.
+ * capture time, one frame for all steps of a probe; a camera that no longer
+ * holds the probe's instant sits it out. Camera frames may come from any upstream element (e.g.
  * `uridecodebin ! videoconvert ! videoscale ! video/x-raw,format=RGBA,
  * width=W,height=H ! lffragment`); their PTS is then the capture time.
  * Cameras that do not contribute send an explicitly empty fragment, so the
