@@ -73,6 +73,9 @@ struct Settings {
   gint width = DEFAULT_WIDTH, height = DEFAULT_HEIGHT;
   lfgst::Fraction framerate{DEFAULT_FPS_N, DEFAULT_FPS_D};
   bool stereo = DEFAULT_STEREO;
+  // Read-only statistics, written by the aggregate thread under the lock.
+  guint64 frames = 0;      // frames composited since start
+  guint last_cameras = 0;  // cameras (per eye) whose fragment was in the last frame
 };
 struct Group {
   std::vector<lf::Fragment> fragments;
@@ -175,6 +178,9 @@ LF_DEFINE_ELEMENT_GLUE(lf_compositor, LF_COMPOSITOR)
 static gboolean lf_compositor_start(GstAggregator* agg) {
   LfCompositor* self = LF_COMPOSITOR(agg);
   auto st = std::make_unique<State>();
+  GST_OBJECT_LOCK(self);
+  self->priv->settings.frames = 0, self->priv->settings.last_cameras = 0;
+  GST_OBJECT_UNLOCK(self);
   st->s = lfgst::snapshot(GST_OBJECT(self), self->priv->settings);
   if (!st->s.rig.empty()) {
     st->rig = lfgst::open_rig(GST_ELEMENT(self), st->s.rig);
@@ -325,6 +331,16 @@ static bool ensure_caps(LfCompositor* self, int width, int height) {
   return true;
 }
 
+// GstAggregator's own negotiation (at start, and when downstream asks for a
+// reconfiguration) would fix caps before the view size is known: the template
+// fixates to 2x2 at 0/1 fps, and an encoder such as vp8enc, configured for
+// that, then drops every frame. The output is negotiated by ensure_caps() at
+// the next frame instead (aggregate thread, like aggregate()).
+static gboolean lf_compositor_negotiate(GstAggregator* agg) {
+  if (State* st = LF_COMPOSITOR(agg)->priv->state.get()) st->have_caps = false;
+  return TRUE;
+}
+
 static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool complete) {
   State* st = self->priv->state.get();
   const gint64 t0 = g_get_monotonic_time();
@@ -397,6 +413,10 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
   GST_BUFFER_OFFSET(out) = seq;
   st->last_emitted = static_cast<int64_t>(seq);
   st->stale_since_us = -1;
+  GST_OBJECT_LOCK(self);
+  self->priv->settings.frames++;
+  self->priv->settings.last_cameras = static_cast<guint>(g.cameras.size());
+  GST_OBJECT_UNLOCK(self);
   GstAggregator* agg = GST_AGGREGATOR(self);
   if (GST_CLOCK_TIME_IS_VALID(g.pts)) {
     GstSegment* seg = &GST_AGGREGATOR_PAD(agg->srcpad)->segment;
@@ -615,6 +635,8 @@ static GstClockTime running_now(GstElement* e) {
 static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeout) {
   LfCompositor* self = LF_COMPOSITOR(agg);
   State* st = self->priv->state.get();
+  // `stereo` may change while playing: the requests from here on follow it.
+  st->s.stereo = lfgst::read_setting(GST_OBJECT(self), self->priv->settings, &Settings::stereo);
   bool all_eos = true;
   GList* pads;
   GST_OBJECT_LOCK(self);
@@ -824,8 +846,19 @@ static void lf_compositor_class_init(LfCompositorClass* klass) {
             g_param_spec_boolean("stereo", "Stereo",
                                  "Composite the requests of viewer-id (left) and viewer-id + 1 "
                                  "(right) side by side (lfviewrequest stereo-baseline), output "
-                                 "twice as wide",
-                                 DEFAULT_STEREO, rw));
+                                 "twice as wide; changeable while playing (the output is then "
+                                 "renegotiated)",
+                                 DEFAULT_STEREO, lfgst::kReadWritePlaying));
+  const GParamFlags ro = static_cast<GParamFlags>(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS);
+  props.add(oc, &Settings::frames,
+            g_param_spec_uint64("frames", "Frames", "Frames composited since the element started",
+                                0, G_MAXUINT64, 0, ro));
+  props.add(oc, &Settings::last_cameras,
+            g_param_spec_uint("last-cameras", "Cameras in the last frame",
+                              "Cameras whose fragment was in the last composited frame (both "
+                              "eyes counted in stereo); fewer than the rig's: the deadline "
+                              "passed without them",
+                              0, G_MAXUINT, 0, ro));
   gst_element_class_add_static_pad_template_with_gtype(ec, &sink_template, GST_TYPE_AGGREGATOR_PAD);
   gst_element_class_add_static_pad_template_with_gtype(ec, &src_template, GST_TYPE_AGGREGATOR_PAD);
   gst_element_class_set_static_metadata(
@@ -841,5 +874,6 @@ static void lf_compositor_class_init(LfCompositorClass* klass) {
   ac->sink_event = lf_compositor_sink_event;
   ac->src_event = lf_compositor_src_event;
   ac->get_next_time = lf_compositor_get_next_time;
+  ac->negotiate = lf_compositor_negotiate;
   GST_DEBUG_CATEGORY_INIT(lf_compositor_debug, "lfcompositor", 0, "light field compositor");
 }
