@@ -10,6 +10,7 @@
 #include "lf/rig_file.h"
 #include "lf/rig_ops.h"
 #include "lf/synthetic.h"
+#include "lf/view_builder.h"
 
 namespace {
 
@@ -115,6 +116,35 @@ TEST(Rig, GridTriangulationAndHoles) {
   EXPECT_EQ(block.grid.rows, 3);
   EXPECT_EQ(block.grid.cols, 4);
   EXPECT_EQ(block.cameras.size(), 12u);
+}
+
+// A real rig's border cameras are not collinear: the convex hull of the
+// cameras reaches beyond every triangle, and an eye there saw black (lf-web:
+// a long drag to the left on the Chess 4x4 block). The eye is kept on the
+// triangles.
+TEST(Rig, EyeClampedToTheTrianglesNotTheHull) {
+  lf::Rig rig = lf::synthetic_grid_rig(3, 3, 1.0, 64, 48);
+  const int mid_left = rig.index_of(rig.grid.at(1, 0)), centre = rig.index_of(rig.grid.at(1, 1));
+  lf::Camera& cam = rig.cameras[mid_left];
+  const cv::Vec3d c0 = cam.center();
+  cam.extrinsics =
+      lf::Extrinsics::from_center(cam.extrinsics.R, c0 + 0.3 * (rig.cameras[centre].center() - c0));
+  rig.triangles.clear();
+  rig.finalize();
+  const lf::CameraPlane& P = rig.plane();
+  const cv::Vec2d moved = rig.plane_positions()[mid_left], hull_edge = P.to_plane(c0);
+  // Half way between the hull's edge and the moved camera: inside the hull,
+  // on no triangle.
+  const cv::Vec2d q = 0.5 * (moved + hull_edge);
+  const cv::Vec2d c = lf::clamp_to_array(rig, q);
+  EXPECT_GT(cv::norm(c - q), 0.1);           // moved...
+  EXPECT_LT(cv::norm(c - q), 0.15 + 1e-3);   // ...to the nearest triangle (0.15 away)
+  EXPECT_EQ(lf::clamp_to_array(rig, c), c);  // which it now lies on
+  // On a triangle: unchanged; far off the array: onto its border.
+  const cv::Vec2d inside = 0.5 * (moved + rig.plane_positions()[centre]);
+  EXPECT_EQ(lf::clamp_to_array(rig, inside), inside);
+  const cv::Vec2d far = lf::clamp_to_array(rig, hull_edge + 10.0 * (hull_edge - moved));
+  EXPECT_EQ(lf::clamp_to_array(rig, far), far);
 }
 
 TEST(Rig, FoldedGridIsRejected) {

@@ -114,43 +114,75 @@ cv::Vec3d camera_plane_offset(const Rig& rig, double s, double t, double w) {
   return P.u * s + P.v * t + P.normal * w;
 }
 
+namespace {
+
+// The nearest point to `q` of segment ab.
+cv::Vec2d nearest_on_segment(const cv::Vec2d& q, const cv::Vec2d& a, const cv::Vec2d& b) {
+  const cv::Vec2d ab = b - a;
+  const double len2 = ab.dot(ab);
+  const double t = len2 > 0 ? std::clamp((q - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+  return a + ab * t;
+}
+
+// Whether q lies inside triangle abc, at least `margin` from each side.
+bool inside_triangle(const cv::Vec2d& q, const cv::Vec2d& a, const cv::Vec2d& b, const cv::Vec2d& c,
+                     double margin) {
+  const cv::Vec2d v[3] = {a, b, c};
+  const double area2 = (b - a)[0] * (c - a)[1] - (b - a)[1] * (c - a)[0];
+  if (area2 == 0) return false;
+  for (int i = 0; i < 3; ++i) {
+    const cv::Vec2d e = v[(i + 1) % 3] - v[i];
+    const double cross = e[0] * (q - v[i])[1] - e[1] * (q - v[i])[0];
+    if ((area2 > 0 ? cross : -cross) < margin * cv::norm(e)) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 cv::Vec2d clamp_to_array(const Rig& rig, const cv::Vec2d& st) {
-  std::vector<cv::Point2f> pts, hull;
-  for (const cv::Vec2d& p : rig.plane_positions())
-    pts.emplace_back(static_cast<float>(p[0]), static_cast<float>(p[1]));
+  const auto& pos = rig.plane_positions();
+  const double step = 1e-3 * rig.typical_spacing();
+  if (!rig.triangles.empty()) {
+    // A 2D array: the union of its triangles, which on a real (irregular)
+    // rig is smaller than the convex hull of the cameras (a grid's border
+    // cameras do not lie on a line); between the two no triangle's aperture
+    // covers the eye and the view would be black.
+    cv::Vec2d best = st;
+    double best_d = 1e300;
+    for (const auto& tri : rig.triangles) {
+      const int ia = rig.index_of(tri[0]), ib = rig.index_of(tri[1]), ic = rig.index_of(tri[2]);
+      if (ia < 0 || ib < 0 || ic < 0) continue;
+      const cv::Vec2d a = pos[ia], b = pos[ib], c = pos[ic];
+      if (inside_triangle(st, a, b, c, 0.0)) return st;
+      // The nearest point of this triangle, moved 1e-3 camera spacing towards
+      // its centroid (an eye exactly on a border edge is on no simplex: the
+      // tie rule gives boundary points to the outside).
+      for (const auto& [u, v] : {std::pair{a, b}, std::pair{b, c}, std::pair{c, a}}) {
+        const cv::Vec2d p = nearest_on_segment(st, u, v);
+        const double d = cv::norm(st - p);
+        if (d < best_d) {
+          const cv::Vec2d in = (a + b + c) / 3.0 - p;
+          const double n = cv::norm(in);
+          best_d = d, best = n > step ? p + in * (step / n) : (a + b + c) / 3.0;
+        }
+      }
+    }
+    if (best_d < 1e300) return best;
+  }
+  // A linear array: the nearest point of its segment; one camera: the camera.
   cv::Vec2d centre(0, 0);
-  for (const cv::Vec2d& p : rig.plane_positions()) centre += p;
-  centre /= static_cast<double>(pts.size());
-  if (pts.size() >= 3) cv::convexHull(pts, hull);
-  const cv::Point2f q(static_cast<float>(st[0]), static_cast<float>(st[1]));
-  if (hull.size() >= 3 && cv::pointPolygonTest(hull, q, true) > 0) return st;
-  // The nearest point of the hull's boundary (of the segment, for a linear
-  // array; the camera, for one)...
-  if (hull.size() < 3) {
-    hull.clear();
-    size_t a = 0, b = 0;
-    for (size_t i = 0; i < pts.size(); ++i)
-      for (size_t j = 0; j < pts.size(); ++j)
-        if (cv::norm(pts[i] - pts[j]) > cv::norm(pts[a] - pts[b])) a = i, b = j;
-    hull = {pts[a], pts[b]};
-  }
-  cv::Vec2d best = centre;
-  double best_d = 1e300;
-  for (size_t i = 0; i < hull.size(); ++i) {
-    const cv::Vec2d a(hull[i].x, hull[i].y);
-    const cv::Vec2d b(hull[(i + 1) % hull.size()].x, hull[(i + 1) % hull.size()].y);
-    const cv::Vec2d ab = b - a;
-    const double len2 = ab.dot(ab);
-    const double t = len2 > 0 ? std::clamp((st - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
-    const cv::Vec2d p = a + ab * t;
-    if (cv::norm(st - p) < best_d) best_d = cv::norm(st - p), best = p;
-  }
-  // ...moved 1e-3 camera spacing towards the centre: an eye exactly on the
-  // boundary is on no simplex (the tie rule gives boundary points to the
-  // outside), and its view would be black.
-  const cv::Vec2d in = centre - best;
-  const double n = cv::norm(in), step = 1e-3 * rig.typical_spacing();
-  return n > step ? best + in * (step / n) : centre;
+  for (const cv::Vec2d& p : pos) centre += p;
+  centre /= static_cast<double>(pos.size());
+  size_t a = 0, b = 0;
+  for (size_t i = 0; i < pos.size(); ++i)
+    for (size_t j = 0; j < pos.size(); ++j)
+      if (cv::norm(pos[i] - pos[j]) > cv::norm(pos[a] - pos[b])) a = i, b = j;
+  const cv::Vec2d p = nearest_on_segment(st, pos[a], pos[b]);
+  const cv::Vec2d in = centre - p;
+  const double n = cv::norm(in);
+  if (cv::norm(st - p) == 0) return st;
+  return n > step ? p + in * (step / n) : centre;
 }
 
 VirtualView ViewSequence::at(uint64_t k, const Rig& rig, const cv::Vec3d& offset) const {

@@ -41,11 +41,14 @@ std::vector<VirtualView> sample_path(const Rig& rig, const std::vector<Keyframe>
 // u axis, t along v, w along its normal (the way the cameras look), rig
 // units. The world vector s u + t v + w n.
 cv::Vec3d camera_plane_offset(const Rig& rig, double s, double t, double w);
-// `st` if it lies inside the convex hull of the cameras' camera-plane
-// positions, else the nearest point of the hull moved 1e-3 camera spacing
-// inwards: an eye there lies over the array, so every output ray of a view
-// on the camera plane meets a camera simplex (a view steered off the array
-// would be black). Linear arrays: the segment; one camera: the camera.
+// `st` (camera-plane coordinates, rig units) if it lies on one of the rig's
+// triangles, else the nearest point of the nearest triangle moved 1e-3
+// camera spacing towards that triangle's centroid: an eye there lies over the
+// array, so every output ray of a view on the camera plane meets a camera
+// simplex (a view steered off the array would be black). The union of the
+// triangles, not the convex hull: on a real rig the border cameras are not
+// collinear and the hull reaches beyond every triangle. Linear arrays: the
+// segment; one camera: the camera.
 cv::Vec2d clamp_to_array(const Rig& rig, const cv::Vec2d& st);
 
 // What a user sets. Precedence: a path file, then an orbit (> 0), then a
