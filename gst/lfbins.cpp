@@ -362,10 +362,14 @@ static bool build(LfCameraHost* self) {
                       cam = add_recorder(GST_BIN(self), p, cam,
                                          lf::camera_file_name(record, cam_id, "record"),
                                          record_quality, id);
-                    // Live: a request that waits behind two others is stale.
+                    // Live: a request that waits behind requests 200 ms newer is
+                    // stale (the oldest go first). Bounded in time, not in count:
+                    // the requests of several viewers arrive in the same tick
+                    // (a two-request queue dropped two of four viewers'
+                    // requests at every camera, lf-web with four browsers).
                     if (live)
-                      g_object_set(q, "max-size-buffers", 2, "max-size-bytes", 0, "max-size-time",
-                                   G_GUINT64_CONSTANT(0), nullptr),
+                      g_object_set(q, "max-size-buffers", 64, "max-size-bytes", 0, "max-size-time",
+                                   200 * GST_MSECOND, nullptr),
                           gst_util_set_object_arg(G_OBJECT(q), "leaky", "downstream");
                     // Not live: the queue's defaults (requests of several viewers
                     // interleave; a short queue here can stall them behind one
