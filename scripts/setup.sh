@@ -12,7 +12,8 @@ PACKAGES=(g++ meson ninja-build pkg-config libopencv-dev libturbojpeg0-dev
           libgstreamer1.0-dev libgstreamer-plugins-base1.0-dev gstreamer1.0-tools
           gstreamer1.0-plugins-base gstreamer1.0-plugins-good gstreamer1.0-plugins-bad
           python3-gst-1.0 valgrind iproute2
-          libceres-dev cmake)
+          libceres-dev cmake
+          libsoup-3.0-dev libgstreamer-plugins-bad1.0-dev gstreamer1.0-nice)
 ./scripts/install-packages.sh "${PACKAGES[@]}"
 
 if [ ! -f "$build/build.ninja" ]; then

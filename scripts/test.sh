@@ -6,6 +6,11 @@ cd "$(dirname "$0")/.."
 export LF_BUILD_DIR="${LF_BUILD_DIR:-$PWD/build}"
 build="$LF_BUILD_DIR"
 ./scripts/setup.sh
+# The browser test's browser and driver (tests/web-check.sh): Debian's
+# chromium, Node.js where the machine has none, playwright-core from npm.
+./scripts/install-packages.sh chromium
+command -v node >/dev/null && command -v npm >/dev/null || ./scripts/install-packages.sh nodejs npm
+[ -d tests/web/node_modules/playwright-core ] || (cd tests/web && npm ci --no-audit --no-fund --loglevel=error)
 # The real data is read in place from ../shared/data; without it (a fresh
 # clone) the tests that need it are skipped and named at the end.
 have_data=0; [ -d ../shared/data ] && have_data=1

@@ -1,0 +1,944 @@
+// lf-web: serves the live light field to web browsers over WebRTC. Every
+// browser is a viewer with its own virtual camera (paper, Section 1:
+// "multiple viewers navigate virtual cameras"): its own lfviewrequest,
+// lfcompositor, VP8 encoder and webrtcbin, while the cameras are shared
+// (funnel -> camera source -> lffragmentdemux, one demux pad per viewer).
+//
+// One HTTP port (libsoup 3): GET / is the viewer page (tools/web/, compiled
+// into the binary as a GResource), /ws the signalling WebSocket (SDP offer
+// from the server, answer and ICE candidates from the browser, JSON). View
+// control travels on a WebRTC data channel ("control") beside the video:
+// protocol in tools/web/viewer.js and README.md. Everything from a browser is
+// hostile: bounded message sizes and rates, every field checked, a bad
+// message refused with a warning to that browser and on stderr, never an
+// effect on another viewer.
+#include <gio/gio.h>
+#include <glib-unix.h>
+#include <glib/gstdio.h>
+#include <gst/gst.h>
+#include <gst/sdp/sdp.h>
+#include <gst/video/navigation.h>
+#define GST_USE_UNSTABLE_API
+#include <gst/webrtc/webrtc.h>
+#include <libsoup/soup.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <string>
+
+#include "cli.h"
+#include "lf-web-resources.h"  // the page (glib-compile-resources)
+#include "lf/datasets.h"
+#include "lf/rig_file.h"
+
+namespace {
+
+using json = nlohmann::json;
+
+// Limits on what a browser may send.
+constexpr gsize kMaxSignalBytes = 64 * 1024;  // one WebSocket message (an SDP answer)
+constexpr size_t kMaxControlBytes = 4096;     // one data channel message
+constexpr int kMaxIceCandidates = 64;         // per browser
+constexpr double kControlRate = 60;           // messages per second, sustained
+constexpr double kControlBurst = 60;          // and in a burst
+
+struct Options {
+  std::string rig_path;  // the rig file the elements read
+  int width = 640, height = 480, fps = 15;
+  int port = 8080;
+  std::string address = "0.0.0.0";
+  int bitrate_kbps = 1500;
+  int max_viewers = 8;
+  int latency_ms = 200;
+  std::string stun;
+  std::string source;  // the camera source's bin description
+  bool quiet = false;
+  double spacing = 1, fx = 1;  // the rig's camera spacing, focal length (px)
+  size_t cameras = 0;
+};
+
+// Token bucket: at most `burst` at once, `rate` per second sustained.
+class RateLimit {
+ public:
+  bool take() {
+    std::lock_guard<std::mutex> l(m_);
+    const gint64 now = g_get_monotonic_time();
+    tokens_ = std::min(kControlBurst, tokens_ + (now - last_) * 1e-6 * kControlRate);
+    last_ = now;
+    if (tokens_ < 1) return false;
+    tokens_ -= 1;
+    return true;
+  }
+  // True at most once a second (for warnings about a flood).
+  bool may_warn() {
+    std::lock_guard<std::mutex> l(m_);
+    const gint64 now = g_get_monotonic_time();
+    if (now - warned_ < G_USEC_PER_SEC) return false;
+    warned_ = now;
+    return true;
+  }
+
+ private:
+  std::mutex m_;
+  double tokens_ = kControlBurst;
+  gint64 last_ = g_get_monotonic_time(), warned_ = 0;
+};
+
+struct Server;
+
+// The part of a viewer that the webrtcbin and data channel callbacks (on
+// GStreamer's threads) reach; shared, so a callback in flight while the
+// viewer is removed still finds it valid.
+struct Control {
+  Server* server = nullptr;
+  guint64 serial = 0;                // unique for the server's life (viewer ids are reused)
+  guint viewer_id = 0;               // lfviewrequest viewer-id (stereo: + 1 for the right eye)
+  GstElement* request = nullptr;     // lfviewrequest (ref)
+  GstElement* compositor = nullptr;  // lfcompositor (ref)
+  GstElement* webrtc = nullptr;      // webrtcbin (ref)
+  std::mutex channel_lock;
+  GstWebRTCDataChannel* channel = nullptr;  // (ref) open data channel, or null
+  RateLimit limit;
+  std::atomic<guint64> messages{0}, refused{0};
+  std::atomic<bool> stereo{false};
+  int width = 0, height = 0;
+  ~Control() {
+    if (channel) g_object_unref(channel);
+    if (request) gst_object_unref(request);
+    if (compositor) gst_object_unref(compositor);
+    if (webrtc) gst_object_unref(webrtc);
+  }
+  void send(const json& j) {
+    std::lock_guard<std::mutex> l(channel_lock);
+    if (channel) gst_webrtc_data_channel_send_string(channel, j.dump().c_str());
+  }
+};
+
+struct Viewer {
+  std::shared_ptr<Control> ctl;
+  SoupWebsocketConnection* ws = nullptr;  // (ref)
+  GstElement* bin = nullptr;              // in the pipeline
+  GstPad* funnel_pad = nullptr;           // requests in (ref)
+  GstPad* demux_pads[2] = {nullptr, nullptr};
+  bool answered = false;
+  int candidates = 0;
+  gint64 connected_us = 0;
+};
+
+struct Server {
+  Options opt;
+  GMainLoop* loop = nullptr;
+  GstElement* pipeline = nullptr;
+  GstElement* funnel = nullptr;
+  GstElement* demux = nullptr;
+  SoupServer* soup = nullptr;
+  std::map<guint64, std::unique_ptr<Viewer>> viewers;  // by serial (main thread only)
+  guint64 next_serial = 1;
+  int exit_code = 0;
+};
+
+void say(const Server* s, const char* fmt, ...) G_GNUC_PRINTF(2, 3);
+void say(const Server* s, const char* fmt, ...) {
+  if (s->opt.quiet) return;
+  va_list ap;
+  va_start(ap, fmt);
+  gchar* m = g_strdup_vprintf(fmt, ap);
+  va_end(ap);
+  std::fprintf(stdout, "lf-web: %s\n", m);
+  std::fflush(stdout);
+  g_free(m);
+}
+
+// A refused message: a warning on stderr and to the browser, at most one a
+// second each (a flood must not become a flood of warnings).
+void refuse(Control& c, const std::string& why) {
+  c.refused++;
+  if (!c.limit.may_warn()) return;
+  std::fprintf(stderr, "lf-web: warning: viewer %u: %s (%llu refused so far)\n", c.viewer_id,
+               why.c_str(), static_cast<unsigned long long>(c.refused.load()));
+  c.send({{"type", "warning"}, {"message", why}});
+}
+
+// ---- messages from GStreamer's threads to the main thread ----------------
+
+struct Post {
+  Server* server;
+  guint64 serial;
+  std::string text;  // for the WebSocket; empty: remove the viewer
+};
+
+void remove_viewer(Server* s, guint64 serial, const char* why);
+
+gboolean deliver(gpointer data) {
+  std::unique_ptr<Post> p(static_cast<Post*>(data));
+  auto it = p->server->viewers.find(p->serial);
+  if (it == p->server->viewers.end()) return G_SOURCE_REMOVE;
+  if (p->text.empty()) {
+    remove_viewer(p->server, p->serial, "its connection failed");
+  } else if (soup_websocket_connection_get_state(it->second->ws) == SOUP_WEBSOCKET_STATE_OPEN) {
+    soup_websocket_connection_send_text(it->second->ws, p->text.c_str());
+  }
+  return G_SOURCE_REMOVE;
+}
+
+void post(Control& c, std::string text) {
+  g_main_context_invoke(nullptr, deliver, new Post{c.server, c.serial, std::move(text)});
+}
+
+// ---- WebRTC negotiation ---------------------------------------------------
+
+void on_offer(GstPromise* promise, gpointer data) {
+  auto ctl = *static_cast<std::shared_ptr<Control>*>(data);
+  GstWebRTCSessionDescription* offer = nullptr;
+  if (gst_promise_wait(promise) == GST_PROMISE_RESULT_REPLIED)
+    gst_structure_get(gst_promise_get_reply(promise), "offer", GST_TYPE_WEBRTC_SESSION_DESCRIPTION,
+                      &offer, nullptr);
+  gst_promise_unref(promise);
+  if (!offer) {
+    std::fprintf(stderr, "lf-web: viewer %u: webrtcbin made no offer\n", ctl->viewer_id);
+    post(*ctl, "");
+    return;
+  }
+  g_signal_emit_by_name(ctl->webrtc, "set-local-description", offer, nullptr);
+  gchar* sdp = gst_sdp_message_as_text(offer->sdp);
+  post(*ctl, json{{"type", "offer"}, {"sdp", sdp}}.dump());
+  g_free(sdp);
+  gst_webrtc_session_description_free(offer);
+}
+
+// Signal handler data: a heap copy of the viewer's shared_ptr, deleted with
+// the handler (so the Control outlives every callback in flight).
+using ControlRef = std::shared_ptr<Control>;
+gpointer new_ref(const ControlRef& c) {
+  return new ControlRef(c);
+}
+const ControlRef& ref_of(gpointer data) {
+  return *static_cast<ControlRef*>(data);
+}
+void delete_ref(gpointer data) {
+  delete static_cast<ControlRef*>(data);
+}
+void delete_ref_closure(gpointer data, GClosure*) {
+  delete_ref(data);
+}
+
+void on_negotiation_needed(GstElement* webrtc, gpointer data) {
+  GstPromise* p = gst_promise_new_with_change_func(on_offer, new_ref(ref_of(data)), delete_ref);
+  g_signal_emit_by_name(webrtc, "create-offer", nullptr, p);
+}
+
+void on_ice_candidate(GstElement*, guint mline, gchar* candidate, gpointer data) {
+  post(*ref_of(data),
+       json{{"type", "ice"}, {"candidate", candidate}, {"sdpMLineIndex", mline}}.dump());
+}
+
+void on_ice_state(GstElement* webrtc, GParamSpec*, gpointer data) {
+  GstWebRTCICEConnectionState state;
+  g_object_get(webrtc, "ice-connection-state", &state, nullptr);
+  if (state == GST_WEBRTC_ICE_CONNECTION_STATE_FAILED) {
+    std::fprintf(stderr, "lf-web: viewer %u: ICE failed\n", ref_of(data)->viewer_id);
+    post(*ref_of(data), "");
+  }
+}
+
+// ---- view control from the data channel ------------------------------------
+
+// A finite number from a JSON field, or an error.
+bool number_field(const json& j, const char* key, double* out, std::string* err) {
+  auto it = j.find(key);
+  if (it == j.end() || !it->is_number()) {
+    *err = std::string("'") + key + "' must be a number";
+    return false;
+  }
+  *out = it->get<double>();
+  if (!std::isfinite(*out)) {
+    *err = std::string("'") + key + "' is not finite";
+    return false;
+  }
+  return true;
+}
+
+// Refuses any field not in `known` (a typo must not pass silently).
+bool only_fields(const json& j, std::initializer_list<const char*> known, std::string* err) {
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    if (std::none_of(known.begin(), known.end(), [&](const char* k) { return it.key() == k; })) {
+      *err = "unknown field '" + it.key().substr(0, 64) + "'";
+      return false;
+    }
+  }
+  return true;
+}
+
+// A position in the picture the browser shows (video pixels).
+bool point_fields(const Control& c, const json& j, double* x, double* y, std::string* err) {
+  if (!number_field(j, "x", x, err) || !number_field(j, "y", y, err)) return false;
+  const int w = c.stereo ? 2 * c.width : c.width;
+  if (*x < 0 || *y < 0 || *x >= w || *y >= c.height) {
+    *err = "point outside the " + std::to_string(w) + "x" + std::to_string(c.height) + " picture";
+    return false;
+  }
+  return true;
+}
+
+// Upstream events go straight to this viewer's lfviewrequest, which handles
+// them as it handles those from a video sink (README: navigation, lf-view).
+void to_request(Control& c, GstEvent* ev) {
+  GstPad* pad = gst_element_get_static_pad(c.request, "src");
+  gst_pad_send_event(pad, ev);
+  gst_object_unref(pad);
+}
+
+// The view fields a browser may set, checked against lfviewrequest's own
+// property ranges.
+constexpr const char* kViewFields[] = {"eye-s", "eye-t", "eye-w", "focal-depth", "vfov"};
+
+// One control message. Returns an error text, empty when applied.
+std::string apply_control(Control& c, const json& j) {
+  std::string err;
+  if (!j.is_object() || !j.contains("type") || !j["type"].is_string())
+    return "not a JSON object with a 'type'";
+  const std::string type = j["type"].get<std::string>();
+  double x = 0, y = 0;
+  if (type == "pointer") {
+    if (!only_fields(j, {"type", "action", "button", "x", "y", "ctrl"}, &err)) return err;
+    if (!point_fields(c, j, &x, &y, &err)) return err;
+    const std::string action = j.value("action", "");
+    if (action == "move") {
+      to_request(c, gst_navigation_event_new_mouse_move(x, y, GST_NAVIGATION_MODIFIER_NONE));
+      return "";
+    }
+    if (!j.contains("button") || !j["button"].is_number_integer()) return "'button' must be 1 or 3";
+    const int button = j["button"].get<int>();
+    if (button != 1 && button != 3) return "'button' must be 1 or 3";
+    if (action == "press")
+      to_request(c, gst_navigation_event_new_mouse_button_press(button, x, y,
+                                                                GST_NAVIGATION_MODIFIER_NONE));
+    else if (action == "release")
+      to_request(c, gst_navigation_event_new_mouse_button_release(button, x, y,
+                                                                  GST_NAVIGATION_MODIFIER_NONE));
+    else
+      return "'action' must be press, release or move";
+    return "";
+  }
+  if (type == "wheel") {  // one notch nearer (+1) or farther (-1): 0.25 px of parallax
+    double dy = 0;
+    if (!only_fields(j, {"type", "dy", "x", "y"}, &err) || !number_field(j, "dy", &dy, &err))
+      return err;
+    if (std::fabs(dy) > 10) return "'dy' outside -10..10 notches";
+    to_request(c, gst_navigation_event_new_mouse_scroll(0, 0, 0, dy, GST_NAVIGATION_MODIFIER_NONE));
+    return "";
+  }
+  if (type == "focus") {  // click to focus: the scene under this pixel
+    if (!only_fields(j, {"type", "x", "y"}, &err) || !point_fields(c, j, &x, &y, &err)) return err;
+    to_request(c,
+               gst_navigation_event_new_mouse_button_press(3, x, y, GST_NAVIGATION_MODIFIER_NONE));
+    to_request(
+        c, gst_navigation_event_new_mouse_button_release(3, x, y, GST_NAVIGATION_MODIFIER_NONE));
+    return "";
+  }
+  if (type == "key") {
+    static const std::set<std::string> keys = {"Left",    "Right",     "Up", "Down",
+                                               "Page_Up", "Page_Down", "r"};
+    if (!only_fields(j, {"type", "key"}, &err)) return err;
+    if (!j.contains("key") || !j["key"].is_string() || !keys.count(j["key"].get<std::string>()))
+      return "'key' must be one of Left, Right, Up, Down, Page_Up, Page_Down, r";
+    to_request(c, gst_navigation_event_new_key_press(j["key"].get<std::string>().c_str(),
+                                                     GST_NAVIGATION_MODIFIER_NONE));
+    return "";
+  }
+  if (type == "set") {  // view properties, applied at once and whole (lf-view)
+    GstStructure* s = gst_structure_new_empty("lf-view");
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      if (it.key() == "type") continue;
+      const bool known = std::any_of(std::begin(kViewFields), std::end(kViewFields),
+                                     [&](const char* k) { return it.key() == k; });
+      double v = 0;
+      if (!known)
+        err = "unknown field '" + it.key().substr(0, 64) + "'";
+      else if (number_field(j, it.key().c_str(), &v, &err)) {
+        auto* ps = G_PARAM_SPEC_DOUBLE(
+            g_object_class_find_property(G_OBJECT_GET_CLASS(c.request), it.key().c_str()));
+        if (v < ps->minimum || v > ps->maximum)
+          err = "'" + it.key() + "' outside " + std::to_string(ps->minimum) + ".." +
+                std::to_string(ps->maximum);
+        else
+          gst_structure_set(s, it.key().c_str(), G_TYPE_DOUBLE, v, nullptr);
+      }
+      if (!err.empty()) {
+        gst_structure_free(s);
+        return err;
+      }
+    }
+    if (gst_structure_n_fields(s) == 0) {
+      gst_structure_free(s);
+      return "'set' without a field";
+    }
+    to_request(c, gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, s));
+    return "";
+  }
+  if (type == "stereo") {  // left | right side by side, one camera spacing apart
+    if (!only_fields(j, {"type", "on"}, &err)) return err;
+    if (!j.contains("on") || !j["on"].is_boolean()) return "'on' must be true or false";
+    const bool on = j["on"].get<bool>();
+    if (on == c.stereo) return "";
+    c.stereo = on;
+    // On: the right eye's requests first, then the compositor waits for them;
+    // off: the other way round.
+    if (on) g_object_set(c.request, "stereo-baseline", c.server->opt.spacing, nullptr);
+    g_object_set(c.compositor, "stereo", on ? TRUE : FALSE, nullptr);
+    if (!on) g_object_set(c.request, "stereo-baseline", 0.0, nullptr);
+    return "";
+  }
+  if (type == "ping") {  // round trip of the control path, measured by the page
+    if (!only_fields(j, {"type", "t"}, &err) || !number_field(j, "t", &x, &err)) return err;
+    c.send({{"type", "pong"}, {"t", x}});
+    return "";
+  }
+  return "unknown message type '" + type.substr(0, 64) + "'";
+}
+
+void on_control_message(GstWebRTCDataChannel*, gchar* text, gpointer data) {
+  Control& c = *ref_of(data);
+  c.messages++;
+  if (!c.limit.take())
+    return refuse(c, "too many control messages (limit " + std::to_string(int(kControlRate)) +
+                         "/s): dropped");
+  const size_t n = text ? strnlen(text, kMaxControlBytes + 1) : 0;
+  if (n > kMaxControlBytes)
+    return refuse(c,
+                  "control message over " + std::to_string(kMaxControlBytes) + " bytes: dropped");
+  json j = json::parse(text, text + n, nullptr, false);
+  if (j.is_discarded())
+    return refuse(c, "control message is not valid JSON (NaN and Infinity are not JSON)");
+  const std::string err = apply_control(c, j);
+  if (!err.empty()) refuse(c, "control message refused: " + err);
+}
+
+void on_control_bytes(GstWebRTCDataChannel*, GBytes*, gpointer data) {
+  refuse(*ref_of(data), "binary control message: dropped (the protocol is JSON text)");
+}
+
+void on_channel_open(GstWebRTCDataChannel* ch, gpointer data) {
+  Control& c = *ref_of(data);
+  std::lock_guard<std::mutex> l(c.channel_lock);
+  if (!c.channel) c.channel = GST_WEBRTC_DATA_CHANNEL(g_object_ref(ch));
+}
+
+void on_channel_close(GstWebRTCDataChannel*, gpointer data) {
+  Control& c = *ref_of(data);
+  std::lock_guard<std::mutex> l(c.channel_lock);
+  if (c.channel) g_object_unref(c.channel), c.channel = nullptr;
+}
+
+// ---- viewers --------------------------------------------------------------
+
+// The smallest even viewer id in use by nobody (id + 1 is its right eye).
+guint free_viewer_id(const Server* s) {
+  std::set<guint> used;
+  for (const auto& v : s->viewers) used.insert(v.second->ctl->viewer_id);
+  guint id = 0;
+  while (used.count(id)) id += 2;
+  return id;
+}
+
+std::string viewer_description(const Options& o, guint id) {
+  const std::string rig = "rig=\"" + o.rig_path + "\"";
+  std::string d = "lfviewrequest name=req " + rig + " viewer-id=" + std::to_string(id) +
+                  " is-live=true framerate=" + std::to_string(o.fps) +
+                  "/1 width=" + std::to_string(o.width) + " height=" + std::to_string(o.height);
+  // Fragments of the left and right eye (the right only in stereo); queues
+  // bounded in time, so a slow viewer drops its own fragments, not others'.
+  for (const char* q : {"ql", "qr"})
+    d += std::string(" queue name=") + q +
+         " max-size-buffers=0 max-size-bytes=0 max-size-time=" + std::to_string(2 * o.latency_ms) +
+         "000000 leaky=downstream ! comp.";
+  d += " lfcompositor name=comp " + rig + " viewer-id=" + std::to_string(id) +
+       " latency=" + std::to_string(o.latency_ms) +
+       "000000 ! videoconvert ! queue max-size-buffers=2 "
+       "max-size-bytes=0 max-size-time=0 leaky=downstream ! vp8enc deadline=1 cpu-used=8 "
+       "lag-in-frames=0 error-resilient=partitions keyframe-max-dist=" +
+       std::to_string(2 * o.fps) + " target-bitrate=" + std::to_string(o.bitrate_kbps * 1000) +
+       " ! rtpvp8pay picture-id-mode=15-bit mtu=1200 ! "
+       "application/x-rtp,media=video,encoding-name=VP8,"
+       "payload=96,clock-rate=90000 ! webrtcbin name=webrtc bundle-policy=max-bundle";
+  if (!o.stun.empty()) d += " stun-server=" + o.stun;
+  return d;
+}
+
+GstPad* ghost(GstElement* bin, const char* child, const char* pad, const char* name) {
+  GstElement* e = gst_bin_get_by_name(GST_BIN(bin), child);
+  GstPad* target = gst_element_get_static_pad(e, pad);
+  GstPad* g = gst_ghost_pad_new(name, target);
+  gst_object_unref(target);
+  gst_object_unref(e);
+  gst_pad_set_active(g, TRUE);
+  gst_element_add_pad(bin, g);
+  return g;
+}
+
+void on_ws_message(SoupWebsocketConnection*, gint type, GBytes* message, gpointer data);
+void on_ws_closed(SoupWebsocketConnection*, gpointer data);
+
+bool add_viewer(Server* s, SoupWebsocketConnection* ws) {
+  auto v = std::make_unique<Viewer>();
+  auto ctl = std::make_shared<Control>();
+  ctl->server = s;
+  ctl->serial = s->next_serial++;
+  ctl->viewer_id = free_viewer_id(s);
+  ctl->width = s->opt.width, ctl->height = s->opt.height;
+  GError* err = nullptr;
+  GstElement* bin = gst_parse_bin_from_description(
+      viewer_description(s->opt, ctl->viewer_id).c_str(), FALSE, &err);
+  if (!bin) {
+    std::fprintf(stderr, "lf-web: cannot build a viewer: %s\n", err->message);
+    g_error_free(err);
+    return false;
+  }
+  gchar* name = g_strdup_printf("viewer%u", ctl->viewer_id);
+  gst_object_set_name(GST_OBJECT(bin), name);
+  g_free(name);
+  ctl->request = gst_bin_get_by_name(GST_BIN(bin), "req");
+  ctl->compositor = gst_bin_get_by_name(GST_BIN(bin), "comp");
+  ctl->webrtc = gst_bin_get_by_name(GST_BIN(bin), "webrtc");
+  GstPad* src = ghost(bin, "req", "src", "src");
+  GstPad* sink_l = ghost(bin, "ql", "sink", "sink_l");
+  GstPad* sink_r = ghost(bin, "qr", "sink", "sink_r");
+  gst_bin_add(GST_BIN(s->pipeline), bin);
+  v->bin = bin;
+  v->funnel_pad = gst_element_request_pad_simple(s->funnel, "sink_%u");
+  gst_pad_link(src, v->funnel_pad);
+  // The data channel: after READY, before PLAYING (webrtcbin).
+  gst_element_set_state(bin, GST_STATE_READY);
+  GstWebRTCDataChannel* ch = nullptr;
+  GstStructure* opts = gst_structure_new("options", "ordered", G_TYPE_BOOLEAN, TRUE, nullptr);
+  g_signal_emit_by_name(ctl->webrtc, "create-data-channel", "control", opts, &ch);
+  gst_structure_free(opts);
+  if (!ch) {
+    std::fprintf(stderr,
+                 "lf-web: webrtcbin made no data channel (is gstreamer1.0-nice installed?)\n");
+  } else {
+    g_signal_connect_data(ch, "on-open", G_CALLBACK(on_channel_open), new_ref(ctl),
+                          delete_ref_closure, GConnectFlags(0));
+    g_signal_connect_data(ch, "on-close", G_CALLBACK(on_channel_close), new_ref(ctl),
+                          delete_ref_closure, GConnectFlags(0));
+    g_signal_connect_data(ch, "on-message-string", G_CALLBACK(on_control_message), new_ref(ctl),
+                          delete_ref_closure, GConnectFlags(0));
+    g_signal_connect_data(ch, "on-message-data", G_CALLBACK(on_control_bytes), new_ref(ctl),
+                          delete_ref_closure, GConnectFlags(0));
+    g_object_unref(ch);
+  }
+  g_signal_connect_data(ctl->webrtc, "on-negotiation-needed", G_CALLBACK(on_negotiation_needed),
+                        new_ref(ctl), delete_ref_closure, GConnectFlags(0));
+  g_signal_connect_data(ctl->webrtc, "on-ice-candidate", G_CALLBACK(on_ice_candidate), new_ref(ctl),
+                        delete_ref_closure, GConnectFlags(0));
+  g_signal_connect_data(ctl->webrtc, "notify::ice-connection-state", G_CALLBACK(on_ice_state),
+                        new_ref(ctl), delete_ref_closure, GConnectFlags(0));
+  gst_element_sync_state_with_parent(bin);
+  // Fragments in last: the branch is playing, so nothing reaches a flushing
+  // pad (which would stop the shared cameras' stream).
+  for (int eye = 0; eye < 2; ++eye) {
+    gchar* pn = g_strdup_printf("src_%u", ctl->viewer_id + eye);
+    v->demux_pads[eye] = gst_element_request_pad_simple(s->demux, pn);
+    g_free(pn);
+    if (v->demux_pads[eye]) gst_pad_link(v->demux_pads[eye], eye ? sink_r : sink_l);
+  }
+  v->ws = SOUP_WEBSOCKET_CONNECTION(g_object_ref(ws));
+  v->connected_us = g_get_monotonic_time();
+  soup_websocket_connection_set_max_incoming_payload_size(ws, kMaxSignalBytes);
+  soup_websocket_connection_set_keepalive_interval(ws, 15);
+  g_signal_connect(ws, "message", G_CALLBACK(on_ws_message),
+                   reinterpret_cast<gpointer>(ctl->serial));
+  g_signal_connect(ws, "closed", G_CALLBACK(on_ws_closed), reinterpret_cast<gpointer>(ctl->serial));
+  v->ctl = ctl;
+  const double dmin = s->opt.fx * s->opt.spacing / 24, dmax = s->opt.fx * s->opt.spacing / 0.1;
+  soup_websocket_connection_send_text(ws, json{{"type", "hello"},
+                                               {"viewer", ctl->viewer_id},
+                                               {"width", s->opt.width},
+                                               {"height", s->opt.height},
+                                               {"fps", s->opt.fps},
+                                               {"cameras", s->opt.cameras},
+                                               {"focal_depth_range", {dmin, dmax}}}
+                                              .dump()
+                                              .c_str());
+  say(s, "viewer %u connected (%zu viewer%s)", ctl->viewer_id, s->viewers.size() + 1,
+      s->viewers.empty() ? "" : "s");
+  s->viewers[ctl->serial] = std::move(v);
+  return true;
+}
+
+void remove_viewer(Server* s, guint64 serial, const char* why) {
+  auto it = s->viewers.find(serial);
+  if (it == s->viewers.end()) return;
+  std::unique_ptr<Viewer> v = std::move(it->second);
+  s->viewers.erase(it);
+  // The demux pads first (the shared stream then drops this viewer's
+  // fragments), then the branch stops, then its request pad goes.
+  for (GstPad* p : v->demux_pads)
+    if (p) gst_element_release_request_pad(s->demux, p), gst_object_unref(p);
+  gst_element_set_state(v->bin, GST_STATE_NULL);
+  {
+    std::lock_guard<std::mutex> l(v->ctl->channel_lock);
+    if (v->ctl->channel) g_object_unref(v->ctl->channel), v->ctl->channel = nullptr;
+  }
+  g_signal_handlers_disconnect_by_data(v->ws, reinterpret_cast<gpointer>(serial));
+  gst_element_release_request_pad(s->funnel, v->funnel_pad);
+  gst_object_unref(v->funnel_pad);
+  gst_bin_remove(GST_BIN(s->pipeline), v->bin);
+  if (soup_websocket_connection_get_state(v->ws) == SOUP_WEBSOCKET_STATE_OPEN)
+    soup_websocket_connection_close(v->ws, SOUP_WEBSOCKET_CLOSE_NORMAL, why);
+  g_object_unref(v->ws);
+  say(s, "viewer %u left: %s (%zu viewer%s; %llu control messages, %llu refused)",
+      v->ctl->viewer_id, why, s->viewers.size(), s->viewers.size() == 1 ? "" : "s",
+      static_cast<unsigned long long>(v->ctl->messages.load()),
+      static_cast<unsigned long long>(v->ctl->refused.load()));
+}
+
+// Signalling from the browser: the SDP answer, then ICE candidates.
+void on_ws_message(SoupWebsocketConnection* ws, gint type, GBytes* message, gpointer data) {
+  Server* s = static_cast<Server*>(g_object_get_data(G_OBJECT(ws), "lf-server"));
+  auto it = s->viewers.find(reinterpret_cast<guint64>(data));
+  if (it == s->viewers.end()) return;
+  Viewer& v = *it->second;
+  Control& c = *v.ctl;
+  if (type != SOUP_WEBSOCKET_DATA_TEXT) return refuse(c, "binary signalling message: dropped");
+  if (!c.limit.take()) return refuse(c, "too many signalling messages: dropped");
+  gsize n = 0;
+  const char* text = static_cast<const char*>(g_bytes_get_data(message, &n));
+  json j = json::parse(text, text + n, nullptr, false);
+  std::string err;
+  if (j.is_discarded() || !j.is_object() || !j.contains("type") || !j["type"].is_string())
+    return refuse(c, "signalling message is not a JSON object with a 'type'");
+  const std::string t = j["type"].get<std::string>();
+  if (t == "answer") {
+    if (!only_fields(j, {"type", "sdp"}, &err)) return refuse(c, err);
+    if (v.answered) return refuse(c, "a second SDP answer: dropped");
+    if (!j.contains("sdp") || !j["sdp"].is_string()) return refuse(c, "'sdp' must be a string");
+    GstSDPMessage* sdp = nullptr;
+    if (gst_sdp_message_new_from_text(j["sdp"].get<std::string>().c_str(), &sdp) != GST_SDP_OK ||
+        !sdp)
+      return refuse(c, "the SDP answer does not parse");
+    if (gst_sdp_message_medias_len(sdp) == 0) {
+      gst_sdp_message_free(sdp);
+      return refuse(c, "the SDP answer has no media");
+    }
+    GstWebRTCSessionDescription* d =
+        gst_webrtc_session_description_new(GST_WEBRTC_SDP_TYPE_ANSWER, sdp);
+    g_signal_emit_by_name(c.webrtc, "set-remote-description", d, nullptr);
+    gst_webrtc_session_description_free(d);
+    v.answered = true;
+  } else if (t == "ice") {
+    if (!only_fields(j, {"type", "candidate", "sdpMLineIndex"}, &err)) return refuse(c, err);
+    if (!j.contains("candidate") || !j["candidate"].is_string() || !j.contains("sdpMLineIndex") ||
+        !j["sdpMLineIndex"].is_number_unsigned())
+      return refuse(c,
+                    "an ICE candidate needs 'candidate' (string) and 'sdpMLineIndex' (0, 1, ...)");
+    const std::string cand = j["candidate"].get<std::string>();
+    const unsigned mline = j["sdpMLineIndex"].get<unsigned>();
+    if (cand.empty()) return;  // end of candidates
+    if (cand.size() > 1024 || mline > 8)
+      return refuse(c, "ICE candidate too long or m-line out of range");
+    if (++v.candidates > kMaxIceCandidates) return refuse(c, "too many ICE candidates: dropped");
+    g_signal_emit_by_name(c.webrtc, "add-ice-candidate", mline, cand.c_str());
+  } else {
+    refuse(c, "unknown signalling message '" + t.substr(0, 64) + "'");
+  }
+}
+
+void on_ws_closed(SoupWebsocketConnection* ws, gpointer data) {
+  Server* s = static_cast<Server*>(g_object_get_data(G_OBJECT(ws), "lf-server"));
+  remove_viewer(s, reinterpret_cast<guint64>(data), "the browser closed the connection");
+}
+
+void on_websocket(SoupServer*, SoupServerMessage*, const char*, SoupWebsocketConnection* ws,
+                  gpointer data) {
+  Server* s = static_cast<Server*>(data);
+  g_object_set_data(G_OBJECT(ws), "lf-server", s);
+  if (static_cast<int>(s->viewers.size()) >= s->opt.max_viewers) {
+    const std::string m =
+        "the server has its " + std::to_string(s->opt.max_viewers) + " viewers (--max-viewers)";
+    std::fprintf(stderr, "lf-web: refused a browser: %s\n", m.c_str());
+    soup_websocket_connection_send_text(ws, json{{"type", "error"}, {"message", m}}.dump().c_str());
+    soup_websocket_connection_close(ws, SOUP_WEBSOCKET_CLOSE_GOING_AWAY, "full");
+    return;
+  }
+  if (!add_viewer(s, ws))
+    soup_websocket_connection_close(ws, SOUP_WEBSOCKET_CLOSE_SERVER_ERROR, "cannot build a viewer");
+}
+
+// The page and its script, from the GResource.
+void on_http(SoupServer*, SoupServerMessage* msg, const char* path, GHashTable*, gpointer) {
+  if (strcmp(soup_server_message_get_method(msg), "GET") != 0 &&
+      strcmp(soup_server_message_get_method(msg), "HEAD") != 0) {
+    soup_server_message_set_status(msg, SOUP_STATUS_METHOD_NOT_ALLOWED, nullptr);
+    return;
+  }
+  static const std::map<std::string, std::pair<const char*, const char*>> files = {
+      {"/", {"/lf-web/index.html", "text/html; charset=utf-8"}},
+      {"/index.html", {"/lf-web/index.html", "text/html; charset=utf-8"}},
+      {"/viewer.js", {"/lf-web/viewer.js", "text/javascript; charset=utf-8"}},
+      {"/favicon.ico", {"/lf-web/favicon.svg", "image/svg+xml"}}};
+  auto it = files.find(path);
+  GBytes* body = it == files.end() ? nullptr
+                                   : g_resources_lookup_data(it->second.first,
+                                                             G_RESOURCE_LOOKUP_FLAGS_NONE, nullptr);
+  if (!body) {
+    soup_server_message_set_status(msg, SOUP_STATUS_NOT_FOUND, nullptr);
+    return;
+  }
+  gsize n = 0;
+  const void* d = g_bytes_get_data(body, &n);
+  soup_server_message_set_status(msg, SOUP_STATUS_OK, nullptr);
+  soup_message_headers_append(soup_server_message_get_response_headers(msg), "Cache-Control",
+                              "no-store");
+  soup_server_message_set_response(msg, it->second.second, SOUP_MEMORY_COPY,
+                                   static_cast<const char*>(d), n);
+  g_bytes_unref(body);
+}
+
+// Twice a second: each viewer's state as the server sees it, on its data
+// channel (the page's status line; the browser test reads it too).
+gboolean send_stats(gpointer data) {
+  Server* s = static_cast<Server*>(data);
+  for (auto& [serial, v] : s->viewers) {
+    Control& c = *v->ctl;
+    guint64 frames = 0;
+    guint cams = 0;
+    gdouble es = 0, et = 0, ew = 0, depth = 0;
+    g_object_get(c.compositor, "frames", &frames, "last-cameras", &cams, nullptr);
+    g_object_get(c.request, "eye-s", &es, "eye-t", &et, "eye-w", &ew, "focal-depth", &depth,
+                 nullptr);
+    c.send({{"type", "stats"},
+            {"viewer", c.viewer_id},
+            {"frames", frames},
+            {"cameras_answered", c.stereo ? cams / 2 : cams},
+            {"cameras", s->opt.cameras},
+            {"viewers", s->viewers.size()},
+            {"eye", {es, et, ew}},
+            {"focal_depth", depth},
+            {"stereo", c.stereo.load()},
+            {"refused", c.refused.load()}});
+  }
+  return G_SOURCE_CONTINUE;
+}
+
+gboolean on_bus(GstBus*, GstMessage* m, gpointer data) {
+  Server* s = static_cast<Server*>(data);
+  if (GST_MESSAGE_TYPE(m) != GST_MESSAGE_ERROR && GST_MESSAGE_TYPE(m) != GST_MESSAGE_WARNING)
+    return TRUE;
+  GError* err = nullptr;
+  gchar* dbg = nullptr;
+  if (GST_MESSAGE_TYPE(m) == GST_MESSAGE_ERROR)
+    gst_message_parse_error(m, &err, &dbg);
+  else
+    gst_message_parse_warning(m, &err, &dbg);
+  const bool error = GST_MESSAGE_TYPE(m) == GST_MESSAGE_ERROR;
+  std::fprintf(stderr, "lf-web: %s from %s: %s%s%s\n", error ? "error" : "warning",
+               GST_OBJECT_NAME(m->src), err->message, dbg ? "\n  " : "", dbg ? dbg : "");
+  g_clear_error(&err);
+  g_free(dbg);
+  if (!error) return TRUE;
+  // An error inside one viewer's branch ends that viewer; anywhere else, the server.
+  for (auto& [serial, v] : s->viewers)
+    if (gst_object_has_as_ancestor(m->src, GST_OBJECT(v->bin))) {
+      g_main_context_invoke(nullptr, deliver, new Post{s, serial, ""});
+      return TRUE;
+    }
+  s->exit_code = 1;
+  g_main_loop_quit(s->loop);
+  return TRUE;
+}
+
+gboolean on_sigint(gpointer data) {
+  Server* s = static_cast<Server*>(data);
+  say(s, "interrupted: stopping");
+  g_main_loop_quit(s->loop);
+  return G_SOURCE_REMOVE;
+}
+
+const char* kSummary =
+    "Serves the live light field to web browsers over WebRTC: open http://HOST:PORT/ and\n"
+    "each browser steers its own virtual camera (drag: move the eye over the camera\n"
+    "plane; wheel or slider: focal plane; right click or Ctrl+click: focus there;\n"
+    "stereo; reset). The cameras are shared by every browser; each browser has its own\n"
+    "view requests, compositor, VP8 encoder and webrtcbin. One TCP port serves the page\n"
+    "(/), the signalling WebSocket (/ws); video and control go over WebRTC (UDP).\n"
+    "\n"
+    "Example (the bundled Chess light field, an 8x8 block of its 17x17 cameras):\n"
+    "  lf-web --rig ../shared/data/stanford-chess\n"
+    "then open http://THIS-HOST:8080/ in Chromium or Firefox.";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  gchar *rig = nullptr, *block = nullptr, *size = nullptr, *address = nullptr, *stun = nullptr,
+        *source = nullptr;
+  gdouble input_scale = 1;
+  gint port = 8080, fps = 15, bitrate = 1500, max_viewers = 8, latency = 200;
+  gboolean quiet = FALSE;
+  const GOptionEntry entries[] = {
+      {"rig", 0, 0, G_OPTION_ARG_FILENAME, &rig, "Rig file (.json) or dataset folder (required)",
+       "PATH"},
+      {"block", 0, 0, G_OPTION_ARG_STRING, &block,
+       "Cameras: this block of the grid (default: the 8x8 block at 0,0 of a larger grid)",
+       "R0,C0,ROWS,COLS"},
+      {"input-scale", 0, 0, G_OPTION_ARG_DOUBLE, &input_scale,
+       "Camera images resized by S (default 1)", "S"},
+      {"size", 0, 0, G_OPTION_ARG_STRING, &size, "Size of every browser's view (default 640x480)",
+       "WxH"},
+      {"framerate", 0, 0, G_OPTION_ARG_INT, &fps,
+       "View requests and video frames per second (default 15)", "FPS"},
+      {"port", 0, 0, G_OPTION_ARG_INT, &port,
+       "TCP port of the page and the signalling (default 8080; 0: any free port, printed)", "PORT"},
+      {"address", 0, 0, G_OPTION_ARG_STRING, &address,
+       "Listen on this address only (default: every address, so other machines can open the page)",
+       "ADDR"},
+      {"bitrate", 0, 0, G_OPTION_ARG_INT, &bitrate,
+       "VP8 target bitrate per browser, kbit/s (default 1500)", "KBPS"},
+      {"max-viewers", 0, 0, G_OPTION_ARG_INT, &max_viewers,
+       "Browsers served at once; more are refused with a message (default 8)", "N"},
+      {"latency", 0, 0, G_OPTION_ARG_INT, &latency,
+       "Compositor deadline, ms: a view leaves when every camera answered, or then (default 200)",
+       "MS"},
+      {"stun", 0, 0, G_OPTION_ARG_STRING, &stun,
+       "STUN server for browsers beyond a NAT (default none: a LAN needs none)",
+       "stun://HOST:PORT"},
+      {"source", 0, 0, G_OPTION_ARG_STRING, &source,
+       "The cameras, as a bin description with one view-request sink and one fragment source "
+       "(default: lfcamerahost rig=RIG is-live=true framerate=FPS; e.g. RTP to camera hosts)",
+       "DESCRIPTION"},
+      {"quiet", 'q', 0, G_OPTION_ARG_NONE, &quiet, "Print only warnings and errors", nullptr},
+      {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
+  GOptionContext* octx = g_option_context_new("- light field viewers in web browsers");
+  g_option_context_set_summary(octx, kSummary);
+  g_option_context_add_main_entries(octx, entries, nullptr);
+  g_option_context_add_group(octx, gst_init_get_option_group());
+  GError* err = nullptr;
+  if (!g_option_context_parse(octx, &argc, &argv, &err)) {
+    std::fprintf(stderr, "lf-web: error: %s (see --help)\n", err->message);
+    return 2;
+  }
+  g_option_context_free(octx);
+  Server s;
+  Options& o = s.opt;
+  o.quiet = quiet;
+  o.fps = fps, o.port = port, o.bitrate_kbps = bitrate, o.max_viewers = max_viewers,
+  o.latency_ms = latency;
+  if (address) o.address = address;
+  if (stun) o.stun = stun;
+  gchar* tmpdir = nullptr;
+  try {
+    if (!rig) throw std::invalid_argument("--rig is required (a rig file or dataset folder)");
+    if (size) cli::parse_size(size, o.width, o.height);
+    if (fps < 1 || fps > 120) throw std::invalid_argument("--framerate outside 1..120");
+    if (port < 0 || port > 65535) throw std::invalid_argument("--port outside 0..65535");
+    if (bitrate < 50 || bitrate > 100000)
+      throw std::invalid_argument("--bitrate outside 50..100000 kbit/s");
+    if (max_viewers < 1 || max_viewers > 64)
+      throw std::invalid_argument("--max-viewers outside 1..64");
+    if (latency < 1 || latency > 10000)
+      throw std::invalid_argument("--latency outside 1..10000 ms");
+    lf::Rig r =
+        cli::select_cameras(lf::load_rig_or_dataset(rig), block ? block : "", 0, input_scale, true);
+    if (r.cameras.empty()) throw std::invalid_argument("the rig has no cameras");
+    o.cameras = r.cameras.size();
+    o.spacing = r.typical_spacing();
+    o.fx = r.cameras[0].intrinsics.fx;
+    tmpdir = g_dir_make_tmp("lf-web-XXXXXX", nullptr);
+    if (!tmpdir) throw std::runtime_error("cannot make a temporary folder");
+    o.rig_path = std::string(tmpdir) + "/rig.json";
+    lf::save_rig(r, o.rig_path);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "lf-web: error: %s (see --help)\n", e.what());
+    return 2;
+  }
+  o.source = source ? source
+                    : "lfcamerahost rig=\"" + o.rig_path +
+                          "\" is-live=true framerate=" + std::to_string(o.fps) + "/1";
+  g_free(rig), g_free(block), g_free(size), g_free(address), g_free(stun), g_free(source);
+  g_resources_register(lf_web_get_resource());
+
+  // The shared part: requests of every viewer -> cameras -> fragments by viewer.
+  s.pipeline = gst_pipeline_new("lf-web");
+  s.funnel = gst_element_factory_make("funnel", "requests");
+  s.demux = gst_element_factory_make("lffragmentdemux", "fragments");
+  GstElement* cams = gst_parse_bin_from_description(o.source.c_str(), TRUE, &err);
+  if (!s.funnel || !s.demux || !cams) {
+    std::fprintf(stderr, "lf-web: error: %s\n",
+                 err ? err->message : "funnel or lffragmentdemux missing (GST_PLUGIN_PATH?)");
+    return 1;
+  }
+  GstElementFactory* webrtc_factory = gst_element_factory_find("webrtcbin");
+  GstElementFactory* nice_factory = gst_element_factory_find("nicesrc");
+  const bool have_webrtc = webrtc_factory && nice_factory;
+  if (webrtc_factory) gst_object_unref(webrtc_factory);
+  if (nice_factory) gst_object_unref(nice_factory);
+  if (!have_webrtc) {
+    std::fprintf(stderr,
+                 "lf-web: error: webrtcbin and libnice's elements are needed (Debian: "
+                 "gstreamer1.0-plugins-bad, gstreamer1.0-nice)\n");
+    return 1;
+  }
+  gst_bin_add_many(GST_BIN(s.pipeline), s.funnel, cams, s.demux, nullptr);
+  if (!gst_element_link_many(s.funnel, cams, s.demux, nullptr)) {
+    std::fprintf(stderr,
+                 "lf-web: error: --source needs one view-request sink and one fragment source\n");
+    return 1;
+  }
+  GstBus* bus = gst_element_get_bus(s.pipeline);
+  gst_bus_add_watch(bus, on_bus, &s);
+  gst_object_unref(bus);
+  if (gst_element_set_state(s.pipeline, GST_STATE_PLAYING) == GST_STATE_CHANGE_FAILURE) {
+    std::fprintf(stderr, "lf-web: error: the camera pipeline does not start\n");
+    return 1;
+  }
+
+  s.soup = soup_server_new("server-header", "lf-web ", nullptr);
+  soup_server_add_handler(s.soup, nullptr, on_http, &s, nullptr);
+  soup_server_add_websocket_handler(s.soup, "/ws", nullptr, nullptr, on_websocket, &s, nullptr);
+  GInetAddress* ia = g_inet_address_new_from_string(o.address.c_str());
+  if (!ia) {
+    std::fprintf(stderr, "lf-web: error: --address '%s' is not an IP address\n", o.address.c_str());
+    return 2;
+  }
+  GSocketAddress* sa = g_inet_socket_address_new(ia, static_cast<guint16>(o.port));
+  g_object_unref(ia);
+  if (!soup_server_listen(s.soup, sa, static_cast<SoupServerListenOptions>(0), &err)) {
+    std::fprintf(stderr, "lf-web: error: cannot listen on %s port %d: %s\n", o.address.c_str(),
+                 o.port, err->message);
+    return 1;
+  }
+  g_object_unref(sa);
+  GSList* uris = soup_server_get_uris(s.soup);  // --port 0: the port the system chose
+  if (uris) o.port = g_uri_get_port(static_cast<GUri*>(uris->data));
+  g_slist_free_full(uris, reinterpret_cast<GDestroyNotify>(g_uri_unref));
+  say(&s, "%zu cameras, views %dx%d at %d fps; open http://%s:%d/ (Ctrl+C stops)", o.cameras,
+      o.width, o.height, o.fps, o.address == "0.0.0.0" ? g_get_host_name() : o.address.c_str(),
+      o.port);
+
+  s.loop = g_main_loop_new(nullptr, FALSE);
+  g_unix_signal_add(SIGINT, on_sigint, &s);
+  g_unix_signal_add(SIGTERM, on_sigint, &s);
+  g_timeout_add(500, send_stats, &s);
+  g_main_loop_run(s.loop);
+
+  while (!s.viewers.empty()) remove_viewer(&s, s.viewers.begin()->first, "the server stopped");
+  soup_server_disconnect(s.soup);
+  g_object_unref(s.soup);
+  gst_element_set_state(s.pipeline, GST_STATE_NULL);
+  gst_object_unref(s.pipeline);
+  g_main_loop_unref(s.loop);
+  if (tmpdir) {
+    g_remove(o.rig_path.c_str());
+    g_rmdir(tmpdir);
+    g_free(tmpdir);
+  }
+  return s.exit_code;
+}
