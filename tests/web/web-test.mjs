@@ -183,6 +183,15 @@ try {
   await A.page.evaluate(() => lf.send({ type: 'key', key: 'r' }));
   await waitFor(A, 'reset', (x) => x.stats.eye[0] === 0 && x.stats.eye[1] === 0, 20);
 
+  // Stereo: the checkbox gives left | right side by side (the video is
+  // renegotiated at twice the width), and back.
+  await A.page.locator('#stereo').check();
+  s = await waitFor(A, 'stereo video', (x) => x.frameWidth === 1280 && x.stats.stereo, 30);
+  const stereoOn = `${s.frameWidth}x${s.frameHeight}, ${s.stats.cameras_answered}/${s.stats.cameras} cameras per eye`;
+  await A.page.locator('#stereo').uncheck();
+  s = await waitFor(A, 'mono video', (x) => x.frameWidth === 640 && !x.stats.stereo, 30);
+  check('stereo toggle', true, `on: ${stereoOn}; off: ${s.frameWidth}x${s.frameHeight}`);
+
   // 3. Focal plane: out of focus at the near end of the slider's range, then
   //    click to focus on the board under the view centre: sharper there.
   const [near] = await A.page.evaluate(() => lf.focalRange);

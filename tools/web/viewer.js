@@ -115,6 +115,10 @@
   }
 
   let dragging = false, lastMove = 0, pendingMove = null;
+  // The stage follows the picture's shape (stereo doubles its width).
+  video.addEventListener('resize', () => {
+    if (video.videoWidth && video.videoHeight) stage.style.aspectRatio = `${video.videoWidth} / ${video.videoHeight}`;
+  });
   stage.addEventListener('contextmenu', (e) => e.preventDefault());
   stage.addEventListener('pointerdown', (e) => {
     stage.focus();
