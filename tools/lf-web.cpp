@@ -109,7 +109,6 @@ struct Control {
   RateLimit limit;
   std::atomic<guint64> messages{0}, refused{0};
   std::atomic<bool> stereo{false};
-  int width = 0, height = 0;
   ~Control() {
     if (channel) g_object_unref(channel);
     if (request) gst_object_unref(request);
@@ -130,7 +129,6 @@ struct Viewer {
   GstPad* demux_pads[2] = {nullptr, nullptr};
   bool answered = false;
   int candidates = 0;
-  gint64 connected_us = 0;
 };
 
 struct Server {
@@ -280,9 +278,9 @@ bool only_fields(const json& j, std::initializer_list<const char*> known, std::s
 // A position in the picture the browser shows (video pixels).
 bool point_fields(const Control& c, const json& j, double* x, double* y, std::string* err) {
   if (!number_field(j, "x", x, err) || !number_field(j, "y", y, err)) return false;
-  const int w = c.stereo ? 2 * c.width : c.width;
-  if (*x < 0 || *y < 0 || *x >= w || *y >= c.height) {
-    *err = "point outside the " + std::to_string(w) + "x" + std::to_string(c.height) + " picture";
+  const int w = c.stereo ? 2 * c.server->opt.width : c.server->opt.width, h = c.server->opt.height;
+  if (*x < 0 || *y < 0 || *x >= w || *y >= h) {
+    *err = "point outside the " + std::to_string(w) + "x" + std::to_string(h) + " picture";
     return false;
   }
   return true;
@@ -493,7 +491,6 @@ bool add_viewer(Server* s, SoupWebsocketConnection* ws) {
   ctl->server = s;
   ctl->serial = s->next_serial++;
   ctl->viewer_id = free_viewer_id(s);
-  ctl->width = s->opt.width, ctl->height = s->opt.height;
   GError* err = nullptr;
   GstElement* bin = gst_parse_bin_from_description(
       viewer_description(s->opt, ctl->viewer_id).c_str(), FALSE, &err);
@@ -551,7 +548,6 @@ bool add_viewer(Server* s, SoupWebsocketConnection* ws) {
     if (v->demux_pads[eye]) gst_pad_link(v->demux_pads[eye], eye ? sink_r : sink_l);
   }
   v->ws = SOUP_WEBSOCKET_CONNECTION(g_object_ref(ws));
-  v->connected_us = g_get_monotonic_time();
   soup_websocket_connection_set_max_incoming_payload_size(ws, kMaxSignalBytes);
   soup_websocket_connection_set_keepalive_interval(ws, 15);
   g_signal_connect(ws, "message", G_CALLBACK(on_ws_message),

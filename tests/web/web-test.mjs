@@ -186,11 +186,12 @@ try {
   // Stereo: the checkbox gives left | right side by side (the video is
   // renegotiated at twice the width), and back.
   await A.page.locator('#stereo').check();
-  s = await waitFor(A, 'stereo video', (x) => x.frameWidth === 1280 && x.stats.stereo, 30);
-  const stereoOn = `${s.frameWidth}x${s.frameHeight}, ${s.stats.cameras_answered}/${s.stats.cameras} cameras per eye`;
+  const on = await waitFor(A, 'stereo video', (x) => x.frameWidth === 1280 && x.stats.stereo, 30);
   await A.page.locator('#stereo').uncheck();
   s = await waitFor(A, 'mono video', (x) => x.frameWidth === 640 && !x.stats.stereo, 30);
-  check('stereo toggle', true, `on: ${stereoOn}; off: ${s.frameWidth}x${s.frameHeight}`);
+  check('stereo toggle', on.frameWidth === 1280 && on.frameHeight === 480 && s.frameWidth === 640 && s.frameHeight === 480,
+    `on: ${on.frameWidth}x${on.frameHeight}, ${on.stats.cameras_answered}/${on.stats.cameras} cameras per eye; ` +
+    `off: ${s.frameWidth}x${s.frameHeight}`);
 
   // 3. Focal plane: out of focus at the near end of the slider's range, then
   //    click to focus on the board under the view centre: sharper there.
