@@ -21,6 +21,7 @@
   const stage = document.getElementById('stage');
   const focal = document.getElementById('focal');
   const stereo = document.getElementById('stereo');
+  let stereoWanted = null, stereoSince = 0; // a toggle not yet confirmed by the server
   const statusLine = document.getElementById('status');
   const messageLine = document.getElementById('message');
 
@@ -94,7 +95,10 @@
   function onControl(m) {
     if (m.type === 'stats') {
       lf.stats = m;
-      if (stereo.checked !== m.stereo) stereo.checked = m.stereo;
+      // The server's state wins, except while a toggle of ours is on its way:
+      // stats sent before the server applied it would undo the click.
+      if (stereoWanted !== null && (m.stereo === stereoWanted || performance.now() - stereoSince > 3000)) stereoWanted = null;
+      if (stereoWanted === null && stereo.checked !== m.stereo) stereo.checked = m.stereo;
       if (document.activeElement !== focal && m.focal_depth > 0) focal.value = depthToSlider(m.focal_depth);
     } else if (m.type === 'pong') {
       lf.rttMs = performance.now() - m.t;
@@ -166,10 +170,16 @@
     if (keys[e.key]) { e.preventDefault(); lf.send({ type: 'key', key: keys[e.key] }); }
   });
   focal.addEventListener('input', () => lf.send({ type: 'set', 'focal-depth': sliderToDepth(Number(focal.value)) }));
-  stereo.addEventListener('change', () => lf.send({ type: 'stereo', on: stereo.checked }));
+  function setStereo(on) {
+    stereo.checked = on;
+    stereoWanted = on;
+    stereoSince = performance.now();
+    lf.send({ type: 'stereo', on });
+  }
+  stereo.addEventListener('change', () => setStereo(stereo.checked));
   document.getElementById('reset').addEventListener('click', () => {
     lf.send({ type: 'key', key: 'r' });
-    if (stereo.checked) { stereo.checked = false; lf.send({ type: 'stereo', on: false }); }
+    if (stereo.checked) setStereo(false);
   });
 
   // Once a second: decoded frame rate and size (getStats), the control
