@@ -7,72 +7,28 @@
 #include <string>
 
 #include "lf/projection.h"
+#include "lf/render_kernels.h"
 
-#if defined(__SSE2__) && !defined(LF_NO_SIMD)
+#ifdef LF_X86_SIMD
 #include <emmintrin.h>
-#define LF_SSE2 1
 #endif
 
 namespace lf {
 
 namespace {
 
-constexpr int kBlock = 64;
-constexpr int kWeightBits = 14;  // bilinear weights in 1/16384
+using kernels::Consts;
+using kernels::coord1;
+using kernels::kBlock;
+using kernels::kWeightBits;
 
-// Pass 1: sampling coordinates and packed fixed-point bilinear weights with
-// the aperture weight folded in. Writes integer tap positions (iu, iv) and
-// the weight pairs (w00 | w01 << 16, w10 | w11 << 16). The scalar code is the
-// reference; the SSE2 path evaluates the same expressions in the same order
-// (min/max operand order included, so NaNs behave alike): bit-identical.
-struct Consts {
-  float xa, xb, ya, yb, za, zb, na, nb, da, db;
-  float umax, vmax, uclamp, vclamp;
-  float fx, fy, cx, cy, ifx, ify, k1, k2, r2max;
-};
-
+// Pass 1 (lf/render_kernels.h): SSE2, four pixels per step, the same
+// expressions in the same order as the scalar reference: bit-identical.
 template <bool kDistort>
-inline void coord1(const Consts& k, float x, int32_t& iu_out, int32_t& iv_out, int32_t& wt,
-                   int32_t& wb) {
-  const float X = k.xa * x + k.xb, Y = k.ya * x + k.yb, Z = k.za * x + k.zb;
-  const float iz = 1.0f / Z;
-  float u = X * iz, v = Y * iz;
-  bool ok = Z > 0.0f;
-  if constexpr (kDistort) {
-    const float xn = (u - k.cx) * k.ifx, yn = (v - k.cy) * k.ify;
-    const float r2 = xn * xn + yn * yn;
-    const float f = 1.0f + r2 * (k.k1 + k.k2 * r2);
-    ok = ok & (r2 <= k.r2max);
-    u = k.fx * (xn * f) + k.cx;
-    v = k.fy * (yn * f) + k.cy;
-  }
-  float w = (k.na * x + k.nb) / (k.da * x + k.db);
-  w = 1.0f < w ? 1.0f : w;
-  ok = ok & (w > 0.0f) & (u >= -0.5f) & (u <= k.umax) & (v >= -0.5f) & (v <= k.vmax);
-  if (!ok) u = v = w = 0.0f;
-  u = 0.0f > u ? 0.0f : u;
-  v = 0.0f > v ? 0.0f : v;
-  u = k.uclamp < u ? k.uclamp : u;
-  v = k.vclamp < v ? k.vclamp : v;
-  const int iu = static_cast<int>(u), iv = static_cast<int>(v);
-  const float fu = u - static_cast<float>(iu), fv = v - static_cast<float>(iv);
-  const float wq = w * static_cast<float>(1 << kWeightBits);
-  const float top = (1.0f - fv) * wq, bot = fv * wq;
-  const int w00 = static_cast<int>((1.0f - fu) * top + 0.5f);
-  const int w01 = static_cast<int>(fu * top + 0.5f);
-  const int w10 = static_cast<int>((1.0f - fu) * bot + 0.5f);
-  const int w11 = static_cast<int>(fu * bot + 0.5f);
-  iu_out = iu;
-  iv_out = iv;
-  wt = w00 | (w01 << 16);
-  wb = w10 | (w11 << 16);
-}
-
-template <bool kDistort>
-void coords(bool simd, const Consts& k, int x0, int n, int32_t* iu, int32_t* iv, int32_t* wt,
-            int32_t* wb) {
+void coords_sse2(bool simd, const Consts& k, int x0, int n, int32_t* iu, int32_t* iv, int32_t* wt,
+                 int32_t* wb) {
   int i = 0;
-#ifdef LF_SSE2
+#ifdef LF_X86_SIMD
   const __m128 one = _mm_set1_ps(1.0f), zero = _mm_setzero_ps(), half = _mm_set1_ps(0.5f);
   const __m128 mhalf = _mm_set1_ps(-0.5f),
                scale = _mm_set1_ps(static_cast<float>(1 << kWeightBits));
@@ -129,10 +85,11 @@ void coords(bool simd, const Consts& k, int x0, int n, int32_t* iu, int32_t* iv,
   for (; i < n; ++i) coord1<kDistort>(k, static_cast<float>(x0 + i), iu[i], iv[i], wt[i], wb[i]);
 }
 
-// Pass 2: gather four taps per pixel and blend in fixed point.
-void gather(bool simd, const uint8_t* src, int stride, int n, const int32_t* iu, const int32_t* iv,
-            const int32_t* wtop, const int32_t* wbot, uint8_t* dst) {
-#ifdef LF_SSE2
+// Pass 2: gather four taps per pixel and blend in fixed point (SSE2: one
+// pixel per step).
+void gather_sse2(bool simd, const uint8_t* src, int stride, int n, const int32_t* iu,
+                 const int32_t* iv, const int32_t* wtop, const int32_t* wbot, uint8_t* dst) {
+#ifdef LF_X86_SIMD
   const __m128i zero = _mm_setzero_si128();
   const __m128i round = _mm_set1_epi32(1 << (kWeightBits - 1));
   for (int i = 0; simd && i < n; ++i) {
@@ -151,31 +108,63 @@ void gather(bool simd, const uint8_t* src, int stride, int n, const int32_t* iu,
   }
   if (simd) return;
 #endif
-  for (int i = 0; i < n; ++i) {
-    const uint8_t* p = src + static_cast<ptrdiff_t>(iv[i]) * stride + 4 * iu[i];
-    const int w00 = wtop[i] & 0xffff, w01 = (wtop[i] >> 16) & 0xffff;
-    const int w10 = wbot[i] & 0xffff, w11 = (wbot[i] >> 16) & 0xffff;
-    for (int ch = 0; ch < 4; ++ch) {
-      const int acc = p[ch] * w00 + p[4 + ch] * w01 + p[stride + ch] * w10 +
-                      p[stride + 4 + ch] * w11 + (1 << (kWeightBits - 1));
-      dst[4 * i + ch] = static_cast<uint8_t>(std::min(255, acc >> kWeightBits));
-    }
-  }
+  for (int i = 0; i < n; ++i)
+    kernels::gather1(src, stride, iu[i], iv[i], wtop[i], wbot[i], dst + 4 * i);
 }
 
 }  // namespace
 
 bool simd_available() {
-#ifdef LF_SSE2
-  return true;
+  return kernel_available(Kernel::kSse2);
+}
+
+bool kernel_available(Kernel kernel) {
+  switch (kernel) {
+    case Kernel::kBest:
+    case Kernel::kScalar:
+      return true;
+#ifdef LF_X86_SIMD
+    case Kernel::kSse2:
+      return true;  // the x86-64 baseline
+    case Kernel::kAvx2: {
+      static const bool avx2 = __builtin_cpu_supports("avx2");
+      return avx2;
+    }
 #else
-  return false;
+    case Kernel::kSse2:
+    case Kernel::kAvx2:
+      return false;
 #endif
+  }
+  return false;
+}
+
+Kernel best_kernel() {
+  for (Kernel k : {Kernel::kAvx2, Kernel::kSse2})
+    if (kernel_available(k)) return k;
+  return Kernel::kScalar;
+}
+
+const char* kernel_name(Kernel kernel) {
+  switch (kernel) {
+    case Kernel::kBest:
+      return kernel_name(best_kernel());
+    case Kernel::kScalar:
+      return "scalar";
+    case Kernel::kSse2:
+      return "sse2";
+    case Kernel::kAvx2:
+      return "avx2";
+  }
+  return "?";
 }
 
 void render_fragment(const FragmentPlan& plan, const Camera& cam, const cv::Mat& image,
                      Fragment& out, Kernel kernel) {
-  const bool simd = kernel == Kernel::kBest && simd_available();
+  if (kernel == Kernel::kBest) kernel = best_kernel();
+  if (!kernel_available(kernel))
+    throw std::invalid_argument(std::string("render_fragment: the ") + kernel_name(kernel) +
+                                " kernel is not available on this CPU or build");
   if (image.type() != CV_8UC4)
     throw std::invalid_argument("render_fragment: camera " + std::to_string(cam.id) +
                                 ": image must be 8-bit 4-channel (CV_8UC4)");
@@ -213,7 +202,7 @@ void render_fragment(const FragmentPlan& plan, const Camera& cam, const cv::Mat&
   k.r2max = std::isfinite(rf) ? static_cast<float>(rf * rf) : INFINITY;
   const int stride = static_cast<int>(image.step[0]);
 
-  alignas(16) int32_t iu[kBlock], iv[kBlock], wtop[kBlock], wbot[kBlock];
+  alignas(32) int32_t iu[kBlock], iv[kBlock], wtop[kBlock], wbot[kBlock];
   for (const Run& run : plan.runs) {
     const FragmentPiece& pc = plan.pieces[run.piece];
     const double y = run.y;
@@ -229,11 +218,20 @@ void render_fragment(const FragmentPlan& plan, const Camera& cam, const cv::Mat&
     uint8_t* row = out.pixels.data() + row_offset[r];
     for (int x = run.x0; x < run.x1; x += kBlock) {
       const int n = std::min(kBlock, run.x1 - x);
+      uint8_t* dst = row + 4 * (x - plan.row_spans[r][0]);
+#ifdef LF_X86_SIMD
+      if (kernel == Kernel::kAvx2) {
+        kernels::coords_avx2(distort, k, x, n, iu, iv, wtop, wbot);
+        kernels::gather_avx2(image.data, stride, n, iu, iv, wtop, wbot, dst);
+        continue;
+      }
+#endif
+      const bool sse2 = kernel == Kernel::kSse2;
       if (distort)
-        coords<true>(simd, k, x, n, iu, iv, wtop, wbot);
+        coords_sse2<true>(sse2, k, x, n, iu, iv, wtop, wbot);
       else
-        coords<false>(simd, k, x, n, iu, iv, wtop, wbot);
-      gather(simd, image.data, stride, n, iu, iv, wtop, wbot, row + 4 * (x - plan.row_spans[r][0]));
+        coords_sse2<false>(sse2, k, x, n, iu, iv, wtop, wbot);
+      gather_sse2(sse2, image.data, stride, n, iu, iv, wtop, wbot, dst);
     }
   }
 }

@@ -20,11 +20,19 @@ namespace lf {
 // applied to the sampling coordinates when the camera has any. No threads,
 // no allocation beyond `out.pixels`. Throws std::invalid_argument on an image
 // of the wrong size or type.
-enum class Kernel { kBest, kScalar };
-// kBest uses SSE2 where the build has it (x86-64; meson option simd); the
-// scalar reference kernel gives bit-identical results (tested).
+//
+// Kernels: kScalar is the reference; kSse2 (x86-64 baseline) and kAvx2
+// (chosen at run time where the CPU has it) evaluate the same arithmetic and
+// give bit-identical results (tests/test_render.cpp). kBest is the fastest
+// that this CPU and build have (best_kernel()); the meson option simd=false
+// leaves only the scalar kernel. Asking for a kernel that is not available
+// throws std::invalid_argument.
+enum class Kernel { kBest, kScalar, kSse2, kAvx2 };
 void render_fragment(const FragmentPlan& plan, const Camera& camera, const cv::Mat& image,
                      Fragment& out, Kernel kernel = Kernel::kBest);
-bool simd_available();
+bool kernel_available(Kernel kernel);
+Kernel best_kernel();                    // never kBest
+const char* kernel_name(Kernel kernel);  // "scalar", "sse2", "avx2" (kBest: the one it picks)
+bool simd_available();                   // kernel_available(Kernel::kSse2)
 
 }  // namespace lf
