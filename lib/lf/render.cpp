@@ -28,6 +28,7 @@ template <bool kDistort>
 void coords_sse2(bool simd, const Consts& k, int x0, int n, int32_t* iu, int32_t* iv, int32_t* wt,
                  int32_t* wb) {
   int i = 0;
+  (void)simd;
 #ifdef LF_X86_SIMD
   const __m128 one = _mm_set1_ps(1.0f), zero = _mm_setzero_ps(), half = _mm_set1_ps(0.5f);
   const __m128 mhalf = _mm_set1_ps(-0.5f),
@@ -89,6 +90,7 @@ void coords_sse2(bool simd, const Consts& k, int x0, int n, int32_t* iu, int32_t
 // pixel per step).
 void gather_sse2(bool simd, const uint8_t* src, int stride, int n, const int32_t* iu,
                  const int32_t* iv, const int32_t* wtop, const int32_t* wbot, uint8_t* dst) {
+  (void)simd;
 #ifdef LF_X86_SIMD
   const __m128i zero = _mm_setzero_si128();
   const __m128i round = _mm_set1_epi32(1 << (kWeightBits - 1));
