@@ -3,6 +3,10 @@
 // lfcompositor ! appsink), in process.
 //  * throughput: non-live, requests as fast as the pipeline takes them;
 //    output frames per second after a warm-up.
+//  * kernel bound, in the same run: the library's plan + render + composite
+//    of the same views (lf::render_view, one thread), times the number of
+//    cores; pipeline efficiency = throughput / kernel bound.
+//  * the process's peak resident set size (getrusage) after each row.
 //  * latency: a live request source at a fixed rate; for each request, the
 //    time from the request leaving lfviewrequest to its frame reaching the
 //    sink (pad probes, matched by sequence number); median and 95th
@@ -20,9 +24,14 @@
 #include <thread>
 
 #include "cli.h"
+#include "lf/composite.h"
 #include "lf/datasets.h"
+#include "lf/parse.h"
+#include "lf/plan.h"
+#include "lf/render.h"
 #include "lf/rig_file.h"
 #include "lf/rig_ops.h"
+#include "lf/view_builder.h"
 
 namespace {
 
@@ -204,6 +213,59 @@ std::vector<double> run(const std::string& desc, Probe* probe) {
   return times;
 }
 
+// The views that pipeline() requests (orbit 0.5 over 120 frames, focal
+// plane param:-0.2), planned, rendered and composited by the library on this
+// thread with its buffers kept from view to view, as the elements keep
+// theirs: the median milliseconds per view over the first `n`.
+double kernel_ms(const lf::Rig& rig, const std::vector<cv::Mat>& images, int W, int H, int n) {
+  lf::ViewSettings vs;
+  vs.width = W;
+  vs.height = H;
+  vs.orbit = 0.5;
+  vs.path_frames = 120;
+  const lf::ViewSequence seq = lf::build_views(rig, vs);
+  lf::ViewRequest req;
+  req.focal_plane = lf::parse_focal_plane("param:-0.2", rig);
+  std::vector<lf::Fragment> frags(rig.cameras.size());
+  lf::Compositor comp;
+  cv::Mat out;
+  std::vector<double> ms;
+  for (int k = 0; k < n; ++k) {
+    req.view = seq.at(static_cast<uint64_t>(k), rig);
+    const gint64 t0 = g_get_monotonic_time();
+    const lf::ViewGeometry g(rig, req);
+    comp.reset(W, H);
+    for (size_t i = 0; i < frags.size(); ++i) {
+      lf::render_fragment(lf::plan_fragment(g, static_cast<int>(i)), rig.cameras[i], images[i],
+                          frags[i]);
+      comp.add(frags[i]);
+    }
+    comp.resolve(out);
+    ms.push_back((g_get_monotonic_time() - t0) / 1000.0);
+  }
+  std::sort(ms.begin(), ms.end());
+  return ms[ms.size() / 2];
+}
+
+// Peak resident set size of this process since the last reset (Linux
+// VmHWM; writing 5 to clear_refs resets it, so each row gets its own peak).
+void reset_peak_rss() {
+  if (FILE* f = std::fopen("/proc/self/clear_refs", "w")) {
+    std::fputs("5", f);
+    std::fclose(f);
+  }
+}
+double peak_rss_mib() {
+  FILE* f = std::fopen("/proc/self/status", "r");
+  if (!f) return 0;
+  char line[256];
+  double kib = 0;
+  while (std::fgets(line, sizeof line, f))
+    if (std::sscanf(line, "VmHWM: %lf kB", &kib) == 1) break;
+  std::fclose(f);
+  return kib / 1024.0;
+}
+
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
@@ -216,6 +278,7 @@ int main(int argc, char** argv) {
   gchar *input = nullptr, *block = nullptr, *sizes_opt = nullptr, *encodings_opt = nullptr;
   gint frames = 300, rate = 30;
   gchar* viewers_opt = nullptr;
+  gboolean skip_bound = FALSE;
   const GOptionEntry entries[] = {
       {"input", 0, 0, G_OPTION_ARG_STRING, &input,
        "Dataset folder or rig file (default ../shared/data/stanford-chess)", "PATH"},
@@ -234,6 +297,8 @@ int main(int argc, char** argv) {
        "the first size and encoding; frames per second per viewer and "
        "in all, and fragments per second",
        "N,..."},
+      {"skip-bound", 0, 0, G_OPTION_ARG_NONE, &skip_bound,
+       "Leave out the kernel bound and the pipeline efficiency", nullptr},
       {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
   // The plugin next to this program (build/gst) unless GST_PLUGIN_PATH says otherwise.
   if (!g_getenv("GST_PLUGIN_PATH")) {
@@ -311,14 +376,31 @@ int main(int argc, char** argv) {
         }
       return 0;
     }
+    const int cores = static_cast<int>(std::thread::hardware_concurrency());
     std::printf("## GStreamer pipeline, %zu cameras, one machine (%d cores)\n\n",
-                rig.cameras.size(), static_cast<int>(std::thread::hardware_concurrency()));
+                rig.cameras.size(), cores);
+    // The kernel bound of each size, measured before the pipelines run (the
+    // camera images it needs are freed before them, so each row's peak RSS
+    // is the pipeline's own): the faster of two passes over 40 views, since a
+    // busy spell elsewhere on the machine only ever slows a pass down.
+    std::map<std::pair<int, int>, double> bound;
+    if (!skip_bound) {
+      cv::setNumThreads(1);
+      const std::vector<cv::Mat> images = lf::load_images(rig);
+      for (const auto& sz : sizes)
+        for (int pass = 0; pass < 2; ++pass)
+          bound[sz] =
+              std::max(bound[sz], cores * 1000.0 / kernel_ms(rig, images, sz.first, sz.second, 40));
+    }
     std::printf(
-        "| output | encoding | throughput fps (non-live, %d requests) | latency median ms "
-        "| latency p95 ms (live, %d requests/s) |\n|---|---|---|---|---|\n",
-        frames, rate);
+        "| output | encoding | throughput fps (non-live, %d requests) | kernel bound fps "
+        "(%d cores / single-core time) | pipeline efficiency | latency median ms "
+        "| latency p95 ms (live, %d requests/s) | peak RSS MiB |\n"
+        "|---|---|---|---|---|---|---|---|\n",
+        frames, cores, rate);
     for (const auto& [W, H] : sizes)
       for (const auto& enc : encodings) {
+        reset_peak_rss();
         const auto t = run(pipeline(rig_path, rig, W, H, enc, false, frames, 1000), nullptr);
         const int warm = std::min<int>(20, static_cast<int>(t.size()) / 4);
         const double fps = t.size() > static_cast<size_t>(warm + 1)
@@ -329,8 +411,15 @@ int main(int argc, char** argv) {
         std::vector<double> lat(
             probe.latency_ms.begin() + std::min<size_t>(10, probe.latency_ms.size()),
             probe.latency_ms.end());
-        std::printf("| %dx%d | %s | %.1f | %.1f | %.1f |\n", W, H, enc.c_str(), fps,
-                    percentile(lat, 0.5), percentile(lat, 0.95));
+        // The bound is plan + render + composite: raw fragments only (JPEG
+        // rows add encoding and decoding that it does not count).
+        const bool has_bound = !skip_bound && enc == "raw";
+        const double kb = has_bound ? bound[{W, H}] : 0;
+        const std::string b = has_bound ? cv::format("%.1f", kb) : "-";
+        const std::string e = has_bound ? cv::format("%.2f", fps / kb) : "-";
+        std::printf("| %dx%d | %s | %.1f | %s | %s | %.1f | %.1f | %.0f |\n", W, H, enc.c_str(),
+                    fps, b.c_str(), e.c_str(), percentile(lat, 0.5), percentile(lat, 0.95),
+                    peak_rss_mib());
         std::fflush(stdout);
       }
     return 0;
