@@ -27,7 +27,7 @@
  */
 #include <gst/base/gstaggregator.h>
 #include <gst/video/video.h>
-#include <zlib.h>
+#include <libdeflate.h>
 
 #include <atomic>
 #include <map>
@@ -401,7 +401,7 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
   }
   gst_video_frame_unmap(&vf);
   if (lfgst::trace_enabled()) {
-    const uLong sum = crc32(0L, rgba.data, static_cast<uInt>(rgba.total() * rgba.elemSize()));
+    const uint32_t sum = libdeflate_crc32(0, rgba.data, rgba.total() * rgba.elemSize());
     lfgst::trace(GST_ELEMENT(self), "composited", left_id, seq, -1,
                  static_cast<gint64>(g.fragments.size()), static_cast<gint64>(sum),
                  (g_get_monotonic_time() - t0) * 1000);

@@ -8,7 +8,7 @@ export LF_BUILD_DIR="${LF_BUILD_DIR:-$PWD/build}"
 build="$LF_BUILD_DIR"
 
 PACKAGES=(g++ meson ninja-build pkg-config libopencv-dev libturbojpeg0-dev
-          nlohmann-json3-dev zlib1g-dev libgtest-dev
+          nlohmann-json3-dev libdeflate-dev zlib1g-dev libgtest-dev
           libgstreamer1.0-dev libgstreamer-plugins-base1.0-dev gstreamer1.0-tools
           gstreamer1.0-plugins-base gstreamer1.0-plugins-good gstreamer1.0-plugins-bad
           python3-gst-1.0 valgrind iproute2

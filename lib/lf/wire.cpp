@@ -1,7 +1,7 @@
 #include "lf/wire.h"
 
+#include <libdeflate.h>
 #include <turbojpeg.h>
-#include <zlib.h>
 
 #include <array>
 #include <cmath>
@@ -75,10 +75,9 @@ class Reader {
 };
 
 uint32_t crc(const uint8_t* a, size_t na, const uint8_t* b = nullptr, size_t nb = 0) {
-  uLong c = crc32(0L, Z_NULL, 0);
-  c = crc32(c, a, static_cast<uInt>(na));
-  if (nb) c = crc32(c, b, static_cast<uInt>(nb));
-  return static_cast<uint32_t>(c);
+  uint32_t c = libdeflate_crc32(0, a, na);
+  if (nb) c = libdeflate_crc32(c, b, nb);
+  return c;
 }
 
 struct TjDeleter {
