@@ -4,9 +4,9 @@
 //  * throughput: non-live, requests as fast as the pipeline takes them;
 //    output frames per second after a warm-up.
 //  * kernel bound, in the same run: the library's plan + render + composite
-//    of the same views (lf::render_view, one thread), times the number of
-//    cores; pipeline efficiency = throughput / kernel bound.
-//  * the process's peak resident set size (getrusage) after each row.
+//    of the same views on one thread, times the number of cores (raw
+//    fragments); pipeline efficiency = throughput / kernel bound.
+//  * the process's peak resident set size during each row's pipelines.
 //  * latency: a live request source at a fixed rate; for each request, the
 //    time from the request leaving lfviewrequest to its frame reaching the
 //    sink (pad probes, matched by sequence number); median and 95th
@@ -64,6 +64,12 @@ GstPadProbeReturn on_frame(GstPad*, GstPadProbeInfo* info, gpointer data) {
   return GST_PAD_PROBE_OK;
 }
 
+// The views of the single-viewer runs, for the pipeline (lfviewrequest
+// properties) and for the kernel bound (lf::ViewSettings) alike.
+constexpr double kOrbit = 0.5;
+constexpr int kPathFrames = 120;
+constexpr const char* kFocalPlane = "param:-0.2";
+
 std::string pipeline(const std::string& rig, const lf::Rig& r, int W, int H, const std::string& enc,
                      bool live, int frames, int rate) {
   std::string fr;
@@ -76,8 +82,8 @@ std::string pipeline(const std::string& rig, const lf::Rig& r, int W, int H, con
   }
   std::ostringstream d;
   d << "lfviewrequest name=req rig=" << rig << " width=" << W << " height=" << H
-    << " orbit=0.5 path-frames=120 focal-plane=param:-0.2 framerate=" << rate << "/1"
-    << (live ? " is-live=true" : "") << " num-buffers=" << frames
+    << " orbit=" << kOrbit << " path-frames=" << kPathFrames << " focal-plane=" << kFocalPlane
+    << " framerate=" << rate << "/1" << (live ? " is-live=true" : "") << " num-buffers=" << frames
     << " ! tee name=t lfcompositor name=comp rig=" << rig << (live ? " latency=100000000" : "")
     << " ! appsink name=out sync=false max-buffers=4";
   for (size_t i = 0; i < r.cameras.size(); ++i)
@@ -213,19 +219,18 @@ std::vector<double> run(const std::string& desc, Probe* probe) {
   return times;
 }
 
-// The views that pipeline() requests (orbit 0.5 over 120 frames, focal
-// plane param:-0.2), planned, rendered and composited by the library on this
+// The views that pipeline() requests, planned, rendered and composited by the library on this
 // thread with its buffers kept from view to view, as the elements keep
 // theirs: the median milliseconds per view over the first `n`.
 double kernel_ms(const lf::Rig& rig, const std::vector<cv::Mat>& images, int W, int H, int n) {
   lf::ViewSettings vs;
   vs.width = W;
   vs.height = H;
-  vs.orbit = 0.5;
-  vs.path_frames = 120;
+  vs.orbit = kOrbit;
+  vs.path_frames = kPathFrames;
   const lf::ViewSequence seq = lf::build_views(rig, vs);
   lf::ViewRequest req;
-  req.focal_plane = lf::parse_focal_plane("param:-0.2", rig);
+  req.focal_plane = lf::parse_focal_plane(kFocalPlane, rig);
   std::vector<lf::Fragment> frags(rig.cameras.size());
   lf::Compositor comp;
   cv::Mat out;
@@ -384,7 +389,8 @@ int main(int argc, char** argv) {
     // is the pipeline's own): the faster of two passes over 40 views, since a
     // busy spell elsewhere on the machine only ever slows a pass down.
     std::map<std::pair<int, int>, double> bound;
-    if (!skip_bound) {
+    const bool any_raw = std::find(encodings.begin(), encodings.end(), "raw") != encodings.end();
+    if (!skip_bound && any_raw) {
       cv::setNumThreads(1);
       const std::vector<cv::Mat> images = lf::load_images(rig);
       for (const auto& sz : sizes)
