@@ -7,7 +7,13 @@
  * weight (lib/lf/composite.h). A GstAggregator: it composites a request when
  * all of its fragments are in, or at the deadline in live pipelines with
  * whatever arrived, so a dead camera never stops the output. Output: ordinary
- * raw video (RGBA, RGBx or I420).
+ * raw video (RGBA, RGBx or I420), from a buffer pool of its own.
+ *
+ * Raw fragments are not copied: their pixels are added straight from the
+ * received buffers, which it holds until their frame is composited. Every
+ * fragment is validated (lib/lf/wire.h); the CRC check is skipped only for
+ * buffers that `lffragment` sealed in this process (they carry
+ * `LfSealedMeta`, which no copy and nothing received from the network has).
  *
  * Stream facts come from the fragment caps: the output frame rate is their
  * `framerate` (the viewer's request rate; the `framerate` property overrides
@@ -33,6 +39,7 @@
 #include <map>
 #include <memory>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <set>
 
 #include "lf/composite.h"
@@ -41,6 +48,7 @@
 #include "lf/wire.h"
 #include "lfcaps.h"
 #include "lfguard.h"
+#include "lfmeta.h"
 #include "lfprops.h"
 #include "lfrig.h"
 #include "lftrace.h"
@@ -77,8 +85,17 @@ struct Settings {
   guint64 frames = 0;      // frames composited since start
   guint last_cameras = 0;  // cameras (per eye) whose fragment was in the last frame
 };
+// A fragment waiting for its frame. Raw fragments are parsed in place: their
+// pixels stay in the received buffer, which stays mapped (and referenced)
+// until the frame is composited; JPEG ones are decoded into `f.pixels`.
+struct Piece {
+  lf::Fragment f;
+  std::optional<lfgst::MappedBuffer> buffer;
+  const uint8_t* raw_pixels = nullptr;  // inside `buffer`
+  const uint8_t* pixels() const { return buffer ? raw_pixels : f.pixels.data(); }
+};
 struct Group {
-  std::vector<lf::Fragment> fragments;
+  std::vector<Piece> fragments;
   std::set<uint64_t> cameras;  // (viewer << 32) | camera
   GstClockTime pts = GST_CLOCK_TIME_NONE, duration = GST_CLOCK_TIME_NONE;
   GstClockTime running_time = GST_CLOCK_TIME_NONE;  // of its first fragment
@@ -114,7 +131,10 @@ struct State {
   int64_t viewer = -1;         // the viewer composited (viewer-id, or the first seen)
   lf::Compositor comp, comp_right;
   cv::Mat last_frame;  // RGBA of the last frame emitted (missing pixels come from it)
-  GstVideoInfo out;    // negotiated output
+  cv::Mat frames[2];   // the RGBA frames resolved into, in turn (one is last_frame)
+  int next_frame = 0;
+  GstBufferPool* pool = nullptr;      // output buffers, made at caps time
+  GstVideoInfo out;                   // negotiated output
   int src_width = 0, src_height = 0;  // composited frames (scaled to `out` if it differs)
   bool have_caps = false;
   GstVideoConverter* convert = nullptr;  // RGBA -> I420 when negotiated
@@ -130,6 +150,13 @@ struct State {
   lfgst::WarnLimiter no_focus, bad, foreign, unknown_camera, wrong_size, no_size, out_of_window;
   ~State() {
     if (convert) gst_video_converter_free(convert);
+    drop_pool();
+  }
+  void drop_pool() {
+    if (!pool) return;
+    gst_buffer_pool_set_active(pool, FALSE);
+    gst_object_unref(pool);
+    pool = nullptr;
   }
   // The output rate: the property, else the caps, else 30/1.
   lfgst::Fraction fps() const {
@@ -324,6 +351,15 @@ static bool ensure_caps(LfCompositor* self, int width, int height) {
       return false;
     }
   }
+  // Output buffers from a pool of our own (a frame is too large for the
+  // allocator to reuse it: each would be a fresh mapping, zeroed by the
+  // kernel page by page).
+  st->drop_pool();
+  st->pool = gst_video_buffer_pool_new();
+  GstStructure* config = gst_buffer_pool_get_config(st->pool);
+  gst_buffer_pool_config_set_params(config, chosen, GST_VIDEO_INFO_SIZE(&st->out), 2, 0);
+  if (!gst_buffer_pool_set_config(st->pool, config) || !gst_buffer_pool_set_active(st->pool, TRUE))
+    st->drop_pool();  // emit() allocates then
   gst_aggregator_set_src_caps(agg, chosen);
   gst_caps_unref(chosen);
   st->src_width = width, st->src_height = height;
@@ -351,16 +387,22 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
   const guint left_id = static_cast<guint>(std::max<int64_t>(0, st->viewer));
   st->comp.reset(w, H);
   if (st->s.stereo) st->comp_right.reset(w, H);
-  for (const lf::Fragment& f : g.fragments) {
+  for (const Piece& piece : g.fragments) {
+    const lf::Fragment& f = piece.f;
     GError* err = nullptr;
     if (!lfgst::guard(
-            [&] { (st->s.stereo && f.viewer_id != left_id ? st->comp_right : st->comp).add(f); },
+            [&] {
+              (st->s.stereo && f.viewer_id != left_id ? st->comp_right : st->comp)
+                  .add(f, piece.pixels());
+            },
             &err)) {
       GST_WARNING_OBJECT(self, "dropping fragment of camera %u: %s", f.camera_id, err->message);
       g_error_free(err);
     }
   }
-  cv::Mat rgba;
+  // Resolved into the frame that is not last_frame (no allocation per frame).
+  cv::Mat& rgba = st->frames[st->next_frame];
+  st->next_frame ^= 1;
   st->comp.resolve(rgba);
   if (st->s.stereo) {
     cv::Mat right;
@@ -378,7 +420,9 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
                      filled);
   }
   st->last_frame = rgba;
-  GstBuffer* out = gst_buffer_new_allocate(nullptr, GST_VIDEO_INFO_SIZE(&st->out), nullptr);
+  GstBuffer* out = nullptr;
+  if (!st->pool || gst_buffer_pool_acquire_buffer(st->pool, &out, nullptr) != GST_FLOW_OK)
+    out = gst_buffer_new_allocate(nullptr, GST_VIDEO_INFO_SIZE(&st->out), nullptr);
   GstVideoFrame vf;
   gst_video_frame_map(&vf, &st->out, out, GST_MAP_WRITE);
   if (st->convert) {
@@ -538,11 +582,19 @@ static void absorb_probe(LfCompositor* self, State* st, const guint8* data, gsiz
 // parsed with the frame's area as its pixel limit.
 static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
   State* st = self->priv->state.get();
-  GstMapInfo map;
-  if (!gst_buffer_map(buf, &map, GST_MAP_READ)) return;
+  GError* err = nullptr;
+  std::optional<lfgst::MappedBuffer> mapped;
+  if (!lfgst::guard([&] { mapped.emplace(buf, GST_MAP_READ); }, &err)) {
+    LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE, ("Dropping a malformed fragment"),
+                               "%s", err->message);
+    g_error_free(err);
+    return;
+  }
+  const GstMapInfo map{.data = mapped->data(), .size = mapped->size()};
   lf::FragmentHeader head;
   lf::Fragment f;
-  GError* err = nullptr;
+  lf::Encoding enc = lf::Encoding::kEmpty;
+  const uint8_t* pixels = nullptr;
   int w = 0, h = 0;
   const gint64 t0 = g_get_monotonic_time();
   if (!lfgst::guard([&] { head = lf::peek_fragment_header(map.data, map.size); }, &err)) {
@@ -570,8 +622,9 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
                    head.sequence);
   } else if (!lfgst::guard(
                  [&] {
-                   f = lf::parse_fragment(map.data, map.size, nullptr,
-                                          static_cast<size_t>(w) * static_cast<size_t>(h));
+                   f = lf::parse_fragment_in_place(map.data, map.size, &pixels, &enc,
+                                                   static_cast<size_t>(w) * static_cast<size_t>(h),
+                                                   !lfgst::has_sealed_meta(buf));
                  },
                  &err)) {
     LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE, ("Dropping a malformed fragment"),
@@ -599,10 +652,14 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
         if (GST_CLOCK_TIME_IS_VALID(g.pts))
           g.running_time = gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, g.pts);
       }
-      g.fragments.push_back(std::move(f));
+      Piece piece{std::move(f), std::nullopt, nullptr};
+      if (enc == lf::Encoding::kRaw) {
+        piece.buffer.emplace(std::move(*mapped));
+        piece.raw_pixels = pixels;
+      }
+      g.fragments.push_back(std::move(piece));
     }
   }
-  gst_buffer_unmap(buf, &map);
 }
 
 // Request sequence of a queued fragment buffer (-1 if unreadable).

@@ -22,7 +22,10 @@
  * width=W,height=H ! lffragment`); their PTS is then the capture time.
  * Cameras that do not contribute send an explicitly empty fragment, so the
  * compositor knows the request is complete. The fragment caps carry the
- * request caps' `framerate`.
+ * request caps' `framerate`. Raw fragments are rendered straight into the
+ * output buffer in their wire format (no copy) and carry `LfSealedMeta`
+ * (gst/lfmeta.h), by which `lfcompositor` in the same process skips their
+ * CRC check.
  *
  * The camera is named like lfcamsrc's: `camera-id`, or `row` and `col` of
  * the rig's grid.
@@ -481,6 +484,7 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
   }
   const gint quality = lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::quality);
   std::vector<uint8_t> bytes;
+  GstBuffer* out = nullptr;
   const gboolean ok = lfgst::guard(
       [&] {
         const cv::Mat image(GST_VIDEO_FRAME_HEIGHT(&vf), GST_VIDEO_FRAME_WIDTH(&vf), CV_8UC4,
@@ -493,14 +497,30 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
         f.viewer_id = req.viewer_id;
         f.sequence = req.sequence;
         f.capture_time_ns = capture_time_of(self, frame, cam.id);
-        lf::render_fragment(lf::plan_fragment(g, st->index), cam, rgba, f);
-        lfgst::trace(GST_ELEMENT(self), "warped", req.viewer_id, req.sequence, cam.id,
-                     static_cast<gint64>(f.pixel_count()));
-        bytes = lf::serialize_fragment(
-            f, st->s.encoding == Encoding::kJpeg ? lf::Encoding::kJpeg : lf::Encoding::kRaw,
-            quality);
+        const lf::FragmentPlan plan = lf::plan_fragment(g, st->index);
+        if (st->s.encoding == Encoding::kJpeg) {
+          lf::render_fragment(plan, cam, rgba, f);
+          lfgst::trace(GST_ELEMENT(self), "warped", req.viewer_id, req.sequence, cam.id,
+                       static_cast<gint64>(f.pixel_count()));
+          bytes = lf::serialize_fragment(f, lf::Encoding::kJpeg, quality);
+          out = gst_buffer_new_memdup(bytes.data(), bytes.size());
+        } else {
+          // Raw: rendered straight into the output buffer, in its wire
+          // format (no copy of the pixels).
+          lf::describe_fragment(plan, f);
+          f.camera_id = static_cast<uint32_t>(cam.id);
+          const size_t size = lf::raw_fragment_size(f);
+          out = gst_buffer_new_allocate(nullptr, size, nullptr);
+          lfgst::add_sealed_meta(out);  // while it is writable (sealed below)
+          lfgst::MappedBuffer map(out, GST_MAP_WRITE);
+          uint8_t* px = lf::write_raw_fragment(f, map.data(), size);
+          lf::render_pixels(plan, cam, rgba, px);
+          lf::seal_fragment(map.data(), size);
+          lfgst::trace(GST_ELEMENT(self), "warped", req.viewer_id, req.sequence, cam.id,
+                       static_cast<gint64>(plan.pixel_count()));
+        }
         lfgst::trace(GST_ELEMENT(self), "encoded", req.viewer_id, req.sequence, cam.id,
-                     static_cast<gint64>(bytes.size()));
+                     static_cast<gint64>(gst_buffer_get_size(out)));
       },
       &err);
   gst_video_frame_unmap(&vf);
@@ -513,10 +533,10 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
                                "request %" G_GUINT64_FORMAT " of viewer %u: %s", req.sequence,
                                req.viewer_id, err->message);
     g_error_free(err);
+    if (out) gst_buffer_unref(out);
     gst_buffer_unref(buf);
     return GST_FLOW_OK;
   }
-  GstBuffer* out = gst_buffer_new_memdup(bytes.data(), bytes.size());
   gst_buffer_copy_into(out, buf, GST_BUFFER_COPY_TIMESTAMPS, 0, -1);
   GST_BUFFER_OFFSET(out) = req.sequence;
   gst_buffer_unref(buf);

@@ -8,7 +8,9 @@
 #include <glib.h>
 #include <gst/gst.h>
 
+#include <cstdint>
 #include <exception>
+#include <stdexcept>
 
 namespace lfgst {
 
@@ -28,6 +30,34 @@ gboolean guard(F&& fn, GError** error) noexcept {
   }
   return FALSE;
 }
+
+// A buffer mapped for the lifetime of this object (also when an exception
+// leaves the scope). Throws std::runtime_error if it cannot be mapped. Holds
+// its own reference to the buffer, taken after mapping (a write mapping
+// needs the caller's buffer writable).
+class MappedBuffer {
+ public:
+  MappedBuffer(GstBuffer* buffer, GstMapFlags flags) : buf_(nullptr) {
+    if (!gst_buffer_map(buffer, &map_, flags)) throw std::runtime_error("cannot map a buffer");
+    buf_ = gst_buffer_ref(buffer);
+  }
+  ~MappedBuffer() {
+    if (buf_) {
+      gst_buffer_unmap(buf_, &map_);
+      gst_buffer_unref(buf_);
+    }
+  }
+  MappedBuffer(MappedBuffer&& o) noexcept : buf_(o.buf_), map_(o.map_) { o.buf_ = nullptr; }
+  MappedBuffer(const MappedBuffer&) = delete;
+  MappedBuffer& operator=(const MappedBuffer&) = delete;
+  MappedBuffer& operator=(MappedBuffer&&) = delete;
+  uint8_t* data() const { return map_.data; }
+  size_t size() const { return map_.size; }
+
+ private:
+  GstBuffer* buf_;
+  GstMapInfo map_{};
+};
 
 // An element made by factory name (and instance name, or null); throws
 // std::runtime_error naming the factory when GStreamer lacks it. For code

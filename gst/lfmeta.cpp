@@ -30,4 +30,37 @@ bool read_capture_meta(GstBuffer* buf, int* camera_id, guint64* capture_time) {
          gst_structure_get_uint64(s, "capture-time", capture_time);
 }
 
+static GType sealed_meta_api() {
+  static GType type = 0;
+  static gsize once = 0;
+  if (g_once_init_enter(&once)) {
+    static const gchar* tags[] = {nullptr};
+    type = gst_meta_api_type_register("LfSealedMetaAPI", tags);
+    g_once_init_leave(&once, 1);
+  }
+  return type;
+}
+
+static const GstMetaInfo* sealed_meta_info() {
+  static const GstMetaInfo* info = nullptr;
+  static gsize once = 0;
+  if (g_once_init_enter(&once)) {
+    // No fields and no transform: a bare GstMeta, dropped by every copy.
+    info = gst_meta_register(
+        sealed_meta_api(), "LfSealedMeta", sizeof(GstMeta),
+        [](GstMeta*, gpointer, GstBuffer*) -> gboolean { return TRUE; }, nullptr, nullptr);
+    g_once_init_leave(&once, 1);
+  }
+  return info;
+}
+
+void add_sealed_meta(GstBuffer* buf) {
+  gst_buffer_add_meta(buf, sealed_meta_info(), nullptr);
+}
+
+bool has_sealed_meta(GstBuffer* buf) {
+  sealed_meta_info();
+  return gst_buffer_get_meta(buf, sealed_meta_api()) != nullptr;
+}
+
 }  // namespace lfgst

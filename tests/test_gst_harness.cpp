@@ -209,6 +209,67 @@ TEST_F(Harness, CompositorCapsAndBadInput) {
   gst_harness_teardown(h);
 }
 
+// Raw fragments made in this process carry LfSealedMeta; lfcompositor skips
+// their CRC (the bytes never left the process) and nothing else. The meta
+// does not survive a copy, so a copied (or received) buffer is checked in
+// full: a flipped pixel bit is then caught.
+TEST_F(Harness, SealedFragmentsSkipOnlyTheCrc) {
+  GstElement* el = gst_element_factory_make("lffragment", nullptr);
+  g_object_set(el, "rig", rig_path_.c_str(), "camera-id", 1, nullptr);
+  GstHarness* fh = gst_harness_new_with_element(el, "request", "src");
+  GstHarness* video = gst_harness_new_with_element(el, "sink", nullptr);
+  gst_object_unref(el);
+  gst_harness_set_src_caps_str(video, "video/x-raw,format=RGBA,width=64,height=48,framerate=30/1");
+  const cv::Mat frame = lf::SyntheticScene::for_rig(rig_).render(rig_.cameras[1], 0.0);
+  ASSERT_EQ(gst_harness_push(video, gst_buffer_new_memdup(frame.data, frame.total() * 4)),
+            GST_FLOW_OK);
+  gst_harness_set_src_caps_str(fh, "application/x-lf-view-request");
+  GstBuffer* frag[2];
+  for (int k = 0; k < 2; ++k) {
+    ASSERT_EQ(
+        gst_harness_push(fh, bytes(lf::serialize_request(request(5 + k)), (5 + k) * GST_SECOND)),
+        GST_FLOW_OK);
+    frag[k] = gst_harness_pull(fh);
+    ASSERT_NE(frag[k], nullptr);
+  }
+  const GType api = g_type_from_name("LfSealedMetaAPI");
+  ASSERT_NE(api, 0u);
+  EXPECT_NE(gst_buffer_get_meta(frag[0], api), nullptr);
+  // Request 5: copied (meta dropped), then a pixel bit flipped.
+  GstBuffer* copied = gst_buffer_copy(frag[0]);
+  gst_buffer_unref(frag[0]);
+  EXPECT_EQ(gst_buffer_get_meta(copied, api), nullptr);
+  // Request 6: the sealed buffer itself, the same bit flipped in place.
+  frag[1] = gst_buffer_make_writable(frag[1]);
+  ASSERT_NE(gst_buffer_get_meta(frag[1], api), nullptr);
+  for (GstBuffer* b : {copied, frag[1]}) {
+    GstMapInfo map;
+    ASSERT_TRUE(gst_buffer_map(b, &map, GST_MAP_WRITE));
+    ASSERT_GT(map.size, lf::kFragmentHeaderSize + 64);
+    map.data[map.size - 2] ^= 0x01;
+    gst_buffer_unmap(b, &map);
+  }
+  const lf::Rig one = rig_.subset({1});
+  const std::string one_path =
+      (std::filesystem::temp_directory_path() / "lf-harness-sealed.json").string();
+  lf::save_rig(one, one_path);
+  GstElement* comp = gst_element_factory_make("lfcompositor", nullptr);
+  g_object_set(comp, "rig", one_path.c_str(), "viewer-id", 3, nullptr);
+  GstHarness* h = gst_harness_new_with_element(comp, "sink_0", "src");
+  gst_object_unref(comp);
+  gst_harness_set_live(h, FALSE);
+  gst_harness_set_src_caps_str(h, "application/x-lf-fragment,encoding=raw,width=80,height=60");
+  EXPECT_EQ(gst_harness_push(h, copied), GST_FLOW_OK);   // CRC mismatch: dropped
+  EXPECT_EQ(gst_harness_push(h, frag[1]), GST_FLOW_OK);  // sealed here: composited
+  GstBuffer* out = gst_harness_pull(h);
+  ASSERT_NE(out, nullptr);
+  EXPECT_EQ(GST_BUFFER_OFFSET(out), 6u);
+  gst_buffer_unref(out);
+  gst_harness_teardown(h);
+  gst_harness_teardown(video);
+  gst_harness_teardown(fh);
+}
+
 // lffragmentdemux: each fragment to its viewer's pad only; garbage and
 // fragments of viewers without a pad dropped (counted), never a crash.
 TEST_F(Harness, FragmentDemuxRoutesByViewer) {

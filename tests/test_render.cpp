@@ -220,6 +220,63 @@ TEST(Render, KernelsRunOnlyWhereAvailable) {
   }
 }
 
+// Rendering in place (describe_fragment + render_pixels, as lffragment
+// renders raw fragments straight into its output buffer) writes every byte
+// of the caller's memory, whatever was there: the same pixels as
+// render_fragment(), and zeros in a row's gaps between runs (made here by
+// cutting runs in two, since a planar view's rows seldom have gaps).
+TEST(Render, InPlaceRenderingWritesEveryByte) {
+  const lf::Rig rig = lf::synthetic_grid_rig(3, 3, 0.5, 240, 180, 50, 2.0, 6);
+  const auto images = images_of(rig);
+  const lf::ViewGeometry g(rig, view_at({0.3, -0.1, -0.8}, {0.0, 0.2, kDepth}));
+  size_t compared = 0, gap_pixels = 0;
+  for (size_t i = 0; i < rig.cameras.size(); ++i) {
+    const auto plan = lf::plan_fragment(g, static_cast<int>(i));
+    lf::Fragment ref;
+    lf::render_fragment(plan, rig.cameras[i], images[i], ref);
+    lf::Fragment geo;
+    geo.pixels.assign(12, 7);  // cleared by describe_fragment
+    lf::describe_fragment(plan, geo);
+    EXPECT_EQ(geo.rect, ref.rect);
+    EXPECT_EQ(geo.spans, ref.spans);
+    EXPECT_TRUE(geo.pixels.empty());
+    std::vector<uint8_t> mem(4 * plan.pixel_count(), 0xcd);
+    lf::render_pixels(plan, rig.cameras[i], images[i], mem.data());
+    EXPECT_EQ(mem, ref.pixels) << "camera " << i;
+    compared += plan.pixel_count();
+
+    // Gaps: every run of 12 or more pixels loses 5 pixels in its middle.
+    lf::FragmentPlan cut = plan;
+    cut.runs.clear();
+    std::vector<std::pair<int, int>> gaps;  // (row index, x) of removed pixels
+    for (const lf::Run& r : plan.runs) {
+      if (r.x1 - r.x0 < 12) {
+        cut.runs.push_back(r);
+        continue;
+      }
+      const int m = (r.x0 + r.x1) / 2;
+      lf::Run a = r, b = r;
+      a.x1 = m;
+      b.x0 = m + 5;
+      cut.runs.push_back(a);
+      cut.runs.push_back(b);
+      for (int x = m; x < m + 5; ++x) gaps.emplace_back(r.y - plan.rect.y, x);
+    }
+    std::vector<uint8_t> holed(mem.size(), 0xcd);
+    lf::render_pixels(cut, rig.cameras[i], images[i], holed.data());
+    std::vector<uint8_t> expect = ref.pixels;
+    std::vector<size_t> row_start(plan.row_spans.size() + 1, 0);
+    for (size_t r = 0; r < plan.row_spans.size(); ++r)
+      row_start[r + 1] = row_start[r] + 4 * (plan.row_spans[r][1] - plan.row_spans[r][0]);
+    for (const auto& [r, x] : gaps)
+      std::fill_n(expect.begin() + row_start[r] + 4 * (x - plan.row_spans[r][0]), 4, 0);
+    EXPECT_EQ(holed, expect) << "camera " << i;
+    gap_pixels += gaps.size();
+  }
+  EXPECT_GT(compared, 20000u);
+  EXPECT_GT(gap_pixels, 500u);
+}
+
 // The compositor's normalisation against the formula it documents, computed
 // here independently from the sums of random fragments (full frames with
 // random spans, random premultiplied colours and weights, and pixels that no

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <zlib.h>
 
+#include <opencv2/core.hpp>
 #include <random>
 
 #include "lf/composite.h"
@@ -72,6 +73,84 @@ TEST(Wire, RawFragmentRoundTrip) {
   EXPECT_EQ(g.out_width, f.out_width);
   EXPECT_EQ(g.spans, f.spans);
   EXPECT_EQ(g.pixels, f.pixels);
+}
+
+// Serialising in place (header and spans, pixels rendered straight into
+// the buffer, then sealed) gives the bytes that serialize_fragment() gives.
+TEST(Wire, InPlaceRawFragmentEqualsSerialized) {
+  lf::Fragment f = sample_fragment();
+  lf::Fragment empty;
+  empty.viewer_id = 2, empty.sequence = 9, empty.camera_id = 3;
+  empty.out_width = 160, empty.out_height = 120;
+  for (const lf::Fragment* src : {&f, &empty}) {
+    const auto want = lf::serialize_fragment(*src, lf::Encoding::kRaw);
+    lf::Fragment geo = *src;
+    geo.pixels.clear();  // not read
+    const size_t size = lf::raw_fragment_size(geo);
+    ASSERT_EQ(size, want.size());
+    std::vector<uint8_t> out(size, 0xcd);
+    uint8_t* px = lf::write_raw_fragment(geo, out.data(), out.size());
+    ASSERT_EQ(static_cast<size_t>(out.data() + out.size() - px), src->pixels.size());
+    std::copy(src->pixels.begin(), src->pixels.end(), px);
+    lf::seal_fragment(out.data(), out.size());
+    EXPECT_EQ(out, want);
+    EXPECT_THROW(lf::write_raw_fragment(geo, out.data(), out.size() - 1), std::invalid_argument);
+  }
+  lf::Fragment bad = f;
+  bad.spans.pop_back();
+  EXPECT_THROW(lf::raw_fragment_size(bad), std::invalid_argument);
+}
+
+// Parsing in place: raw pixels are pointed to inside the buffer, not copied;
+// every check still runs, and only the CRC can be waived.
+TEST(Wire, InPlaceParsingPointsIntoTheBuffer) {
+  const lf::Fragment f = sample_fragment();
+  auto bytes = lf::serialize_fragment(f, lf::Encoding::kRaw);
+  const uint8_t* px = nullptr;
+  lf::Encoding enc;
+  const lf::Fragment g = lf::parse_fragment_in_place(bytes.data(), bytes.size(), &px, &enc);
+  EXPECT_EQ(enc, lf::Encoding::kRaw);
+  EXPECT_TRUE(g.pixels.empty());
+  ASSERT_EQ(px, bytes.data() + bytes.size() - f.pixels.size());
+  EXPECT_TRUE(std::equal(f.pixels.begin(), f.pixels.end(), px));
+  EXPECT_EQ(g.spans, f.spans);
+  EXPECT_EQ(g.rect, f.rect);
+  EXPECT_EQ(lf::check_fragment_geometry(g), f.pixel_count());
+  EXPECT_THROW(lf::check_fragment(g), std::invalid_argument);  // its pixels are elsewhere
+  EXPECT_THROW(lf::parse_fragment_in_place(bytes.data(), bytes.size(), nullptr),
+               std::invalid_argument);
+  // JPEG: decoded, *pixels at the result's own pixels.
+  const auto jpeg = lf::serialize_fragment(f, lf::Encoding::kJpeg);
+  const lf::Fragment j = lf::parse_fragment_in_place(jpeg.data(), jpeg.size(), &px, &enc);
+  EXPECT_EQ(enc, lf::Encoding::kJpeg);
+  EXPECT_EQ(px, j.pixels.data());
+  EXPECT_EQ(j.pixels.size(), f.pixels.size());
+  // A flipped pixel bit: caught by the CRC, passed when the CRC is waived
+  // (bytes sealed in this process); a bad span is caught either way.
+  bytes[bytes.size() - 3] ^= 0x10;
+  EXPECT_THROW(lf::parse_fragment_in_place(bytes.data(), bytes.size(), &px), lf::WireError);
+  EXPECT_NO_THROW(lf::parse_fragment_in_place(bytes.data(), bytes.size(), &px, nullptr,
+                                              lf::kMaxFragmentPixels, false));
+  put16(bytes, 56, 0xffff);  // first span's begin beyond the rectangle
+  EXPECT_THROW(lf::parse_fragment_in_place(bytes.data(), bytes.size(), &px, nullptr,
+                                           lf::kMaxFragmentPixels, false),
+               lf::WireError);
+  // Compositing the borrowed pixels equals compositing a copy.
+  lf::Compositor a, b;
+  a.reset(f.out_width, f.out_height);
+  b.reset(f.out_width, f.out_height);
+  const auto good = lf::serialize_fragment(f, lf::Encoding::kRaw);
+  const lf::Fragment h = lf::parse_fragment_in_place(good.data(), good.size(), &px);
+  a.add(h, px);
+  b.add(f);
+  cv::Mat ra, rb;
+  a.resolve(ra);
+  b.resolve(rb);
+  EXPECT_EQ(cv::norm(ra, rb, cv::NORM_INF), 0);
+  cv::Mat alpha;
+  cv::extractChannel(ra, alpha, 3);
+  EXPECT_GT(static_cast<size_t>(cv::countNonZero(alpha)), f.pixel_count() / 2);
+  EXPECT_THROW(a.add(h, nullptr), std::invalid_argument);
 }
 
 TEST(Wire, JpegFragmentRoundTrip) {

@@ -5,7 +5,11 @@
 //    output frames per second after a warm-up.
 //  * kernel bound, in the same run: the library's plan + render + composite
 //    of the same views on one thread, times the number of cores (raw
-//    fragments); pipeline efficiency = throughput / kernel bound.
+//    fragments); pipeline efficiency = throughput / kernel bound. It splits
+//    into CPU efficiency (the kernels' CPU time per frame / the process's CPU
+//    time per frame) times the cores the pipeline keeps busy; the share of
+//    the machine stolen by the hypervisor meanwhile is printed beside them
+//    (on a shared VM it slows both the pipeline and the bound).
 //  * the process's peak resident set size during each row's pipelines.
 //  * latency: a live request source at a fixed rate; for each request, the
 //    time from the request leaving lfviewrequest to its frame reaching the
@@ -168,8 +172,48 @@ std::pair<size_t, double> run_viewers(const std::string& desc, int viewers) {
   return {n, last - first};
 }
 
-// Runs to EOS; returns output frame times (s, monotonic).
-std::vector<double> run(const std::string& desc, Probe* probe) {
+// CPU time of this process and of the calling thread, seconds (user +
+// system: time another guest takes from the machine is not counted).
+double process_cpu_s() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return ts.tv_sec + ts.tv_nsec / 1e9;
+}
+double thread_cpu_s() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec + ts.tv_nsec / 1e9;
+}
+
+// The machine's CPU time split (/proc/stat, all cores): total and stolen
+// (taken by the hypervisor for other guests), in clock ticks.
+struct MachineTicks {
+  unsigned long long total = 0, steal = 0;
+};
+MachineTicks machine_ticks() {
+  MachineTicks t;
+  if (FILE* f = std::fopen("/proc/stat", "r")) {
+    unsigned long long v[10] = {};
+    if (std::fscanf(f, "cpu %llu %llu %llu %llu %llu %llu %llu %llu %llu %llu", &v[0], &v[1], &v[2],
+                    &v[3], &v[4], &v[5], &v[6], &v[7], &v[8], &v[9]) >= 8) {
+      for (int i = 0; i < 8; ++i) t.total += v[i];  // guest time is inside user time
+      t.steal = v[7];
+    }
+    std::fclose(f);
+  }
+  return t;
+}
+
+// One output frame: when it reached the sink (s, monotonic), the process's
+// CPU time then (s) and the machine's ticks (read for the first 32 frames and
+// at EOS, for the last one; 0 for the others).
+struct Mark {
+  double wall = 0, cpu = 0;
+  MachineTicks machine;
+};
+
+// Runs to EOS; returns a mark per output frame.
+std::vector<Mark> run(const std::string& desc, Probe* probe) {
   GError* err = nullptr;
   GstElement* p = gst_parse_launch(desc.c_str(), &err);
   if (!p || err) {  // a missing element is an error too, not a pipeline that never ends
@@ -189,14 +233,19 @@ std::vector<double> run(const std::string& desc, Probe* probe) {
     gst_pad_add_probe(op, GST_PAD_PROBE_TYPE_BUFFER, on_frame, probe, nullptr);
     gst_object_unref(op);
   }
-  std::vector<double> times;
+  std::vector<Mark> times;
   gst_element_set_state(p, GST_STATE_PLAYING);
   GstBus* bus = gst_element_get_bus(p);
   std::string error;
   while (true) {
     GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(out), 50 * GST_MSECOND);
     if (s) {
-      times.push_back(g_get_monotonic_time() / 1e6);
+      // CPU time and machine ticks at the first frames only (reading them
+      // costs; see the end mark below).
+      if (times.size() < 32)
+        times.push_back({g_get_monotonic_time() / 1e6, process_cpu_s(), machine_ticks()});
+      else
+        times.push_back({g_get_monotonic_time() / 1e6, 0, {}});
       gst_sample_unref(s);
     }
     GstMessage* m = gst_bus_pop_filtered(bus, static_cast<GstMessageType>(GST_MESSAGE_ERROR));
@@ -208,7 +257,12 @@ std::vector<double> run(const std::string& desc, Probe* probe) {
       gst_message_unref(m);
       break;
     }
-    if (gst_app_sink_is_eos(GST_APP_SINK(out))) break;
+    if (gst_app_sink_is_eos(GST_APP_SINK(out))) {
+      // The last frame's mark: CPU and ticks read at EOS, right after it.
+      if (times.size() >= 32)
+        times.back().cpu = process_cpu_s(), times.back().machine = machine_ticks();
+      break;
+    }
   }
   gst_element_set_state(p, GST_STATE_NULL);
   gst_object_unref(bus);
@@ -222,7 +276,11 @@ std::vector<double> run(const std::string& desc, Probe* probe) {
 // The views that pipeline() requests, planned, rendered and composited by the library on this
 // thread with its buffers kept from view to view, as the elements keep
 // theirs: the median milliseconds per view over the first `n`.
-double kernel_ms(const lf::Rig& rig, const std::vector<cv::Mat>& images, int W, int H, int n) {
+// Median milliseconds per view, wall clock and this thread's CPU time.
+struct KernelTime {
+  double wall_ms = 0, cpu_ms = 0;
+};
+KernelTime kernel_ms(const lf::Rig& rig, const std::vector<cv::Mat>& images, int W, int H, int n) {
   lf::ViewSettings vs;
   vs.width = W;
   vs.height = H;
@@ -234,10 +292,11 @@ double kernel_ms(const lf::Rig& rig, const std::vector<cv::Mat>& images, int W, 
   std::vector<lf::Fragment> frags(rig.cameras.size());
   lf::Compositor comp;
   cv::Mat out;
-  std::vector<double> ms;
+  std::vector<double> ms, cpu;
   for (int k = 0; k < n; ++k) {
     req.view = seq.at(static_cast<uint64_t>(k), rig);
     const gint64 t0 = g_get_monotonic_time();
+    const double c0 = thread_cpu_s();
     const lf::ViewGeometry g(rig, req);
     comp.reset(W, H);
     for (size_t i = 0; i < frags.size(); ++i) {
@@ -247,9 +306,11 @@ double kernel_ms(const lf::Rig& rig, const std::vector<cv::Mat>& images, int W, 
     }
     comp.resolve(out);
     ms.push_back((g_get_monotonic_time() - t0) / 1000.0);
+    cpu.push_back((thread_cpu_s() - c0) * 1000.0);
   }
   std::sort(ms.begin(), ms.end());
-  return ms[ms.size() / 2];
+  std::sort(cpu.begin(), cpu.end());
+  return {ms[ms.size() / 2], cpu[cpu.size() / 2]};
 }
 
 // Peak resident set size of this process since the last reset (Linux
@@ -355,63 +416,82 @@ int main(int argc, char** argv) {
       std::stringstream es(encodings_spec);
       while (std::getline(es, t, ',')) encodings.push_back(t);
     }
-    if (!viewers_spec.empty()) {
+    const int cores = static_cast<int>(std::thread::hardware_concurrency());
+    // The kernel bound of each size, measured before the pipelines run (the
+    // camera images it needs are freed before them, so each row's peak RSS
+    // is the pipeline's own): the faster of two passes over 40 views, since a
+    // busy spell elsewhere on the machine only ever slows a pass down. Wall
+    // clock (the bound as defined) and CPU time (for the CPU efficiency).
+    std::map<std::pair<int, int>, KernelTime> bound;
+    const bool any_raw = std::find(encodings.begin(), encodings.end(), "raw") != encodings.end();
+    const bool viewers_run = !viewers_spec.empty();
+    if (!skip_bound && (viewers_run ? encodings.front() == "raw" : any_raw)) {
+      cv::setNumThreads(1);
+      const std::vector<cv::Mat> images = lf::load_images(rig);
+      for (const auto& sz : viewers_run ? decltype(sizes){sizes.front()} : sizes)
+        for (int pass = 0; pass < 2; ++pass) {
+          const KernelTime k = kernel_ms(rig, images, sz.first, sz.second, 40);
+          KernelTime& b = bound[sz];
+          b.wall_ms = pass ? std::min(b.wall_ms, k.wall_ms) : k.wall_ms;
+          b.cpu_ms = pass ? std::min(b.cpu_ms, k.cpu_ms) : k.cpu_ms;
+        }
+    }
+    if (viewers_run) {
       const auto [W, H] = sizes.front();
       const std::string& enc = encodings.front();
       const std::string fr =
           enc == "raw" ? "encoding=raw" : "encoding=jpeg jpeg-quality=" + enc.substr(4);
+      const bool has_bound = bound.count({W, H}) > 0;
+      const double kb = has_bound ? cores * 1000.0 / bound[{W, H}].wall_ms : 0;
       std::printf(
           "## Viewers sharing %zu cameras, %dx%d, %s fragments, non-live, %d requests each "
           "(%d cores); fragments routed to each viewer's compositor by lffragmentdemux, "
           "and for comparison teed to every compositor\n\n| viewers | routing | fps per "
-          "viewer | fps in all | fragments/s | time per frame vs the first row |\n"
-          "|---|---|---|---|---|---|\n",
-          rig.cameras.size(), W, H, enc.c_str(), frames,
-          static_cast<int>(std::thread::hardware_concurrency()));
+          "viewer | fps in all | kernel bound fps in all (%d cores / single-core time per "
+          "view) | pipeline efficiency | fragments/s | time per frame vs the first row | peak "
+          "RSS MiB |\n|---|---|---|---|---|---|---|---|---|\n",
+          rig.cameras.size(), W, H, enc.c_str(), frames, cores, cores);
       double one[2] = {0, 0};  // frames per second in all of the first row, per routing
       for (const int v : cli::parse_numbers(viewers_spec, "--viewers"))
         for (const bool tee : {false, true}) {
+          reset_peak_rss();
           const auto [n, secs] =
               run_viewers(viewers_pipeline(rig_path, W, H, fr, v, frames, tee), v);
           const double all = secs > 0 ? n / secs : 0;
           if (one[tee] == 0) one[tee] = all;
-          std::printf("| %d | %s | %.1f | %.1f | %.0f | %.2f |\n", v, tee ? "tee" : "demux",
-                      all / v, all, all * static_cast<double>(rig.cameras.size()), one[tee] / all);
+          std::printf(
+              "| %d | %s | %.1f | %.1f | %s | %s | %.0f | %.2f | %.0f |\n", v,
+              tee ? "tee" : "demux", all / v, all, has_bound ? cv::format("%.1f", kb).c_str() : "-",
+              has_bound ? cv::format("%.2f", all / kb).c_str() : "-",
+              all * static_cast<double>(rig.cameras.size()), one[tee] / all, peak_rss_mib());
           std::fflush(stdout);
         }
       return 0;
     }
-    const int cores = static_cast<int>(std::thread::hardware_concurrency());
     std::printf("## GStreamer pipeline, %zu cameras, one machine (%d cores)\n\n",
                 rig.cameras.size(), cores);
-    // The kernel bound of each size, measured before the pipelines run (the
-    // camera images it needs are freed before them, so each row's peak RSS
-    // is the pipeline's own): the faster of two passes over 40 views, since a
-    // busy spell elsewhere on the machine only ever slows a pass down.
-    std::map<std::pair<int, int>, double> bound;
-    const bool any_raw = std::find(encodings.begin(), encodings.end(), "raw") != encodings.end();
-    if (!skip_bound && any_raw) {
-      cv::setNumThreads(1);
-      const std::vector<cv::Mat> images = lf::load_images(rig);
-      for (const auto& sz : sizes)
-        for (int pass = 0; pass < 2; ++pass)
-          bound[sz] =
-              std::max(bound[sz], cores * 1000.0 / kernel_ms(rig, images, sz.first, sz.second, 40));
-    }
     std::printf(
         "| output | encoding | throughput fps (non-live, %d requests) | kernel bound fps "
-        "(%d cores / single-core time) | pipeline efficiency | latency median ms "
-        "| latency p95 ms (live, %d requests/s) | peak RSS MiB |\n"
-        "|---|---|---|---|---|---|---|---|\n",
+        "(%d cores / single-core time) | pipeline efficiency | CPU ms per frame (process) | "
+        "kernel CPU ms per frame (one core) | CPU efficiency | cores used | steal %% | latency "
+        "median ms | latency p95 ms (live, %d requests/s) | peak RSS MiB |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         frames, cores, rate);
     for (const auto& [W, H] : sizes)
       for (const auto& enc : encodings) {
         reset_peak_rss();
         const auto t = run(pipeline(rig_path, rig, W, H, enc, false, frames, 1000), nullptr);
         const int warm = std::min<int>(20, static_cast<int>(t.size()) / 4);
-        const double fps = t.size() > static_cast<size_t>(warm + 1)
-                               ? (t.size() - 1 - warm) / (t.back() - t[warm])
-                               : 0;
+        const bool steady = t.size() > static_cast<size_t>(warm + 1);
+        const Mark& a = steady ? t[warm] : Mark{};
+        const Mark& z = steady ? t.back() : Mark{};
+        const double frames_steady = steady ? static_cast<double>(t.size() - 1 - warm) : 0;
+        const double fps = steady ? frames_steady / (z.wall - a.wall) : 0;
+        const double cpu_ms = steady ? (z.cpu - a.cpu) * 1000.0 / frames_steady : 0;
+        const double cores_used = steady ? (z.cpu - a.cpu) / (z.wall - a.wall) : 0;
+        const auto ticks = z.machine.total - a.machine.total;
+        const double steal =
+            ticks ? 100.0 * static_cast<double>(z.machine.steal - a.machine.steal) / ticks : 0;
         Probe probe;
         run(pipeline(rig_path, rig, W, H, enc, true, std::max(60, rate * 4), rate), &probe);
         std::vector<double> lat(
@@ -420,12 +500,16 @@ int main(int argc, char** argv) {
         // The bound is plan + render + composite: raw fragments only (JPEG
         // rows add encoding and decoding that it does not count).
         const bool has_bound = !skip_bound && enc == "raw";
-        const double kb = has_bound ? bound[{W, H}] : 0;
-        const std::string b = has_bound ? cv::format("%.1f", kb) : "-";
-        const std::string e = has_bound ? cv::format("%.2f", fps / kb) : "-";
-        std::printf("| %dx%d | %s | %.1f | %s | %s | %.1f | %.1f | %.0f |\n", W, H, enc.c_str(),
-                    fps, b.c_str(), e.c_str(), percentile(lat, 0.5), percentile(lat, 0.95),
-                    peak_rss_mib());
+        const KernelTime k = has_bound ? bound[{W, H}] : KernelTime{};
+        const double kb = has_bound ? cores * 1000.0 / k.wall_ms : 0;
+        auto num = [&](double v, const char* f) {
+          return has_bound ? cv::format(f, v) : std::string("-");
+        };
+        std::printf(
+            "| %dx%d | %s | %.1f | %s | %s | %.2f | %s | %s | %.2f | %.0f | %.1f | %.1f | %.0f |\n",
+            W, H, enc.c_str(), fps, num(kb, "%.1f").c_str(), num(fps / kb, "%.2f").c_str(), cpu_ms,
+            num(k.cpu_ms, "%.2f").c_str(), num(k.cpu_ms / cpu_ms, "%.2f").c_str(), cores_used,
+            steal, percentile(lat, 0.5), percentile(lat, 0.95), peak_rss_mib());
         std::fflush(stdout);
       }
     return 0;

@@ -21,13 +21,20 @@ void Compositor::reset(int width, int height) {
 }
 
 void Compositor::add(const Fragment& f) {
+  check_fragment(f);
+  add(f, f.pixels.data());
+}
+
+void Compositor::add(const Fragment& f, const uint8_t* pixels) {
   if (f.out_width != w_ || f.out_height != h_)
     throw std::invalid_argument("compositor: fragment from camera " + std::to_string(f.camera_id) +
                                 " is for a " + std::to_string(f.out_width) + "x" +
                                 std::to_string(f.out_height) + " frame, not " + std::to_string(w_) +
                                 "x" + std::to_string(h_));
-  check_fragment(f);
-  const uint8_t* px = f.pixels.data();
+  if (check_fragment_geometry(f) > 0 && !pixels)
+    throw std::invalid_argument("compositor: fragment from camera " + std::to_string(f.camera_id) +
+                                " has no pixels");
+  const uint8_t* px = pixels;
   for (int r = 0; r < f.rect.height; ++r) {
     const int b = f.spans[r][0], e = f.spans[r][1];
     uint32_t* acc = acc_.data() + (static_cast<size_t>(f.rect.y + r) * w_ + b) * 4;

@@ -19,6 +19,10 @@ class Compositor {
   void reset(int width, int height);
   // Adds a fragment. Throws std::invalid_argument if it does not fit the frame.
   void add(const Fragment& f);
+  // Adds a fragment whose pixels live elsewhere (f.pixels is not read; e.g.
+  // lf/wire.h parse_fragment_in_place): `pixels` holds 4 bytes per pixel of
+  // f's spans, row after row. Same checks and exceptions.
+  void add(const Fragment& f, const uint8_t* pixels);
   // Writes the normalised frame (CV_8UC4; alpha = 255 where any weight arrived,
   // 0 elsewhere, where colour is 0).
   void resolve(cv::Mat& out) const;

@@ -38,4 +38,9 @@ struct Fragment {
 // pixel count). Throws std::invalid_argument describing the first problem.
 void check_fragment(const Fragment& f);
 
+// The same checks for a fragment whose pixels live elsewhere (f.pixels is
+// not read: a fragment parsed in place, lf/wire.h); returns the number of
+// pixels its spans carry (4 bytes each).
+size_t check_fragment_geometry(const Fragment& f);
+
 }  // namespace lf

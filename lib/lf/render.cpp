@@ -161,8 +161,28 @@ const char* kernel_name(Kernel kernel) {
   return "?";
 }
 
+void describe_fragment(const FragmentPlan& plan, Fragment& out) {
+  out.camera_id = static_cast<uint32_t>(plan.camera_id);
+  out.out_width = plan.out_width;
+  out.out_height = plan.out_height;
+  out.rect = plan.rect;
+  out.spans.resize(plan.row_spans.size());
+  for (size_t r = 0; r < plan.row_spans.size(); ++r)
+    out.spans[r] = {static_cast<uint16_t>(plan.row_spans[r][0]),
+                    static_cast<uint16_t>(plan.row_spans[r][1])};
+  out.pixels.clear();
+}
+
 void render_fragment(const FragmentPlan& plan, const Camera& cam, const cv::Mat& image,
                      Fragment& out, Kernel kernel) {
+  describe_fragment(plan, out);
+  out.camera_id = static_cast<uint32_t>(cam.id);
+  out.pixels.resize(4 * plan.pixel_count());
+  render_pixels(plan, cam, image, out.pixels.data(), kernel);
+}
+
+void render_pixels(const FragmentPlan& plan, const Camera& cam, const cv::Mat& image,
+                   uint8_t* pixels, Kernel kernel) {
   if (kernel == Kernel::kBest) kernel = best_kernel();
   if (!kernel_available(kernel))
     throw std::invalid_argument(std::string("render_fragment: the ") + kernel_name(kernel) +
@@ -175,19 +195,23 @@ void render_fragment(const FragmentPlan& plan, const Camera& cam, const cv::Mat&
                                 std::to_string(image.cols) + "x" + std::to_string(image.rows) +
                                 " does not match the rig's " + std::to_string(cam.width) + "x" +
                                 std::to_string(cam.height));
-  out.camera_id = static_cast<uint32_t>(cam.id);
-  out.out_width = plan.out_width;
-  out.out_height = plan.out_height;
-  out.rect = plan.rect;
-  out.spans.resize(plan.row_spans.size());
-  std::vector<size_t> row_offset(plan.row_spans.size() + 1, 0);
-  for (size_t r = 0; r < plan.row_spans.size(); ++r) {
-    out.spans[r] = {static_cast<uint16_t>(plan.row_spans[r][0]),
-                    static_cast<uint16_t>(plan.row_spans[r][1])};
-    row_offset[r + 1] = row_offset[r] + 4 * (plan.row_spans[r][1] - plan.row_spans[r][0]);
+  // Each row's pixels start where the rows before it end; the gaps between
+  // a row's runs (and any span pixel no run covers) are zeroed as the rows
+  // are walked, so every byte is written once.
+  const auto& spans = plan.row_spans;
+  uint8_t* row = pixels;  // start of row `cur`
+  int cur = 0, cursor = spans.empty() ? 0 : spans[0][0];
+  auto finish_rows_before = [&](int r) {
+    for (; cur < r; ++cur) {
+      std::memset(row + 4 * (cursor - spans[cur][0]), 0, 4 * (spans[cur][1] - cursor));
+      row += 4 * (spans[cur][1] - spans[cur][0]);
+      if (cur + 1 < static_cast<int>(spans.size())) cursor = spans[cur + 1][0];
+    }
+  };
+  if (plan.runs.empty()) {
+    finish_rows_before(static_cast<int>(spans.size()));
+    return;
   }
-  out.pixels.assign(row_offset.back(), 0);
-  if (plan.runs.empty()) return;
 
   const Intrinsics& K = cam.intrinsics;
   const bool distort = K.has_distortion();
@@ -217,10 +241,12 @@ void render_fragment(const FragmentPlan& plan, const Camera& cam, const cv::Mat&
     k.da = static_cast<float>(pc.weight_den.a);
     k.db = static_cast<float>(pc.weight_den.b * y + pc.weight_den.c);
     const int r = run.y - plan.rect.y;
-    uint8_t* row = out.pixels.data() + row_offset[r];
+    finish_rows_before(r);
+    std::memset(row + 4 * (cursor - spans[r][0]), 0, 4 * (run.x0 - cursor));
+    cursor = run.x1;
     for (int x = run.x0; x < run.x1; x += kBlock) {
       const int n = std::min(kBlock, run.x1 - x);
-      uint8_t* dst = row + 4 * (x - plan.row_spans[r][0]);
+      uint8_t* dst = row + 4 * (x - spans[r][0]);
 #ifdef LF_X86_SIMD
       if (kernel == Kernel::kAvx2) {
         kernels::coords_avx2(distort, k, x, n, iu, iv, wtop, wbot);
@@ -236,6 +262,7 @@ void render_fragment(const FragmentPlan& plan, const Camera& cam, const cv::Mat&
       gather_sse2(sse2, image.data, stride, n, iu, iv, wtop, wbot, dst);
     }
   }
+  finish_rows_before(static_cast<int>(spans.size()));
 }
 
 }  // namespace lf

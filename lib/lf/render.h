@@ -18,7 +18,7 @@ namespace lf {
 // half a pixel of the border; samples outside, behind the camera, or where
 // the camera's distortion cannot be evaluated get alpha 0. Lens distortion is
 // applied to the sampling coordinates when the camera has any. No threads,
-// no allocation beyond `out.pixels`. Throws std::invalid_argument on an image
+// no allocation beyond `out`'s spans and pixels. Throws std::invalid_argument on an image
 // of the wrong size or type.
 //
 // Kernels: kScalar is the reference; kSse2 (x86-64 baseline) and kAvx2
@@ -30,6 +30,17 @@ namespace lf {
 enum class Kernel { kBest, kScalar, kSse2, kAvx2 };
 void render_fragment(const FragmentPlan& plan, const Camera& camera, const cv::Mat& image,
                      Fragment& out, Kernel kernel = Kernel::kBest);
+
+// The same in two steps, for a caller that renders straight into memory of
+// its own (a sender's output buffer, lf/wire.h: write_raw_fragment):
+// describe_fragment() sets `out`'s camera id, output size, rect and spans
+// from the plan and clears its pixels; render_pixels() then writes the
+// plan's pixels, 4 * plan.pixel_count() bytes row after row in the spans'
+// layout, every byte of them (pixels between a row's runs get 0). Same
+// values as render_fragment(); same exceptions.
+void describe_fragment(const FragmentPlan& plan, Fragment& out);
+void render_pixels(const FragmentPlan& plan, const Camera& camera, const cv::Mat& image,
+                   uint8_t* pixels, Kernel kernel = Kernel::kBest);
 bool kernel_available(Kernel kernel);
 Kernel best_kernel();                    // never kBest
 const char* kernel_name(Kernel kernel);  // "scalar", "sse2", "avx2" (kBest: the one it picks)

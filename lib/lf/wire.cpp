@@ -264,6 +264,11 @@ void decompress(const uint8_t* j, size_t n, int w, int h, JpegKind kind, std::ve
 
 }  // namespace
 
+namespace {
+void write_header(const Fragment& f, Encoding enc, int quality, size_t payload_size,
+                  std::vector<uint8_t>& out);
+}  // namespace
+
 std::vector<uint8_t> serialize_fragment(const Fragment& f, Encoding enc, int quality) {
   check_fragment(f);
   if (quality < 1 || quality > 100)
@@ -317,6 +322,53 @@ std::vector<uint8_t> serialize_fragment(const Fragment& f, Encoding enc, int qua
     throw std::invalid_argument("serialize_fragment: payload exceeds 64 MiB");
   std::vector<uint8_t> out;
   out.reserve(kFragmentHeaderSize + payload.size());
+  write_header(f, enc, quality, payload.size(), out);
+  const uint32_t sum = crc(out.data(), kFragmentHeaderSize - 4, payload.data(), payload.size());
+  Writer(out).u32(sum);
+  out.insert(out.end(), payload.begin(), payload.end());
+  return out;
+}
+
+size_t raw_fragment_size(const Fragment& f) {
+  const size_t n = check_fragment_geometry(f);
+  if (f.empty()) return kFragmentHeaderSize;
+  const size_t payload = 4 * f.spans.size() + 4 * n;
+  if (payload > kMaxPayload)
+    throw std::invalid_argument("raw_fragment_size: payload exceeds 64 MiB");
+  return kFragmentHeaderSize + payload;
+}
+
+uint8_t* write_raw_fragment(const Fragment& f, uint8_t* out, size_t size) {
+  const size_t need = raw_fragment_size(f);
+  if (size != need)
+    throw std::invalid_argument("write_raw_fragment: buffer is " + std::to_string(size) +
+                                " bytes, the fragment takes " + std::to_string(need));
+  std::vector<uint8_t> head;
+  head.reserve(kFragmentHeaderSize + 4 * f.spans.size());
+  const Encoding enc = f.empty() ? Encoding::kEmpty : Encoding::kRaw;
+  write_header(f, enc, 0, size - kFragmentHeaderSize, head);
+  Writer w(head);
+  w.u32(0);  // the CRC: seal_fragment()
+  for (const auto& s : f.spans) {
+    w.u16(static_cast<uint16_t>(s[0] - f.rect.x));
+    w.u16(static_cast<uint16_t>(s[1] - f.rect.x));
+  }
+  std::memcpy(out, head.data(), head.size());
+  return out + head.size();
+}
+
+void seal_fragment(uint8_t* out, size_t size) {
+  if (size < kFragmentHeaderSize) bad_fragment("seal: truncated header");
+  const uint32_t sum =
+      crc(out, kFragmentHeaderSize - 4, out + kFragmentHeaderSize, size - kFragmentHeaderSize);
+  for (int i = 0; i < 4; ++i)
+    out[kFragmentHeaderSize - 4 + i] = static_cast<uint8_t>(sum >> (24 - 8 * i));
+}
+
+namespace {
+// The fragment header up to (not including) its CRC, bytes 0..51.
+void write_header(const Fragment& f, Encoding enc, int quality, size_t payload_size,
+                  std::vector<uint8_t>& out) {
   Writer w(out);
   w.bytes("LFFR", 4);
   w.u16(1);
@@ -333,11 +385,9 @@ std::vector<uint8_t> serialize_fragment(const Fragment& f, Encoding enc, int qua
   w.u8(static_cast<uint8_t>(enc));
   w.u8(enc == Encoding::kJpeg ? static_cast<uint8_t>(quality) : 0);
   w.u16(0);
-  w.u32(static_cast<uint32_t>(payload.size()));
-  w.u32(crc(out.data(), out.size(), payload.data(), payload.size()));
-  w.bytes(payload.data(), payload.size());
-  return out;
+  w.u32(static_cast<uint32_t>(payload_size));
 }
+}  // namespace
 
 FragmentHeader peek_fragment_header(const uint8_t* data, size_t size) {
   if (data == nullptr && size > 0) bad_fragment("null buffer");
@@ -362,7 +412,26 @@ FragmentHeader peek_fragment_header(const uint8_t* data, size_t size) {
   return h;
 }
 
+namespace {
+Fragment parse_fragment_impl(const uint8_t* data, size_t size, Encoding* enc_out, size_t max_pixels,
+                             const uint8_t** raw_pixels, bool check_crc);
+}  // namespace
+
 Fragment parse_fragment(const uint8_t* data, size_t size, Encoding* enc_out, size_t max_pixels) {
+  return parse_fragment_impl(data, size, enc_out, max_pixels, nullptr, true);
+}
+
+Fragment parse_fragment_in_place(const uint8_t* data, size_t size, const uint8_t** pixels,
+                                 Encoding* enc_out, size_t max_pixels, bool check_crc) {
+  if (!pixels) throw std::invalid_argument("parse_fragment_in_place: no pixel pointer");
+  return parse_fragment_impl(data, size, enc_out, max_pixels, pixels, check_crc);
+}
+
+namespace {
+// raw_pixels: null, or where a raw payload's pixels are pointed to instead
+// of being copied (other encodings: at the decoded f.pixels).
+Fragment parse_fragment_impl(const uint8_t* data, size_t size, Encoding* enc_out, size_t max_pixels,
+                             const uint8_t** raw_pixels, bool check_crc) {
   const FragmentHeader head = peek_fragment_header(data, size);
   Reader r(data + 32, size - 32, "fragment");
   Fragment f;
@@ -389,12 +458,13 @@ Fragment parse_fragment(const uint8_t* data, size_t size, Encoding* enc_out, siz
                  std::to_string(kFragmentHeaderSize + psize) +
                  (size < kFragmentHeaderSize + psize ? " (truncated)" : " (trailing bytes)"));
   const uint8_t* payload = data + kFragmentHeaderSize;
-  if (crc(data, kFragmentHeaderSize - 4, payload, psize) != sum)
+  if (check_crc && crc(data, kFragmentHeaderSize - 4, payload, psize) != sum)
     bad_fragment("CRC mismatch (corrupt data)");
   if (enc > 2) bad_fragment("unknown encoding " + std::to_string(enc));
   if (enc == 2 && (quality < 1 || quality > 100))
     bad_fragment("JPEG quality " + std::to_string(quality) + " out of range 1..100");
   if (enc_out) *enc_out = static_cast<Encoding>(enc);
+  if (raw_pixels) *raw_pixels = nullptr;
   if (enc == 0) {
     if (x || y || w || h || psize) bad_fragment("empty fragment with a rectangle or payload");
     return f;
@@ -424,6 +494,11 @@ Fragment parse_fragment(const uint8_t* data, size_t size, Encoding* enc_out, siz
     if (rest != 4 * npix)
       bad_fragment("raw payload has " + std::to_string(rest) + " pixel bytes, spans need " +
                    std::to_string(4 * npix));
+    if (raw_pixels) {
+      *raw_pixels = body;
+      check_fragment_geometry(f);
+      return f;
+    }
     f.pixels.assign(body, body + rest);
   } else {
     const uint8_t flags = p.u8();
@@ -463,8 +538,10 @@ Fragment parse_fragment(const uint8_t* data, size_t size, Encoding* enc_out, siz
     }
   }
   check_fragment(f);
+  if (raw_pixels) *raw_pixels = f.pixels.data();
   return f;
 }
+}  // namespace
 
 std::vector<uint8_t> serialize_request(const ViewRequest& req) {
   validate(req);

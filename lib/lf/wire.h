@@ -74,6 +74,34 @@ std::vector<uint8_t> serialize_fragment(const Fragment& f, Encoding encoding,
 Fragment parse_fragment(const uint8_t* data, size_t size, Encoding* encoding = nullptr,
                         size_t max_pixels = kMaxFragmentPixels);
 
+// Parses and validates as parse_fragment() does (the CRC included), but a
+// raw payload's pixels are not copied: the result's `pixels` stays empty and
+// *pixels points at them inside `data` (4 bytes per span pixel, row after
+// row; valid as long as `data` is). JPEG payloads are decoded into the
+// result's `pixels`, and *pixels points there. Empty fragments: nullptr.
+// Composite with Compositor::add(f, *pixels) (lf/composite.h).
+// check_crc false skips the CRC (only): for bytes sealed in this process
+// that never left it (gst/lfmeta.h LfSealedMeta), never for received ones.
+Fragment parse_fragment_in_place(const uint8_t* data, size_t size, const uint8_t** pixels,
+                                 Encoding* encoding = nullptr,
+                                 size_t max_pixels = kMaxFragmentPixels, bool check_crc = true);
+
+// Raw fragments serialised in place, for a sender that renders the pixels
+// straight into its output buffer (no copy of them; lf/render.h:
+// describe_fragment, render_pixels):
+//  * raw_fragment_size(f): the bytes f takes (its header fields, rect and
+//    spans are read, f.pixels is not; empty fragments: the header alone);
+//  * write_raw_fragment(f, out, size): writes the header (CRC 0) and the
+//    spans into `out`, exactly raw_fragment_size(f) bytes, and returns where
+//    the pixels go (4 bytes per span pixel, row after row);
+//  * seal_fragment(out, size): once the pixels are there, writes the CRC.
+// The bytes then equal serialize_fragment(f, Encoding::kRaw) of the fragment
+// with those pixels. Throw std::invalid_argument on an inconsistent fragment
+// or a size that does not match.
+size_t raw_fragment_size(const Fragment& f);
+uint8_t* write_raw_fragment(const Fragment& f, uint8_t* out, size_t size);
+void seal_fragment(uint8_t* out, size_t size);
+
 // The identifying header fields of a serialized fragment, read without
 // checking the CRC or decoding the payload (for routing and tracing).
 // Throws WireError on a truncated buffer, bad magic, version or header size.
