@@ -385,30 +385,32 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
   const int W = st->s.stereo ? 2 * w : w;          // stereo: left | right side by side
   if (!ensure_caps(self, W, H)) return GST_FLOW_NOT_NEGOTIATED;
   const guint left_id = static_cast<guint>(std::max<int64_t>(0, st->viewer));
-  st->comp.reset(w, H);
-  if (st->s.stereo) st->comp_right.reset(w, H);
-  for (const Piece& piece : g.fragments) {
-    const lf::Fragment& f = piece.f;
-    GError* err = nullptr;
-    if (!lfgst::guard(
-            [&] {
-              (st->s.stereo && f.viewer_id != left_id ? st->comp_right : st->comp)
-                  .add(f, piece.pixels());
-            },
-            &err)) {
-      GST_WARNING_OBJECT(self, "dropping fragment of camera %u: %s", f.camera_id, err->message);
-      g_error_free(err);
-    }
-  }
-  // Resolved into the frame that is not last_frame (no allocation per frame).
+  // Each eye's fragments composited at once (lib/lf/composite.h: bands of
+  // rows, in parallel), resolved into the frame that is not last_frame (no
+  // allocation per frame).
+  std::vector<lf::FragmentPixels> eye[2];
+  for (const Piece& piece : g.fragments)
+    eye[st->s.stereo && piece.f.viewer_id != left_id].push_back({&piece.f, piece.pixels()});
   cv::Mat& rgba = st->frames[st->next_frame];
   st->next_frame ^= 1;
-  st->comp.resolve(rgba);
-  if (st->s.stereo) {
-    cv::Mat right;
-    st->comp_right.resolve(right);
-    cv::hconcat(rgba, right, rgba);
+  cv::Mat right;
+  for (int e = 0; e < (st->s.stereo ? 2 : 1); ++e) {
+    GError* err = nullptr;
+    std::vector<std::pair<size_t, std::string>> refused;
+    if (!lfgst::guard(
+            [&] {
+              refused = (e ? st->comp_right : st->comp).composite(w, H, eye[e], e ? right : rgba);
+            },
+            &err)) {
+      GST_ELEMENT_ERROR(self, STREAM, FAILED, ("Cannot composite the frame"), ("%s", err->message));
+      g_error_free(err);
+      return GST_FLOW_ERROR;
+    }
+    for (const auto& [i, why] : refused)
+      GST_WARNING_OBJECT(self, "dropping fragment of camera %u: %s", eye[e][i].fragment->camera_id,
+                         why.c_str());
   }
+  if (st->s.stereo) cv::hconcat(rgba, right, rgba);
   // Missing fragments (a missed deadline): the last picture where no weight
   // arrived, not black.
   size_t filled = 0;

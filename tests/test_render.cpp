@@ -327,6 +327,68 @@ TEST(Composite, ResolveMatchesTheFormulaEverywhere) {
   EXPECT_LT(empty, static_cast<size_t>(W) * H / 2);
 }
 
+// The fused, banded composite() against reset + add + resolve: the same
+// frame and sums bit for bit, on 1, 2 and 4 threads, with fragments that
+// cross band borders, start and end inside bands, borrowed pixels, an empty
+// fragment, and refused ones (wrong frame size, no pixels) left out and
+// reported by index.
+TEST(Composite, FusedCompositeEqualsAddAndResolve) {
+  const lf::Rig rig = lf::synthetic_grid_rig(3, 3, 0.5, 240, 180, 50, 2.0, 6);
+  const auto images = images_of(rig);
+  const lf::ViewGeometry g(rig, view_at({-0.2, 0.15, -0.5}, {0.1, 0.0, kDepth}));
+  std::vector<lf::Fragment> frags(rig.cameras.size());
+  for (size_t i = 0; i < frags.size(); ++i)
+    lf::render_fragment(lf::plan_fragment(g, static_cast<int>(i)), rig.cameras[i], images[i],
+                        frags[i]);
+  lf::Fragment other = frags[4];  // for another frame size
+  other.out_width += 2;
+  lf::Fragment empty;
+  empty.out_width = 200, empty.out_height = 150;
+  std::vector<lf::FragmentPixels> in;
+  for (const auto& f : frags) in.push_back({&f, f.pixels.data()});
+  in.insert(in.begin() + 2, {&other, other.pixels.data()});
+  in.push_back({&empty, nullptr});
+  in.push_back({&frags[1], nullptr});  // pixels missing
+  lf::Compositor ref;
+  ref.reset(200, 150);
+  for (const auto& f : frags) ref.add(f);
+  cv::Mat want;
+  ref.resolve(want);
+  size_t covered = 0;
+  for (int y = 0; y < 150; ++y)
+    for (int x = 0; x < 200; ++x) covered += ref.weight_at(x, y) > 0;
+  EXPECT_GT(covered, 200u * 150u / 2);
+  const int saved = cv::getNumThreads();
+  for (int threads : {1, 2, 4}) {
+    cv::setNumThreads(threads);
+    lf::Compositor comp;
+    cv::Mat got(7, 7, CV_8UC4, cv::Scalar::all(99));  // reallocated
+    const auto refused = comp.composite(200, 150, in, got);
+    ASSERT_EQ(refused.size(), 2u);
+    EXPECT_EQ(refused[0].first, 2u);
+    EXPECT_NE(refused[0].second.find("frame"), std::string::npos) << refused[0].second;
+    EXPECT_EQ(refused[1].first, in.size() - 1);
+    EXPECT_NE(refused[1].second.find("no pixels"), std::string::npos) << refused[1].second;
+    EXPECT_EQ(cv::norm(got, want, cv::NORM_INF), 0) << threads << " threads";
+    for (int y = 0; y < 150; y += 7)
+      for (int x = 0; x < 200; x += 3) ASSERT_EQ(comp.weight_at(x, y), ref.weight_at(x, y));
+    // Again into the same compositor and frame: nothing left from the last one.
+    const std::vector<lf::FragmentPixels> two(in.begin(), in.begin() + 2);
+    lf::Compositor ref2;
+    ref2.reset(200, 150);
+    ref2.add(frags[0]);
+    ref2.add(frags[1]);
+    cv::Mat want2;
+    ref2.resolve(want2);
+    EXPECT_TRUE(comp.composite(200, 150, two, got).empty());
+    EXPECT_EQ(cv::norm(got, want2, cv::NORM_INF), 0) << threads << " threads";
+  }
+  cv::setNumThreads(saved);
+  lf::Compositor c;
+  cv::Mat out;
+  EXPECT_THROW(c.composite(0, 10, in, out), std::invalid_argument);
+}
+
 TEST(Render, RejectsWrongImages) {
   const lf::Rig rig = lf::synthetic_grid_rig(2, 2, 0.5, 64, 48, 50);
   const auto req = view_at({0, 0, 0}, {0, 0, kDepth});

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <opencv2/core/utility.hpp>
 #include <stdexcept>
 #include <string>
 
@@ -25,7 +26,7 @@ void Compositor::add(const Fragment& f) {
   add(f, f.pixels.data());
 }
 
-void Compositor::add(const Fragment& f, const uint8_t* pixels) {
+void Compositor::check(const Fragment& f, const uint8_t* pixels) const {
   if (f.out_width != w_ || f.out_height != h_)
     throw std::invalid_argument("compositor: fragment from camera " + std::to_string(f.camera_id) +
                                 " is for a " + std::to_string(f.out_width) + "x" +
@@ -34,8 +35,18 @@ void Compositor::add(const Fragment& f, const uint8_t* pixels) {
   if (check_fragment_geometry(f) > 0 && !pixels)
     throw std::invalid_argument("compositor: fragment from camera " + std::to_string(f.camera_id) +
                                 " has no pixels");
+}
+
+void Compositor::add(const Fragment& f, const uint8_t* pixels) {
+  check(f, pixels);
+  add_rows(f, pixels, 0, f.rect.height);
+}
+
+// Rows [r0, r1) of the fragment (relative to its rect); `pixels` points at
+// row r0's first pixel.
+void Compositor::add_rows(const Fragment& f, const uint8_t* pixels, int r0, int r1) {
   const uint8_t* px = pixels;
-  for (int r = 0; r < f.rect.height; ++r) {
+  for (int r = r0; r < r1; ++r) {
     const int b = f.spans[r][0], e = f.spans[r][1];
     uint32_t* acc = acc_.data() + (static_cast<size_t>(f.rect.y + r) * w_ + b) * 4;
     const int n = 4 * (e - b);
@@ -60,7 +71,11 @@ static inline void resolve1(const uint32_t* a, uint8_t* o) {
 
 void Compositor::resolve(cv::Mat& out) const {
   out.create(h_, w_, CV_8UC4);
-  for (int y = 0; y < h_; ++y) {
+  resolve_rows(out, 0, h_);
+}
+
+void Compositor::resolve_rows(cv::Mat& out, int y0, int y1) const {
+  for (int y = y0; y < y1; ++y) {
     const uint32_t* a = acc_.data() + static_cast<size_t>(y) * w_ * 4;
     uint8_t* o = out.ptr<uint8_t>(y);
     int x = 0;
@@ -85,6 +100,60 @@ void Compositor::resolve(cv::Mat& out) const {
 #endif
     for (; x < w_; ++x, a += 4, o += 4) resolve1(a, o);
   }
+}
+
+std::vector<std::pair<size_t, std::string>> Compositor::composite(
+    int width, int height, const std::vector<FragmentPixels>& fragments, cv::Mat& out) {
+  if (width < 1 || height < 1 || width > 16384 || height > 16384)
+    throw std::invalid_argument("compositor: output size out of range");
+  w_ = width;
+  h_ = height;
+  acc_.resize(static_cast<size_t>(width) * height * 4);  // zeroed band by band below
+  out.create(h_, w_, CV_8UC4);
+  // The fragments add() would take, and where each of their rows' pixels
+  // start (prefix sums of the span lengths, bytes).
+  std::vector<std::pair<size_t, std::string>> refused;
+  std::vector<const FragmentPixels*> ok;
+  std::vector<std::vector<size_t>> row_start;
+  ok.reserve(fragments.size());
+  row_start.reserve(fragments.size());
+  for (size_t i = 0; i < fragments.size(); ++i) {
+    const FragmentPixels& fp = fragments[i];
+    try {
+      if (!fp.fragment) throw std::invalid_argument("compositor: null fragment");
+      check(*fp.fragment, fp.pixels);
+    } catch (const std::invalid_argument& e) {
+      refused.emplace_back(i, e.what());
+      continue;
+    }
+    if (fp.fragment->empty()) continue;
+    const Fragment& f = *fp.fragment;
+    std::vector<size_t> starts(f.spans.size() + 1, 0);
+    for (size_t r = 0; r < f.spans.size(); ++r)
+      starts[r + 1] = starts[r] + 4 * static_cast<size_t>(f.spans[r][1] - f.spans[r][0]);
+    ok.push_back(&fp);
+    row_start.push_back(std::move(starts));
+  }
+  // Bands of 32 rows: a 640-pixel band's sums take 320 KiB (L2-sized); a
+  // band is zeroed, accumulated and resolved by one thread, in fragment
+  // order, so every sum is the serial one.
+  constexpr int kBandRows = 32;
+  const int bands = (h_ + kBandRows - 1) / kBandRows;
+  cv::parallel_for_(cv::Range(0, bands), [&](const cv::Range& range) {
+    for (int band = range.start; band < range.end; ++band) {
+      const int y0 = band * kBandRows, y1 = std::min(h_, y0 + kBandRows);
+      std::fill(acc_.begin() + static_cast<size_t>(y0) * w_ * 4,
+                acc_.begin() + static_cast<size_t>(y1) * w_ * 4, 0u);
+      for (size_t k = 0; k < ok.size(); ++k) {
+        const Fragment& f = *ok[k]->fragment;
+        const int r0 = std::max(y0, f.rect.y) - f.rect.y;
+        const int r1 = std::min(y1, f.rect.y + f.rect.height) - f.rect.y;
+        if (r0 < r1) add_rows(f, ok[k]->pixels + row_start[k][r0], r0, r1);
+      }
+      resolve_rows(out, y0, y1);
+    }
+  });
+  return refused;
 }
 
 size_t Compositor::fill_from(cv::Mat& out, const cv::Mat& previous) {

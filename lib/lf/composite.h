@@ -4,11 +4,20 @@
 
 #include <cstdint>
 #include <opencv2/core.hpp>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "lf/fragment.h"
 
 namespace lf {
+
+// A fragment and where its pixels are: its own (f.pixels.data()) or
+// borrowed, e.g. from a received buffer (lf/wire.h parse_fragment_in_place).
+struct FragmentPixels {
+  const Fragment* fragment = nullptr;
+  const uint8_t* pixels = nullptr;
+};
 
 // Additive compositor with renormalisation (Section 4.3: "It then adds the
 // fragment into the frame buffer"). Accumulates premultiplied fragments and
@@ -26,6 +35,15 @@ class Compositor {
   // Writes the normalised frame (CV_8UC4; alpha = 255 where any weight arrived,
   // 0 elsewhere, where colour is 0).
   void resolve(cv::Mat& out) const;
+  // A whole frame at once, fused: the same as reset(width, height), add() of
+  // each fragment in order, then resolve(out), bit for bit, but the frame is
+  // cut into bands of rows, and each band is zeroed, accumulated and
+  // resolved while it is in cache, the bands in parallel (cv::parallel_for_;
+  // cv::setNumThreads() sets the threads, 1: this thread only). A fragment
+  // that add() would refuse is left out; returned: (its index, why) for each.
+  // Throws std::invalid_argument for a size out of range, as reset() does.
+  std::vector<std::pair<size_t, std::string>> composite(
+      int width, int height, const std::vector<FragmentPixels>& fragments, cv::Mat& out);
   // Where no weight arrived (alpha 0 in `out`), takes the pixel of
   // `previous` (the last frame shown, same size, CV_8UC4): a frame
   // composited without some of its fragments (a missed deadline) shows the
@@ -38,6 +56,9 @@ class Compositor {
   int height() const { return h_; }
 
  private:
+  void check(const Fragment& f, const uint8_t* pixels) const;
+  void add_rows(const Fragment& f, const uint8_t* pixels, int r0, int r1);
+  void resolve_rows(cv::Mat& out, int y0, int y1) const;
   int w_ = 0, h_ = 0;
   std::vector<uint32_t> acc_;
 };
