@@ -41,6 +41,20 @@ class Harness : public ::testing::Test {
     r.focal_plane = lf::plane_at_depth(rig_, 1.25);
     return r;
   }
+  // A non-live lfcompositor of viewer 3 over the rig of camera `index`
+  // alone, fed raw 80x60 fragments on sink_0.
+  static GstHarness* one_camera_compositor(int index, const char* file) {
+    const lf::Rig one = rig_.subset({index});
+    const std::string path = (std::filesystem::temp_directory_path() / file).string();
+    lf::save_rig(one, path);
+    GstElement* el = gst_element_factory_make("lfcompositor", nullptr);
+    g_object_set(el, "rig", path.c_str(), "viewer-id", 3, nullptr);
+    GstHarness* h = gst_harness_new_with_element(el, "sink_0", "src");
+    gst_object_unref(el);
+    gst_harness_set_live(h, FALSE);
+    gst_harness_set_src_caps_str(h, "application/x-lf-fragment,encoding=raw,width=80,height=60");
+    return h;
+  }
   static GstBuffer* bytes(const std::vector<uint8_t>& b, GstClockTime pts) {
     GstBuffer* buf = gst_buffer_new_memdup(b.data(), b.size());
     GST_BUFFER_PTS(buf) = pts;
@@ -162,15 +176,7 @@ TEST_F(Harness, FragmentFromFrameAndRequest) {
 
 TEST_F(Harness, CompositorCapsAndBadInput) {
   const lf::Rig one = rig_.subset({0});
-  const std::string one_path =
-      (std::filesystem::temp_directory_path() / "lf-harness-one.json").string();
-  lf::save_rig(one, one_path);
-  GstElement* el = gst_element_factory_make("lfcompositor", nullptr);
-  g_object_set(el, "rig", one_path.c_str(), "viewer-id", 3, nullptr);
-  GstHarness* h = gst_harness_new_with_element(el, "sink_0", "src");
-  gst_object_unref(el);
-  gst_harness_set_live(h, FALSE);
-  gst_harness_set_src_caps_str(h, "application/x-lf-fragment,encoding=raw,width=80,height=60");
+  GstHarness* h = one_camera_compositor(0, "lf-harness-one.json");
   // Garbage: dropped with a warning.
   EXPECT_EQ(gst_harness_push(h, bytes({'L', 'F', 'F', 'R', 0, 1}, 0)), GST_FLOW_OK);
   // A real fragment of the one camera: composited alone, renormalised.
@@ -249,16 +255,7 @@ TEST_F(Harness, SealedFragmentsSkipOnlyTheCrc) {
     map.data[map.size - 2] ^= 0x01;
     gst_buffer_unmap(b, &map);
   }
-  const lf::Rig one = rig_.subset({1});
-  const std::string one_path =
-      (std::filesystem::temp_directory_path() / "lf-harness-sealed.json").string();
-  lf::save_rig(one, one_path);
-  GstElement* comp = gst_element_factory_make("lfcompositor", nullptr);
-  g_object_set(comp, "rig", one_path.c_str(), "viewer-id", 3, nullptr);
-  GstHarness* h = gst_harness_new_with_element(comp, "sink_0", "src");
-  gst_object_unref(comp);
-  gst_harness_set_live(h, FALSE);
-  gst_harness_set_src_caps_str(h, "application/x-lf-fragment,encoding=raw,width=80,height=60");
+  GstHarness* h = one_camera_compositor(1, "lf-harness-sealed.json");
   EXPECT_EQ(gst_harness_push(h, copied), GST_FLOW_OK);   // CRC mismatch: dropped
   EXPECT_EQ(gst_harness_push(h, frag[1]), GST_FLOW_OK);  // sealed here: composited
   GstBuffer* out = gst_harness_pull(h);
