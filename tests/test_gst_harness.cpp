@@ -41,6 +41,25 @@ class Harness : public ::testing::Test {
     r.focal_plane = lf::plane_at_depth(rig_, 1.25);
     return r;
   }
+  // An lffragment of camera 1 whose camera sent one frame of the synthetic
+  // scene (PTS 123, returned in *frame): the harness of its request pad,
+  // with request caps set, and that of its camera pad in *video.
+  static GstHarness* camera1_fragment(GstHarness** video, cv::Mat* frame) {
+    // Configure first: the harness sets its element playing when it is made.
+    GstElement* el = gst_element_factory_make("lffragment", nullptr);
+    g_object_set(el, "rig", rig_path_.c_str(), "camera-id", 1, nullptr);
+    GstHarness* h = gst_harness_new_with_element(el, "request", "src");
+    *video = gst_harness_new_with_element(el, "sink", nullptr);
+    gst_object_unref(el);
+    gst_harness_set_src_caps_str(*video,
+                                 "video/x-raw,format=RGBA,width=64,height=48,framerate=30/1");
+    *frame = lf::SyntheticScene::for_rig(rig_).render(rig_.cameras[1], 0.0);
+    GstBuffer* fb = gst_buffer_new_memdup(frame->data, frame->total() * 4);
+    GST_BUFFER_PTS(fb) = 123;
+    EXPECT_EQ(gst_harness_push(*video, fb), GST_FLOW_OK);
+    gst_harness_set_src_caps_str(h, "application/x-lf-view-request");
+    return h;
+  }
   // A non-live lfcompositor of viewer 3 over the rig of camera `index`
   // alone, fed raw 80x60 fragments on sink_0.
   static GstHarness* one_camera_compositor(int index, const char* file) {
@@ -132,19 +151,9 @@ TEST_F(Harness, ViewRequestProperties) {
 }
 
 TEST_F(Harness, FragmentFromFrameAndRequest) {
-  // Configure first: the harness sets its element playing when it is made.
-  GstElement* el = gst_element_factory_make("lffragment", nullptr);
-  g_object_set(el, "rig", rig_path_.c_str(), "camera-id", 1, nullptr);
-  GstHarness* h = gst_harness_new_with_element(el, "request", "src");
-  GstHarness* video = gst_harness_new_with_element(el, "sink", nullptr);
-  gst_object_unref(el);
-  gst_harness_set_src_caps_str(video, "video/x-raw,format=RGBA,width=64,height=48,framerate=30/1");
-  const lf::SyntheticScene scene = lf::SyntheticScene::for_rig(rig_);
-  cv::Mat frame = scene.render(rig_.cameras[1], 0.0);
-  GstBuffer* fb = gst_buffer_new_memdup(frame.data, frame.total() * 4);
-  GST_BUFFER_PTS(fb) = 123;
-  ASSERT_EQ(gst_harness_push(video, fb), GST_FLOW_OK);
-  gst_harness_set_src_caps_str(h, "application/x-lf-view-request");
+  GstHarness* video = nullptr;
+  cv::Mat frame;
+  GstHarness* h = camera1_fragment(&video, &frame);
   // Garbage first: dropped with a warning, the stream goes on.
   EXPECT_EQ(gst_harness_push(h, bytes({1, 2, 3}, 0)), GST_FLOW_OK);
   ASSERT_EQ(gst_harness_push(h, bytes(lf::serialize_request(request(42)), GST_SECOND)),
@@ -220,16 +229,9 @@ TEST_F(Harness, CompositorCapsAndBadInput) {
 // does not survive a copy, so a copied (or received) buffer is checked in
 // full: a flipped pixel bit is then caught.
 TEST_F(Harness, SealedFragmentsSkipOnlyTheCrc) {
-  GstElement* el = gst_element_factory_make("lffragment", nullptr);
-  g_object_set(el, "rig", rig_path_.c_str(), "camera-id", 1, nullptr);
-  GstHarness* fh = gst_harness_new_with_element(el, "request", "src");
-  GstHarness* video = gst_harness_new_with_element(el, "sink", nullptr);
-  gst_object_unref(el);
-  gst_harness_set_src_caps_str(video, "video/x-raw,format=RGBA,width=64,height=48,framerate=30/1");
-  const cv::Mat frame = lf::SyntheticScene::for_rig(rig_).render(rig_.cameras[1], 0.0);
-  ASSERT_EQ(gst_harness_push(video, gst_buffer_new_memdup(frame.data, frame.total() * 4)),
-            GST_FLOW_OK);
-  gst_harness_set_src_caps_str(fh, "application/x-lf-view-request");
+  GstHarness* video = nullptr;
+  cv::Mat frame;
+  GstHarness* fh = camera1_fragment(&video, &frame);
   GstBuffer* frag[2];
   for (int k = 0; k < 2; ++k) {
     ASSERT_EQ(
