@@ -592,14 +592,15 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
     g_error_free(err);
     return;
   }
-  const GstMapInfo map{.data = mapped->data(), .size = mapped->size()};
+  const uint8_t* data = mapped->data();
+  const size_t size = mapped->size();
   lf::FragmentHeader head;
   lf::Fragment f;
   lf::Encoding enc = lf::Encoding::kEmpty;
   const uint8_t* pixels = nullptr;
   int w = 0, h = 0;
   const gint64 t0 = g_get_monotonic_time();
-  if (!lfgst::guard([&] { head = lf::peek_fragment_header(map.data, map.size); }, &err)) {
+  if (!lfgst::guard([&] { head = lf::peek_fragment_header(data, size); }, &err)) {
     LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE, ("Dropping a malformed fragment"),
                                "%s", err->message);
     g_error_free(err);
@@ -612,7 +613,7 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
                                ("Dropping a fragment of an unknown camera"),
                                "camera %u is not in the rig", head.camera_id);
   } else if (lf::is_focus_probe(head.sequence)) {
-    absorb_probe(self, st, map.data, map.size, head);
+    absorb_probe(self, st, data, size, head);
   } else if (!st->view_size(&w, &h)) {
     LF_ELEMENT_WARNING_LIMITED(self, st->no_size, STREAM, FORMAT,
                                ("No output size: dropping fragments"),
@@ -624,7 +625,7 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
                    head.sequence);
   } else if (!lfgst::guard(
                  [&] {
-                   f = lf::parse_fragment_in_place(map.data, map.size, &pixels, &enc,
+                   f = lf::parse_fragment_in_place(data, size, &pixels, &enc,
                                                    static_cast<size_t>(w) * static_cast<size_t>(h),
                                                    !lfgst::has_sealed_meta(buf));
                  },

@@ -508,7 +508,6 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
           // Raw: rendered straight into the output buffer, in its wire
           // format (no copy of the pixels).
           lf::describe_fragment(plan, f);
-          f.camera_id = static_cast<uint32_t>(cam.id);
           const size_t size = lf::raw_fragment_size(f);
           out = gst_buffer_new_allocate(nullptr, size, nullptr);
           lfgst::add_sealed_meta(out);  // while it is writable (sealed below)

@@ -273,10 +273,10 @@ std::vector<Mark> run(const std::string& desc, Probe* probe) {
   return times;
 }
 
-// The views that pipeline() requests, planned, rendered and composited by the library on this
-// thread with its buffers kept from view to view, as the elements keep
-// theirs: the median milliseconds per view over the first `n`.
-// Median milliseconds per view, wall clock and this thread's CPU time.
+// The views that pipeline() requests, planned, rendered and composited by
+// the library on this thread with its buffers kept from view to view, as
+// the elements keep theirs: the median per view over the first `n`, wall
+// clock and this thread's CPU time.
 struct KernelTime {
   double wall_ms = 0, cpu_ms = 0;
 };

@@ -22,19 +22,22 @@ void Compositor::reset(int width, int height) {
 }
 
 void Compositor::add(const Fragment& f) {
-  check_fragment(f);
-  add(f, f.pixels.data());
+  if (f.pixels.size() != 4 * check(f, f.pixels.data()))
+    check_fragment(f);  // throws, naming the mismatch
+  add_rows(f, f.pixels.data(), 0, f.rect.height);
 }
 
-void Compositor::check(const Fragment& f, const uint8_t* pixels) const {
+size_t Compositor::check(const Fragment& f, const uint8_t* pixels) const {
   if (f.out_width != w_ || f.out_height != h_)
     throw std::invalid_argument("compositor: fragment from camera " + std::to_string(f.camera_id) +
                                 " is for a " + std::to_string(f.out_width) + "x" +
                                 std::to_string(f.out_height) + " frame, not " + std::to_string(w_) +
                                 "x" + std::to_string(h_));
-  if (check_fragment_geometry(f) > 0 && !pixels)
+  const size_t n = check_fragment_geometry(f);
+  if (n > 0 && !pixels)
     throw std::invalid_argument("compositor: fragment from camera " + std::to_string(f.camera_id) +
                                 " has no pixels");
+  return n;
 }
 
 void Compositor::add(const Fragment& f, const uint8_t* pixels) {

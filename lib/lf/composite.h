@@ -56,7 +56,7 @@ class Compositor {
   int height() const { return h_; }
 
  private:
-  void check(const Fragment& f, const uint8_t* pixels) const;
+  size_t check(const Fragment& f, const uint8_t* pixels) const;  // its pixel count
   void add_rows(const Fragment& f, const uint8_t* pixels, int r0, int r1);
   void resolve_rows(cv::Mat& out, int y0, int y1) const;
   int w_ = 0, h_ = 0;

@@ -265,8 +265,35 @@ void decompress(const uint8_t* j, size_t n, int w, int h, JpegKind kind, std::ve
 }  // namespace
 
 namespace {
+// The fragment header up to (not including) its CRC, bytes 0..51.
 void write_header(const Fragment& f, Encoding enc, int quality, size_t payload_size,
-                  std::vector<uint8_t>& out);
+                  std::vector<uint8_t>& out) {
+  Writer w(out);
+  w.bytes("LFFR", 4);
+  w.u16(1);
+  w.u16(kFragmentHeaderSize);
+  w.u32(f.viewer_id);
+  w.u64(f.sequence);
+  w.u32(f.camera_id);
+  w.u64(static_cast<uint64_t>(f.capture_time_ns));
+  w.u16(static_cast<uint16_t>(f.out_width));
+  w.u16(static_cast<uint16_t>(f.out_height));
+  const bool e = enc == Encoding::kEmpty;
+  w.u16(e ? 0 : f.rect.x), w.u16(e ? 0 : f.rect.y);
+  w.u16(e ? 0 : f.rect.width), w.u16(e ? 0 : f.rect.height);
+  w.u8(static_cast<uint8_t>(enc));
+  w.u8(enc == Encoding::kJpeg ? static_cast<uint8_t>(quality) : 0);
+  w.u16(0);
+  w.u32(static_cast<uint32_t>(payload_size));
+}
+
+// The row spans of a non-empty fragment, relative to its rect.x.
+void write_spans(const Fragment& f, Writer& w) {
+  for (const auto& s : f.spans) {
+    w.u16(static_cast<uint16_t>(s[0] - f.rect.x));
+    w.u16(static_cast<uint16_t>(s[1] - f.rect.x));
+  }
+}
 }  // namespace
 
 std::vector<uint8_t> serialize_fragment(const Fragment& f, Encoding enc, int quality) {
@@ -277,10 +304,7 @@ std::vector<uint8_t> serialize_fragment(const Fragment& f, Encoding enc, int qua
   std::vector<uint8_t> payload;
   if (enc != Encoding::kEmpty) {
     Writer p(payload);
-    for (const auto& s : f.spans) {
-      p.u16(static_cast<uint16_t>(s[0] - f.rect.x));
-      p.u16(static_cast<uint16_t>(s[1] - f.rect.x));
-    }
+    write_spans(f, p);
     if (enc == Encoding::kRaw) {
       p.bytes(f.pixels.data(), f.pixels.size());
     } else if (enc == Encoding::kJpeg) {
@@ -349,10 +373,7 @@ uint8_t* write_raw_fragment(const Fragment& f, uint8_t* out, size_t size) {
   write_header(f, enc, 0, size - kFragmentHeaderSize, head);
   Writer w(head);
   w.u32(0);  // the CRC: seal_fragment()
-  for (const auto& s : f.spans) {
-    w.u16(static_cast<uint16_t>(s[0] - f.rect.x));
-    w.u16(static_cast<uint16_t>(s[1] - f.rect.x));
-  }
+  write_spans(f, w);
   std::memcpy(out, head.data(), head.size());
   return out + head.size();
 }
@@ -364,30 +385,6 @@ void seal_fragment(uint8_t* out, size_t size) {
   for (int i = 0; i < 4; ++i)
     out[kFragmentHeaderSize - 4 + i] = static_cast<uint8_t>(sum >> (24 - 8 * i));
 }
-
-namespace {
-// The fragment header up to (not including) its CRC, bytes 0..51.
-void write_header(const Fragment& f, Encoding enc, int quality, size_t payload_size,
-                  std::vector<uint8_t>& out) {
-  Writer w(out);
-  w.bytes("LFFR", 4);
-  w.u16(1);
-  w.u16(kFragmentHeaderSize);
-  w.u32(f.viewer_id);
-  w.u64(f.sequence);
-  w.u32(f.camera_id);
-  w.u64(static_cast<uint64_t>(f.capture_time_ns));
-  w.u16(static_cast<uint16_t>(f.out_width));
-  w.u16(static_cast<uint16_t>(f.out_height));
-  const bool e = enc == Encoding::kEmpty;
-  w.u16(e ? 0 : f.rect.x), w.u16(e ? 0 : f.rect.y);
-  w.u16(e ? 0 : f.rect.width), w.u16(e ? 0 : f.rect.height);
-  w.u8(static_cast<uint8_t>(enc));
-  w.u8(enc == Encoding::kJpeg ? static_cast<uint8_t>(quality) : 0);
-  w.u16(0);
-  w.u32(static_cast<uint32_t>(payload_size));
-}
-}  // namespace
 
 FragmentHeader peek_fragment_header(const uint8_t* data, size_t size) {
   if (data == nullptr && size > 0) bad_fragment("null buffer");
@@ -410,21 +407,6 @@ FragmentHeader peek_fragment_header(const uint8_t* data, size_t size) {
   h.payload_size = (uint32_t{data[48]} << 24) | (uint32_t{data[49]} << 16) |
                    (uint32_t{data[50]} << 8) | uint32_t{data[51]};
   return h;
-}
-
-namespace {
-Fragment parse_fragment_impl(const uint8_t* data, size_t size, Encoding* enc_out, size_t max_pixels,
-                             const uint8_t** raw_pixels, bool check_crc);
-}  // namespace
-
-Fragment parse_fragment(const uint8_t* data, size_t size, Encoding* enc_out, size_t max_pixels) {
-  return parse_fragment_impl(data, size, enc_out, max_pixels, nullptr, true);
-}
-
-Fragment parse_fragment_in_place(const uint8_t* data, size_t size, const uint8_t** pixels,
-                                 Encoding* enc_out, size_t max_pixels, bool check_crc) {
-  if (!pixels) throw std::invalid_argument("parse_fragment_in_place: no pixel pointer");
-  return parse_fragment_impl(data, size, enc_out, max_pixels, pixels, check_crc);
 }
 
 namespace {
@@ -542,6 +524,16 @@ Fragment parse_fragment_impl(const uint8_t* data, size_t size, Encoding* enc_out
   return f;
 }
 }  // namespace
+
+Fragment parse_fragment(const uint8_t* data, size_t size, Encoding* enc_out, size_t max_pixels) {
+  return parse_fragment_impl(data, size, enc_out, max_pixels, nullptr, true);
+}
+
+Fragment parse_fragment_in_place(const uint8_t* data, size_t size, const uint8_t** pixels,
+                                 Encoding* enc_out, size_t max_pixels, bool check_crc) {
+  if (!pixels) throw std::invalid_argument("parse_fragment_in_place: no pixel pointer");
+  return parse_fragment_impl(data, size, enc_out, max_pixels, pixels, check_crc);
+}
 
 std::vector<uint8_t> serialize_request(const ViewRequest& req) {
   validate(req);
