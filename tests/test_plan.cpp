@@ -133,4 +133,101 @@ TEST(Plan, FragmentPixelsAreAboutThreeTimesTheOutput) {
   EXPECT_NEAR(static_cast<double>(c.fragment_pixels) / c.seen, 3.0, 0.05);
 }
 
+// A surface of random planes over tiles of 8 pixels (the last column and
+// row narrower): every pixel is planned through its own tile's plane, the
+// weights still partition unity, and each run's homography is its tile's.
+lf::ViewRequest with_random_surface(lf::ViewRequest req, std::mt19937_64& rng, int planes) {
+  std::uniform_real_distribution<double> u(-1, 1);
+  lf::FocalSurface& fs = req.surface;
+  fs.tile = 8;
+  fs.cols = (req.view.width + 7) / 8;
+  fs.rows = (req.view.height + 7) / 8;
+  for (int k = 0; k < planes; ++k)
+    fs.planes.push_back(
+        lf::FocalPlane::through({0, 0, 6 + 8 * (u(rng) + 1)}, {0.2 * u(rng), 0.2 * u(rng), 1.0}));
+  std::uniform_int_distribution<int> pick(0, planes - 1);
+  for (int k = 0; k < fs.cols * fs.rows; ++k) fs.plane_of.push_back(pick(rng));
+  return req;
+}
+
+TEST(Plan, FocalSurfaceTilesArePlannedThroughTheirOwnPlanes) {
+  lf::Rig rig = lf::synthetic_grid_rig(4, 5, 0.5, 160, 120, 45, 2.0, 3);
+  std::mt19937_64 rng(21);
+  size_t runs_checked = 0;
+  for (int v = 0; v < 10; ++v) {
+    const lf::ViewRequest req =
+        with_random_surface(random_request(rig, rng, 100, 75, v % 3 == 0), rng, 1 + v % 4);
+    const auto c = check_weights(rig, req);  // visibility through each pixel's plane
+    expect_valid(c, "surface view " + std::to_string(v));
+    const lf::ViewGeometry g(rig, req);
+    for (size_t i = 0; i < rig.cameras.size(); ++i) {
+      const lf::FragmentPlan plan = lf::plan_fragment(g, static_cast<int>(i));
+      for (const lf::Run& r : plan.runs) {
+        const cv::Matx33d& P = plan.pieces[r.piece].H;
+        for (int x : {r.x0, r.x1 - 1}) {
+          // The piece's homography is the tile's, up to a positive scale.
+          const cv::Vec3d a = P * cv::Vec3d(x, r.y, 1);
+          const cv::Vec3d b = g.homography_at(static_cast<int>(i), x, r.y) * cv::Vec3d(x, r.y, 1);
+          ASSERT_GT(a[2] * g.focal_sign(x, r.y), 0);
+          EXPECT_NEAR(a[0] / a[2], b[0] / b[2], 1e-6 * (1 + std::abs(b[0] / b[2])));
+          EXPECT_NEAR(a[1] / a[2], b[1] / b[2], 1e-6 * (1 + std::abs(b[1] / b[2])));
+          // A run never crosses a tile edge where the plane changes.
+          EXPECT_EQ(g.plane_at(x, r.y), g.plane_at(r.x0, r.y));
+        }
+        ++runs_checked;
+      }
+    }
+  }
+  EXPECT_GT(runs_checked, 1000u);
+}
+
+TEST(Plan, OnePlaneSurfacePlansTheSinglePlanesFragment) {
+  // The model grows only with the scene: a surface whose tiles all name the
+  // request's plane plans exactly the single-plane fragment.
+  lf::Rig rig = lf::synthetic_grid_rig(4, 4, 0.5, 160, 120, 45, 2.0, 11);
+  std::mt19937_64 rng(5);
+  for (int v = 0; v < 6; ++v) {
+    lf::ViewRequest req = random_request(rig, rng, 90, 70, v % 2 == 0);
+    lf::ViewRequest surf = req;
+    surf.surface.tile = 16;
+    surf.surface.cols = 6, surf.surface.rows = 5;
+    surf.surface.planes = {lf::FocalPlane::through({0, 0, 30}, {0, 0, 1}), req.focal_plane};
+    surf.surface.plane_of.assign(30, 1);
+    EXPECT_EQ(surf.surface.planes_used(), 1);
+    const lf::ViewGeometry a(rig, req), b(rig, surf);
+    for (int i = 0; i < 16; ++i) {
+      const auto pa = lf::plan_fragment(a, i), pb = lf::plan_fragment(b, i);
+      ASSERT_EQ(pa.runs.size(), pb.runs.size());
+      for (size_t k = 0; k < pa.runs.size(); ++k) {
+        EXPECT_EQ(pa.runs[k].y, pb.runs[k].y);
+        EXPECT_EQ(pa.runs[k].x0, pb.runs[k].x0);
+        EXPECT_EQ(pa.runs[k].x1, pb.runs[k].x1);
+      }
+      ASSERT_EQ(pa.pieces.size(), pb.pieces.size());
+      for (size_t k = 0; k < pa.pieces.size(); ++k) EXPECT_EQ(pa.pieces[k].H, pb.pieces[k].H);
+    }
+  }
+}
+
+TEST(Plan, MalformedSurfacesAreRefused) {
+  lf::Rig rig = lf::synthetic_grid_rig(3, 3, 0.5, 160, 120, 45, 2.0, 1);
+  std::mt19937_64 rng(9);
+  const lf::ViewRequest good = with_random_surface(random_request(rig, rng, 64, 48, false), rng, 2);
+  EXPECT_NO_THROW(lf::validate(good));
+  auto refused = [&](auto mutate, const char* what) {
+    lf::ViewRequest r = good;
+    mutate(r.surface);
+    EXPECT_THROW(lf::validate(r), std::invalid_argument) << what;
+  };
+  refused([](lf::FocalSurface& s) { s.tile = 2; }, "tile too small");
+  refused([](lf::FocalSurface& s) { s.cols += 1; }, "grid does not match");
+  refused([](lf::FocalSurface& s) { s.plane_of.pop_back(); }, "missing tile");
+  refused([](lf::FocalSurface& s) { s.plane_of[3] = 2; }, "plane out of range");
+  refused([](lf::FocalSurface& s) { s.planes.clear(); }, "no planes");
+  refused([](lf::FocalSurface& s) { s.planes[0].d = NAN; }, "not finite");
+  refused([](lf::FocalSurface& s) { s.planes[1] = {{0, 0, 0}, 0.0}; }, "not a plane");
+  refused([](lf::FocalSurface& s) { s.planes.resize(lf::FocalSurface::kMaxPlanes + 1); },
+          "too many planes");
+}
+
 }  // namespace

@@ -32,36 +32,44 @@ ViewGeometry::ViewGeometry(const Rig& rig, const ViewRequest& request, int only_
     facet_eye_.push_back(at_eye);
     facet_px_.push_back(dn_ * at_eye + (ds * f.a + dt * f.b) * (-eye_dist_));
   }
-  const FocalPlane& fp = req_.focal_plane;
-  fw_ = form_from(Mt * fp.n);
-  H_.assign(rig.cameras.size(), cv::Matx33d::zeros());
-  for (size_t i = 0; i < rig.cameras.size(); ++i) {
-    if (only_camera >= 0 && static_cast<int>(i) != only_camera) continue;
-    const Camera& c = rig.cameras[i];
-    const cv::Matx33d& R = c.extrinsics.R;
-    cv::Matx33d A;
-    if (fp.at_infinity()) {
-      A = R;
-    } else {
-      const cv::Vec3d q = R * E + c.extrinsics.t;
-      A = cv::Matx33d(q[0] * fp.n[0], q[0] * fp.n[1], q[0] * fp.n[2], q[1] * fp.n[0],
-                      q[1] * fp.n[1], q[1] * fp.n[2], q[2] * fp.n[0], q[2] * fp.n[1],
-                      q[2] * fp.n[2]) -
-          R * (fp.n.dot(E) + fp.d);
+  if (req_.surface.empty())
+    planes_ = {req_.focal_plane};
+  else
+    planes_ = req_.surface.planes;
+  ncam_ = static_cast<int>(rig.cameras.size());
+  H_.assign(planes_.size() * rig.cameras.size(), cv::Matx33d::zeros());
+  for (size_t p = 0; p < planes_.size(); ++p) {
+    const FocalPlane& fp = planes_[p];
+    fw_.push_back(form_from(Mt * fp.n));
+    for (size_t i = 0; i < rig.cameras.size(); ++i) {
+      if (only_camera >= 0 && static_cast<int>(i) != only_camera) continue;
+      const Camera& c = rig.cameras[i];
+      const cv::Matx33d& R = c.extrinsics.R;
+      cv::Matx33d A;
+      if (fp.at_infinity()) {
+        A = R;
+      } else {
+        const cv::Vec3d q = R * E + c.extrinsics.t;
+        A = cv::Matx33d(q[0] * fp.n[0], q[0] * fp.n[1], q[0] * fp.n[2], q[1] * fp.n[0],
+                        q[1] * fp.n[1], q[1] * fp.n[2], q[2] * fp.n[0], q[2] * fp.n[1],
+                        q[2] * fp.n[2]) -
+            R * (fp.n.dot(E) + fp.d);
+      }
+      H_[p * ncam_ + i] = c.intrinsics.K() * A * M_;
     }
-    H_[i] = c.intrinsics.K() * A * M_;
   }
 }
 
-int ViewGeometry::focal_sign(double x, double y) const {
-  if (focal_at_infinity()) return 1;
-  return fw_(x, y) < 0 ? -1 : 1;
+int ViewGeometry::focal_sign(double x, double y, int p) const {
+  if (planes_[p].at_infinity()) return 1;
+  return fw_[p](x, y) < 0 ? -1 : 1;
 }
 
-bool ViewGeometry::visible(int index, double x, double y) const {
-  const cv::Matx33d& H = H_[index];
+bool ViewGeometry::visible(int index, int x, int y) const {
+  const int p = plane_at(x, y);
+  const cv::Matx33d& H = homography(index, p);
   const double z = H(2, 0) * x + H(2, 1) * y + H(2, 2);
-  return focal_sign(x, y) * z > 0;
+  return focal_sign(x, y, p) * z > 0;
 }
 
 PixelForm ViewGeometry::facet_form(int facet, int sign) const {
@@ -186,6 +194,35 @@ double max_abs(const PixelForm& f) {
 
 }  // namespace
 
+namespace {
+
+// Output pixels [x0, x1) x [y0, y1) focused through plane `plane`.
+struct Region {
+  int x0, y0, x1, y1, plane;
+};
+
+// Regions of one plane each: the whole frame, or per tile row the maximal
+// horizontal stretches of tiles that share a plane.
+std::vector<Region> focal_regions(const ViewGeometry& g) {
+  const int W = g.width(), H = g.height();
+  const FocalSurface& fs = g.request().surface;
+  if (fs.empty()) return {{0, 0, W, H, 0}};
+  std::vector<Region> out;
+  for (int r = 0; r < fs.rows; ++r) {
+    const int y0 = r * fs.tile, y1 = std::min(H, y0 + fs.tile);
+    for (int c = 0; c < fs.cols;) {
+      const int p = fs.plane_of[r * fs.cols + c];
+      int e = c + 1;
+      while (e < fs.cols && fs.plane_of[r * fs.cols + e] == p) ++e;
+      out.push_back({c * fs.tile, y0, std::min(W, e * fs.tile), y1, p});
+      c = e;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
 FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
   const Rig& rig = g.rig();
   FragmentPlan plan;
@@ -193,96 +230,122 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
   plan.camera_id = rig.cameras[index].id;
   plan.out_width = g.width();
   plan.out_height = g.height();
-  const int W = g.width(), H = g.height();
-  const Polygon frame = {{-0.5, -0.5}, {W - 0.5, -0.5}, {W - 0.5, H - 0.5}, {-0.5, H - 0.5}};
-  const cv::Matx33d& Hc = g.homography(index);
-  const PixelForm zc{Hc(2, 0), Hc(2, 1), Hc(2, 2)};
+  const int W = g.width();
+  // Piece ids by (simplex, camera-plane side, focal side, plane), in order
+  // of first use.
+  std::vector<std::array<int, 4>> piece_keys;
 
   const auto& simplices = rig.simplices();
-  for (size_t s = 0; s < simplices.size(); ++s) {
-    const Simplex& sx = simplices[s];
-    int slot = -1;
-    for (int k = 0; k < sx.size; ++k)
-      if (sx.cams[k] == index) slot = k;
-    if (slot < 0) continue;
-    // Weight forms of this camera in this simplex.
-    PixelForm num, den;
-    if (sx.size == 1) {
-      num = den = constant(1.0);
-    } else if (g.eye_on_camera_plane()) {
-      double sum = 0;
-      for (int k = 0; k < sx.size; ++k) sum += g.facet_at_eye(sx.facet[k], sx.sign[k]);
-      num = constant(g.facet_at_eye(sx.facet[slot], sx.sign[slot]));
-      den = constant(sum);
-    } else {
-      num = g.facet_form(sx.facet[slot], sx.sign[slot]);
-      for (int k = 0; k < sx.size; ++k) den = den + g.facet_form(sx.facet[k], sx.sign[k]);
-    }
-    const double dscale = max_abs(den);
-    if (dscale > 0) num = num * (1.0 / dscale), den = den * (1.0 / dscale);
-
-    // Orientation pieces of the camera plane (sign of D_n) ...
-    const bool single = sx.size == 1 || g.eye_on_camera_plane();
-    for (int sd : {1, -1}) {
-      if (single && sd < 0) break;
-      Polygon base = frame;
-      if (!single) {
-        base = clip(base, g.camera_plane_denominator() * sd);
-        for (int k = 0; k < sx.size && !base.empty(); ++k)
-          base = clip(base, g.facet_form(sx.facet[k], sx.sign[k]) * sd);
-      } else if (sx.size > 1) {
-        std::array<double, 3> w;
-        if (!g.inside(static_cast<int>(s), 0, 0, &w) || !(w[slot] > 0)) break;
+  for (const Region& reg : focal_regions(g)) {
+    const Polygon frame = {{reg.x0 - 0.5, reg.y0 - 0.5},
+                           {reg.x1 - 0.5, reg.y0 - 0.5},
+                           {reg.x1 - 0.5, reg.y1 - 0.5},
+                           {reg.x0 - 0.5, reg.y1 - 0.5}};
+    const int fp = reg.plane;
+    const cv::Matx33d& Hc = g.homography(index, fp);
+    const PixelForm zc{Hc(2, 0), Hc(2, 1), Hc(2, 2)};
+    for (size_t s = 0; s < simplices.size(); ++s) {
+      const Simplex& sx = simplices[s];
+      int slot = -1;
+      for (int k = 0; k < sx.size; ++k)
+        if (sx.cams[k] == index) slot = k;
+      if (slot < 0) continue;
+      // Weight forms of this camera in this simplex.
+      PixelForm num, den;
+      if (sx.size == 1) {
+        num = den = constant(1.0);
+      } else if (g.eye_on_camera_plane()) {
+        double sum = 0;
+        for (int k = 0; k < sx.size; ++k) sum += g.facet_at_eye(sx.facet[k], sx.sign[k]);
+        num = constant(g.facet_at_eye(sx.facet[slot], sx.sign[slot]));
+        den = constant(sum);
+      } else {
+        num = g.facet_form(sx.facet[slot], sx.sign[slot]);
+        for (int k = 0; k < sx.size; ++k) den = den + g.facet_form(sx.facet[k], sx.sign[k]);
       }
-      if (base.size() < 3) continue;
-      // ... times pieces of the focal plane's orientation.
-      for (int sf : {1, -1}) {
-        if (g.focal_at_infinity() && sf < 0) break;
-        Polygon poly = base;
-        if (!g.focal_at_infinity()) poly = clip(poly, g.focal_denominator() * sf);
-        if (poly.size() >= 3) poly = clip(poly, zc * sf);
-        if (poly.size() < 3) continue;
-        FragmentPiece piece;
-        piece.H = Hc * static_cast<double>(sf);
-        piece.H *= 1.0 / cv::norm(piece.H);
-        piece.weight_num = num;
-        piece.weight_den = den;
-        const int piece_id = static_cast<int>(plan.pieces.size());
-        bool used = false;
-        auto pred = [&](int x, int y) {
-          if (g.focal_sign(x, y) != sf) return false;
-          if (!(zc(x, y) * sf > 0)) return false;
-          if (!single) {
-            const double dn = g.camera_plane_denominator()(x, y);
-            if ((dn > 0 ? 1 : -1) != sd || dn == 0) return false;
-          }
+      const double dscale = max_abs(den);
+      if (dscale > 0) num = num * (1.0 / dscale), den = den * (1.0 / dscale);
+
+      // Orientation pieces of the camera plane (sign of D_n) ...
+      const bool single = sx.size == 1 || g.eye_on_camera_plane();
+      for (int sd : {1, -1}) {
+        if (single && sd < 0) break;
+        Polygon base = frame;
+        if (!single) {
+          base = clip(base, g.camera_plane_denominator() * sd);
+          for (int k = 0; k < sx.size && !base.empty(); ++k)
+            base = clip(base, g.facet_form(sx.facet[k], sx.sign[k]) * sd);
+        } else if (sx.size > 1) {
           std::array<double, 3> w;
-          return g.inside(static_cast<int>(s), x, y, &w) && w[slot] > 0;
-        };
-        double ymin = INFINITY, ymax = -INFINITY;
-        for (const auto& p : poly) ymin = std::min(ymin, p[1]), ymax = std::max(ymax, p[1]);
-        const int y0 = std::max(0, static_cast<int>(std::floor(ymin)) - 1);
-        const int y1 = std::min(H - 1, static_cast<int>(std::ceil(ymax)) + 1);
-        for (int y = y0; y <= y1; ++y) {
-          double xl, xr;
-          if (!row_extent(poly, y, xl, xr)) continue;
-          int a = std::clamp(static_cast<int>(std::floor(xl)) - 1, 0, W - 1);
-          int b = std::clamp(static_cast<int>(std::ceil(xr)) + 1, 0, W - 1);
-          while (a <= b && !pred(a, y)) ++a;
-          while (b >= a && !pred(b, y)) --b;
-          if (a > b) continue;
-          while (a > 0 && pred(a - 1, y)) --a;
-          while (b < W - 1 && pred(b + 1, y)) ++b;
-          plan.runs.push_back({y, a, b + 1, piece_id});
-          used = true;
+          if (!g.inside(static_cast<int>(s), 0, 0, &w) || !(w[slot] > 0)) break;
         }
-        if (used) plan.pieces.push_back(piece);
+        if (base.size() < 3) continue;
+        // ... times pieces of the focal plane's orientation.
+        for (int sf : {1, -1}) {
+          if (g.focal_at_infinity(fp) && sf < 0) break;
+          Polygon poly = base;
+          if (!g.focal_at_infinity(fp)) poly = clip(poly, g.focal_denominator(fp) * sf);
+          if (poly.size() >= 3) poly = clip(poly, zc * sf);
+          if (poly.size() < 3) continue;
+          const std::array<int, 4> key{static_cast<int>(s), sd, sf, fp};
+          const int piece_id = static_cast<int>(
+              std::find(piece_keys.begin(), piece_keys.end(), key) - piece_keys.begin());
+          bool used = false;
+          auto pred = [&](int x, int y) {
+            if (g.focal_sign(x, y, fp) != sf) return false;
+            if (!(zc(x, y) * sf > 0)) return false;
+            if (!single) {
+              const double dn = g.camera_plane_denominator()(x, y);
+              if ((dn > 0 ? 1 : -1) != sd || dn == 0) return false;
+            }
+            std::array<double, 3> w;
+            return g.inside(static_cast<int>(s), x, y, &w) && w[slot] > 0;
+          };
+          double ymin = INFINITY, ymax = -INFINITY;
+          for (const auto& p : poly) ymin = std::min(ymin, p[1]), ymax = std::max(ymax, p[1]);
+          const int y0 = std::max(reg.y0, static_cast<int>(std::floor(ymin)) - 1);
+          const int y1 = std::min(reg.y1 - 1, static_cast<int>(std::ceil(ymax)) + 1);
+          const int xlo = reg.x0, xhi = reg.x1 - 1;
+          for (int y = y0; y <= y1; ++y) {
+            double xl, xr;
+            if (!row_extent(poly, y, xl, xr)) continue;
+            int a = std::clamp(static_cast<int>(std::floor(xl)) - 1, xlo, xhi);
+            int b = std::clamp(static_cast<int>(std::ceil(xr)) + 1, xlo, xhi);
+            while (a <= b && !pred(a, y)) ++a;
+            while (b >= a && !pred(b, y)) --b;
+            if (a > b) continue;
+            while (a > xlo && pred(a - 1, y)) --a;
+            while (b < xhi && pred(b + 1, y)) ++b;
+            plan.runs.push_back({y, a, b + 1, piece_id});
+            used = true;
+          }
+          if (used && piece_id == static_cast<int>(piece_keys.size())) {
+            FragmentPiece piece;
+            piece.H = Hc * static_cast<double>(sf);
+            piece.H *= 1.0 / cv::norm(piece.H);
+            piece.weight_num = num;
+            piece.weight_den = den;
+            plan.pieces.push_back(piece);
+            piece_keys.push_back(key);
+          }
+        }
       }
     }
   }
   std::sort(plan.runs.begin(), plan.runs.end(),
             [](const Run& a, const Run& b) { return a.y != b.y ? a.y < b.y : a.x0 < b.x0; });
   if (plan.runs.empty()) return plan;
+  // Runs of one piece that touch across a region edge become one.
+  size_t kept = 0;
+  for (size_t k = 1; k < plan.runs.size(); ++k) {
+    Run& last = plan.runs[kept];
+    const Run& r = plan.runs[k];
+    if (r.y == last.y && r.piece == last.piece && r.x0 == last.x1)
+      last.x1 = r.x1;
+    else
+      plan.runs[++kept] = r;
+  }
+  plan.runs.resize(kept + 1);
   int x0 = W, x1 = 0;
   for (const Run& r : plan.runs) x0 = std::min(x0, r.x0), x1 = std::max(x1, r.x1);
   const int ry0 = plan.runs.front().y, ry1 = plan.runs.back().y;

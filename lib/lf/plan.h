@@ -69,7 +69,7 @@ struct ApertureSample {
 class ViewGeometry {
  public:
   // Validates the request (throws std::invalid_argument) and precomputes.
-  // With `only_camera` >= 0, only that camera's homography is computed (a
+  // With `only_camera` >= 0, only that camera's homographies are computed (a
   // random access camera needs just its own); homography(i) of any other
   // camera is then the zero matrix.
   ViewGeometry(const Rig& rig, const ViewRequest& request, int only_camera = -1);
@@ -81,13 +81,26 @@ class ViewGeometry {
 
   // Line-of-pixel direction in world coordinates (not normalised).
   cv::Vec3d ray(double x, double y) const { return M_ * cv::Vec3d(x, y, 1.0); }
-  // Output pixel -> undistorted pixel of camera `index` (homogeneous; the sign
-  // is that of the true projective point, see focal_sign()).
-  const cv::Matx33d& homography(int index) const { return H_[index]; }
-  // Sign of the focal intersection's homogeneous w at a pixel: the homography
-  // images a point in front of camera i iff focal_sign * z_i > 0.
-  int focal_sign(double x, double y) const;
-  bool focal_at_infinity() const { return req_.focal_plane.at_infinity(); }
+  // Focal planes: the request's surface planes, or its one focal plane.
+  int plane_count() const { return static_cast<int>(planes_.size()); }
+  const FocalPlane& plane(int p) const { return planes_[p]; }
+  // Plane of the tile holding output pixel (x, y) (0 without a surface).
+  int plane_at(int x, int y) const {
+    return req_.surface.empty() ? 0 : req_.surface.plane_at(x, y);
+  }
+  // Output pixel -> undistorted pixel of camera `index` through focal plane
+  // `p` (homogeneous; the sign is that of the true projective point, see
+  // focal_sign()).
+  const cv::Matx33d& homography(int index, int p = 0) const { return H_[p * ncam_ + index]; }
+  const cv::Matx33d& homography_at(int index, int x, int y) const {
+    return homography(index, plane_at(x, y));
+  }
+  // Sign of the focal intersection's homogeneous w at a pixel (through the
+  // pixel's plane): the homography images a point in front of camera i iff
+  // focal_sign * z_i > 0.
+  int focal_sign(int x, int y) const { return focal_sign(x, y, plane_at(x, y)); }
+  int focal_sign(double x, double y, int p) const;
+  bool focal_at_infinity(int p = 0) const { return planes_[p].at_infinity(); }
 
   // Exact membership of a pixel's line in simplex `s`; fills barycentric
   // weights (per simplex vertex) when inside.
@@ -95,14 +108,14 @@ class ViewGeometry {
   // The simplex containing the pixel's line and its weights.
   ApertureSample locate(double x, double y) const;
   // Whether camera `index` sees the focal point of pixel (x, y).
-  bool visible(int index, double x, double y) const;
+  bool visible(int index, int x, int y) const;
 
   // Pixel forms (for planning).
   bool eye_on_camera_plane() const { return eye_dist_ == 0.0; }
   const PixelForm& camera_plane_denominator() const { return dn_; }
   PixelForm facet_form(int facet, int sign) const;  // e(X(p)) * D_n(p)
   double facet_at_eye(int facet, int sign) const;   // e(E_2d)
-  PixelForm focal_denominator() const { return fw_; }
+  PixelForm focal_denominator(int p = 0) const { return fw_[p]; }
 
  private:
   bool tie_positive(int facet, int sign) const;
@@ -111,10 +124,13 @@ class ViewGeometry {
   cv::Matx33d M_;
   double eye_dist_ = 0;
   cv::Vec2d eye2d_;
-  PixelForm dn_, fw_;
+  PixelForm dn_;
   std::vector<PixelForm> facet_px_;
   std::vector<double> facet_eye_;
-  std::vector<cv::Matx33d> H_;
+  std::vector<FocalPlane> planes_;
+  std::vector<PixelForm> fw_;  // per plane
+  int ncam_ = 0;
+  std::vector<cv::Matx33d> H_;  // plane-major: H_[p * ncam_ + camera]
 };
 
 // A run of output pixels [x0, x1) on row y rendered with one piece.
@@ -146,7 +162,10 @@ struct FragmentPlan {
 };
 
 // Plans camera `index`'s fragment for the request. Never throws for a valid
-// ViewGeometry; a camera that does not contribute gets an empty plan.
+// ViewGeometry; a camera that does not contribute gets an empty plan. With a
+// focal surface, each tile is planned through its own plane (the pixel sets
+// are those of the same predicates with that plane) and runs are cut at tile
+// edges where the plane changes: one piece per (simplex, orientation, plane).
 FragmentPlan plan_fragment(const ViewGeometry& geometry, int index);
 
 }  // namespace lf

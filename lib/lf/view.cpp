@@ -1,5 +1,6 @@
 #include "lf/view.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -84,6 +85,36 @@ void validate(const ViewRequest& req) {
   if (!std::isfinite(p.d)) bad("focal plane offset is not finite");
   if (p.at_infinity() && p.d == 0.0) bad("focal plane (0, 0, 0, 0) is not a plane");
   if (req.aperture != Aperture::kTent) bad("unknown aperture");
+  const FocalSurface& fs = req.surface;
+  if (fs.empty()) return;
+  if (fs.tile < FocalSurface::kMinTile || fs.tile > FocalSurface::kMaxTile)
+    bad("focal surface tile " + std::to_string(fs.tile) + " px is outside " +
+        std::to_string(FocalSurface::kMinTile) + ".." + std::to_string(FocalSurface::kMaxTile));
+  if (fs.cols != (v.width + fs.tile - 1) / fs.tile || fs.rows != (v.height + fs.tile - 1) / fs.tile)
+    bad("focal surface grid " + std::to_string(fs.cols) + "x" + std::to_string(fs.rows) +
+        " does not cover the " + std::to_string(v.width) + "x" + std::to_string(v.height) +
+        " output in tiles of " + std::to_string(fs.tile));
+  if (fs.planes.empty() || fs.planes.size() > FocalSurface::kMaxPlanes)
+    bad("focal surface has " + std::to_string(fs.planes.size()) + " planes (1.." +
+        std::to_string(FocalSurface::kMaxPlanes) + ")");
+  for (const FocalPlane& q : fs.planes) {
+    if (!std::isfinite(q.n[0]) || !std::isfinite(q.n[1]) || !std::isfinite(q.n[2]) ||
+        !std::isfinite(q.d))
+      bad("focal surface plane is not finite");
+    if (q.at_infinity() && q.d == 0.0) bad("focal surface plane (0, 0, 0, 0) is not a plane");
+  }
+  if (fs.plane_of.size() != static_cast<size_t>(fs.cols) * fs.rows)
+    bad("focal surface has " + std::to_string(fs.plane_of.size()) + " tile entries for " +
+        std::to_string(fs.cols * fs.rows) + " tiles");
+  for (uint8_t k : fs.plane_of)
+    if (k >= fs.planes.size()) bad("focal surface tile names plane " + std::to_string(k));
+}
+
+int FocalSurface::planes_used() const {
+  std::vector<bool> used(planes.size(), false);
+  for (uint8_t k : plane_of)
+    if (k < used.size()) used[k] = true;
+  return static_cast<int>(std::count(used.begin(), used.end(), true));
 }
 
 }  // namespace lf

@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "lf/camera.h"
 
@@ -24,6 +25,27 @@ struct FocalPlane {
   static FocalPlane infinity() { return {{0, 0, 0}, 1.0}; }
   // Plane with unit normal `normal` through point `p`.
   static FocalPlane through(const cv::Vec3d& p, const cv::Vec3d& normal);
+};
+
+// A piecewise-planar focal surface over the output image: the image is cut
+// into square tiles of `tile` output pixels (tile (c, r) covers pixels
+// x in [c*tile, min((c+1)*tile, width)), y likewise; the last column and row
+// may be narrower) and each tile is focused on one of a few planes. Each
+// camera then has one homography per plane, so a fragment is still the
+// paper's fragment, cut into pieces at tile edges (lf/plan.h). An empty
+// surface (tile == 0) means the request's single focal plane everywhere.
+// Estimated from the images by lf/focal_surface.h.
+struct FocalSurface {
+  int tile = 0;                    // tile size, output pixels (0: no surface)
+  int cols = 0, rows = 0;          // ceil(width / tile), ceil(height / tile)
+  std::vector<FocalPlane> planes;  // distinct planes, 1..kMaxPlanes
+  std::vector<uint8_t> plane_of;   // rows * cols, row-major: index into planes
+  static constexpr int kMinTile = 4, kMaxTile = 1024, kMaxPlanes = 64;
+
+  bool empty() const { return tile == 0; }
+  int plane_at(int x, int y) const { return plane_of[(y / tile) * cols + x / tile]; }
+  // Distinct planes that some tile uses.
+  int planes_used() const;
 };
 
 // Aperture filter over the camera plane (Isaksen et al. 2000). The paper's
@@ -58,7 +80,8 @@ struct ViewRequest {
   uint32_t viewer_id = 0;  // which viewer (one output stream per viewer)
   uint64_t sequence = 0;   // request number, increasing per viewer
   VirtualView view;
-  FocalPlane focal_plane;
+  FocalPlane focal_plane;  // the single plane; with a surface, where it has none
+  FocalSurface surface;    // optional per-tile focal planes (empty: focal_plane)
   Aperture aperture = Aperture::kTent;
   // The instant the request is for (ns of running time on the pipeline
   // clock; in a deployment, the shared network clock and base time), or -1
@@ -71,7 +94,10 @@ struct ViewRequest {
 
 // Throws std::invalid_argument naming the field when a request cannot be
 // rendered: non-finite numbers, size outside 1..16384, fov outside
-// (0, 179.9] degrees, R not a rotation, or a focal plane with n = 0 and d = 0.
+// (0, 179.9] degrees, R not a rotation, a focal plane with n = 0 and d = 0, or
+// a surface whose tile size is outside kMinTile..kMaxTile, whose grid does
+// not match the output size, with 0 or more than kMaxPlanes planes, a bad
+// plane, or a tile naming a plane that is not there.
 void validate(const ViewRequest& req);
 
 }  // namespace lf
