@@ -54,7 +54,6 @@ double focal_param_from_inverse_depth(const Rig& rig, double q) {
 // ---------------------------------------------------------------------------
 // Auto-focus
 
-namespace {
 ViewRequest scaled_request(const ViewRequest& req, int width) {
   ViewRequest r = req;
   const double s = static_cast<double>(width) / req.view.width;
@@ -66,9 +65,11 @@ ViewRequest scaled_request(const ViewRequest& req, int width) {
   r.view.vfov_deg = 2.0 * std::atan(0.5 * r.view.height / f_new) * 180.0 / CV_PI;
   r.view.shift_x = req.view.shift_x * s;
   r.view.shift_y = req.view.shift_y * s;
+  r.surface = {};
   return r;
 }
 
+namespace {
 float bilinear(const cv::Mat& g, float u, float v) {
   const int x = static_cast<int>(u), y = static_cast<int>(v);
   const float fx = u - x, fy = v - y;
@@ -78,34 +79,27 @@ float bilinear(const cv::Mat& g, float u, float v) {
 }
 }  // namespace
 
-AutofocusContext::AutofocusContext(const Rig& rig, const std::vector<cv::Mat>& images,
-                                   AutofocusOptions opt)
-    : rig_(&rig), opt_(opt) {
+AnalysisImages analysis_images(const Rig& rig, const std::vector<cv::Mat>& images, int width) {
   if (images.size() != rig.cameras.size())
-    throw std::invalid_argument("autofocus: image count does not match the rig");
+    throw std::invalid_argument("analysis images: image count does not match the rig");
   std::vector<double> widths;
   for (const Camera& c : rig.cameras) widths.push_back(c.width);
-  const double w = median(widths);
-  for (int width : {opt.coarse_width, opt.fine_width}) {
-    const double scale = std::min(1.0, 1.5 * width / w);
-    rigs_.push_back(scale_rig(rig, scale));
-    std::vector<cv::Mat> gray(images.size());
-    for (size_t i = 0; i < images.size(); ++i) {
-      cv::Mat small, g;
-      cv::resize(images[i], small,
-                 cv::Size(rigs_.back().cameras[i].width, rigs_.back().cameras[i].height), 0, 0,
-                 cv::INTER_AREA);
-      cv::cvtColor(small, g, cv::COLOR_BGRA2GRAY);
-      g.convertTo(gray[i], CV_32F);
-    }
-    gray_.push_back(std::move(gray));
+  const double scale = std::min(1.0, 1.5 * width / median(widths));
+  AnalysisImages out{scale_rig(rig, scale), std::vector<cv::Mat>(images.size())};
+  for (size_t i = 0; i < images.size(); ++i) {
+    cv::Mat small, g;
+    cv::resize(images[i], small, cv::Size(out.rig.cameras[i].width, out.rig.cameras[i].height), 0,
+               0, cv::INTER_AREA);
+    cv::cvtColor(small, g, cv::COLOR_BGRA2GRAY);
+    g.convertTo(out.gray[i], CV_32F);
   }
+  return out;
 }
 
-double AutofocusContext::sweep_cost(const ViewRequest& req_in, int width, double q,
-                                    int level) const {
-  const Rig& rig = rigs_[level];
-  ViewRequest req = scaled_request(req_in, width);
+void photo_consistency(const Rig& rig, const std::vector<cv::Mat>& gray, const ViewRequest& req_in,
+                       double q, double truncate, cv::Mat& cost) {
+  ViewRequest req = req_in;
+  req.surface = {};
   req.focal_plane = plane_at_inverse_depth(rig, q);
   const ViewGeometry g(rig, req);
   const int W = req.view.width, H = req.view.height;
@@ -114,7 +108,7 @@ double AutofocusContext::sweep_cost(const ViewRequest& req_in, int width, double
     const FragmentPlan plan = plan_fragment(g, static_cast<int>(i));
     if (plan.empty()) continue;
     const Camera& cam = rig.cameras[i];
-    const cv::Mat& img = gray_[level][i];
+    const cv::Mat& img = gray[i];
     for (const Run& run : plan.runs) {
       const FragmentPiece& pc = plan.pieces[run.piece];
       for (int x = run.x0; x < run.x1; ++x) {
@@ -134,17 +128,35 @@ double AutofocusContext::sweep_cost(const ViewRequest& req_in, int width, double
       }
     }
   }
-  const double cap = opt_.truncate * opt_.truncate;
+  const float cap = static_cast<float>(truncate * truncate);
+  cost.create(H, W, CV_32F);
+  float* out = cost.ptr<float>();
+  for (size_t k = 0; k < s0.size(); ++k) {
+    if (s0[k] < 0.9f) {  // most of the aperture must see the point
+      out[k] = -1.0f;
+      continue;
+    }
+    const double m = static_cast<double>(s1[k]) / s0[k];
+    out[k] = static_cast<float>(std::min(std::max(0.0, s2[k] / s0[k] - m * m), double{cap}));
+  }
+}
+
+AutofocusContext::AutofocusContext(const Rig& rig, const std::vector<cv::Mat>& images,
+                                   AutofocusOptions opt)
+    : rig_(&rig), opt_(opt) {
+  for (int width : {opt.coarse_width, opt.fine_width})
+    levels_.push_back(analysis_images(rig, images, width));
+}
+
+double AutofocusContext::sweep_cost(const ViewRequest& req, int width, double q, int level) const {
+  cv::Mat cost;
+  photo_consistency(levels_[level].rig, levels_[level].gray, scaled_request(req, width), q,
+                    opt_.truncate, cost);
   double sum = 0;
   size_t count = 0;
-  for (size_t k = 0; k < s0.size(); ++k) {
-    if (s0[k] < 0.9f) continue;  // most of the aperture must see the point
-    const double m = s1[k] / s0[k];
-    const double var = std::max(0.0, s2[k] / s0[k] - m * m);
-    sum += std::min(var, cap);
-    ++count;
-  }
-  return count ? sum / count : cap;
+  for (const float* c = cost.ptr<float>(); c != cost.ptr<float>() + cost.total(); ++c)
+    if (*c >= 0) sum += *c, ++count;
+  return count ? sum / count : opt_.truncate * opt_.truncate;
 }
 
 AutofocusResult AutofocusContext::run(const ViewRequest& req) const {

@@ -47,6 +47,27 @@ struct AutofocusResult {
   double inverse_depth = 0;      // 1 / z, rig units^-1
   std::vector<cv::Vec2d> curve;  // (inverse depth, cost) of every evaluated plane
 };
+// Photo-consistency of the plane at inverse depth `q` at every pixel of
+// `req` (at req.view's size): the cameras that the tent aperture blends at
+// each output pixel are sampled (bilinear) from `gray` (CV_32F, one per rig
+// camera, at the rig's sizes); the cost is their aperture-weighted colour
+// variance, truncated at truncate^2 (occlusions), or -1 where less than 0.9
+// of the aperture sees the point. `cost` becomes CV_32F of the view's size.
+void photo_consistency(const Rig& rig, const std::vector<cv::Mat>& gray, const ViewRequest& req,
+                       double q, double truncate, cv::Mat& cost);
+
+// A copy of the rig scaled so that its median image width is about
+// 1.5 x `width`, with its images grey (CV_32F) at that size: what an
+// analysis at `width` output pixels samples.
+struct AnalysisImages {
+  Rig rig;
+  std::vector<cv::Mat> gray;
+};
+AnalysisImages analysis_images(const Rig& rig, const std::vector<cv::Mat>& images, int width);
+
+// The request at `width` output pixels (same field of view and lens shift).
+ViewRequest scaled_request(const ViewRequest& req, int width);
+
 // Reusable downsampled copies of the rig and images for repeated auto-focus.
 class AutofocusContext {
  public:
@@ -57,8 +78,7 @@ class AutofocusContext {
   double sweep_cost(const ViewRequest& req, int width, double q, int level) const;
   const Rig* rig_;
   AutofocusOptions opt_;
-  std::vector<Rig> rigs_;                   // per pyramid level
-  std::vector<std::vector<cv::Mat>> gray_;  // float grey images per level
+  std::vector<AnalysisImages> levels_;
 };
 
 }  // namespace lf

@@ -196,6 +196,51 @@ double max_abs(const PixelForm& f) {
 
 namespace {
 
+// For each row in [ylo, yhi] that the convex polygon proposes, the exact
+// interval of pixels in [xlo, xhi] where `pred` holds (the predicate's set on
+// a row is an interval: an intersection of half-planes), found by shrinking
+// the proposal (one pixel wider than the polygon) and growing it again.
+template <class Pred, class Emit>
+void scan_rows(const Polygon& poly, int ylo, int yhi, int xlo, int xhi, const Pred& pred,
+               const Emit& emit) {
+  double ymin = INFINITY, ymax = -INFINITY;
+  for (const auto& p : poly) ymin = std::min(ymin, p[1]), ymax = std::max(ymax, p[1]);
+  const int y0 = std::max(ylo, static_cast<int>(std::floor(ymin)) - 1);
+  const int y1 = std::min(yhi, static_cast<int>(std::ceil(ymax)) + 1);
+  for (int y = y0; y <= y1; ++y) {
+    double xl, xr;
+    if (!row_extent(poly, y, xl, xr)) continue;
+    int a = std::clamp(static_cast<int>(std::floor(xl)) - 1, xlo, xhi);
+    int b = std::clamp(static_cast<int>(std::ceil(xr)) + 1, xlo, xhi);
+    while (a <= b && !pred(a, y)) ++a;
+    while (b >= a && !pred(b, y)) --b;
+    if (a > b) continue;
+    while (a > xlo && pred(a - 1, y)) --a;
+    while (b < xhi && pred(b + 1, y)) ++b;
+    emit(y, a, b + 1);
+  }
+}
+
+// Whether the linear form is positive at every pixel of [x0, x1) x [y0, y1)
+// with a margin that rounding cannot cross (checked at the corners).
+bool positive_on(const PixelForm& f, int x0, int y0, int x1, int y1) {
+  const double margin =
+      1e-9 * (std::abs(f.a) * (x1 + 1) + std::abs(f.b) * (y1 + 1) + std::abs(f.c));
+  for (int x : {x0, x1 - 1})
+    for (int y : {y0, y1 - 1})
+      if (!(f(x, y) > margin)) return false;
+  return true;
+}
+
+FragmentPiece make_piece(const cv::Matx33d& H, int sf, const PixelForm& num, const PixelForm& den) {
+  FragmentPiece piece;
+  piece.H = H * static_cast<double>(sf);
+  piece.H *= 1.0 / cv::norm(piece.H);
+  piece.weight_num = num;
+  piece.weight_den = den;
+  return piece;
+}
+
 // Output pixels [x0, x1) x [y0, y1) focused through plane `plane`.
 struct Region {
   int x0, y0, x1, y1, plane;
@@ -230,110 +275,176 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
   plan.camera_id = rig.cameras[index].id;
   plan.out_width = g.width();
   plan.out_height = g.height();
-  const int W = g.width();
+  const int W = g.width(), H = g.height();
   // Piece ids by (simplex, camera-plane side, focal side, plane), in order
   // of first use.
   std::vector<std::array<int, 4>> piece_keys;
 
+  // The parts of the camera plane's simplices that hold this camera, as
+  // polygons of output pixels: they do not depend on the focal plane.
+  struct Part {
+    int s, slot, sd;
+    bool single;
+    PixelForm num, den;
+    Polygon base;
+    double x0, y0, x1, y1;                 // bounding box of base
+    std::vector<std::array<int, 3>> rows;  // with a surface: (y, x0, x1) where the weight is > 0
+  };
+  std::vector<Part> parts;
+  const Polygon frame = {{-0.5, -0.5}, {W - 0.5, -0.5}, {W - 0.5, H - 0.5}, {-0.5, H - 0.5}};
   const auto& simplices = rig.simplices();
+  for (size_t s = 0; s < simplices.size(); ++s) {
+    const Simplex& sx = simplices[s];
+    int slot = -1;
+    for (int k = 0; k < sx.size; ++k)
+      if (sx.cams[k] == index) slot = k;
+    if (slot < 0) continue;
+    // Weight forms of this camera in this simplex.
+    PixelForm num, den;
+    if (sx.size == 1) {
+      num = den = constant(1.0);
+    } else if (g.eye_on_camera_plane()) {
+      double sum = 0;
+      for (int k = 0; k < sx.size; ++k) sum += g.facet_at_eye(sx.facet[k], sx.sign[k]);
+      num = constant(g.facet_at_eye(sx.facet[slot], sx.sign[slot]));
+      den = constant(sum);
+    } else {
+      num = g.facet_form(sx.facet[slot], sx.sign[slot]);
+      for (int k = 0; k < sx.size; ++k) den = den + g.facet_form(sx.facet[k], sx.sign[k]);
+    }
+    const double dscale = max_abs(den);
+    if (dscale > 0) num = num * (1.0 / dscale), den = den * (1.0 / dscale);
+
+    // Orientation pieces of the camera plane (sign of D_n).
+    const bool single = sx.size == 1 || g.eye_on_camera_plane();
+    for (int sd : {1, -1}) {
+      if (single && sd < 0) break;
+      Polygon base = frame;
+      if (!single) {
+        base = clip(base, g.camera_plane_denominator() * sd);
+        for (int k = 0; k < sx.size && !base.empty(); ++k)
+          base = clip(base, g.facet_form(sx.facet[k], sx.sign[k]) * sd);
+      } else if (sx.size > 1) {
+        std::array<double, 3> w;
+        if (!g.inside(static_cast<int>(s), 0, 0, &w) || !(w[slot] > 0)) break;
+      }
+      if (base.size() < 3) continue;
+      Part part{static_cast<int>(s), slot,     sd, single, num, den, base, INFINITY, INFINITY,
+                -INFINITY,           -INFINITY};
+      for (const auto& p : base) {
+        part.x0 = std::min(part.x0, p[0]), part.x1 = std::max(part.x1, p[0]);
+        part.y0 = std::min(part.y0, p[1]), part.y1 = std::max(part.y1, p[1]);
+      }
+      if (!g.request().surface.empty()) {
+        // Where the camera's weight is positive, whatever the focal plane.
+        auto weighted = [&](int x, int y) {
+          if (!single) {
+            const double dn = g.camera_plane_denominator()(x, y);
+            if ((dn > 0 ? 1 : -1) != sd || dn == 0) return false;
+          }
+          std::array<double, 3> w;
+          return g.inside(static_cast<int>(s), x, y, &w) && w[slot] > 0;
+        };
+        scan_rows(part.base, 0, H - 1, 0, W - 1, weighted, [&](int y, int a, int b) {
+          part.rows.push_back({y, a, b});
+        });
+      }
+      parts.push_back(std::move(part));
+    }
+  }
+
   for (const Region& reg : focal_regions(g)) {
-    const Polygon frame = {{reg.x0 - 0.5, reg.y0 - 0.5},
-                           {reg.x1 - 0.5, reg.y0 - 0.5},
-                           {reg.x1 - 0.5, reg.y1 - 0.5},
-                           {reg.x0 - 0.5, reg.y1 - 0.5}};
+    const bool whole = reg.x0 == 0 && reg.y0 == 0 && reg.x1 == W && reg.y1 == H;
     const int fp = reg.plane;
     const cv::Matx33d& Hc = g.homography(index, fp);
     const PixelForm zc{Hc(2, 0), Hc(2, 1), Hc(2, 2)};
-    for (size_t s = 0; s < simplices.size(); ++s) {
-      const Simplex& sx = simplices[s];
-      int slot = -1;
-      for (int k = 0; k < sx.size; ++k)
-        if (sx.cams[k] == index) slot = k;
-      if (slot < 0) continue;
-      // Weight forms of this camera in this simplex.
-      PixelForm num, den;
-      if (sx.size == 1) {
-        num = den = constant(1.0);
-      } else if (g.eye_on_camera_plane()) {
-        double sum = 0;
-        for (int k = 0; k < sx.size; ++k) sum += g.facet_at_eye(sx.facet[k], sx.sign[k]);
-        num = constant(g.facet_at_eye(sx.facet[slot], sx.sign[slot]));
-        den = constant(sum);
-      } else {
-        num = g.facet_form(sx.facet[slot], sx.sign[slot]);
-        for (int k = 0; k < sx.size; ++k) den = den + g.facet_form(sx.facet[k], sx.sign[k]);
-      }
-      const double dscale = max_abs(den);
-      if (dscale > 0) num = num * (1.0 / dscale), den = den * (1.0 / dscale);
-
-      // Orientation pieces of the camera plane (sign of D_n) ...
-      const bool single = sx.size == 1 || g.eye_on_camera_plane();
-      for (int sd : {1, -1}) {
-        if (single && sd < 0) break;
-        Polygon base = frame;
-        if (!single) {
-          base = clip(base, g.camera_plane_denominator() * sd);
-          for (int k = 0; k < sx.size && !base.empty(); ++k)
-            base = clip(base, g.facet_form(sx.facet[k], sx.sign[k]) * sd);
-        } else if (sx.size > 1) {
-          std::array<double, 3> w;
-          if (!g.inside(static_cast<int>(s), 0, 0, &w) || !(w[slot] > 0)) break;
+    for (const Part& part : parts) {
+      // The part within the region (a margin of one pixel: the exact
+      // predicate decides the pixels).
+      if (part.x1 < reg.x0 - 1.5 || part.x0 > reg.x1 + 0.5 || part.y1 < reg.y0 - 1.5 ||
+          part.y0 > reg.y1 + 0.5)
+        continue;
+      const int s = part.s, slot = part.slot, sd = part.sd;
+      const bool single = part.single;
+      // A region whose focal points are all in front of the camera and on
+      // the focal plane's positive side (the usual case) is the part's
+      // weighted pixels there, without evaluating any predicate again.
+      if (!whole &&
+          (g.focal_at_infinity(fp) ||
+           positive_on(g.focal_denominator(fp), reg.x0, reg.y0, reg.x1, reg.y1)) &&
+          positive_on(zc, reg.x0, reg.y0, reg.x1, reg.y1)) {
+        const std::array<int, 4> key{s, sd, 1, fp};
+        const int piece_id = static_cast<int>(std::find(piece_keys.begin(), piece_keys.end(), key) -
+                                              piece_keys.begin());
+        bool used = false;
+        auto r = std::lower_bound(part.rows.begin(), part.rows.end(), reg.y0,
+                                  [](const std::array<int, 3>& row, int y) { return row[0] < y; });
+        for (; r != part.rows.end() && (*r)[0] < reg.y1; ++r) {
+          const int a = std::max((*r)[1], reg.x0), b = std::min((*r)[2], reg.x1);
+          if (a >= b) continue;
+          plan.runs.push_back({(*r)[0], a, b, piece_id});
+          used = true;
         }
+        if (used && piece_id == static_cast<int>(piece_keys.size())) {
+          plan.pieces.push_back(make_piece(Hc, 1, part.num, part.den));
+          piece_keys.push_back(key);
+        }
+        continue;
+      }
+      Polygon base = part.base;
+      if (!whole) {
+        base = clip(base, {1, 0, 0.5 - reg.x0});
+        if (base.size() >= 3) base = clip(base, {-1, 0, reg.x1 - 0.5});
+        if (base.size() >= 3) base = clip(base, {0, 1, 0.5 - reg.y0});
+        if (base.size() >= 3) base = clip(base, {0, -1, reg.y1 - 0.5});
         if (base.size() < 3) continue;
-        // ... times pieces of the focal plane's orientation.
-        for (int sf : {1, -1}) {
-          if (g.focal_at_infinity(fp) && sf < 0) break;
-          Polygon poly = base;
-          if (!g.focal_at_infinity(fp)) poly = clip(poly, g.focal_denominator(fp) * sf);
-          if (poly.size() >= 3) poly = clip(poly, zc * sf);
-          if (poly.size() < 3) continue;
-          const std::array<int, 4> key{static_cast<int>(s), sd, sf, fp};
-          const int piece_id = static_cast<int>(
-              std::find(piece_keys.begin(), piece_keys.end(), key) - piece_keys.begin());
-          bool used = false;
-          auto pred = [&](int x, int y) {
-            if (g.focal_sign(x, y, fp) != sf) return false;
-            if (!(zc(x, y) * sf > 0)) return false;
-            if (!single) {
-              const double dn = g.camera_plane_denominator()(x, y);
-              if ((dn > 0 ? 1 : -1) != sd || dn == 0) return false;
-            }
-            std::array<double, 3> w;
-            return g.inside(static_cast<int>(s), x, y, &w) && w[slot] > 0;
-          };
-          double ymin = INFINITY, ymax = -INFINITY;
-          for (const auto& p : poly) ymin = std::min(ymin, p[1]), ymax = std::max(ymax, p[1]);
-          const int y0 = std::max(reg.y0, static_cast<int>(std::floor(ymin)) - 1);
-          const int y1 = std::min(reg.y1 - 1, static_cast<int>(std::ceil(ymax)) + 1);
-          const int xlo = reg.x0, xhi = reg.x1 - 1;
-          for (int y = y0; y <= y1; ++y) {
-            double xl, xr;
-            if (!row_extent(poly, y, xl, xr)) continue;
-            int a = std::clamp(static_cast<int>(std::floor(xl)) - 1, xlo, xhi);
-            int b = std::clamp(static_cast<int>(std::ceil(xr)) + 1, xlo, xhi);
-            while (a <= b && !pred(a, y)) ++a;
-            while (b >= a && !pred(b, y)) --b;
-            if (a > b) continue;
-            while (a > xlo && pred(a - 1, y)) --a;
-            while (b < xhi && pred(b + 1, y)) ++b;
-            plan.runs.push_back({y, a, b + 1, piece_id});
-            used = true;
+      }
+      // ... times pieces of the focal plane's orientation.
+      for (int sf : {1, -1}) {
+        if (g.focal_at_infinity(fp) && sf < 0) break;
+        Polygon poly = base;
+        if (!g.focal_at_infinity(fp)) poly = clip(poly, g.focal_denominator(fp) * sf);
+        if (poly.size() >= 3) poly = clip(poly, zc * sf);
+        if (poly.size() < 3) continue;
+        const std::array<int, 4> key{static_cast<int>(s), sd, sf, fp};
+        const int piece_id = static_cast<int>(std::find(piece_keys.begin(), piece_keys.end(), key) -
+                                              piece_keys.begin());
+        bool used = false;
+        auto pred = [&](int x, int y) {
+          if (g.focal_sign(x, y, fp) != sf) return false;
+          if (!(zc(x, y) * sf > 0)) return false;
+          if (!single) {
+            const double dn = g.camera_plane_denominator()(x, y);
+            if ((dn > 0 ? 1 : -1) != sd || dn == 0) return false;
           }
-          if (used && piece_id == static_cast<int>(piece_keys.size())) {
-            FragmentPiece piece;
-            piece.H = Hc * static_cast<double>(sf);
-            piece.H *= 1.0 / cv::norm(piece.H);
-            piece.weight_num = num;
-            piece.weight_den = den;
-            plan.pieces.push_back(piece);
-            piece_keys.push_back(key);
-          }
+          std::array<double, 3> w;
+          return g.inside(static_cast<int>(s), x, y, &w) && w[slot] > 0;
+        };
+        scan_rows(poly, reg.y0, reg.y1 - 1, reg.x0, reg.x1 - 1, pred, [&](int y, int a, int b) {
+          plan.runs.push_back({y, a, b, piece_id});
+          used = true;
+        });
+        if (used && piece_id == static_cast<int>(piece_keys.size())) {
+          plan.pieces.push_back(make_piece(Hc, sf, part.num, part.den));
+          piece_keys.push_back(key);
         }
       }
     }
   }
-  std::sort(plan.runs.begin(), plan.runs.end(),
-            [](const Run& a, const Run& b) { return a.y != b.y ? a.y < b.y : a.x0 < b.x0; });
+  // Sort by (y, x0): rows by counting, each row's few runs by insertion.
+  {
+    std::vector<int> start(H + 1, 0);
+    for (const Run& r : plan.runs) ++start[r.y + 1];
+    for (int y = 0; y < H; ++y) start[y + 1] += start[y];
+    std::vector<Run> sorted(plan.runs.size());
+    std::vector<int> fill(start.begin(), start.end() - 1);
+    for (const Run& r : plan.runs) sorted[fill[r.y]++] = r;
+    for (int y = 0; y < H; ++y)
+      for (int k = start[y] + 1; k < start[y + 1]; ++k)
+        for (int j = k; j > start[y] && sorted[j].x0 < sorted[j - 1].x0; --j)
+          std::swap(sorted[j], sorted[j - 1]);
+    plan.runs = std::move(sorted);
+  }
   if (plan.runs.empty()) return plan;
   // Runs of one piece that touch across a region edge become one.
   size_t kept = 0;

@@ -1,0 +1,93 @@
+// A focal surface estimated from the images (beyond the paper, which uses one
+// focal plane per view, Yang et al. 2002, Section 4.3): each tile of the
+// output view is focused on the plane where the cameras that the tent
+// aperture blends there agree best ("model only what the scene needs": a
+// tile leaves the view's best single plane only when another plane is
+// clearly more photo-consistent there).
+//
+// Method: a plane sweep at low resolution. For each of `planes` candidate
+// planes parallel to the camera plane, evenly spaced in inverse depth over a
+// parallax of 0 .. max_parallax_px between neighbouring cameras, the
+// photo-consistency (lf/focus.h: aperture-weighted colour variance, truncated
+// at occlusions) is measured at every pixel of an analysis view
+// `analysis_width` pixels wide and summed per tile. The best single plane is
+// the minimum of the whole view's mean cost (refined by a parabola). Per tile,
+// costs are aggregated over the 3 x 3 tiles around it, and a tile label
+// (a candidate plane, or the single plane) is chosen by semi-global matching
+// over the tile grid (4 directions; a step of one plane costs step_penalty,
+// a larger jump jump_penalty; leaving the single plane costs leave_penalty).
+// Tiles that too few cameras see, or whose cost varies by less than
+// min_texture over the planes (textureless), keep the single plane.
+//
+// Units: costs are variances of 8-bit grey levels (levels^2).
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "lf/focus.h"
+#include "lf/rig.h"
+#include "lf/view.h"
+
+namespace lf {
+
+struct SurfaceOptions {
+  int tile = 16;                  // output pixels per tile side (FocalSurface::tile)
+  int analysis_width = 160;       // analysis view width, pixels (at most the view's)
+  int planes = 32;                // candidate planes
+  double max_parallax_px = 24.0;  // at full camera resolution, between neighbours
+  double truncate = 25.0;         // per-pixel colour standard deviation cap (8-bit levels)
+  double step_penalty = 4.0;      // neighbouring tiles one candidate plane apart
+  double jump_penalty = 40.0;     // neighbouring tiles further apart
+  double leave_penalty = 6.0;     // a tile off the single plane
+  double min_texture = 12.0;      // cost range below which a tile keeps the single plane
+  // For estimate() with a SurfaceCosts carried between frames: each call
+  // evaluates every stride-th candidate plane (a different phase each call)
+  // and reuses the other planes' costs from earlier calls.
+  int stride = 1;
+};
+
+// Per-tile costs carried from one frame's estimate to the next (one viewer).
+struct SurfaceCosts {
+  int cols = 0, rows = 0, width = 0, height = 0;
+  std::vector<double> sum, count;  // [plane * tiles + tile]
+  std::vector<bool> have;          // per plane: evaluated at least once
+  int phase = 0;
+};
+
+struct SurfaceEstimate {
+  // The request's focal plane is `single`; `surface` is empty when every
+  // tile keeps it (a flat scene needs one plane).
+  FocalPlane single;
+  double single_q = 0;         // inverse depth of `single`, rig units^-1
+  FocalSurface surface;        // tiles of SurfaceOptions::tile
+  std::vector<double> tile_q;  // inverse depth per tile (rows * cols)
+  std::vector<bool> textured;  // per tile: decided by the images (not a fallback)
+  int planes_used = 1;         // distinct planes over the tiles
+  int planes_evaluated = 0;    // candidate planes swept by this call
+};
+
+class FocalSurfaceEstimator {
+ public:
+  // `images`: CV_8UC4, one per rig camera. Throws std::invalid_argument on a
+  // count mismatch or bad options.
+  FocalSurfaceEstimator(const Rig& rig, const std::vector<cv::Mat>& images,
+                        SurfaceOptions opt = {});
+  // The surface for `req` (its focal plane and surface are ignored). With
+  // `carry`, planes are evaluated stride-wise and costs kept across calls; a
+  // carry of another view size starts afresh.
+  SurfaceEstimate estimate(const ViewRequest& req, SurfaceCosts* carry = nullptr) const;
+  double candidate_q(int k) const { return q_max_ * k / (opt_.planes - 1); }
+  const SurfaceOptions& options() const { return opt_; }
+
+ private:
+  const Rig* rig_;
+  SurfaceOptions opt_;
+  double q_max_ = 0;
+  AnalysisImages analysis_;
+};
+
+// Applies an estimate to a request: its focal plane and surface.
+void apply(const SurfaceEstimate& e, ViewRequest& req);
+
+}  // namespace lf
