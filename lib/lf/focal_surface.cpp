@@ -19,45 +19,44 @@ FocalSurfaceEstimator::FocalSurfaceEstimator(const Rig& rig, const std::vector<c
         std::to_string(FocalSurface::kMinTile) + ".." + std::to_string(FocalSurface::kMaxTile));
   if (opt.planes < 3 || opt.planes >= FocalSurface::kMaxPlanes)
     bad("planes must be 3.." + std::to_string(FocalSurface::kMaxPlanes - 1));
-  if (opt.analysis_width < 16) bad("analysis width below 16 pixels");
-  if (opt.stride < 1 || opt.stride > opt.planes) bad("stride must be 1..planes");
+  if (opt.analysis_width < 16 || opt.fine_width < 16) bad("analysis width below 16 pixels");
+  if (opt.fine_planes < 3 || opt.fine_planes >= FocalSurface::kMaxPlanes)
+    bad("fine planes must be 3.." + std::to_string(FocalSurface::kMaxPlanes - 1));
+  if (opt.stride < 1 || opt.stride > std::min(opt.planes, opt.fine_planes))
+    bad("stride must be 1..planes");
   if (!(opt.max_parallax_px > 0) || !(opt.truncate > 0)) bad("parallax and truncation must be > 0");
   std::vector<double> f;
   for (const Camera& c : rig.cameras) f.push_back(c.intrinsics.fx);
   if (f.empty()) bad("empty rig");
   std::nth_element(f.begin(), f.begin() + f.size() / 2, f.end());
   q_max_ = opt.max_parallax_px / (f[f.size() / 2] * rig.typical_spacing());
-  analysis_ = analysis_images(rig, images, opt.analysis_width);
+  coarse_ = analysis_images(rig, images, opt.analysis_width);
+  fine_ = analysis_images(rig, images, opt.fine_width);
 }
 
-SurfaceEstimate FocalSurfaceEstimator::estimate(const ViewRequest& req, SurfaceCosts* carry) const {
-  validate(req);
-  const int W = req.view.width, H = req.view.height, T = opt_.tile, N = opt_.planes;
-  const int aw = std::min(opt_.analysis_width, W);
+namespace {
+
+// Per-tile photo-consistency of a list of planes, kept between frames.
+void sweep(const AnalysisImages& an, const ViewRequest& req, int W, int H, int T, double truncate,
+           int stride, int phase, SweepCosts& c, int* evaluated) {
+  const int aw = std::min(an.width, W);
   const ViewRequest sreq = scaled_request(req, aw);
   const int ah = sreq.view.height;
   const int cols = (W + T - 1) / T, rows = (H + T - 1) / T, tiles = cols * rows;
-
-  SurfaceCosts local;
-  SurfaceCosts& c = carry ? *carry : local;
-  if (c.cols != cols || c.rows != rows || c.width != W || c.height != H ||
-      c.have.size() != static_cast<size_t>(N)) {
-    c = SurfaceCosts{};
-    c.cols = cols, c.rows = rows, c.width = W, c.height = H;
-    c.sum.assign(static_cast<size_t>(N) * tiles, 0.0);
+  const int n = static_cast<int>(c.qs.size());
+  if (c.sum.size() != static_cast<size_t>(n) * tiles) {
+    c.sum.assign(static_cast<size_t>(n) * tiles, 0.0);
     c.count.assign(c.sum.size(), 0.0);
-    c.have.assign(N, false);
+    c.have.assign(n, false);
   }
   // Tile of each analysis column and row.
   std::vector<int> tx(aw), ty(ah);
   for (int x = 0; x < aw; ++x) tx[x] = std::min(cols - 1, static_cast<int>((x + 0.5) * W / aw) / T);
   for (int y = 0; y < ah; ++y) ty[y] = std::min(rows - 1, static_cast<int>((y + 0.5) * H / ah) / T);
-
-  SurfaceEstimate out;
   cv::Mat cost;
-  for (int k = 0; k < N; ++k) {
-    if (c.have[k] && k % opt_.stride != c.phase) continue;
-    photo_consistency(analysis_.rig, analysis_.gray, sreq, candidate_q(k), opt_.truncate, cost);
+  for (int k = 0; k < n; ++k) {
+    if (c.have[k] && k % stride != phase) continue;
+    photo_consistency(an.rig, an.gray, sreq, c.qs[k], truncate, cost);
     double* sum = &c.sum[static_cast<size_t>(k) * tiles];
     double* cnt = &c.count[static_cast<size_t>(k) * tiles];
     std::fill(sum, sum + tiles, 0.0);
@@ -72,67 +71,86 @@ SurfaceEstimate FocalSurfaceEstimator::estimate(const ViewRequest& req, SurfaceC
       }
     }
     c.have[k] = true;
-    ++out.planes_evaluated;
+    ++*evaluated;
   }
-  c.phase = (c.phase + 1) % opt_.stride;
+}
 
-  // The single plane: minimum of the whole view's mean cost, parabola-refined.
-  std::vector<double> global(N);
-  for (int k = 0; k < N; ++k) {
-    double s = 0, n = 0;
-    for (int t = 0; t < tiles; ++t) s += c.sum[k * tiles + t], n += c.count[k * tiles + t];
-    global[k] = n > 0 ? s / n : opt_.truncate * opt_.truncate;
+// Minimum of the whole view's mean cost, parabola-refined: a fractional
+// index into c.qs.
+double best_single(const SweepCosts& c, int tiles, double fallback) {
+  const int n = static_cast<int>(c.qs.size());
+  std::vector<double> global(n);
+  for (int k = 0; k < n; ++k) {
+    double s = 0, m = 0;
+    for (int t = 0; t < tiles; ++t) s += c.sum[k * tiles + t], m += c.count[k * tiles + t];
+    global[k] = m > 0 ? s / m : fallback;
   }
   const int kb = static_cast<int>(std::min_element(global.begin(), global.end()) - global.begin());
-  double gpos = kb;
-  if (kb > 0 && kb < N - 1) {
+  double pos = kb;
+  if (kb > 0 && kb < n - 1) {
     const double a = global[kb - 1], b = global[kb], d = global[kb + 1];
     const double den = a - 2 * b + d;
-    if (den > 0) gpos += std::clamp(0.5 * (a - d) / den, -0.5, 0.5);
+    if (den > 0) pos += std::clamp(0.5 * (a - d) / den, -0.5, 0.5);
   }
-  out.single_q = q_max_ * gpos / (N - 1);
-  out.single = plane_at_inverse_depth(*rig_, out.single_q);
+  return pos;
+}
 
-  // Unary costs per tile: candidates 0..N-1 and label N, the single plane.
-  const int L = N + 1;
-  const double min_count = 0.5 * static_cast<double>(aw) * ah / tiles;
+double q_at(const std::vector<double>& qs, double pos) {
+  const int k = std::min(static_cast<int>(pos), static_cast<int>(qs.size()) - 2);
+  return qs[k] + (pos - k) * (qs[k + 1] - qs[k]);
+}
+
+// Tile labels by semi-global matching: 0..n-1 the sweep's planes, n the
+// single plane at fractional index `gpos`; -1 for tiles without texture.
+std::vector<int> solve(const SweepCosts& c, int cols, int rows, double gpos, double min_count,
+                       const SurfaceOptions& o, std::vector<bool>& textured) {
+  const int n = static_cast<int>(c.qs.size()), L = n + 1, tiles = cols * rows;
   std::vector<double> unary(static_cast<size_t>(tiles) * L, 0.0);
-  out.textured.assign(tiles, false);
+  textured.assign(tiles, false);
+  std::vector<double> agg(n), range;
   for (int r = 0; r < rows; ++r)
     for (int q = 0; q < cols; ++q) {
       const int t = r * cols + q;
-      std::vector<double> agg(N);
       bool seen = true;
-      for (int k = 0; k < N && seen; ++k) {
-        double s = 0, n = 0;
+      for (int k = 0; k < n && seen; ++k) {
+        double s = 0, m = 0;
         for (int dr = -1; dr <= 1; ++dr)
           for (int dq = -1; dq <= 1; ++dq) {
             const int rr = r + dr, qq = q + dq;
             if (rr < 0 || qq < 0 || rr >= rows || qq >= cols) continue;
             s += c.sum[k * tiles + rr * cols + qq];
-            n += c.count[k * tiles + rr * cols + qq];
+            m += c.count[k * tiles + rr * cols + qq];
           }
-        if (n < min_count) seen = false;
-        agg[k] = n > 0 ? s / n : 0.0;
+        if (m < min_count) seen = false;
+        agg[k] = m > 0 ? s / m : 0.0;
       }
       if (!seen) continue;  // no information: neighbours decide, the tile keeps the single plane
       const auto [lo, hi] = std::minmax_element(agg.begin(), agg.end());
-      if (*hi - *lo < opt_.min_texture) continue;
-      out.textured[t] = true;
+      if (*hi - *lo < o.min_texture) continue;
+      textured[t] = true;
       double* u = &unary[static_cast<size_t>(t) * L];
-      for (int k = 0; k < N; ++k) u[k] = agg[k] + opt_.leave_penalty;
-      const int g0 = std::min(static_cast<int>(gpos), N - 2);
-      const double f = gpos - g0;
-      u[N] = (1 - f) * agg[g0] + f * agg[g0 + 1];
+      std::copy(agg.begin(), agg.end(), u);
+      range.push_back(*hi - *lo);
+      // The single plane costs what the nearer of its two bracketing planes does.
+      const int g0 = std::min(static_cast<int>(gpos), n - 2);
+      u[n] = gpos - g0 < 0.5 ? agg[g0] : agg[g0 + 1];
     }
-
-  // Semi-global matching over the tile grid, 4 directions.
-  auto pos = [&](int l) { return l == N ? gpos : static_cast<double>(l); };
+  // Penalties scale with the scene's contrast: the median over textured
+  // tiles of their cost's range over the planes.
+  double scale = 0;
+  if (!range.empty()) {
+    std::nth_element(range.begin(), range.begin() + range.size() / 2, range.end());
+    scale = range[range.size() / 2] / 100.0;
+  }
+  for (int t = 0; t < tiles; ++t)
+    if (textured[t])
+      for (int k = 0; k < n; ++k) unary[static_cast<size_t>(t) * L + k] += o.leave_penalty * scale;
+  auto pos = [&](int l) { return l == n ? gpos : static_cast<double>(l); };
   std::vector<double> pen(static_cast<size_t>(L) * L);
   for (int a = 0; a < L; ++a)
     for (int b = 0; b < L; ++b) {
       const double d = std::abs(pos(a) - pos(b));
-      pen[a * L + b] = a == b ? 0.0 : d <= 1.0 ? opt_.step_penalty : opt_.jump_penalty;
+      pen[a * L + b] = a == b ? 0.0 : (d <= 1.0 ? o.step_penalty : o.jump_penalty) * scale;
     }
   std::vector<double> total(unary.size(), 0.0), path(unary.size());
   const int dirs[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
@@ -160,28 +178,94 @@ SurfaceEstimate FocalSurfaceEstimator::estimate(const ViewRequest& req, SurfaceC
         for (int a = 0; a < L; ++a) total[static_cast<size_t>(t) * L + a] += cur[a];
       }
   }
+  std::vector<int> label(tiles, -1);
+  for (int t = 0; t < tiles; ++t) {
+    if (!textured[t]) continue;
+    const double* s = &total[static_cast<size_t>(t) * L];
+    label[t] = static_cast<int>(std::min_element(s, s + L) - s);
+  }
+  return label;
+}
+
+}  // namespace
+
+SurfaceEstimate FocalSurfaceEstimator::estimate(const ViewRequest& req, SurfaceCosts* carry) const {
+  validate(req);
+  const int W = req.view.width, H = req.view.height, T = opt_.tile, N = opt_.planes;
+  const int cols = (W + T - 1) / T, rows = (H + T - 1) / T, tiles = cols * rows;
+  SurfaceCosts local;
+  SurfaceCosts& c = carry ? *carry : local;
+  if (c.cols != cols || c.rows != rows || c.width != W || c.height != H ||
+      c.coarse.qs.size() != static_cast<size_t>(N)) {
+    c = SurfaceCosts{};
+    c.cols = cols, c.rows = rows, c.width = W, c.height = H;
+    for (int k = 0; k < N; ++k) c.coarse.qs.push_back(candidate_q(k));
+  }
+  SurfaceEstimate out;
+  const double cap = opt_.truncate * opt_.truncate;
+  auto min_count = [&](const AnalysisImages& an) {
+    const double aw = std::min(an.width, W);
+    return 0.5 * aw * (aw * H / W) / tiles;
+  };
+
+  // Pass 1: the whole range of depths, coarsely.
+  sweep(coarse_, req, W, H, T, opt_.truncate, opt_.stride, c.phase, c.coarse,
+        &out.planes_evaluated);
+  double gpos = best_single(c.coarse, tiles, cap);
+  out.single_q = q_at(c.coarse.qs, gpos);
+  std::vector<bool> textured;
+  const std::vector<int> coarse =
+      solve(c.coarse, cols, rows, gpos, min_count(coarse_), opt_, textured);
+
+  // Pass 2: finer planes over the depths that the textured tiles chose (2nd
+  // to 98th percentile, a coarse step beyond), at a higher resolution.
+  std::vector<double> chosen{out.single_q};
+  for (int t = 0; t < tiles; ++t)
+    if (coarse[t] >= 0) chosen.push_back(coarse[t] == N ? out.single_q : c.coarse.qs[coarse[t]]);
+  std::sort(chosen.begin(), chosen.end());
+  const double step = candidate_q(1);
+  const double qa = std::max(0.0, std::min(out.single_q, chosen[chosen.size() / 50]) - step);
+  const double qb = std::max(out.single_q, chosen[chosen.size() - 1 - chosen.size() / 50]) + step;
+  std::vector<double> fine_qs(opt_.fine_planes);
+  for (int k = 0; k < opt_.fine_planes; ++k)
+    fine_qs[k] = qa + (qb - qa) * k / (opt_.fine_planes - 1);
+  if (fine_qs != c.fine.qs) c.fine = SweepCosts{fine_qs, {}, {}, {}};
+  sweep(fine_, req, W, H, T, opt_.truncate, opt_.stride, c.phase, c.fine, &out.planes_evaluated);
+  c.phase = (c.phase + 1) % opt_.stride;
+  const double fpos = best_single(c.fine, tiles, cap);
+  if (fpos > 0 && fpos < opt_.fine_planes - 1) out.single_q = q_at(fine_qs, fpos);
+  gpos = (out.single_q - qa) / (qb - qa) * (opt_.fine_planes - 1);
+  out.single = plane_at_inverse_depth(*rig_, out.single_q);
+  const std::vector<int> label =
+      solve(c.fine, cols, rows, gpos, min_count(fine_), opt_, out.textured);
 
   // Labels -> planes (index 0: the single plane).
-  std::vector<int> plane_of_label(L, -1);
+  const int M = opt_.fine_planes;
+  std::vector<int> plane_of_label(M + 1, -1);
   FocalSurface fs;
   fs.tile = T, fs.cols = cols, fs.rows = rows;
   fs.planes.push_back(out.single);
-  plane_of_label[N] = 0;
+  plane_of_label[M] = 0;
   fs.plane_of.assign(tiles, 0);
   out.tile_q.assign(tiles, out.single_q);
   for (int t = 0; t < tiles; ++t) {
-    if (!out.textured[t]) continue;
-    const double* s = &total[static_cast<size_t>(t) * L];
-    const int l = static_cast<int>(std::min_element(s, s + L) - s);
+    const int l = label[t];
+    if (l < 0) continue;
     if (plane_of_label[l] < 0) {
       plane_of_label[l] = static_cast<int>(fs.planes.size());
-      fs.planes.push_back(plane_at_inverse_depth(*rig_, candidate_q(l)));
+      fs.planes.push_back(plane_at_inverse_depth(*rig_, fine_qs[l]));
     }
     fs.plane_of[t] = static_cast<uint8_t>(plane_of_label[l]);
-    out.tile_q[t] = l == N ? out.single_q : candidate_q(l);
+    out.tile_q[t] = l == M ? out.single_q : fine_qs[l];
   }
   out.planes_used = fs.planes_used();
-  if (fs.planes.size() > 1) out.surface = std::move(fs);
+  if (out.planes_used == 1 && fs.plane_of[0] != 0) {
+    // Every tile agrees on one plane other than the single: that is the plane.
+    out.single = fs.planes[fs.plane_of[0]];
+    out.single_q = out.tile_q[0];
+  } else if (out.planes_used > 1) {
+    out.surface = std::move(fs);
+  }
   return out;
 }
 

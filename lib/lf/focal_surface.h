@@ -5,19 +5,22 @@
 // tile leaves the view's best single plane only when another plane is
 // clearly more photo-consistent there).
 //
-// Method: a plane sweep at low resolution. For each of `planes` candidate
-// planes parallel to the camera plane, evenly spaced in inverse depth over a
-// parallax of 0 .. max_parallax_px between neighbouring cameras, the
-// photo-consistency (lf/focus.h: aperture-weighted colour variance, truncated
-// at occlusions) is measured at every pixel of an analysis view
-// `analysis_width` pixels wide and summed per tile. The best single plane is
-// the minimum of the whole view's mean cost (refined by a parabola). Per tile,
-// costs are aggregated over the 3 x 3 tiles around it, and a tile label
-// (a candidate plane, or the single plane) is chosen by semi-global matching
-// over the tile grid (4 directions; a step of one plane costs step_penalty,
-// a larger jump jump_penalty; leaving the single plane costs leave_penalty).
-// Tiles that too few cameras see, or whose cost varies by less than
-// min_texture over the planes (textureless), keep the single plane.
+// Method: a plane sweep at low resolution, in two passes. Pass 1: `planes`
+// candidate planes parallel to the camera plane, evenly spaced in inverse
+// depth over a parallax of 0 .. max_parallax_px between neighbouring
+// cameras; the photo-consistency (lf/focus.h: aperture-weighted colour
+// variance, truncated at occlusions) is measured at every pixel of an
+// analysis view `analysis_width` pixels wide and summed per tile. Pass 2:
+// `fine_planes` planes over the depths that pass 1 gave the tiles, at
+// `fine_width`. The best single plane is the minimum of the whole view's mean
+// cost (parabola-refined). Per tile, costs are aggregated over the 3 x 3
+// tiles around it, and a tile label (a plane of the sweep, or the single
+// plane) is chosen by semi-global matching over the tile grid (4 directions;
+// a step of one plane costs step_penalty, a larger jump jump_penalty; leaving
+// the single plane costs leave_penalty). Tiles that too few cameras see, or
+// whose cost varies by less than min_texture over the planes (textureless),
+// keep the single plane; when every tile agrees on one plane the surface is
+// empty and that plane is the single plane.
 //
 // Units: costs are variances of 8-bit grey levels (levels^2).
 #pragma once
@@ -33,25 +36,35 @@ namespace lf {
 
 struct SurfaceOptions {
   int tile = 16;                  // output pixels per tile side (FocalSurface::tile)
-  int analysis_width = 160;       // analysis view width, pixels (at most the view's)
-  int planes = 32;                // candidate planes
+  int analysis_width = 160;       // pass 1: analysis view width, pixels (at most the view's)
+  int planes = 32;                // pass 1: candidate planes over the whole parallax range
+  int fine_width = 320;           // pass 2: analysis view width
+  int fine_planes = 16;           // pass 2: planes over the depths that pass 1 found
   double max_parallax_px = 24.0;  // at full camera resolution, between neighbours
   double truncate = 25.0;         // per-pixel colour standard deviation cap (8-bit levels)
-  double step_penalty = 4.0;      // neighbouring tiles one candidate plane apart
-  double jump_penalty = 40.0;     // neighbouring tiles further apart
-  double leave_penalty = 6.0;     // a tile off the single plane
-  double min_texture = 12.0;      // cost range below which a tile keeps the single plane
+  // Penalties in percent of the scene's contrast (the median over textured
+  // tiles of their cost's range over the planes), so that they mean the
+  // same on a low-contrast scene as on a high-contrast one.
+  double step_penalty = 4.0;   // neighbouring tiles one plane apart
+  double jump_penalty = 40.0;  // neighbouring tiles further apart
+  double leave_penalty = 2.0;  // a tile off the single plane
+  double min_texture = 2.0;    // cost range (levels^2) below which a tile keeps the single plane
   // For estimate() with a SurfaceCosts carried between frames: each call
   // evaluates every stride-th candidate plane (a different phase each call)
   // and reuses the other planes' costs from earlier calls.
   int stride = 1;
 };
 
+// Per-tile costs of one sweep.
+struct SweepCosts {
+  std::vector<double> qs;          // inverse depths of the planes
+  std::vector<double> sum, count;  // [plane * tiles + tile]
+  std::vector<bool> have;          // per plane: evaluated at least once
+};
 // Per-tile costs carried from one frame's estimate to the next (one viewer).
 struct SurfaceCosts {
   int cols = 0, rows = 0, width = 0, height = 0;
-  std::vector<double> sum, count;  // [plane * tiles + tile]
-  std::vector<bool> have;          // per plane: evaluated at least once
+  SweepCosts coarse, fine;
   int phase = 0;
 };
 
@@ -84,7 +97,7 @@ class FocalSurfaceEstimator {
   const Rig* rig_;
   SurfaceOptions opt_;
   double q_max_ = 0;
-  AnalysisImages analysis_;
+  AnalysisImages coarse_, fine_;
 };
 
 // Applies an estimate to a request: its focal plane and surface.

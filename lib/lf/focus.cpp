@@ -85,7 +85,7 @@ AnalysisImages analysis_images(const Rig& rig, const std::vector<cv::Mat>& image
   std::vector<double> widths;
   for (const Camera& c : rig.cameras) widths.push_back(c.width);
   const double scale = std::min(1.0, 1.5 * width / median(widths));
-  AnalysisImages out{scale_rig(rig, scale), std::vector<cv::Mat>(images.size())};
+  AnalysisImages out{scale_rig(rig, scale), std::vector<cv::Mat>(images.size()), width};
   for (size_t i = 0; i < images.size(); ++i) {
     cv::Mat small, g;
     cv::resize(images[i], small, cv::Size(out.rig.cameras[i].width, out.rig.cameras[i].height), 0,

@@ -62,6 +62,7 @@ void photo_consistency(const Rig& rig, const std::vector<cv::Mat>& gray, const V
 struct AnalysisImages {
   Rig rig;
   std::vector<cv::Mat> gray;
+  int width = 0;  // the analysis width asked for
 };
 AnalysisImages analysis_images(const Rig& rig, const std::vector<cv::Mat>& images, int width);
 
