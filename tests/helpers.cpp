@@ -7,6 +7,8 @@
 #include <filesystem>
 #include <vector>
 
+#include "lf/quality.h"
+
 namespace testing_lf {
 
 std::string data_path(const std::string& rel) {
@@ -93,6 +95,16 @@ void expect_valid(const WeightCheck& c, const std::string& what, bool all_visibl
   if (all_visible) {
     EXPECT_EQ(c.invisible, 0u);
   }
+}
+
+Held hold_out(const lf::Rig& rig, const std::vector<cv::Mat>& images, int j, int W, int H) {
+  Held h;
+  h.rig = rig.without({j});
+  for (size_t i = 0; i < images.size(); ++i)
+    if (static_cast<int>(i) != j) h.images.push_back(images[i]);
+  h.req.view = lf::VirtualView::from_camera(rig.cameras[j], W, H);
+  h.truth = lf::camera_view_image(rig.cameras[j], images[j], W, H);
+  return h;
 }
 
 }  // namespace testing_lf

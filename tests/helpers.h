@@ -1,7 +1,9 @@
 // Shared checks for the tests.
 #pragma once
 
+#include <opencv2/core.hpp>
 #include <string>
+#include <vector>
 
 #include "lf/plan.h"
 #include "lf/rig.h"
@@ -51,5 +53,15 @@ WeightCheck check_weights(const lf::Rig& rig, const lf::ViewRequest& req);
 // all_visible: the view is an ordinary one where every camera sees every
 // focal point it is weighted for (so weights sum to exactly 1).
 void expect_valid(const WeightCheck& c, const std::string& what, bool all_visible = true);
+
+// Leave-one-out: a rig without camera j, its images, and camera j's view
+// (W x H) with its real image there, the truth to compare with.
+struct Held {
+  lf::Rig rig;
+  std::vector<cv::Mat> images;
+  lf::ViewRequest req;
+  cv::Mat truth;
+};
+Held hold_out(const lf::Rig& rig, const std::vector<cv::Mat>& images, int j, int W, int H);
 
 }  // namespace testing_lf

@@ -22,23 +22,8 @@
 namespace {
 
 using testing_lf::data_path;
-
-struct Held {
-  lf::Rig rig;                  // without the held-out camera
-  std::vector<cv::Mat> images;  // matching rig
-  lf::ViewRequest req;          // the held-out camera's view
-  cv::Mat truth;
-};
-
-Held hold_out(const lf::Rig& rig, const std::vector<cv::Mat>& images, int j, int W, int H) {
-  Held h;
-  h.rig = rig.without({j});
-  for (size_t i = 0; i < images.size(); ++i)
-    if (static_cast<int>(i) != j) h.images.push_back(images[i]);
-  h.req.view = lf::VirtualView::from_camera(rig.cameras[j], W, H);
-  h.truth = lf::camera_view_image(rig.cameras[j], images[j], W, H);
-  return h;
-}
+using testing_lf::Held;
+using testing_lf::hold_out;
 
 double psnr_at(const Held& h, const lf::FocalPlane& p) {
   lf::ViewRequest r = h.req;

@@ -18,24 +18,8 @@
 namespace {
 
 using testing_lf::data_path;
-
-// A rig without camera j, its images, and camera j's view and image.
-struct Held {
-  lf::Rig rig;
-  std::vector<cv::Mat> images;
-  lf::ViewRequest req;
-  cv::Mat truth;
-};
-
-Held hold_out(const lf::Rig& rig, const std::vector<cv::Mat>& images, int j, int W, int H) {
-  Held h;
-  h.rig = rig.without({j});
-  for (size_t i = 0; i < images.size(); ++i)
-    if (static_cast<int>(i) != j) h.images.push_back(images[i]);
-  h.req.view = lf::VirtualView::from_camera(rig.cameras[j], W, H);
-  h.truth = lf::camera_view_image(rig.cameras[j], images[j], W, H);
-  return h;
-}
+using testing_lf::Held;
+using testing_lf::hold_out;
 
 double psnr_of(const Held& h, const lf::ViewRequest& r) {
   return lf::psnr(lf::render_view(h.rig, h.images, r), h.truth, r.view.height / 40);
@@ -63,6 +47,15 @@ std::vector<cv::Mat> plane_images(const lf::Rig& rig, double depth) {
   return out;
 }
 
+// The synthetic scene (a disc before a background) at time t, camera 12 held out.
+Held disc_scene(double t) {
+  const lf::Rig rig = small_rig();
+  const lf::SyntheticScene scene = lf::SyntheticScene::for_rig(rig);
+  std::vector<cv::Mat> images;
+  for (const auto& c : rig.cameras) images.push_back(scene.render(c, t, false));
+  return hold_out(rig, images, 12, 320, 240);
+}
+
 TEST(Surface, AFlatSceneNeedsOnePlane) {
   const lf::Rig rig = small_rig();
   const Held h = hold_out(rig, plane_images(rig, 3.0), 12, 320, 240);
@@ -81,9 +74,7 @@ TEST(Surface, TwoDepthsGetTheirOwnPlanesAndASharperPicture) {
   // A textured disc in front of a textured background (occlusion edges).
   const lf::Rig rig = small_rig();
   const lf::SyntheticScene scene = lf::SyntheticScene::for_rig(rig);
-  std::vector<cv::Mat> images;
-  for (const auto& c : rig.cameras) images.push_back(scene.render(c, 0.3, false));
-  const Held h = hold_out(rig, images, 12, 320, 240);
+  const Held h = disc_scene(0.3);
   const lf::FocalSurfaceEstimator est(h.rig, h.images);
   const lf::SurfaceEstimate e = est.estimate(h.req);
   const double step = est.candidate_q(1);
@@ -184,10 +175,7 @@ TEST(Surface, ASteadyViewAmortisesTheSweep) {
   // rest: the first frame sweeps all, and a steady view's surface is the one
   // estimated from scratch.
   const lf::Rig rig = small_rig();
-  const lf::SyntheticScene scene = lf::SyntheticScene::for_rig(rig);
-  std::vector<cv::Mat> images;
-  for (const auto& c : rig.cameras) images.push_back(scene.render(c, 0.0, false));
-  const Held h = hold_out(rig, images, 12, 320, 240);
+  const Held h = disc_scene(0.0);
   lf::SurfaceOptions opt;
   opt.stride = 4;
   const lf::FocalSurfaceEstimator est(h.rig, h.images, opt);
