@@ -8,7 +8,9 @@
 //    F(p). Because the focal surface is a plane, output pixel -> camera pixel
 //    is a single 3x3 homography H_i = K_i [ (R_i E + t_i) n^T - (n.E + d) R_i ] M
 //    with M = R_v^T K_v^{-1} (lens distortion is applied afterwards), and
-//    H_i = K_i R_i M for the plane at infinity;
+//    H_i = K_i R_i M for the plane at infinity. With a focal surface
+//    (lf/view.h: one plane per tile of the output) each tile uses its own
+//    plane's homography;
 //  * the camera plane at X(p) = E_2d - dist(E) * D_2d(p) / D_n(p); the aperture
 //    weight of camera i is its barycentric coordinate of X(p) in the simplex
 //    of the rig triangulation containing X(p). Every barycentric coordinate is
