@@ -329,8 +329,8 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
         if (!g.inside(static_cast<int>(s), 0, 0, &w) || !(w[slot] > 0)) break;
       }
       if (base.size() < 3) continue;
-      Part part{static_cast<int>(s), slot,     sd, single, num, den, base, INFINITY, INFINITY,
-                -INFINITY,           -INFINITY};
+      Part part{static_cast<int>(s), slot,      sd, single, num, den, base, INFINITY, INFINITY,
+                -INFINITY,           -INFINITY, {}};
       for (const auto& p : base) {
         part.x0 = std::min(part.x0, p[0]), part.x1 = std::max(part.x1, p[0]);
         part.y0 = std::min(part.y0, p[1]), part.y1 = std::max(part.y1, p[1]);
