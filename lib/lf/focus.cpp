@@ -119,8 +119,11 @@ void photo_consistency(const Rig& rig, const std::vector<cv::Mat>& gray, const V
         if (!(h[2] > 0) || !(w > 0)) continue;
         cv::Vec2d p(h[0] / h[2], h[1] / h[2]);
         if (cam.intrinsics.has_distortion()) p = cam.distort_pixel(p);
-        if (!(p[0] >= 0 && p[1] >= 0 && p[0] < cam.width - 1 && p[1] < cam.height - 1)) continue;
-        const float c = bilinear(img, static_cast<float>(p[0]), static_cast<float>(p[1]));
+        // Checked after rounding to float: 238.9999999 becomes 239.0f, whose
+        // bilinear neighbour would be a row past the image.
+        const float u = static_cast<float>(p[0]), v = static_cast<float>(p[1]);
+        if (!(u >= 0 && v >= 0 && u < img.cols - 1 && v < img.rows - 1)) continue;
+        const float c = bilinear(img, u, v);
         const size_t k = static_cast<size_t>(run.y) * W + x;
         s0[k] += static_cast<float>(w);
         s1[k] += static_cast<float>(w) * c;
