@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "lf/quality.h"
+#include "lf/render_view.h"
 
 namespace testing_lf {
 
@@ -105,6 +106,12 @@ Held hold_out(const lf::Rig& rig, const std::vector<cv::Mat>& images, int j, int
   h.req.view = lf::VirtualView::from_camera(rig.cameras[j], W, H);
   h.truth = lf::camera_view_image(rig.cameras[j], images[j], W, H);
   return h;
+}
+
+double psnr_at(const Held& h, const lf::FocalPlane& p) {
+  lf::ViewRequest r = h.req;
+  r.focal_plane = p;
+  return lf::psnr(lf::render_view(h.rig, h.images, r), h.truth, r.view.height / 40);
 }
 
 }  // namespace testing_lf

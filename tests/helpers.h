@@ -63,5 +63,8 @@ struct Held {
   cv::Mat truth;
 };
 Held hold_out(const lf::Rig& rig, const std::vector<cv::Mat>& images, int j, int W, int H);
+// PSNR of the held-out view rendered through plane `p` (a border of 2.5 %
+// of the height left out).
+double psnr_at(const Held& h, const lf::FocalPlane& p);
 
 }  // namespace testing_lf

@@ -24,12 +24,7 @@ namespace {
 using testing_lf::data_path;
 using testing_lf::Held;
 using testing_lf::hold_out;
-
-double psnr_at(const Held& h, const lf::FocalPlane& p) {
-  lf::ViewRequest r = h.req;
-  r.focal_plane = p;
-  return lf::psnr(lf::render_view(h.rig, h.images, r), h.truth, r.view.height / 40);
-}
+using testing_lf::psnr_at;
 
 double nearest_psnr(const Held& h, const lf::FocalPlane& p) {
   int nearest = 0;

@@ -20,19 +20,12 @@ namespace {
 using testing_lf::data_path;
 using testing_lf::Held;
 using testing_lf::hold_out;
+using testing_lf::psnr_at;
 
-double psnr_of(const Held& h, const lf::ViewRequest& r) {
-  return lf::psnr(lf::render_view(h.rig, h.images, r), h.truth, r.view.height / 40);
-}
-double psnr_at(const Held& h, const lf::FocalPlane& p) {
-  lf::ViewRequest r = h.req;
-  r.focal_plane = p;
-  return psnr_of(h, r);
-}
 double psnr_with(const Held& h, const lf::SurfaceEstimate& e) {
   lf::ViewRequest r = h.req;
   lf::apply(e, r);
-  return psnr_of(h, r);
+  return lf::psnr(lf::render_view(h.rig, h.images, r), h.truth, r.view.height / 40);
 }
 
 // 5x5 synthetic grid, 320x240 images; its centre camera is index 12.

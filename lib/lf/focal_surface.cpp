@@ -85,14 +85,7 @@ double best_single(const SweepCosts& c, int tiles, double fallback) {
     for (int t = 0; t < tiles; ++t) s += c.sum[k * tiles + t], m += c.count[k * tiles + t];
     global[k] = m > 0 ? s / m : fallback;
   }
-  const int kb = static_cast<int>(std::min_element(global.begin(), global.end()) - global.begin());
-  double pos = kb;
-  if (kb > 0 && kb < n - 1) {
-    const double a = global[kb - 1], b = global[kb], d = global[kb + 1];
-    const double den = a - 2 * b + d;
-    if (den > 0) pos += std::clamp(0.5 * (a - d) / den, -0.5, 0.5);
-  }
-  return pos;
+  return refined_minimum(global);
 }
 
 double q_at(const std::vector<double>& qs, double pos) {

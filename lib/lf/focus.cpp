@@ -79,6 +79,15 @@ float bilinear(const cv::Mat& g, float u, float v) {
 }
 }  // namespace
 
+double refined_minimum(const std::vector<double>& cost) {
+  const int n = static_cast<int>(cost.size());
+  const int k = static_cast<int>(std::min_element(cost.begin(), cost.end()) - cost.begin());
+  if (k == 0 || k == n - 1) return k;
+  const double a = cost[k - 1], b = cost[k], c = cost[k + 1];
+  const double den = a - 2 * b + c;
+  return den > 0 ? k + std::clamp(0.5 * (a - c) / den, -0.5, 0.5) : k;
+}
+
 AnalysisImages analysis_images(const Rig& rig, const std::vector<cv::Mat>& images, int width) {
   if (images.size() != rig.cameras.size())
     throw std::invalid_argument("analysis images: image count does not match the rig");
@@ -183,13 +192,9 @@ AutofocusResult AutofocusContext::run(const ViewRequest& req) const {
     fc[k] = sweep_cost(req, std::min(opt_.fine_width, req.view.width), fq[k], 1);
     res.curve.emplace_back(fq[k], fc[k]);
   }
-  const int fb = static_cast<int>(std::min_element(fc.begin(), fc.end()) - fc.begin());
-  double q = fq[fb];
-  if (fb > 0 && fb < nf - 1) {
-    const double a = fc[fb - 1], b = fc[fb], c = fc[fb + 1];
-    const double denom = a - 2 * b + c;
-    if (denom > 0) q += 0.5 * (a - c) / denom * (fq[1] - fq[0]);
-  }
+  const double pos = refined_minimum(fc);
+  const int fb = static_cast<int>(std::lround(pos));
+  const double q = fq[fb] + (pos - fb) * (fq[1] - fq[0]);
   res.inverse_depth = std::max(0.0, q);
   res.plane = plane_at_inverse_depth(*rig_, res.inverse_depth);
   return res;

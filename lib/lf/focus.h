@@ -66,6 +66,11 @@ struct AnalysisImages {
 };
 AnalysisImages analysis_images(const Rig& rig, const std::vector<cv::Mat>& images, int width);
 
+// Index of the smallest cost, refined by the parabola through it and its two
+// neighbours (fractional, within half a step; a minimum at either end is not
+// refined). `cost` must not be empty.
+double refined_minimum(const std::vector<double>& cost);
+
 // The request at `width` output pixels (same field of view and lens shift).
 ViewRequest scaled_request(const ViewRequest& req, int width);
 

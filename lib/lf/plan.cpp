@@ -241,6 +241,27 @@ FragmentPiece make_piece(const cv::Matx33d& H, int sf, const PixelForm& num, con
   return piece;
 }
 
+// A part of a camera-plane simplex that holds the planned camera (in
+// `slot`), on one side `sd` of the camera plane.
+struct Part {
+  int s, slot, sd;
+  bool single;  // one camera, or the eye on the camera plane: no side to check
+  PixelForm num, den;
+  Polygon base;
+  double x0, y0, x1, y1;                 // bounding box of base
+  std::vector<std::array<int, 3>> rows;  // with a surface: (y, x0, x1) where the weight is > 0
+};
+
+// Whether the camera's weight in the part is positive at pixel (x, y).
+bool weighted(const ViewGeometry& g, const Part& part, int x, int y) {
+  if (!part.single) {
+    const double dn = g.camera_plane_denominator()(x, y);
+    if ((dn > 0 ? 1 : -1) != part.sd || dn == 0) return false;
+  }
+  std::array<double, 3> w;
+  return g.inside(part.s, x, y, &w) && w[part.slot] > 0;
+}
+
 // Output pixels [x0, x1) x [y0, y1) focused through plane `plane`.
 struct Region {
   int x0, y0, x1, y1, plane;
@@ -276,20 +297,10 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
   plan.out_width = g.width();
   plan.out_height = g.height();
   const int W = g.width(), H = g.height();
-  // Piece ids by (simplex, camera-plane side, focal side, plane), in order
-  // of first use.
-  std::vector<std::array<int, 4>> piece_keys;
+  std::vector<std::array<int, 4>> piece_keys;  // of plan.pieces
 
   // The parts of the camera plane's simplices that hold this camera, as
   // polygons of output pixels: they do not depend on the focal plane.
-  struct Part {
-    int s, slot, sd;
-    bool single;
-    PixelForm num, den;
-    Polygon base;
-    double x0, y0, x1, y1;                 // bounding box of base
-    std::vector<std::array<int, 3>> rows;  // with a surface: (y, x0, x1) where the weight is > 0
-  };
   std::vector<Part> parts;
   const Polygon frame = {{-0.5, -0.5}, {W - 0.5, -0.5}, {W - 0.5, H - 0.5}, {-0.5, H - 0.5}};
   const auto& simplices = rig.simplices();
@@ -337,17 +348,11 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
       }
       if (!g.request().surface.empty()) {
         // Where the camera's weight is positive, whatever the focal plane.
-        auto weighted = [&](int x, int y) {
-          if (!single) {
-            const double dn = g.camera_plane_denominator()(x, y);
-            if ((dn > 0 ? 1 : -1) != sd || dn == 0) return false;
-          }
-          std::array<double, 3> w;
-          return g.inside(static_cast<int>(s), x, y, &w) && w[slot] > 0;
-        };
-        scan_rows(part.base, 0, H - 1, 0, W - 1, weighted, [&](int y, int a, int b) {
-          part.rows.push_back({y, a, b});
-        });
+        scan_rows(
+            part.base, 0, H - 1, 0, W - 1, [&](int x, int y) { return weighted(g, part, x, y); },
+            [&](int y, int a, int b) {
+              part.rows.push_back({y, a, b});
+            });
       }
       parts.push_back(std::move(part));
     }
@@ -358,14 +363,26 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
     const int fp = reg.plane;
     const cv::Matx33d& Hc = g.homography(index, fp);
     const PixelForm zc{Hc(2, 0), Hc(2, 1), Hc(2, 2)};
+    // Pieces by (simplex, camera-plane side, focal side, plane), made when
+    // their first run is.
+    auto piece_id = [&](const Part& part, int sf) {
+      const std::array<int, 4> key{part.s, part.sd, sf, fp};
+      return static_cast<int>(std::find(piece_keys.begin(), piece_keys.end(), key) -
+                              piece_keys.begin());
+    };
+    auto add_run = [&](int id, const Part& part, int sf, int y, int a, int b) {
+      if (id == static_cast<int>(piece_keys.size())) {
+        plan.pieces.push_back(make_piece(Hc, sf, part.num, part.den));
+        piece_keys.push_back({part.s, part.sd, sf, fp});
+      }
+      plan.runs.push_back({y, a, b, id});
+    };
     for (const Part& part : parts) {
       // The part within the region (a margin of one pixel: the exact
       // predicate decides the pixels).
       if (part.x1 < reg.x0 - 1.5 || part.x0 > reg.x1 + 0.5 || part.y1 < reg.y0 - 1.5 ||
           part.y0 > reg.y1 + 0.5)
         continue;
-      const int s = part.s, slot = part.slot, sd = part.sd;
-      const bool single = part.single;
       // A region whose focal points are all in front of the camera and on
       // the focal plane's positive side (the usual case) is the part's
       // weighted pixels there, without evaluating any predicate again.
@@ -373,21 +390,12 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
           (g.focal_at_infinity(fp) ||
            positive_on(g.focal_denominator(fp), reg.x0, reg.y0, reg.x1, reg.y1)) &&
           positive_on(zc, reg.x0, reg.y0, reg.x1, reg.y1)) {
-        const std::array<int, 4> key{s, sd, 1, fp};
-        const int piece_id = static_cast<int>(std::find(piece_keys.begin(), piece_keys.end(), key) -
-                                              piece_keys.begin());
-        bool used = false;
+        const int id = piece_id(part, 1);
         auto r = std::lower_bound(part.rows.begin(), part.rows.end(), reg.y0,
                                   [](const std::array<int, 3>& row, int y) { return row[0] < y; });
         for (; r != part.rows.end() && (*r)[0] < reg.y1; ++r) {
           const int a = std::max((*r)[1], reg.x0), b = std::min((*r)[2], reg.x1);
-          if (a >= b) continue;
-          plan.runs.push_back({(*r)[0], a, b, piece_id});
-          used = true;
-        }
-        if (used && piece_id == static_cast<int>(piece_keys.size())) {
-          plan.pieces.push_back(make_piece(Hc, 1, part.num, part.den));
-          piece_keys.push_back(key);
+          if (a < b) add_run(id, part, 1, (*r)[0], a, b);
         }
         continue;
       }
@@ -406,28 +414,12 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
         if (!g.focal_at_infinity(fp)) poly = clip(poly, g.focal_denominator(fp) * sf);
         if (poly.size() >= 3) poly = clip(poly, zc * sf);
         if (poly.size() < 3) continue;
-        const std::array<int, 4> key{static_cast<int>(s), sd, sf, fp};
-        const int piece_id = static_cast<int>(std::find(piece_keys.begin(), piece_keys.end(), key) -
-                                              piece_keys.begin());
-        bool used = false;
+        const int id = piece_id(part, sf);
         auto pred = [&](int x, int y) {
-          if (g.focal_sign(x, y, fp) != sf) return false;
-          if (!(zc(x, y) * sf > 0)) return false;
-          if (!single) {
-            const double dn = g.camera_plane_denominator()(x, y);
-            if ((dn > 0 ? 1 : -1) != sd || dn == 0) return false;
-          }
-          std::array<double, 3> w;
-          return g.inside(static_cast<int>(s), x, y, &w) && w[slot] > 0;
+          return g.focal_sign(x, y, fp) == sf && zc(x, y) * sf > 0 && weighted(g, part, x, y);
         };
-        scan_rows(poly, reg.y0, reg.y1 - 1, reg.x0, reg.x1 - 1, pred, [&](int y, int a, int b) {
-          plan.runs.push_back({y, a, b, piece_id});
-          used = true;
-        });
-        if (used && piece_id == static_cast<int>(piece_keys.size())) {
-          plan.pieces.push_back(make_piece(Hc, sf, part.num, part.den));
-          piece_keys.push_back(key);
-        }
+        scan_rows(poly, reg.y0, reg.y1 - 1, reg.x0, reg.x1 - 1, pred,
+                  [&](int y, int a, int b) { add_run(id, part, sf, y, a, b); });
       }
     }
   }
