@@ -49,6 +49,7 @@
  */
 #include <gst/gst.h>
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -83,9 +84,11 @@ enum {
   PROP_RECORD,
   PROP_RECORD_QUALITY,
   PROP_PLAYBACK,
+  PROP_REQUEST_MAX_AGE,
   PROP_FIRST_FORWARD
 };
 #define DEFAULT_RECORD_QUALITY 0
+#define DEFAULT_REQUEST_MAX_AGE (200 * GST_MSECOND)
 
 // A bin property that is set on each child of one kind.
 struct Forward {
@@ -116,7 +119,8 @@ struct Priv {
   std::string rig, cameras;      // object lock
   std::string record, playback;  // file name patterns (camera_file_name), object lock
   gint record_quality = DEFAULT_RECORD_QUALITY;
-  std::vector<GValue> values;  // forwarded property values (only those set)
+  guint64 request_max_age = DEFAULT_REQUEST_MAX_AGE;  // ns, object lock
+  std::vector<GValue> values;                         // forwarded property values (only those set)
   std::vector<bool> set;
   GstPad* sink = nullptr;  // ghost pads, targets set when built
   GstPad* src = nullptr;
@@ -178,6 +182,8 @@ static void lf_camera_host_set_property(GObject* obj, guint id, const GValue* v,
     string_prop(p, id) = s ? s : "";
   } else if (id == PROP_RECORD_QUALITY) {
     p->record_quality = g_value_get_int(v);
+  } else if (id == PROP_REQUEST_MAX_AGE) {
+    p->request_max_age = g_value_get_uint64(v);
   } else if (id - PROP_FIRST_FORWARD < p->values.size()) {
     GValue& dst = p->values[id - PROP_FIRST_FORWARD];
     if (G_IS_VALUE(&dst)) g_value_unset(&dst);
@@ -198,6 +204,8 @@ static void lf_camera_host_get_property(GObject* obj, guint id, GValue* v, GPara
     g_value_set_string(v, s.empty() ? nullptr : s.c_str());
   } else if (id == PROP_RECORD_QUALITY) {
     g_value_set_int(v, p->record_quality);
+  } else if (id == PROP_REQUEST_MAX_AGE) {
+    g_value_set_uint64(v, p->request_max_age);
   } else if (id - PROP_FIRST_FORWARD < p->values.size()) {
     if (p->set[id - PROP_FIRST_FORWARD])
       g_value_copy(&p->values[id - PROP_FIRST_FORWARD], v);
@@ -298,6 +306,7 @@ static bool build(LfCameraHost* self) {
   const std::string rig_path = p->rig, cameras = p->cameras;
   const std::string record = p->record, playback = p->playback;
   const gint record_quality = p->record_quality;
+  guint64 max_age = p->request_max_age;
   const std::vector<Forward> fw = forwards(composite_of(self));
   std::vector<std::pair<Forward, GValue>> values;
   for (size_t i = 0; i < fw.size(); ++i) {
@@ -319,6 +328,10 @@ static bool build(LfCameraHost* self) {
                   for (auto& [f, v] : values) {
                     if (g_str_equal(f.name, "is-live")) live = g_value_get_boolean(&v);
                     if (g_str_equal(f.name, "frame-select")) frame_select_set = true;
+                    // lfarray: a request its compositor still waits for is not
+                    // stale.
+                    if (g_str_equal(f.name, "latency"))
+                      max_age = std::max<guint64>(max_age, g_value_get_uint64(&v));
                   }
                   // Bad file name patterns fail here, before anything is made.
                   if (!record.empty()) lf::camera_file_name(record, 0, "record");
@@ -362,14 +375,15 @@ static bool build(LfCameraHost* self) {
                       cam = add_recorder(GST_BIN(self), p, cam,
                                          lf::camera_file_name(record, cam_id, "record"),
                                          record_quality, id);
-                    // Live: a request that waits behind requests 200 ms newer is
-                    // stale (the oldest go first). Bounded in time, not in count:
-                    // the requests of several viewers arrive in the same tick
-                    // (a two-request queue dropped two of four viewers'
-                    // requests at every camera, lf-web with four browsers).
+                    // Live: a request that waits behind requests request-max-age
+                    // newer is stale (the oldest go first). Bounded in time, not
+                    // in count: the requests of several viewers arrive in the
+                    // same tick (a two-request queue dropped two of four
+                    // viewers' requests at every camera, lf-web with four
+                    // browsers).
                     if (live)
                       g_object_set(q, "max-size-buffers", 64, "max-size-bytes", 0, "max-size-time",
-                                   200 * GST_MSECOND, nullptr),
+                                   max_age, nullptr),
                           gst_util_set_object_arg(G_OBJECT(q), "leaky", "downstream");
                     // Not live: the queue's defaults (requests of several viewers
                     // interleave; a short queue here can stall them behind one
@@ -544,6 +558,15 @@ static void install_properties(GObjectClass* oc) {
           "(mode, framerate, ...) are then unused. With record or playback, frame-select "
           "defaults to capture-time, so the same requests give the same output",
           nullptr, rw));
+  g_object_class_install_property(
+      oc, PROP_REQUEST_MAX_AGE,
+      g_param_spec_uint64(
+          "request-max-age", "Request max age",
+          "Live (is-live): a view request still waiting for its camera behind requests this "
+          "much newer (ns, by their PTS) is dropped as stale, oldest first; at most 64 wait. "
+          "lfarray uses at least its latency (a request its compositor still waits for is not "
+          "stale). 0: only the count bound",
+          0, G_MAXUINT64, DEFAULT_REQUEST_MAX_AGE, rw));
   install_forwards(oc, PROP_FIRST_FORWARD, std::begin(kCameraHostForwards),
                    std::end(kCameraHostForwards));
 }

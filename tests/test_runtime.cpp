@@ -636,3 +636,53 @@ TEST_F(Runtime, BinsBuildTheSameGraphAsTheHandBuiltOne) {
 }
 
 }  // namespace
+
+namespace {
+
+// A live camera host drops a request as stale once requests request-max-age
+// newer wait behind it; lfarray waits at least as long as its compositor does
+// (a shorter bound dropped requests that its compositor still waited for: a
+// recording played back on a busy machine then lost cameras from frames).
+TEST_F(Runtime, LiveRequestQueuesAreBoundedByTheRequestMaxAge) {
+  struct Case {
+    std::string element;
+    std::string props;
+    guint64 expected_ns;
+  };
+  const Case cases[] = {
+      {"lfcamerahost", "", 200 * GST_MSECOND},
+      {"lfcamerahost", "request-max-age=50000000", 50 * GST_MSECOND},
+      {"lfarray", "", 200 * GST_MSECOND},
+      {"lfarray", "latency=3000000000", 3 * GST_SECOND},
+      {"lfarray", "latency=10000000 request-max-age=400000000", 400 * GST_MSECOND}};
+  for (const Case& c : cases) {
+    GstElement* e = gst_parse_launch(
+        (c.element + " name=h rig=" + rig_path_ + " is-live=true " + c.props).c_str(), nullptr);
+    ASSERT_NE(e, nullptr);
+    ASSERT_NE(gst_element_set_state(e, GST_STATE_READY), GST_STATE_CHANGE_FAILURE);
+    // One request queue per camera, named requests<camera id>.
+    int queues = 0;
+    GstIterator* it = gst_bin_iterate_elements(GST_BIN(e));
+    GValue item = G_VALUE_INIT;
+    while (gst_iterator_next(it, &item) == GST_ITERATOR_OK) {
+      GstElement* q = GST_ELEMENT(g_value_get_object(&item));
+      const std::string name = GST_OBJECT_NAME(q);
+      if (name.rfind("requests", 0) == 0 && name != "requests") {
+        ++queues;
+        guint64 max_time = 0;
+        guint max_buffers = 0;
+        g_object_get(q, "max-size-time", &max_time, "max-size-buffers", &max_buffers, nullptr);
+        EXPECT_EQ(max_time, c.expected_ns) << c.element << " " << c.props << " " << name;
+        EXPECT_EQ(max_buffers, 64u);
+      }
+      g_value_reset(&item);
+    }
+    g_value_unset(&item);
+    gst_iterator_free(it);
+    EXPECT_EQ(queues, 4) << c.element;
+    gst_element_set_state(e, GST_STATE_NULL);
+    gst_object_unref(e);
+  }
+}
+
+}  // namespace
