@@ -17,7 +17,8 @@
  * recording pair the same frames with the same requests (lfcamerahost
  * `record`/`playback`). Focus probes (lib/lf/focus_probe.h) always pick by
  * capture time, one frame for all steps of a probe; a camera that no longer
- * holds the probe's instant sits it out. Camera frames may come from any upstream element (e.g.
+ * holds the frame of the probe's instant (its frame period), or skipped it,
+ * sits the probe out. Camera frames may come from any upstream element (e.g.
  * `uridecodebin ! videoconvert ! videoscale ! video/x-raw,format=RGBA,
  * width=W,height=H ! lffragment`); their PTS is then the capture time.
  * Cameras that do not contribute send an explicitly empty fragment, so the
@@ -343,7 +344,9 @@ static int64_t capture_time_of(LfFragment* self, GstBuffer* frame, int camera_id
 // frame-timeout) until that frame is known to be the one: a later frame has
 // come, or one within the frame period (from the caps) before t. Then the
 // newest at or before t, or when all are later (a request older than the
-// ring) the oldest kept, or with `exact` none. A new reference, or nullptr.
+// ring) the oldest kept. With `exact`, only the frame of t's own tick
+// (captured within a frame period before t; a camera that skipped that
+// frame, being late, has none). A new reference, or nullptr.
 static GstBuffer* frame_at(Priv* p, int64_t t, bool exact = false) {
   const State* st = p->state.get();
   const int64_t period =
@@ -362,8 +365,10 @@ static GstBuffer* frame_at(Priv* p, int64_t t, bool exact = false) {
     if (!g_cond_wait_until(&p->cond, &p->lock, deadline)) break;
   if (p->ring.empty() || (exact && p->ring.front().first > t)) return nullptr;
   GstBuffer* best = p->ring.front().second;
+  int64_t best_time = p->ring.front().first;
   for (const auto& [time, b] : p->ring)
-    if (time <= t) best = b;
+    if (time <= t) best = b, best_time = time;
+  if (exact && period > 0 && best_time <= t - period) return nullptr;
   return gst_buffer_ref(best);
 }
 
@@ -454,8 +459,10 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
   if (probe && p->probe_frame && p->probe_id == lf::focus_probe_id(req.sequence)) {
     frame = gst_buffer_ref(p->probe_frame);
   } else if ((st->s.frame_select == FrameSelect::kCaptureTime || probe) && req_time >= 0) {
-    // A probe's instant already out of the ring (a camera lagging): this
-    // camera sits the probe out rather than answer from another instant.
+    // A probe's instant already out of the ring (a camera lagging), or a
+    // frame the camera skipped: this camera sits the probe out rather than
+    // answer from another instant (the scene moves: cameras seeing it at
+    // different instants disagree at the true depth).
     frame = frame_at(p, req_time, probe);
     if (probe && frame) {
       p->probe_id = lf::focus_probe_id(req.sequence);

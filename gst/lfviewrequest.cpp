@@ -54,10 +54,16 @@
  * with ordinary fragments; `lfcompositor` scores each plane by the weighted
  * colour variance among the cameras (photo-consistency) and sends an
  * upstream `lf-focus` event (`viewer-id`, `probe-id`, `inverse-depth`, rig
- * units^-1), which sets `focal-depth` here. `continuous-focus=true` keeps
+ * units^-1, and `capture-time`, the instant measured, ns of running time,
+ * -1 unknown), which sets `focal-depth` here. `continuous-focus=true` keeps
  * focusing at the last clicked point (the view centre before any click): a
  * probe every 5 requests, each answer moving the plane half way (smoothing
- * in inverse depth).
+ * in inverse depth). Answers are taken in probe order, each once: the last
+ * click's, then any continuous probe's issued after it (on a busy machine
+ * an answer may come after the next probe has gone out). A click with no
+ * answer after a second (at least 5 requests: its requests dropped as stale
+ * on a busy camera host, or every camera skipped its frame) is probed again,
+ * twice at most.
  *
  * ## Example launch line
  * |[
@@ -68,8 +74,10 @@
 #include <gst/base/gstbasesrc.h>
 #include <gst/video/navigation.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <deque>
 #include <memory>
 #include <string>
 #include <vector>
@@ -158,11 +166,32 @@ struct State {
   bool probe_pending = false;
   double focus_x = -1, focus_y = -1;
   guint32 next_probe = 1, click_probe = 0, continuous_probe = 0, applied_probe = 0;
+  // The last click: its first probe's id (0: none yet), whether the next
+  // probe is its first, the tick of its last probe and its retries.
+  guint32 click_first_probe = 0;
+  bool new_click = false;
+  guint64 click_tick = 0;
+  int click_retries = 0;
+  // The rest of the current tick's requests (the right eye, focus probes),
+  // given out by the next create() calls (streaming thread). Not a buffer
+  // list: GstBaseSrc 1.22 unrefs a NULL buffer when a state change meets a
+  // submitted list (gst_base_src_get_range), a CRITICAL on a busy machine.
+  std::deque<GstBuffer*> rest_of_tick;
+  ~State() {
+    for (GstBuffer* b : rest_of_tick) gst_buffer_unref(b);
+  }
 };
 // Continuous focus: a probe every this many requests; each answer moves the
 // focal plane this fraction of the way (in inverse depth).
 constexpr guint64 kContinuousFocusEvery = 5;
 constexpr double kContinuousFocusGain = 0.5;
+// A click whose probe has no answer this long after it (at least this many
+// requests) is probed again, at most kClickRetries times: on a busy machine
+// a camera host drops stale requests, probes included, and a camera that
+// skipped the probe's frame sits it out.
+constexpr GstClockTime kClickRetryAfter = GST_SECOND;
+constexpr guint64 kClickRetryTicks = 5;
+constexpr int kClickRetries = 2;
 
 struct Priv {
   Settings settings;  // properties (object lock)
@@ -349,6 +378,7 @@ static void handle_navigation(LfViewRequest* self, GstEvent* event) {
         gst_navigation_event_parse_modifier_state(event, &mods);
         if (button == 3 || (button == 1 && (mods & GST_NAVIGATION_MODIFIER_CONTROL_MASK))) {
           st->probe_pending = true, st->focus_x = x, st->focus_y = y;
+          st->new_click = true, st->click_retries = 0;
           GST_DEBUG_OBJECT(self, "click to focus at (%g, %g)", x, y);
           break;
         }
@@ -501,10 +531,16 @@ static void handle_focus_event(LfViewRequest* self, GstEvent* event) {
   }
   g_mutex_lock(&p->lock);
   State* st = p->state.get();
-  // Only the newest click's or continuous probe's answer, once (every camera
-  // branch forwards it).
-  const bool click = st && probe == st->click_probe;
-  const bool fresh = st && (click || probe == st->continuous_probe) && probe != st->applied_probe;
+  // An answer to the last click (its probe, a retry, or a continuous probe
+  // sent in between, all at the clicked point), or to a continuous probe
+  // sent since, each once (every camera branch forwards it) and never after
+  // a newer one: on a busy machine answers come after the next continuous
+  // probe has gone out (5 requests later), and taking only the newest
+  // probe's starved focus.
+  const bool click =
+      st && st->click_first_probe && probe >= st->click_first_probe && probe <= st->click_probe;
+  const bool continuous = st && probe > st->click_probe && probe <= st->continuous_probe;
+  const bool fresh = st && (click || continuous) && probe > st->applied_probe;
   if (fresh) st->applied_probe = probe;
   const Settings v = lfgst::snapshot(GST_OBJECT(self), p->settings);
   const cv::Vec3d eye(v.eye_s, v.eye_t, v.eye_w);
@@ -595,6 +631,11 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   LfViewRequest* self = LF_VIEW_REQUEST(src);
   Priv* p = self->priv;
   State* st = p->state.get();
+  if (!st->rest_of_tick.empty()) {
+    *out = st->rest_of_tick.front();
+    st->rest_of_tick.pop_front();
+    return GST_FLOW_OK;
+  }
   const Settings& fixed = st->fixed;
   const GstClockTime period =
       gst_util_uint64_scale_int(GST_SECOND, fixed.framerate.d, fixed.framerate.n);
@@ -631,9 +672,22 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   const bool continuous =
       lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::continuous_focus);
   g_mutex_lock(&p->lock);
+  const guint64 retry_ticks =
+      std::max<guint64>(kClickRetryTicks, (kClickRetryAfter + period - 1) / period);
+  if (st->click_first_probe && st->applied_probe < st->click_first_probe && !st->probe_pending &&
+      st->click_retries < kClickRetries && k >= st->click_tick + retry_ticks) {
+    GST_DEBUG_OBJECT(self, "no answer to click probe %u: probing again", st->click_probe);
+    st->probe_pending = true;
+    st->click_retries++;
+  }
   if (st->probe_pending || (continuous && k % kContinuousFocusEvery == 0)) {
     const guint32 id = st->next_probe++;
-    (st->probe_pending ? st->click_probe : st->continuous_probe) = id;
+    if (st->probe_pending) {
+      st->click_probe = id, st->click_tick = k;
+      if (st->new_click) st->click_first_probe = id, st->new_click = false;
+    } else {
+      st->continuous_probe = id;
+    }
     st->probe_pending = false;
     const double x = st->focus_x >= 0 ? st->focus_x : 0.5 * (req.view.width - 1);
     const double y = st->focus_y >= 0 ? st->focus_y : 0.5 * (req.view.height - 1);
@@ -642,6 +696,8 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
       GST_WARNING_OBJECT(self, "no focus probe: %s", perr->message);
       g_error_free(perr);
     }
+    GST_DEBUG_OBJECT(self, "focus probe %u at (%g, %g), request time %" GST_TIME_FORMAT, id, x, y,
+                     GST_TIME_ARGS(pts));
   }
   g_mutex_unlock(&p->lock);
   std::vector<lf::ViewRequest> tick{req};
@@ -655,15 +711,15 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
     tick.push_back(right);
   }
   tick.insert(tick.end(), probes.begin(), probes.end());
-  if (tick.size() == 1) {
-    *out = request_buffer(src, req, pts, period);
-  } else {
-    // One tick = one buffer list (num-buffers counts ticks).
-    GstBufferList* list = gst_buffer_list_new_sized(tick.size());
-    for (const lf::ViewRequest& r : tick)
-      gst_buffer_list_add(list, request_buffer(src, r, pts, period));
-    gst_base_src_submit_buffer_list(src, list);
-    *out = nullptr;
+  // The tick's first request now, the others from the next calls, at once
+  // (num-buffers counts ticks: the base class counts each call).
+  *out = request_buffer(src, tick[0], pts, period);
+  for (size_t i = 1; i < tick.size(); ++i)
+    st->rest_of_tick.push_back(request_buffer(src, tick[i], pts, period));
+  if (tick.size() > 1) {
+    g_mutex_lock(&src->live_lock);  // the base class reads it under this lock
+    if (src->num_buffers_left >= 0) src->num_buffers_left += static_cast<gint>(tick.size() - 1);
+    g_mutex_unlock(&src->live_lock);
   }
   st->sequence++;
   return GST_FLOW_OK;

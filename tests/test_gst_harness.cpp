@@ -1,6 +1,7 @@
 // GstHarness tests of each element on its own: caps, properties, bad input.
 #include <gst/check/gstharness.h>
 #include <gst/gst.h>
+#include <gst/video/navigation.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -8,6 +9,7 @@
 #include "gst_init.h"
 #include "lf/composite.h"
 #include "lf/focus.h"
+#include "lf/focus_probe.h"
 #include "lf/fragment.h"
 #include "lf/parse.h"
 #include "lf/quality.h"
@@ -150,6 +152,71 @@ TEST_F(Harness, ViewRequestProperties) {
   gst_harness_teardown(bad);
 }
 
+// A click whose probe gets no answer is probed again a second later (25
+// requests at 25 fps, live), twice at most; an answer stops the retries.
+TEST_F(Harness, AnUnansweredClickIsProbedAgainTwice) {
+  // Pulls requests up to request `until`; the requests (ticks) whose probe
+  // went with them, and the last probe's id.
+  // Live on the system clock, the requests start at the current tick.
+  uint64_t tick = 0;
+  auto pull_to = [&tick](GstHarness* h, uint64_t until, std::vector<uint64_t>* at, uint32_t* id) {
+    while (tick < until) {
+      GstBuffer* b = gst_harness_pull(h);
+      ASSERT_NE(b, nullptr);
+      GstMapInfo map;
+      gst_buffer_map(b, &map, GST_MAP_READ);
+      const lf::ViewRequest r = lf::parse_request(map.data, map.size);
+      gst_buffer_unmap(b, &map);
+      gst_buffer_unref(b);
+      if (!lf::is_focus_probe(r.sequence)) {
+        tick = r.sequence;  // a tick's view request, then its probe's requests
+      } else if (lf::focus_probe_step(r.sequence) == 0) {
+        at->push_back(tick);
+        *id = lf::focus_probe_id(r.sequence);
+      }
+    }
+  };
+  for (bool answer : {false, true}) {
+    GstHarness* h = gst_harness_new("lfviewrequest");
+    g_object_set(h->element, "rig", rig_path_.c_str(), "viewer-id", 2u, "is-live", TRUE, "width",
+                 64, "height", 48, nullptr);
+    gst_util_set_object_arg(G_OBJECT(h->element), "framerate", "25/1");
+    gst_harness_use_systemclock(h);  // live: requests on the clock
+    gst_harness_play(h);
+    std::vector<uint64_t> at;
+    uint32_t id = 0;
+    tick = 0;
+    pull_to(h, 1, &at, &id);
+    pull_to(h, tick + 2, &at, &id);
+    gst_harness_push_upstream_event(
+        h, gst_navigation_event_new_mouse_button_press(3, 30, 20, GST_NAVIGATION_MODIFIER_NONE));
+    while (at.empty()) pull_to(h, tick + 1, &at, &id);
+    const uint64_t first = at[0];
+    if (answer)
+      gst_harness_push_upstream_event(
+          h, gst_event_new_custom(
+                 GST_EVENT_CUSTOM_UPSTREAM,
+                 gst_structure_new("lf-focus", "viewer-id", G_TYPE_UINT, 2u, "probe-id",
+                                   G_TYPE_UINT, id, "inverse-depth", G_TYPE_DOUBLE, 0.5, nullptr)));
+    pull_to(h, first + 70, &at, &id);
+    if (answer) {
+      EXPECT_EQ(at, std::vector<uint64_t>({first})) << "answered: no retry";
+      double depth = 0;
+      g_object_get(h->element, "focal-depth", &depth, nullptr);
+      EXPECT_NEAR(depth, 2.0, 1e-9);
+    } else {
+      // Two retries, a second apart (a live source skips the ticks it is
+      // late for: up to 4 more on a busy machine).
+      ASSERT_EQ(at.size(), 3u);
+      for (size_t i = 1; i < 3; ++i) {
+        EXPECT_GE(at[i] - at[i - 1], 25u);
+        EXPECT_LT(at[i] - at[i - 1], 30u);
+      }
+    }
+    gst_harness_teardown(h);
+  }
+}
+
 TEST_F(Harness, FragmentFromFrameAndRequest) {
   GstHarness* video = nullptr;
   cv::Mat frame;
@@ -179,6 +246,32 @@ TEST_F(Harness, FragmentFromFrameAndRequest) {
   EXPECT_STREQ(gst_structure_get_string(gst_caps_get_structure(caps, 0), "encoding"), "raw");
   gst_caps_unref(caps);
   gst_buffer_unref(out);
+  gst_harness_teardown(video);
+  gst_harness_teardown(h);
+}
+
+// A focus probe is answered from the frame of its own instant only: a camera
+// that skipped that frame (late) sits the probe out, where a frame request
+// takes the newest frame before it.
+TEST_F(Harness, AProbeTakesOnlyTheFrameOfItsInstant) {
+  GstHarness* video = nullptr;
+  cv::Mat frame;
+  GstHarness* h = camera1_fragment(&video, &frame);  // a frame at 123 ns, 30 fps
+  GstBuffer* later = gst_buffer_new_memdup(frame.data, frame.total() * 4);
+  GST_BUFFER_PTS(later) = 123 + 3 * GST_SECOND / 30;  // two frames skipped
+  ASSERT_EQ(gst_harness_push(video, later), GST_FLOW_OK);
+  auto answers = [&](uint64_t sequence, int64_t time_ns) {
+    lf::ViewRequest r = request(sequence);
+    r.time_ns = time_ns;
+    EXPECT_EQ(gst_harness_push(h, bytes(lf::serialize_request(r), GST_SECOND)), GST_FLOW_OK);
+    const guint n = gst_harness_buffers_in_queue(h);
+    while (gst_harness_buffers_in_queue(h) > 0) gst_buffer_unref(gst_harness_pull(h));
+    return n;
+  };
+  const int64_t skipped = 123 + 2 * GST_SECOND / 30;
+  EXPECT_EQ(answers(lf::focus_probe_sequence(1, 0), skipped), 0u) << "its frame was skipped";
+  EXPECT_EQ(answers(lf::focus_probe_sequence(2, 0), 123 + 10), 1u) << "its frame is there";
+  EXPECT_EQ(answers(7, skipped), 1u) << "a frame request takes the frame before";
   gst_harness_teardown(video);
   gst_harness_teardown(h);
 }
