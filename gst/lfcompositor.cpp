@@ -35,7 +35,9 @@
 #include <gst/video/video.h>
 #include <libdeflate.h>
 
+#include <algorithm>
 #include <atomic>
+#include <deque>
 #include <map>
 #include <memory>
 #include <opencv2/imgproc.hpp>
@@ -108,16 +110,24 @@ constexpr uint64_t kSequenceWindow = 4096;
 constexpr gint64 kReanchorAfterUs = G_USEC_PER_SEC;
 constexpr size_t kMaxPending = 16;
 // A focus probe is scored when every camera answered every step, or this long
-// after its first fragment with what came (a dead camera).
+// (at least; the compositor's latency when longer) after its first fragment
+// with what came (a dead camera).
 constexpr gint64 kProbeDeadlineUs = G_USEC_PER_SEC;
+// Focus probes collected at once: on a busy machine the next (continuous
+// focus: every 5 requests) starts before the last has all its fragments;
+// beyond this many the one started first is scored with what came. The ids
+// of the last kFinishedProbes scored are remembered, so that late fragments
+// of a probe do not start it again (by id, not by order: a peer's id must
+// not make later probes look stale).
+constexpr size_t kMaxProbes = 4;
+constexpr size_t kFinishedProbes = 16;
 
 // The focus probe being collected (lib/lf/focus_probe.h).
 struct Probe {
   uint32_t id = 0;
   guint viewer = 0;
   gint64 started_us = 0;
-  lf::FocusProbeScore score;
-  std::set<uint64_t> seen;  // (camera << 16) | step
+  lf::FocusProbeAnswers answers;
 };
 
 // From start (READY->PAUSED) to stop (PAUSED->READY); used on the aggregate
@@ -146,7 +156,9 @@ struct State {
   guint64 foreign_count = 0;
   gint64 foreign_since_us = -1;
   bool warned_foreign = false;
-  std::unique_ptr<Probe> probe;
+  // Focus probes being collected, by id; the ids of the last ones scored.
+  std::map<uint32_t, Probe> probes;
+  std::deque<uint32_t> finished_probes;
   lfgst::WarnLimiter no_focus, bad, foreign, unknown_camera, wrong_size, no_size, out_of_window;
   ~State() {
     if (convert) gst_video_converter_free(convert);
@@ -528,24 +540,30 @@ static gboolean push_upstream(GstAggregator* agg, GstEvent* event) {
 }
 
 // Scores the focus probe collected so far and sends the answer upstream as
-// an lf-focus event (viewer-id, probe-id, inverse-depth), which lfviewrequest
-// applies as its focal plane.
-static void finish_probe(LfCompositor* self, State* st) {
-  std::unique_ptr<Probe> probe = std::move(st->probe);
+// an lf-focus event (viewer-id, probe-id, inverse-depth, and capture-time:
+// the instant measured, ns, -1 unknown), which lfviewrequest applies as its
+// focal plane.
+static void finish_probe(LfCompositor* self, State* st, std::map<uint32_t, Probe>::iterator it) {
+  const Probe probe = std::move(it->second);
+  st->probes.erase(it);
+  st->finished_probes.push_back(probe.id);
+  if (st->finished_probes.size() > kFinishedProbes) st->finished_probes.pop_front();
   double q = 0;
-  if (!st->rig || !probe->score.best(*st->rig, &q)) {
+  if (!st->rig || !probe.answers.best(*st->rig, &q)) {
     LF_ELEMENT_WARNING_LIMITED(self, st->no_focus, STREAM, FAILED,
                                ("Cannot focus at the clicked point"),
                                "probe %u: too few pixels seen by two cameras (%zu fragments)",
-                               probe->id, probe->seen.size());
+                               probe.id, probe.answers.fragments());
     return;
   }
-  lfgst::trace(GST_ELEMENT(self), "focused", probe->viewer, probe->id, -1,
+  lfgst::trace(GST_ELEMENT(self), "focused", probe.viewer, probe.id, -1,
                static_cast<gint64>(q * 1e9));
-  GST_DEBUG_OBJECT(self, "focus probe %u: inverse depth %g", probe->id, q);
+  GST_DEBUG_OBJECT(self, "focus probe %u: inverse depth %g from %d cameras (%zu fragments)",
+                   probe.id, q, probe.answers.complete_cameras(), probe.answers.fragments());
   GstStructure* s =
-      gst_structure_new("lf-focus", "viewer-id", G_TYPE_UINT, probe->viewer, "probe-id",
-                        G_TYPE_UINT, probe->id, "inverse-depth", G_TYPE_DOUBLE, q, nullptr);
+      gst_structure_new("lf-focus", "viewer-id", G_TYPE_UINT, probe.viewer, "probe-id", G_TYPE_UINT,
+                        probe.id, "inverse-depth", G_TYPE_DOUBLE, q, "capture-time",
+                        G_TYPE_INT64, static_cast<gint64>(probe.answers.capture_time_ns()), nullptr);
   push_upstream(GST_AGGREGATOR(self), gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, s));
 }
 
@@ -555,7 +573,10 @@ static void absorb_probe(LfCompositor* self, State* st, const guint8* data, gsiz
                          const lf::FragmentHeader& head) {
   const uint32_t id = lf::focus_probe_id(head.sequence);
   const int step = lf::focus_probe_step(head.sequence);
-  if (st->probe && id < st->probe->id) return;  // stale
+  auto it = st->probes.find(id);
+  if (it == st->probes.end() && std::find(st->finished_probes.begin(), st->finished_probes.end(),
+                                          id) != st->finished_probes.end())
+    return;  // already scored
   lf::Fragment f;
   const size_t side = lf::kFocusProbeSide;
   GError* err = nullptr;
@@ -565,17 +586,23 @@ static void absorb_probe(LfCompositor* self, State* st, const guint8* data, gsiz
     g_error_free(err);
     return;
   }
-  if (!st->probe || id > st->probe->id) {
-    st->probe = std::make_unique<Probe>();
-    st->probe->id = id;
-    st->probe->viewer = f.viewer_id;
-    st->probe->started_us = g_get_monotonic_time();
+  if (it == st->probes.end()) {
+    if (st->probes.size() >= kMaxProbes)
+      finish_probe(
+          self, st,
+          std::min_element(st->probes.begin(), st->probes.end(), [](const auto& a, const auto& b) {
+            return a.second.started_us < b.second.started_us;
+          }));
+    it = st->probes.emplace(id, Probe{}).first;
+    it->second.id = id;
+    it->second.viewer = f.viewer_id;
+    it->second.started_us = g_get_monotonic_time();
   }
-  Probe& pr = *st->probe;
-  if (!pr.seen.insert((uint64_t{f.camera_id} << 16) | static_cast<uint64_t>(step)).second) return;
-  pr.score.add(step, f);
+  Probe& pr = it->second;
+  if (!pr.answers.add(step, std::move(f))) return;
   const size_t cameras = st->rig ? st->rig->cameras.size() : 0;
-  if (cameras > 0 && pr.seen.size() >= cameras * lf::kFocusProbeSteps) finish_probe(self, st);
+  if (cameras > 0 && pr.answers.fragments() >= cameras * lf::kFocusProbeSteps)
+    finish_probe(self, st, it);
 }
 
 // Parses one fragment buffer and files it under its request. What a peer
@@ -752,8 +779,16 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
     if (!gst_aggregator_pad_is_eos(GST_AGGREGATOR_PAD(l->data))) all_eos = false;
   g_list_free_full(pads, gst_object_unref);
 
-  if (st->probe && g_get_monotonic_time() - st->probe->started_us > kProbeDeadlineUs)
-    finish_probe(self, st);
+  // Probes past their deadline are scored with what came.
+  const gint64 probe_deadline_us =
+      live ? std::max<gint64>(kProbeDeadlineUs, static_cast<gint64>(latency / GST_USECOND))
+           : kProbeDeadlineUs;
+  for (auto it = st->probes.begin(); it != st->probes.end();) {
+    auto next = std::next(it);
+    if (g_get_monotonic_time() - it->second.started_us > probe_deadline_us)
+      finish_probe(self, st, it);
+    it = next;
+  }
   const size_t expected = expected_fragments(self);
   GstFlowReturn ret = GST_FLOW_OK;
   // Complete requests, in order; at a deadline (or end of stream), also the
