@@ -6,9 +6,12 @@
 #include <gst/video/navigation.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <mutex>
+#include <vector>
 
 #include "gst_init.h"
 #include "lf/focus.h"
@@ -92,6 +95,103 @@ TEST(FocusProbe, FindsTheDepthUnderTheClickedPixel) {
   EXPECT_EQ(lf::focus_probe_step(lf::focus_probe_sequence(0xffffffffu, 31)), 31);
 }
 
+// A probe whose answers are incomplete (a camera late or gone for some
+// steps) is scored from the cameras that answered every step: the same
+// answer as the probe without that camera, still on the disc.
+TEST(FocusProbe, ScoresOnlyTheCamerasThatAnsweredEveryStep) {
+  const lf::Rig rig = lf::synthetic_grid_rig(4, 4, 0.05, 320, 240);
+  const lf::SyntheticScene scene = lf::SyntheticScene::for_rig(rig);
+  const double t = 0.3;
+  lf::ViewSettings vs;
+  vs.width = 320, vs.height = 240;
+  lf::ViewRequest view;
+  view.view = lf::build_views(rig, vs).at(0, rig, lf::camera_plane_offset(rig, 0.012, -0.02, 0));
+  const double px = 1.0 / (rig.cameras[0].intrinsics.fx * rig.typical_spacing());
+  const cv::Point2d disc = project(view.view, scene.disc_centre(t));
+  // Every camera's fragment of every step; which cameras see the window.
+  std::vector<std::vector<std::pair<int, lf::Fragment>>> by_camera(rig.cameras.size());
+  std::vector<int> seeing;
+  for (size_t i = 0; i < rig.cameras.size(); ++i) {
+    const cv::Mat image = scene.render(rig.cameras[i], t);
+    size_t pixels = 0;
+    for (const lf::ViewRequest& r : lf::focus_probe_requests(rig, view, disc.x, disc.y, 3)) {
+      lf::Fragment f;
+      f.sequence = r.sequence;
+      f.camera_id = rig.cameras[i].id;
+      lf::render_fragment(lf::plan_fragment(lf::ViewGeometry(rig, r), static_cast<int>(i)),
+                          rig.cameras[i], image, f);
+      pixels += f.pixel_count();
+      by_camera[i].emplace_back(lf::focus_probe_step(r.sequence), f);
+    }
+    if (pixels > 0) seeing.push_back(static_cast<int>(i));
+  }
+  ASSERT_GE(seeing.size(), 3u) << "the probe's eye blends a triangle of cameras";
+  const int late = seeing[0];
+  lf::FocusProbeAnswers partial, without;
+  lf::FocusProbeScore naive;
+  for (size_t i = 0; i < by_camera.size(); ++i)
+    for (const auto& [step, f] : by_camera[i]) {
+      if (static_cast<int>(i) == late && step % 2 == 0) continue;  // half its steps lost
+      EXPECT_TRUE(partial.add(step, f));
+      naive.add(step, f);
+      if (static_cast<int>(i) != late) without.add(step, f);
+    }
+  EXPECT_FALSE(partial.add(by_camera[late][1].first, by_camera[late][1].second)) << "a repeat";
+  EXPECT_FALSE(partial.add(lf::kFocusProbeSteps, by_camera[late][1].second));
+  EXPECT_FALSE(partial.add(-1, by_camera[late][1].second));
+  EXPECT_EQ(partial.steps(), lf::kFocusProbeSteps);
+  EXPECT_EQ(partial.complete_cameras(), static_cast<int>(rig.cameras.size()) - 1);
+  double q_partial = -1, q_without = -2, q_naive = -3;
+  ASSERT_TRUE(partial.best(rig, &q_partial));
+  ASSERT_TRUE(without.best(rig, &q_without));
+  ASSERT_TRUE(naive.best(rig, &q_naive));
+  std::printf(
+      "one camera missing half the steps: q %.4f (all steps of the others), naive %.4f, "
+      "true %.4f\n",
+      q_partial, q_naive, 1 / scene.near_depth);
+  EXPECT_EQ(q_partial, q_without);
+  EXPECT_NEAR(q_partial, 1 / scene.near_depth, 0.5 * px);
+}
+
+// The point of the disc's plane that the moving disc covers from t0 to t1
+// with the widest margin (the least distance to its edge, in `margin`): on
+// the line from the orbit's centre towards the disc's centre at the middle
+// of that time (the intersection of the discs is symmetric about it).
+cv::Vec3d steady_disc_point(const lf::SyntheticScene& scene, double t0, double t1, double* margin) {
+  // The orbit's centre: midway between opposite points of the orbit (the
+  // disc goes round once per scene.period seconds).
+  const cv::Vec3d o = 0.5 * (scene.disc_centre(0) + scene.disc_centre(0.5 * scene.period_s));
+  const cv::Vec3d mid = scene.disc_centre(0.5 * (t0 + t1));
+  cv::Vec3d best = mid;
+  *margin = -1e300;
+  for (double a = 0; a <= 1.0; a += 0.02) {
+    const cv::Vec3d x = o + a * (mid - o);
+    double least = 1e300;
+    for (double t = t0; t <= t1 + 1e-9; t += (t1 - t0) / 50)
+      least = std::min(least, scene.disc_radius - cv::norm(x - scene.disc_centre(t)));
+    if (least > *margin) *margin = least, best = x;
+  }
+  return best;
+}
+
+// The corner pixel of `view` (20 pixels in) farthest from the disc's image
+// from t0 to t1 (the least distance to the disc's image, in `margin`).
+cv::Point2d background_corner(const lf::VirtualView& view, const lf::SyntheticScene& scene,
+                              double t0, double t1, double* margin) {
+  const double radius_px = scene.disc_radius * view.intrinsics().fy / scene.near_depth;
+  cv::Point2d best;
+  *margin = -1e300;
+  for (const cv::Point2d c :
+       {cv::Point2d(20, 20), cv::Point2d(view.width - 21, 20), cv::Point2d(20, view.height - 21),
+        cv::Point2d(view.width - 21, view.height - 21)}) {
+    double least = 1e300;
+    for (double t = t0; t <= t1 + 1e-9; t += (t1 - t0) / 50)
+      least = std::min(least, cv::norm(c - project(view, scene.disc_centre(t))) - radius_px);
+    if (least > *margin) *margin = least, best = c;
+  }
+  return best;
+}
+
 // A synthetic 3x3 array (5 cm apart) in a rig file, and its scene.
 class ClickToFocus : public ::testing::Test {
  protected:
@@ -113,14 +213,22 @@ class ClickToFocus : public ::testing::Test {
 // what is under it, from the fragments alone; measured: click -> focused
 // frame.
 TEST_F(ClickToFocus, ARightClickFocusesOnThePointUnderIt) {
+  // Zoomed in (vfov 20 of the cameras' 40): the probe window is half as
+  // large in the scene, so it fits on the moving disc for longer.
+  // 320x240 in both builds: the background corners must stay clear of the
+  // disc's image, twice the size of the cameras'. A latency of 1 s (5 s in
+  // the sanitizer build): on a busy machine the probe's requests wait
+  // rather than go stale (a probe lost so is sent again a second later, at
+  // an instant the click point was not chosen for).
   lf::ViewSettings vs;
-  vs.width = kW, vs.height = kH;
+  vs.width = 320, vs.height = 240, vs.vfov_deg = 20;
   const lf::VirtualView view = lf::build_views(rig, vs).at(0, rig);
   const double px = 1.0 / (rig.cameras[0].intrinsics.fx * rig.typical_spacing());
   const std::string desc =
-      "lfviewrequest name=req rig=" + rig_path + " " + kLive +
+      "lfviewrequest name=req rig=" + rig_path + " is-live=true framerate=10/" +
+      std::to_string(kSlow) + " width=320 height=240 vfov=20" +
       " focal-depth=1.25 ! lfarray rig=" + rig_path + " " + kCameras +
-      " latency=" + std::to_string(300000000LL * kSlow) +
+      " latency=" + std::to_string(1000000000LL * kSlow) +
       " ! video/x-raw,format=RGBA ! appsink name=out sync=false max-buffers=4 drop=true";
   GstElement* p = gst_parse_launch(desc.c_str(), nullptr);
   ASSERT_NE(p, nullptr);
@@ -135,22 +243,97 @@ TEST_F(ClickToFocus, ARightClickFocusesOnThePointUnderIt) {
     return pts;
   };
   ASSERT_NE(next_frame_pts(10), GST_CLOCK_TIME_NONE) << "no output";
-  // Clicks at a pixel (the disc's centre predicted 0.15 s ahead when
-  // `on_disc`, else a corner, always background) and waits for the focal
-  // depth to change; the inverse depth it took, and click -> focused frame.
+  // The probe looks at the instant of the first request tick after the
+  // click: within a second (a tick is 0.1 s, 0.5 s in the sanitizer build;
+  // a second is as long as the disc's orbit leaves a point covered with the
+  // probe window's margin).
+  const double kProbeWithinS = 1.0;
+  const double kPeriodS = 0.1 * kSlow;  // of the requests and the cameras
+  // World units: the disc click point's least distance to the disc's edge;
+  // pixels: the background click's least distance to the disc's image.
+  double margin = 0, background_margin = 0;
+  // The compositor's answers (lf-focus events on their way up to `req`).
+  struct Answer {
+    guint probe = 0;
+    double q = -1;
+    gint64 capture_ns = -1;
+  };
+  struct Answers {
+    std::mutex m;
+    std::vector<Answer> list;
+  } answers;
+  GstPad* req_src = gst_element_get_static_pad(req, "src");
+  gst_pad_add_probe(
+      req_src, GST_PAD_PROBE_TYPE_EVENT_UPSTREAM,
+      [](GstPad*, GstPadProbeInfo* info, gpointer data) {
+        const GstStructure* s = gst_event_get_structure(GST_PAD_PROBE_INFO_EVENT(info));
+        if (s && gst_structure_has_name(s, "lf-focus")) {
+          Answer a;
+          gst_structure_get_uint(s, "probe-id", &a.probe);
+          gst_structure_get_double(s, "inverse-depth", &a.q);
+          gst_structure_get_int64(s, "capture-time", &a.capture_ns);
+          auto* all = static_cast<Answers*>(data);
+          std::lock_guard<std::mutex> l(all->m);
+          all->list.push_back(a);
+        }
+        return GST_PAD_PROBE_OK;
+      },
+      &answers, nullptr);
+  gst_object_unref(req_src);
+  // The probe window's half diagonal, pixels: a click this close to the
+  // disc's image edge may find either surface.
+  const double window_px = std::sqrt(2.0) * lf::kFocusProbeRadius;
+  const double radius_px = scene.disc_radius * view.intrinsics().fy / scene.near_depth;
+  // Clicks at a pixel (when `on_disc`, the point that the moving disc covers
+  // with the widest margin over the next second; else the corner farthest
+  // from it) and waits for the first answer to it; checks that answer
+  // against the scene at the instant it measured (on a busy machine a
+  // probe may be lost and sent again later) and that the focal depth took
+  // it. Returns the inverse depth and click -> first focused frame.
   auto click = [&](bool on_disc, double* ms) -> double {
-    double before = 0;
-    g_object_get(req, "focal-depth", &before, nullptr);
-    const double t = gst_element_get_current_running_time(p) / 1e9 + 0.15 * kSlow;
-    const cv::Point2d at = on_disc ? project(view, scene.disc_centre(t)) : cv::Point2d(20, 20);
+    guint newest = 0;
+    {
+      std::lock_guard<std::mutex> l(answers.m);
+      for (const Answer& a : answers.list) newest = std::max(newest, a.probe);
+    }
+    const double now = gst_element_get_current_running_time(p) / 1e9;
+    const cv::Point2d at =
+        on_disc ? project(view, steady_disc_point(scene, now, now + kProbeWithinS, &margin))
+                : background_corner(view, scene, now, now + kProbeWithinS, &background_margin);
     const gint64 t0 = g_get_monotonic_time();
     gst_element_send_event(out, gst_navigation_event_new_mouse_button_press(
                                     3, at.x, at.y, GST_NAVIGATION_MODIFIER_NONE));
-    double depth = before;
-    while (depth == before && g_get_monotonic_time() - t0 < 5 * kSlow * G_USEC_PER_SEC) {
+    Answer got;
+    while (got.probe == 0 && g_get_monotonic_time() - t0 < 10 * kSlow * G_USEC_PER_SEC) {
       g_usleep(2000);
-      g_object_get(req, "focal-depth", &depth, nullptr);
+      std::lock_guard<std::mutex> l(answers.m);
+      // An answer to this click: a probe sent since (not a late retry of the
+      // last click's), looking at an instant after the click (its request
+      // tick is at most a period late, its frame at most a period older).
+      for (const Answer& a : answers.list)
+        if (a.probe > newest && a.capture_ns >= (now - 2 * kPeriodS) * 1e9) {
+          got = a;
+          break;
+        }
     }
+    EXPECT_GT(got.probe, 0u) << "no answer to the click";
+    if (got.probe == 0) return -1;
+    double depth = 0;
+    g_object_get(req, "focal-depth", &depth, nullptr);
+    EXPECT_NEAR(1.0 / depth, got.q, 1e-9) << "the focal depth is the answer's";
+    // The scene under the click when the probe looked.
+    EXPECT_GE(got.capture_ns, 0);
+    const double t = got.capture_ns / 1e9;
+    const double from_edge = radius_px - cv::norm(at - project(view, scene.disc_centre(t)));
+    std::printf("click at (%.0f, %.0f) at %.3f s, measured at %.3f s: %.0f px inside the disc\n",
+                at.x, at.y, now, t, from_edge);
+    const double q_disc = 1 / scene.near_depth, q_background = 1 / scene.far_depth;
+    if (from_edge > window_px)
+      EXPECT_NEAR(got.q, q_disc, 0.5 * px);
+    else if (from_edge < -window_px)
+      EXPECT_NEAR(got.q, q_background, 0.5 * px);
+    else  // the window straddles the edge
+      EXPECT_LT(std::min(std::abs(got.q - q_disc), std::abs(got.q - q_background)), 0.5 * px);
     // The first frame of a request issued after the change.
     const GstClockTime changed = gst_element_get_current_running_time(p);
     GstClockTime pts;
@@ -158,7 +341,7 @@ TEST_F(ClickToFocus, ARightClickFocusesOnThePointUnderIt) {
     }
     *ms = (g_get_monotonic_time() - t0) / 1000.0;
     EXPECT_NE(pts, GST_CLOCK_TIME_NONE) << "no frame after focusing";
-    return depth > 0 ? 1.0 / depth : -1;
+    return got.q;
   };
   double ms_far = 0, ms_near = 0;
   const double q_far = click(false, &ms_far);
@@ -167,13 +350,19 @@ TEST_F(ClickToFocus, ARightClickFocusesOnThePointUnderIt) {
       "click to focus: background q %.4f (true %.4f) in %.0f ms; disc q %.4f (true %.4f) in %.0f "
       "ms\n",
       q_far, 1 / scene.far_depth, ms_far, q_near, 1 / scene.near_depth, ms_near);
-  EXPECT_NEAR(q_far, 1 / scene.far_depth, 0.5 * px);
-  EXPECT_NEAR(q_near, 1 / scene.near_depth, 0.5 * px);
+  // The click points were chosen so: the probe's window (kFocusProbeRadius
+  // pixels around the click, corners included) on the disc, or clear of
+  // it, whenever in the next second the probe looks.
+  const double window =
+      std::sqrt(2.0) * lf::kFocusProbeRadius * scene.near_depth / view.intrinsics().fy;
+  EXPECT_GT(margin, window) << "the disc's margin around the click point, world units";
+  EXPECT_GT(background_margin, window_px) << "pixels";
   // Probe on the next request tick (<= 100 ms), one frame to composite and
-  // the next tick with the new plane: a few hundred ms; 3 s is a failure
-  // (the probe deadline is 1 s).
-  EXPECT_LT(ms_far, 3000 * kSlow);
-  EXPECT_LT(ms_near, 3000 * kSlow);
+  // the next tick with the new plane: 130-500 ms measured, 1.6 s at worst
+  // on one core shared with two busy loops (a probe lost and sent again a
+  // second later); 5 s is a failure.
+  EXPECT_LT(ms_far, 5000 * kSlow);
+  EXPECT_LT(ms_near, 5000 * kSlow);
   gst_element_set_state(p, GST_STATE_NULL);
   gst_object_unref(req);
   gst_object_unref(out);
@@ -184,10 +373,21 @@ TEST_F(ClickToFocus, ARightClickFocusesOnThePointUnderIt) {
 // moving disc) is kept in focus; the plane converges from the background.
 TEST_F(ClickToFocus, ContinuousFocusConvergesOnTheCentre) {
   const double px = 1.0 / (rig.cameras[0].intrinsics.fx * rig.typical_spacing());
-  const std::string desc = "lfviewrequest name=req rig=" + rig_path + " " + kLive +
-                           " focal-depth=" + std::to_string(scene.far_depth) +
-                           " continuous-focus=true ! lfarray rig=" + rig_path + " " + kCameras +
-                           " ! fakesink async=false";
+  // Zoomed in (vfov 20 of the cameras' 40 at 320x240) so that the probe
+  // window at the view centre always lies on the disc: the orbit's centre is
+  // covered with a margin of disc radius - orbit radius, 13 px at the
+  // cameras' field of view, less than the window's 16 px radius. A long
+  // latency: on a busy machine requests wait rather than go stale (a probe
+  // that lost requests at some cameras is scored without them, or not).
+  const double vfov = 20.0 * kH / 240;  // 10 at the sanitizer build's 160x120
+  const double fy = 0.5 * kH / std::tan(0.5 * vfov * M_PI / 180);
+  ASSERT_GT((scene.disc_radius - scene.orbit_radius) * fy / scene.near_depth,
+            std::sqrt(2.0) * lf::kFocusProbeRadius);
+  const std::string desc =
+      "lfviewrequest name=req rig=" + rig_path + " " + kLive + " vfov=" + std::to_string(vfov) +
+      " focal-depth=" + std::to_string(scene.far_depth) +
+      " continuous-focus=true ! lfarray rig=" + rig_path + " " + kCameras +
+      " latency=" + std::to_string(3000000000LL * kSlow) + " ! fakesink async=false";
   GError* err = nullptr;
   GstElement* p = gst_parse_launch(desc.c_str(), &err);
   ASSERT_EQ(err, nullptr) << err->message << " in " << desc;
@@ -196,7 +396,7 @@ TEST_F(ClickToFocus, ContinuousFocusConvergesOnTheCentre) {
   const gint64 t0 = g_get_monotonic_time();
   gst_element_set_state(p, GST_STATE_PLAYING);
   double q = 0, converged_ms = -1;
-  while (g_get_monotonic_time() - t0 < 10 * kSlow * G_USEC_PER_SEC) {
+  while (g_get_monotonic_time() - t0 < 20 * kSlow * G_USEC_PER_SEC) {
     double depth = 0;
     g_object_get(req, "focal-depth", &depth, nullptr);
     q = 1.0 / depth;
@@ -208,8 +408,10 @@ TEST_F(ClickToFocus, ContinuousFocusConvergesOnTheCentre) {
   }
   std::printf("continuous focus: from q %.4f to %.4f (disc %.4f) in %.0f ms after PLAYING\n",
               1 / scene.far_depth, q, 1 / scene.near_depth, converged_ms);
-  // Halving the error every 0.5 s: 1/64 of it after 3 s; 10 s is a failure.
-  EXPECT_GE(converged_ms, 0) << "did not converge within " << 10 * kSlow << " s: q " << q;
+  // Halving the error every 0.5 s: 1/64 of it after 3 s. Measured 1.6-1.7
+  // s, alone or beside two busy loops; 4.7-9.7 s on one core shared with
+  // two busy loops (probes lost); 20 s is a failure.
+  EXPECT_GE(converged_ms, 0) << "did not converge within " << 20 * kSlow << " s: q " << q;
   gst_element_set_state(p, GST_STATE_NULL);
   gst_object_unref(req);
   gst_object_unref(p);
