@@ -9,6 +9,7 @@
 #include "lf/composite.h"
 #include "lf/focus.h"
 #include "lf/parse.h"
+#include "lf/plan.h"
 #include "lf/quality.h"
 #include "lf/render.h"
 #include "lf/render_view.h"
@@ -286,6 +287,115 @@ TEST(Wire, RequestRoundTrip) {
   u.time_ns = -5;
   const auto ub = lf::serialize_request(u);
   EXPECT_EQ(lf::parse_request(ub.data(), ub.size()).time_ns, -1);
+}
+
+// A request with a focal surface of 3 planes over 40 x 30 tiles of 16.
+lf::ViewRequest sample_surface_request() {
+  lf::ViewRequest r = sample_request();
+  lf::FocalSurface& sf = r.surface;
+  sf.tile = 16, sf.cols = 40, sf.rows = 30;
+  sf.planes = {lf::FocalPlane::through({0, 0, 7}, {0.1, 0.2, 1}),
+               lf::FocalPlane::through({0, 0, 2.5}, {0, 0, 1}),
+               lf::FocalPlane::through({0, 0, 1e6}, {0, 0, 1})};
+  sf.plane_of.resize(40 * 30);
+  for (size_t i = 0; i < sf.plane_of.size(); ++i) sf.plane_of[i] = static_cast<uint8_t>(i * 7 % 3);
+  return r;
+}
+
+// Rewrites a version 3 request's CRC (over all but its last 4 bytes).
+void resign_request3(std::vector<uint8_t>& v) {
+  const uLong c = crc32(crc32(0L, Z_NULL, 0), v.data(), static_cast<uInt>(v.size() - 4));
+  for (int i = 0; i < 4; ++i) v[v.size() - 4 + i] = static_cast<uint8_t>(c >> (24 - 8 * i));
+}
+
+// Version 3 carries the focal surface exactly; a request without one is
+// still version 2, byte for byte.
+TEST(Wire, FocalSurfaceRoundTrip) {
+  const lf::ViewRequest r = sample_surface_request();
+  const auto b = lf::serialize_request(r);
+  ASSERT_EQ(b.size(), lf::kRequestSize + 8 + 3 * 32 + 40 * 30 + 4);
+  EXPECT_EQ(b[5], 3);
+  const lf::ViewRequest s = lf::parse_request(b.data(), b.size());
+  EXPECT_EQ(s.surface.tile, 16);
+  EXPECT_EQ(s.surface.cols, 40);
+  EXPECT_EQ(s.surface.rows, 30);
+  ASSERT_EQ(s.surface.planes.size(), 3u);
+  for (size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(s.surface.planes[i].n, r.surface.planes[i].n);
+    EXPECT_EQ(s.surface.planes[i].d, r.surface.planes[i].d);
+  }
+  EXPECT_EQ(s.surface.plane_of, r.surface.plane_of);
+  EXPECT_EQ(s.time_ns, r.time_ns);
+  EXPECT_EQ(s.focal_plane.d, r.focal_plane.d);
+  // The same planning as the original.
+  const lf::Rig rig = lf::synthetic_grid_rig(3, 3, 0.05, 160, 120);
+  lf::ViewRequest a = sample_surface_request(), c = s;
+  a.view = c.view = lf::view_between_cameras(rig, rig.plane().origin, 640, 480);
+  const lf::ViewGeometry ga(rig, a), gc(rig, c);
+  for (int i = 0; i < static_cast<int>(rig.cameras.size()); ++i) {
+    const lf::FragmentPlan pa = lf::plan_fragment(ga, i), pc = lf::plan_fragment(gc, i);
+    EXPECT_EQ(pa.pixel_count(), pc.pixel_count()) << "camera " << i;
+  }
+  const auto v2 = lf::serialize_request(sample_request());
+  EXPECT_EQ(v2.size(), lf::kRequestSize);
+  EXPECT_EQ(v2[5], 2);
+}
+
+// A surface block is checked before anything is allocated: sizes that
+// disagree, a block over the limit, planes 0 or over 64, a grid that does
+// not match the view, a tile naming a missing plane; at every length and
+// after any corruption.
+TEST(Wire, BadFocalSurfacesAreRejected) {
+  const auto good = lf::serialize_request(sample_surface_request());
+  for (size_t n = 0; n < good.size(); n += (n < 300 ? 1 : 53))
+    EXPECT_THROW(lf::parse_request(good.data(), n), lf::WireError) << "length " << n;
+  auto longer = good;
+  longer.push_back(0);
+  EXPECT_THROW(lf::parse_request(longer.data(), longer.size()), lf::WireError);
+  for (size_t i = 0; i < good.size(); i += (i < 300 ? 1 : 31)) {
+    auto b = good;
+    b[i] ^= 0x5a;
+    EXPECT_THROW(lf::parse_request(b.data(), b.size()), lf::WireError) << "byte " << i;
+  }
+  auto expect_error = [](std::vector<uint8_t> v, const std::string& word) {
+    resign_request3(v);
+    try {
+      lf::parse_request(v.data(), v.size());
+      ADD_FAILURE() << "accepted (" << word << ")";
+    } catch (const lf::WireError& e) {
+      EXPECT_NE(std::string(e.what()).find(word), std::string::npos) << e.what();
+    }
+  };
+  auto put32 = [](std::vector<uint8_t>& v, size_t at, uint32_t x) {
+    for (int i = 0; i < 4; ++i) v[at + i] = static_cast<uint8_t>(x >> (24 - 8 * i));
+  };
+  auto b = good;
+  put32(b, 148, 0x7fffffff);  // a 2 GB block announced
+  expect_error(b, "focal surface block");
+  b = good;
+  put32(b, 148, static_cast<uint32_t>(good.size() - lf::kRequestSize - 4 - 1));
+  expect_error(b, "expected");
+  b = good;
+  b[158] = 0;  // no planes
+  expect_error(b, "planes");
+  b = good;
+  b[158] = 65;
+  expect_error(b, "planes");
+  b = good;
+  b[159] = 1;
+  expect_error(b, "reserved");
+  b = good;
+  b[155] = 30, b[157] = 40;  // 30 x 40 tiles: same bytes, not the view's grid
+  expect_error(b, "surface");
+  b = good;
+  b[good.size() - 5] = 3;  // the last tile names plane 3 of 0..2
+  expect_error(b, "plane");
+  // Too many tiles for the wire: refused when serialising.
+  lf::ViewRequest big = sample_surface_request();
+  big.view.width = big.view.height = 16384;
+  big.surface.tile = 8, big.surface.cols = big.surface.rows = 2048;
+  big.surface.plane_of.assign(2048 * 2048, 0);
+  EXPECT_THROW(lf::serialize_request(big), std::invalid_argument);
 }
 
 TEST(Wire, TruncatedInputIsRejectedAtEveryLength) {

@@ -535,13 +535,28 @@ Fragment parse_fragment_in_place(const uint8_t* data, size_t size, const uint8_t
   return parse_fragment_impl(data, size, enc_out, max_pixels, pixels, check_crc);
 }
 
+namespace {
+
+// Bytes of a surface block (version 3), after its size field.
+size_t surface_bytes(size_t planes, size_t tiles) {
+  return 8 + 32 * planes + tiles;
+}
+
+}  // namespace
+
 std::vector<uint8_t> serialize_request(const ViewRequest& req) {
   validate(req);
+  const FocalSurface& sf = req.surface;
+  const size_t tiles = sf.empty() ? 0 : static_cast<size_t>(sf.cols) * sf.rows;
+  const size_t block = sf.empty() ? 0 : surface_bytes(sf.planes.size(), tiles);
+  if (block > kMaxSurfaceBytes)
+    throw std::invalid_argument("view request: focal surface of " + std::to_string(tiles) +
+                                " tiles exceeds the wire limit");
   std::vector<uint8_t> out;
-  out.reserve(kRequestSize);
+  out.reserve(kRequestSize + (block ? block + 4 : 0));
   Writer w(out);
   w.bytes("LFVR", 4);
-  w.u16(2);
+  w.u16(sf.empty() ? 2 : 3);
   w.u16(kRequestSize);
   w.u32(req.viewer_id);
   w.u64(req.sequence);
@@ -558,6 +573,19 @@ std::vector<uint8_t> serialize_request(const ViewRequest& req) {
   w.u8(static_cast<uint8_t>(req.aperture));
   w.u8(0), w.u8(0), w.u8(0);
   w.u64(static_cast<uint64_t>(req.time_ns < 0 ? -1 : req.time_ns));
+  if (!sf.empty()) {
+    w.u32(static_cast<uint32_t>(block));
+    w.u16(static_cast<uint16_t>(sf.tile));
+    w.u16(static_cast<uint16_t>(sf.cols));
+    w.u16(static_cast<uint16_t>(sf.rows));
+    w.u8(static_cast<uint8_t>(sf.planes.size()));
+    w.u8(0);
+    for (const FocalPlane& p : sf.planes) {
+      for (int i = 0; i < 3; ++i) w.f64(p.n[i]);
+      w.f64(p.d);
+    }
+    w.bytes(sf.plane_of.data(), sf.plane_of.size());
+  }
   w.u32(crc(out.data(), out.size()));
   return out;
 }
@@ -571,11 +599,11 @@ ViewRequest parse_request(const uint8_t* data, size_t size) {
   Reader r(data, size, "view request");
   for (int i = 0; i < 4; ++i) r.u8();
   const uint16_t version = r.u16();
-  if (version != 2)
-    bad("unsupported version " + std::to_string(version) + " (this build speaks version 2)");
-  const uint16_t total = r.u16();
-  if (total != kRequestSize || size != kRequestSize)
-    bad("size " + std::to_string(size) + " (announced " + std::to_string(total) + "), expected " +
+  if (version != 2 && version != 3)
+    bad("unsupported version " + std::to_string(version) + " (this build speaks versions 2, 3)");
+  const uint16_t fixed = r.u16();
+  if (fixed != kRequestSize || (version == 2 && size != kRequestSize))
+    bad("size " + std::to_string(size) + " (announced " + std::to_string(fixed) + "), expected " +
         std::to_string(kRequestSize));
   ViewRequest req;
   req.viewer_id = r.u32();
@@ -593,8 +621,42 @@ ViewRequest parse_request(const uint8_t* data, size_t size) {
   const uint8_t ap = r.u8();
   const uint8_t r0 = r.u8(), r1 = r.u8(), r2 = r.u8();
   req.time_ns = static_cast<int64_t>(r.u64());
-  const uint32_t sum = r.u32();
-  if (crc(data, kRequestSize - 4) != sum) bad("CRC mismatch (corrupt data)");
+  if (version == 3) {
+    // The surface block: its size first, checked against what came and the
+    // limit, then the CRC over all of it, before anything is allocated.
+    const uint32_t block = r.u32();
+    if (block > kMaxSurfaceBytes || block < surface_bytes(1, 1))
+      bad("focal surface block of " + std::to_string(block) + " bytes (1.." +
+          std::to_string(kMaxSurfaceBytes) + ")");
+    if (size != kRequestSize + block + 4)
+      bad("size " + std::to_string(size) + ", expected " +
+          std::to_string(kRequestSize + block + 4) + " for its focal surface");
+    Reader tail(data + size - 4, 4, "view request");
+    if (crc(data, size - 4) != tail.u32()) bad("CRC mismatch (corrupt data)");
+    FocalSurface& sf = req.surface;
+    sf.tile = r.u16();
+    sf.cols = r.u16();
+    sf.rows = r.u16();
+    const size_t planes = r.u8();
+    const uint8_t r3 = r.u8();
+    if (r3) bad("reserved bytes are not zero");
+    const size_t tiles = static_cast<size_t>(sf.cols) * sf.rows;
+    if (planes < 1 || planes > static_cast<size_t>(FocalSurface::kMaxPlanes) ||
+        block != surface_bytes(planes, tiles))
+      bad("focal surface of " + std::to_string(planes) + " planes and " + std::to_string(sf.cols) +
+          " x " + std::to_string(sf.rows) + " tiles does not fill its " + std::to_string(block) +
+          " bytes");
+    sf.planes.resize(planes);
+    for (FocalPlane& p : sf.planes) {
+      for (int i = 0; i < 3; ++i) p.n[i] = r.f64();
+      p.d = r.f64();
+    }
+    sf.plane_of.resize(tiles);
+    for (uint8_t& t : sf.plane_of) t = r.u8();
+  } else {
+    const uint32_t sum = r.u32();
+    if (crc(data, kRequestSize - 4) != sum) bad("CRC mismatch (corrupt data)");
+  }
   if (r0 || r1 || r2) bad("reserved bytes are not zero");
   if (req.time_ns < -1) bad("time " + std::to_string(req.time_ns) + " ns is negative");
   if (ap != 0) bad("unknown aperture " + std::to_string(ap));

@@ -36,6 +36,17 @@
 //  88 shift_x f64, 96 shift_y f64, 104 focal plane n f64 x 3, 128 d f64,
 // 136 aperture u8, 137 reserved 3 bytes (0), 140 time_ns i64 (>= -1),
 // 148 crc32 u32 (bytes 0..147). Version 1 (144 bytes, no time) is refused.
+//
+// View request, version 3: a request with a focal surface (view.h
+// FocalSurface; serialize_request writes version 2 when it has none). Bytes
+// 0..147 as version 2 (version = 3, size = 152: the fixed part), then
+// 148 surface_size S u32 (the bytes from 152 to the CRC), 152 tile u16,
+// 154 cols u16, 156 rows u16, 158 planes P u8 (1..64), 159 reserved u8 (0),
+// 160 P planes (n f64 x 3, d f64: 32 bytes each), then cols * rows plane
+// indices u8 (row-major), then crc32 u32 over everything before it.
+// S = 8 + 32 P + cols * rows, at most kMaxSurfaceBytes (the grid is checked
+// against the view before anything is allocated: a peer cannot make the
+// parser allocate more than it sent).
 #pragma once
 
 #include <cstdint>
@@ -55,7 +66,10 @@ struct WireError : std::runtime_error {
 };
 
 constexpr size_t kFragmentHeaderSize = 56;
-constexpr size_t kRequestSize = 152;
+constexpr size_t kRequestSize = 152;  // version 2 (no focal surface)
+// Version 3's surface block: 16384 x 16384 pixels in tiles of 16, or
+// 4096 x 4096 in tiles of 4 (1 MiB).
+constexpr size_t kMaxSurfaceBytes = 8 + 32 * 64 + (size_t{1} << 20);
 constexpr size_t kMaxPayload = 64u << 20;
 // Default cap on a parsed fragment's rectangle: 8192 x 8192 pixels.
 constexpr size_t kMaxFragmentPixels = size_t{8192} * 8192;
@@ -115,8 +129,10 @@ struct FragmentHeader {
 };
 FragmentHeader peek_fragment_header(const uint8_t* data, size_t size);
 
+// Version 2, or 3 with a focal surface. Throws std::invalid_argument on a
+// request lf::validate() refuses or a surface over kMaxSurfaceBytes.
 std::vector<uint8_t> serialize_request(const ViewRequest& r);
-// Parses and validates (including lf::validate()).
+// Parses and validates (including lf::validate()); versions 2 and 3.
 ViewRequest parse_request(const uint8_t* data, size_t size);
 
 }  // namespace lf

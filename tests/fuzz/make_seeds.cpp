@@ -38,6 +38,15 @@ int main(int argc, char** argv) {
                                         32 + 16 * v, 24 + 12 * v);
     req.focal_plane = v == 0 ? lf::FocalPlane::infinity() : lf::plane_at_depth(rig, 0.5 + v);
     write(out / "request", v, str(lf::serialize_request(req)));
+    // The same view with a focal surface of two planes in tiles of 8
+    // (version 3).
+    lf::ViewRequest surfaced = req;
+    lf::FocalSurface& sf = surfaced.surface;
+    sf.tile = 8;
+    sf.cols = (req.view.width + 7) / 8, sf.rows = (req.view.height + 7) / 8;
+    sf.planes = {lf::plane_at_depth(rig, 0.7), lf::plane_at_depth(rig, 3.0)};
+    for (int t = 0; t < sf.cols * sf.rows; ++t) sf.plane_of.push_back((t / sf.cols + t) % 2);
+    write(out / "request", 4 + v, str(lf::serialize_request(surfaced)));
     const lf::ViewGeometry g(rig, req);
     for (int i = 0; i < static_cast<int>(rig.cameras.size()); i += 4) {
       lf::Fragment f;
