@@ -250,6 +250,40 @@ TEST_F(Harness, FragmentFromFrameAndRequest) {
   gst_harness_teardown(h);
 }
 
+// A request with a focal surface (wire version 3) is warped through it:
+// the same pixels as the library's.
+TEST_F(Harness, FragmentThroughAFocalSurface) {
+  GstHarness* video = nullptr;
+  cv::Mat frame;
+  GstHarness* h = camera1_fragment(&video, &frame);
+  lf::ViewRequest r = request(5);
+  lf::FocalSurface& sf = r.surface;
+  sf.tile = 8;
+  sf.cols = (r.view.width + 7) / 8, sf.rows = (r.view.height + 7) / 8;
+  sf.planes = {lf::plane_at_depth(rig_, 0.6), lf::plane_at_depth(rig_, 1.25),
+               lf::plane_at_depth(rig_, 4.0)};
+  for (int t = 0; t < sf.cols * sf.rows; ++t) sf.plane_of.push_back((t % sf.cols) * 3 / sf.cols);
+  ASSERT_EQ(gst_harness_push(h, bytes(lf::serialize_request(r), GST_SECOND)), GST_FLOW_OK);
+  GstBuffer* out = gst_harness_pull(h);
+  ASSERT_NE(out, nullptr);
+  GstMapInfo map;
+  gst_buffer_map(out, &map, GST_MAP_READ);
+  const lf::Fragment f = lf::parse_fragment(map.data, map.size);
+  gst_buffer_unmap(out, &map);
+  gst_buffer_unref(out);
+  lf::Fragment ref, flat;
+  lf::render_fragment(lf::plan_fragment(lf::ViewGeometry(rig_, r), 1), rig_.cameras[1], frame, ref);
+  lf::ViewRequest one = r;
+  one.surface = lf::FocalSurface{};
+  lf::render_fragment(lf::plan_fragment(lf::ViewGeometry(rig_, one), 1), rig_.cameras[1], frame,
+                      flat);
+  ASSERT_FALSE(ref.empty());
+  EXPECT_EQ(f.pixels, ref.pixels);
+  EXPECT_NE(f.pixels, flat.pixels) << "the surface changed the sampling";
+  gst_harness_teardown(video);
+  gst_harness_teardown(h);
+}
+
 // A focus probe is answered from the frame of its own instant only: a camera
 // that skipped that frame (late) sits the probe out, where a frame request
 // takes the newest frame before it.
