@@ -114,6 +114,10 @@ FocalSpec parse_focal(const std::string& s, const lf::Rig& rig) {
   FocalSpec f;
   f.text = s;
   if (s == "auto") return f;
+  if (s == "surface") {
+    f.kind = FocalSpec::kSurface;
+    return f;
+  }
   f.kind = FocalSpec::kPlane;
   f.plane = lf::parse_focal_plane(s, rig);
   return f;

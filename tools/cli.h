@@ -54,7 +54,7 @@ void progress(const std::string& label, int done, int total);
 // Focal-plane specification: "auto", "infinity", "depth:Z", "param:A"
 // (light-slab focal parameter), "plane:nx,ny,nz,d".
 struct FocalSpec {
-  enum Kind { kAuto, kPlane } kind = kAuto;
+  enum Kind { kAuto, kPlane, kSurface } kind = kAuto;
   lf::FocalPlane plane;
   std::string text;
 };

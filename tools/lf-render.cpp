@@ -10,6 +10,7 @@
 #include "cli.h"
 #include "lf/colour.h"
 #include "lf/datasets.h"
+#include "lf/focal_surface.h"
 #include "lf/rig_file.h"
 #include "lf/rig_ops.h"
 
@@ -47,9 +48,12 @@ rendering
   --focal SPEC          focal plane: auto (default; photo-consistency, chosen from
                         the images), infinity, depth:Z (rig units from the camera
                         plane), param:A (light-slab focal parameter: Stanford's
-                        pixels of shift per position unit), plane:nx,ny,nz,d
-  --refocus-every N     with --focal auto on a path: re-run auto-focus every N
-                        frames (default 15)
+                        pixels of shift per position unit), plane:nx,ny,nz,d;
+                        or surface: a focal surface from the images, one plane
+                        per 16-pixel tile (lib/lf/focal_surface.h; a flat scene
+                        keeps one plane)
+  --refocus-every N     on a path: re-run auto-focus every N frames (default 15),
+                        or estimate the focal surface every N frames (default 1)
   --threads N           render cameras in parallel (default: all cores)
 
 output
@@ -119,9 +123,12 @@ int main(int argc, char** argv) {
 
     const cli::FocalSpec focal = cli::parse_focal(args.get("--focal", "auto"), rig);
     std::unique_ptr<lf::AutofocusContext> af;
+    std::unique_ptr<lf::FocalSurfaceEstimator> surface;
     if (focal.kind == cli::FocalSpec::kAuto)
       af = std::make_unique<lf::AutofocusContext>(rig, images);
-    const int refocus = std::max(1, args.integer("--refocus-every", 15));
+    if (focal.kind == cli::FocalSpec::kSurface)
+      surface = std::make_unique<lf::FocalSurfaceEstimator>(rig, images);
+    const int refocus = std::max(1, args.integer("--refocus-every", surface ? 1 : 15));
 
     const std::string out = args.get("--out");
     const std::string ext = std::filesystem::path(out).extension().string();
@@ -136,7 +143,9 @@ int main(int argc, char** argv) {
     }
 
     lf::FocalPlane plane = focal.plane;
-    double total_ms = 0;
+    lf::SurfaceEstimate estimate;
+    double total_ms = 0, estimate_ms = 0, planes = 0;
+    int estimates = 0;
     size_t frag_px = 0;
     for (size_t f = 0; f < views.size(); ++f) {
       lf::ViewRequest req;
@@ -156,6 +165,18 @@ int main(int argc, char** argv) {
         }
       }
       req.focal_plane = plane;
+      if (surface) {
+        if (f % refocus == 0) {
+          const auto e0 = std::chrono::steady_clock::now();
+          estimate = surface->estimate(req);
+          estimate_ms +=
+              std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - e0)
+                  .count();
+          planes += estimate.planes_used;
+          ++estimates;
+        }
+        lf::apply(estimate, req);
+      }
       lf::RenderStats st;
       const auto t0 = std::chrono::steady_clock::now();
       const cv::Mat img = lf::render_view(rig, images, req, &st, threads);
@@ -179,6 +200,13 @@ int main(int argc, char** argv) {
       }
       if (!quiet) cli::progress("render", static_cast<int>(f + 1), static_cast<int>(views.size()));
     }
+    if (!quiet && estimates > 0)
+      std::fprintf(stderr,
+                   "focal surface: %.1f distinct planes per estimate over %dx%d tiles of %d px, "
+                   "%.0f ms per estimate (%d)\n",
+                   planes / estimates, (W + surface->options().tile - 1) / surface->options().tile,
+                   (H + surface->options().tile - 1) / surface->options().tile,
+                   surface->options().tile, estimate_ms / estimates, estimates);
     if (!quiet)
       std::fprintf(stderr,
                    "%zu frame(s) %dx%d from %zu cameras: %.1f ms/frame render, fragment pixels "
