@@ -34,6 +34,20 @@ class Harness : public ::testing::Test {
   static lf::Rig rig_;
   static std::string rig_path_;
 
+  // The request / fragment a buffer carries (the buffer stays the caller's).
+  template <typename T>
+  static T parsed(GstBuffer* b, T (*parse)(const uint8_t*, size_t)) {
+    GstMapInfo map;
+    EXPECT_TRUE(gst_buffer_map(b, &map, GST_MAP_READ));
+    T out = parse(map.data, map.size);
+    gst_buffer_unmap(b, &map);
+    return out;
+  }
+  static lf::ViewRequest parsed_request(GstBuffer* b) { return parsed(b, lf::parse_request); }
+  static lf::Fragment parsed_fragment(GstBuffer* b) {
+    return parsed<lf::Fragment>(
+        b, [](const uint8_t* d, size_t n) { return lf::parse_fragment(d, n); });
+  }
   static lf::ViewRequest request(uint64_t seq) {
     lf::ViewRequest r;
     r.viewer_id = 3;
@@ -129,10 +143,7 @@ TEST_F(Harness, ViewRequestProperties) {
   gst_harness_play(h);
   GstBuffer* b = gst_harness_pull(h);
   ASSERT_NE(b, nullptr);
-  GstMapInfo map;
-  gst_buffer_map(b, &map, GST_MAP_READ);
-  const lf::ViewRequest r = lf::parse_request(map.data, map.size);
-  gst_buffer_unmap(b, &map);
+  const lf::ViewRequest r = parsed_request(b);
   EXPECT_EQ(r.viewer_id, 7u);
   EXPECT_EQ(r.view.width, 320);
   EXPECT_EQ(r.view.height, 200);
@@ -163,10 +174,7 @@ TEST_F(Harness, AnUnansweredClickIsProbedAgainTwice) {
     while (tick < until) {
       GstBuffer* b = gst_harness_pull(h);
       ASSERT_NE(b, nullptr);
-      GstMapInfo map;
-      gst_buffer_map(b, &map, GST_MAP_READ);
-      const lf::ViewRequest r = lf::parse_request(map.data, map.size);
-      gst_buffer_unmap(b, &map);
+      const lf::ViewRequest r = parsed_request(b);
       gst_buffer_unref(b);
       if (!lf::is_focus_probe(r.sequence)) {
         tick = r.sequence;  // a tick's view request, then its probe's requests
@@ -228,10 +236,7 @@ TEST_F(Harness, FragmentFromFrameAndRequest) {
   GstBuffer* out = gst_harness_pull(h);
   ASSERT_NE(out, nullptr);
   EXPECT_EQ(GST_BUFFER_PTS(out), GST_SECOND);
-  GstMapInfo map;
-  gst_buffer_map(out, &map, GST_MAP_READ);
-  const lf::Fragment f = lf::parse_fragment(map.data, map.size);
-  gst_buffer_unmap(out, &map);
+  const lf::Fragment f = parsed_fragment(out);
   EXPECT_EQ(f.camera_id, 1u);
   EXPECT_EQ(f.viewer_id, 3u);
   EXPECT_EQ(f.sequence, 42u);
@@ -266,10 +271,7 @@ TEST_F(Harness, FragmentThroughAFocalSurface) {
   ASSERT_EQ(gst_harness_push(h, bytes(lf::serialize_request(r), GST_SECOND)), GST_FLOW_OK);
   GstBuffer* out = gst_harness_pull(h);
   ASSERT_NE(out, nullptr);
-  GstMapInfo map;
-  gst_buffer_map(out, &map, GST_MAP_READ);
-  const lf::Fragment f = lf::parse_fragment(map.data, map.size);
-  gst_buffer_unmap(out, &map);
+  const lf::Fragment f = parsed_fragment(out);
   gst_buffer_unref(out);
   lf::Fragment ref, flat;
   lf::render_fragment(lf::plan_fragment(lf::ViewGeometry(rig_, r), 1), rig_.cameras[1], frame, ref);

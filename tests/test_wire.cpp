@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <zlib.h>
 
+#include <functional>
 #include <opencv2/core.hpp>
 #include <random>
 
@@ -369,27 +370,23 @@ TEST(Wire, BadFocalSurfacesAreRejected) {
   auto put32 = [](std::vector<uint8_t>& v, size_t at, uint32_t x) {
     for (int i = 0; i < 4; ++i) v[at + i] = static_cast<uint8_t>(x >> (24 - 8 * i));
   };
-  auto b = good;
-  put32(b, 148, 0x7fffffff);  // a 2 GB block announced
-  expect_error(b, "focal surface block");
-  b = good;
-  put32(b, 148, static_cast<uint32_t>(good.size() - lf::kRequestSize - 4 - 1));
-  expect_error(b, "expected");
-  b = good;
-  b[158] = 0;  // no planes
-  expect_error(b, "planes");
-  b = good;
-  b[158] = 65;
-  expect_error(b, "planes");
-  b = good;
-  b[159] = 1;
-  expect_error(b, "reserved");
-  b = good;
-  b[155] = 30, b[157] = 40;  // 30 x 40 tiles: same bytes, not the view's grid
-  expect_error(b, "surface");
-  b = good;
-  b[good.size() - 5] = 3;  // the last tile names plane 3 of 0..2
-  expect_error(b, "plane");
+  // Each change, re-signed, and a word of the error it must give.
+  const size_t last = good.size() - 5;  // the last tile's plane index
+  const std::vector<std::pair<std::function<void(std::vector<uint8_t>&)>, const char*>> cases = {
+      {[&](auto& v) { put32(v, 148, 0x7fffffff); }, "focal surface block"},  // 2 GB announced
+      {[&](auto& v) { put32(v, 148, static_cast<uint32_t>(v.size() - lf::kRequestSize - 5)); },
+       "expected"},
+      {[](auto& v) { v[158] = 0; }, "planes"},
+      {[](auto& v) { v[158] = 65; }, "planes"},
+      {[](auto& v) { v[159] = 1; }, "reserved"},
+      // 30 x 40 tiles: the same bytes, not the view's grid.
+      {[](auto& v) { v[155] = 30, v[157] = 40; }, "surface"},
+      {[&](auto& v) { v[last] = 3; }, "plane"}};  // plane 3 of 0..2
+  for (const auto& [change, word] : cases) {
+    auto v = good;
+    change(v);
+    expect_error(v, word);
+  }
   // Too many tiles for the wire: refused when serialising.
   lf::ViewRequest big = sample_surface_request();
   big.view.width = big.view.height = 16384;
