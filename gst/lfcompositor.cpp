@@ -562,8 +562,8 @@ static void finish_probe(LfCompositor* self, State* st, std::map<uint32_t, Probe
                    probe.id, q, probe.answers.complete_cameras(), probe.answers.fragments());
   GstStructure* s =
       gst_structure_new("lf-focus", "viewer-id", G_TYPE_UINT, probe.viewer, "probe-id", G_TYPE_UINT,
-                        probe.id, "inverse-depth", G_TYPE_DOUBLE, q, "capture-time",
-                        G_TYPE_INT64, static_cast<gint64>(probe.answers.capture_time_ns()), nullptr);
+                        probe.id, "inverse-depth", G_TYPE_DOUBLE, q, "capture-time", G_TYPE_INT64,
+                        static_cast<gint64>(probe.answers.capture_time_ns()), nullptr);
   push_upstream(GST_AGGREGATOR(self), gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, s));
 }
 
