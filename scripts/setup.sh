@@ -13,7 +13,8 @@ PACKAGES=(g++ meson ninja-build pkg-config libopencv-dev libturbojpeg0-dev
           gstreamer1.0-plugins-base gstreamer1.0-plugins-good gstreamer1.0-plugins-bad
           python3-gst-1.0 valgrind iproute2
           libceres-dev cmake
-          libsoup-3.0-dev libgstreamer-plugins-bad1.0-dev gstreamer1.0-nice)
+          libsoup-3.0-dev libgstreamer-plugins-bad1.0-dev gstreamer1.0-nice
+          libegl-dev libgles-dev libglm-dev libegl-mesa0 libgl1-mesa-dri)
 ./scripts/install-packages.sh "${PACKAGES[@]}"
 
 if [ ! -f "$build/build.ninja" ]; then

@@ -12,6 +12,18 @@
 
 namespace testing_lf {
 
+lf::ViewRequest look_request(const cv::Vec3d& eye, const cv::Vec3d& target, double vfov,
+                             const lf::FocalPlane& plane, int w, int h) {
+  lf::ViewRequest r;
+  r.view = lf::VirtualView::look_at(eye, target, {0, 1, 0}, vfov, w, h);
+  r.focal_plane = plane;
+  return r;
+}
+
+lf::FocalPlane plane_z(double z) {
+  return lf::FocalPlane::through({0, 0, z}, {0, 0, 1});
+}
+
 std::string data_path(const std::string& rel) {
   // The environment (set by meson test) wins over the compiled-in default.
   const char* env = std::getenv("LF_SHARED_DATA");

@@ -28,6 +28,13 @@ bool have_data(const std::string& dataset);
                    << " (absent; scripts/get-data.sh fetches it)";             \
   } while (0)
 
+// A request for the view from `eye` looking at `target` (up +y, vertical
+// field of view `vfov` degrees, w x h pixels) focused on `plane`.
+lf::ViewRequest look_request(const cv::Vec3d& eye, const cv::Vec3d& target, double vfov,
+                             const lf::FocalPlane& plane, int w, int h);
+// The plane z = `z`, normal +z.
+lf::FocalPlane plane_z(double z);
+
 struct WeightCheck {
   size_t seen = 0;  // pixels whose line meets the camera surface (locate())
   size_t unseen = 0;

@@ -31,16 +31,11 @@ lf::Rig grid4(double scale = 1.0) {
   return rig;
 }
 
+using testing_lf::plane_z;
+
 lf::ViewRequest request(const cv::Vec3d& eye, const cv::Vec3d& target, double vfov,
                         const lf::FocalPlane& plane) {
-  lf::ViewRequest r;
-  r.view = lf::VirtualView::look_at(eye, target, {0, 1, 0}, vfov, kW, kH);
-  r.focal_plane = plane;
-  return r;
-}
-
-lf::FocalPlane plane_z(double z) {
-  return lf::FocalPlane::through({0, 0, z}, {0, 0, 1});
+  return testing_lf::look_request(eye, target, vfov, plane, kW, kH);
 }
 
 // Renders with textured images and checks the output is finite and that

@@ -27,12 +27,12 @@ void Compositor::add(const Fragment& f) {
   add_rows(f, f.pixels.data(), 0, f.rect.height);
 }
 
-size_t Compositor::check(const Fragment& f, const uint8_t* pixels) const {
-  if (f.out_width != w_ || f.out_height != h_)
+size_t Compositor::check(const Fragment& f, const uint8_t* pixels, int width, int height) {
+  if (f.out_width != width || f.out_height != height)
     throw std::invalid_argument("compositor: fragment from camera " + std::to_string(f.camera_id) +
                                 " is for a " + std::to_string(f.out_width) + "x" +
-                                std::to_string(f.out_height) + " frame, not " + std::to_string(w_) +
-                                "x" + std::to_string(h_));
+                                std::to_string(f.out_height) + " frame, not " +
+                                std::to_string(width) + "x" + std::to_string(height));
   const size_t n = check_fragment_geometry(f);
   if (n > 0 && !pixels)
     throw std::invalid_argument("compositor: fragment from camera " + std::to_string(f.camera_id) +

@@ -50,13 +50,19 @@ class Compositor {
   // last picture there instead of black. Returns the number of pixels taken.
   // Throws std::invalid_argument if `previous` does not match.
   static size_t fill_from(cv::Mat& out, const cv::Mat& previous);
+  // add()'s checks of a fragment for a width x height frame: returns its
+  // pixel count; throws std::invalid_argument naming what is wrong (shared
+  // with the GL compositor, lf/gl_render.h).
+  static size_t check(const Fragment& f, const uint8_t* pixels, int width, int height);
   // Accumulated weight (0..255 per full contribution) at a pixel.
   uint32_t weight_at(int x, int y) const { return acc_[(static_cast<size_t>(y) * w_ + x) * 4 + 3]; }
   int width() const { return w_; }
   int height() const { return h_; }
 
  private:
-  size_t check(const Fragment& f, const uint8_t* pixels) const;  // its pixel count
+  size_t check(const Fragment& f, const uint8_t* pixels) const {  // its pixel count
+    return check(f, pixels, w_, h_);
+  }
   void add_rows(const Fragment& f, const uint8_t* pixels, int r0, int r1);
   void resolve_rows(cv::Mat& out, int y0, int y1) const;
   int w_ = 0, h_ = 0;

@@ -1,0 +1,370 @@
+// The EGL/GLES 3 backend (lf/gl_render.h) against the CPU reference
+// (lf/render.h, lf/composite.h): fragments for random views and the hard
+// cases, lens distortion included, and whole views; backend selection; and
+// (suite GlAbsent, run by meson with EGL_PLATFORM pointing nowhere) the
+// fallback where no GL context can be made.
+//
+// Tolerances (issue 13): over the pixels both renderers cover, the mean
+// absolute difference per channel <= 1 LSB and the largest <= 3 LSB; the
+// covered pixel sets equal, except pixels on the border of a coverage
+// region (a pixel with an 8-neighbour of the other state in the CPU
+// result), where float rounding may put a source position either side of
+// the camera image's edge; those are also at most 0.2 % of the pixels.
+// Since both evaluate the same expressions, at most 1 % of the pixels may
+// differ at all (on Mesa's llvmpipe none do: the output is bit-identical).
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <random>
+#include <string>
+
+#include "helpers.h"
+#include "lf/composite.h"
+#include "lf/gl_render.h"
+#include "lf/plan.h"
+#include "lf/render.h"
+#include "lf/render_view.h"
+#include "lf/synthetic.h"
+
+namespace {
+
+constexpr double kDepth = 10.0;
+
+struct Diff {
+  size_t both = 0;                 // pixels covered by both
+  size_t mismatch = 0;             // covered by one only
+  size_t mismatch_off_border = 0;  // of those, not on a coverage border
+  size_t differ = 0;               // pixels covered by both that differ at all
+  double sum_abs = 0;              // over channels of pixels covered by both
+  int max_abs = 0;
+  void add(const Diff& o) {
+    both += o.both;
+    mismatch += o.mismatch;
+    mismatch_off_border += o.mismatch_off_border;
+    differ += o.differ;
+    sum_abs += o.sum_abs;
+    max_abs = std::max(max_abs, o.max_abs);
+  }
+  double mean() const { return both ? sum_abs / (4.0 * both) : 0.0; }
+};
+
+// Compares two CV_8UC4 images; a pixel is covered where its alpha (channel
+// 3) is nonzero.
+Diff compare(const cv::Mat& cpu, const cv::Mat& gl) {
+  Diff d;
+  auto covered = [&](int x, int y) { return cpu.at<cv::Vec4b>(y, x)[3] != 0; };
+  for (int y = 0; y < cpu.rows; ++y)
+    for (int x = 0; x < cpu.cols; ++x) {
+      const cv::Vec4b a = cpu.at<cv::Vec4b>(y, x), b = gl.at<cv::Vec4b>(y, x);
+      if ((a[3] != 0) != (b[3] != 0)) {
+        ++d.mismatch;
+        bool border = false;
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int nx = x + dx, ny = y + dy;
+            if (nx < 0 || ny < 0 || nx >= cpu.cols || ny >= cpu.rows ||
+                covered(nx, ny) != covered(x, y))
+              border = true;
+          }
+        if (!border) ++d.mismatch_off_border;
+        continue;
+      }
+      if (a[3] == 0) continue;
+      ++d.both;
+      d.differ += a != b;
+      for (int c = 0; c < 4; ++c) {
+        const int e = std::abs(a[c] - b[c]);
+        d.sum_abs += e;
+        d.max_abs = std::max(d.max_abs, e);
+      }
+    }
+  return d;
+}
+
+// A fragment's pixels as an image of its rect (0 outside its spans).
+cv::Mat as_image(const lf::Fragment& f) {
+  cv::Mat m(std::max(f.rect.height, 1), std::max(f.rect.width, 1), CV_8UC4, cv::Scalar::all(0));
+  const uint8_t* p = f.pixels.data();
+  for (size_t r = 0; r < f.spans.size(); ++r) {
+    const int n = f.spans[r][1] - f.spans[r][0];
+    std::memcpy(m.ptr<uint8_t>(static_cast<int>(r)) + 4 * (f.spans[r][0] - f.rect.x), p, 4 * n);
+    p += 4 * n;
+  }
+  return m;
+}
+
+void expect_close(const Diff& d, const std::string& what, size_t min_pixels) {
+  EXPECT_GE(d.both, min_pixels) << what;
+  EXPECT_LE(d.mean(), 1.0) << what;
+  EXPECT_LE(d.max_abs, 3) << what;
+  EXPECT_EQ(d.mismatch_off_border, 0u) << what;
+  EXPECT_LE(d.mismatch, d.both / 500 + 2) << what;
+  // The same arithmetic: differences are the exception (float rounding at
+  // a tap's weight), not a bias over the image.
+  EXPECT_LE(d.differ, d.both / 100) << what;
+}
+
+std::vector<cv::Mat> images_of(const lf::Rig& rig, double period = 0.7) {
+  std::vector<cv::Mat> im;
+  for (const auto& c : rig.cameras) im.push_back(lf::render_textured_plane(c, kDepth, period));
+  return im;
+}
+
+using testing_lf::plane_z;
+
+lf::ViewRequest request(const cv::Vec3d& eye, const cv::Vec3d& target, double vfov,
+                        const lf::FocalPlane& plane, int w = 160, int h = 120) {
+  return testing_lf::look_request(eye, target, vfov, plane, w, h);
+}
+
+// Random views of a 4x4 rig (centred on the origin, spacing 1), and the hard cases of
+// tests/test_hard_cases.
+std::vector<std::pair<std::string, lf::ViewRequest>> views() {
+  std::vector<std::pair<std::string, lf::ViewRequest>> v;
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int i = 0; i < 6; ++i) {
+    const cv::Vec3d eye(1.5 * u(rng), 1.5 * u(rng), -1.0 + 0.8 * u(rng));
+    const cv::Vec3d target(2 * u(rng), 2 * u(rng), kDepth);
+    const lf::FocalPlane p =
+        lf::FocalPlane::through({0, 0, kDepth * (1.0 + 0.4 * u(rng))},
+                                cv::normalize(cv::Vec3d(0.2 * u(rng), 0.2 * u(rng), 1)));
+    v.emplace_back("random view " + std::to_string(i),
+                   request(eye, target, 30 + 20 * (1 + u(rng)), p));
+  }
+  v.emplace_back("eye on the camera plane",
+                 request({-0.3, 0.2, 0.0}, {0.0, 0.0, 10}, 50, plane_z(10)));
+  v.emplace_back("eye on the focal plane",
+                 request({0.2, 0.4, -1.0}, {0, 0, 10}, 50, plane_z(-1.0)));
+  v.emplace_back("focal plane parallel to the rays",
+                 request({0.25, 0.1, -1}, {0.25, 0.1, 10}, 60,
+                         lf::FocalPlane::through({0.25, 0, 0}, {1, 0, 0})));
+  v.emplace_back("focal plane at infinity",
+                 request({0.1, 0.1, -0.5}, {0.3, 0, 10}, 50, lf::FocalPlane::infinity()));
+  v.emplace_back("facing away", request({0.2, 0.1, -3}, {0.2, 0.1, -13}, 40, plane_z(10)));
+  v.emplace_back("triangles straddling the eye plane",
+                 request({0.1, 0.0, 0.5}, {10, 0.0, 0.6}, 120, plane_z(10)));
+  v.emplace_back("narrow field of view",
+                 request({0.0, 0.0, -2}, {0.1, -0.1, 10}, 0.5, plane_z(10)));
+  v.emplace_back("wide field of view", request({0.0, 0.0, -0.2}, {0.0, 0.0, 10}, 170, plane_z(10)));
+  return v;
+}
+
+lf::Rig grid4(bool distort) {
+  lf::Rig rig = lf::synthetic_grid_rig(4, 4, 1.0, 160, 120, 50, 1.0, 17);
+  if (distort) {
+    for (auto& c : rig.cameras) c.intrinsics.k1 = -0.2, c.intrinsics.k2 = 0.05;
+    rig.triangles.clear();
+    rig.finalize();
+  }
+  return rig;
+}
+
+TEST(GlBackend, ThisBuildHasAWorkingContext) {
+  const lf::GlInfo& gl = lf::gl_info();
+  ASSERT_TRUE(gl.available) << "no GLES 3 context: " << gl.error
+                            << " (scripts/setup.sh installs Mesa's EGL and llvmpipe)";
+  EXPECT_FALSE(gl.renderer.empty());
+  EXPECT_NE(gl.version.find("OpenGL ES 3"), std::string::npos) << gl.version;
+  std::cout << "GL: " << gl.renderer << " | " << gl.version << " | EGL platform " << gl.platform
+            << (gl.software ? " (software)" : "") << "\n";
+}
+
+TEST(GlBackend, BackendNamesParse) {
+  lf::Backend b = lf::Backend::kCpu;
+  for (lf::Backend x : {lf::Backend::kAuto, lf::Backend::kCpu, lf::Backend::kGl}) {
+    ASSERT_TRUE(lf::parse_backend(lf::backend_name(x), &b));
+    EXPECT_EQ(b, x);
+  }
+  EXPECT_FALSE(lf::parse_backend("GL", &b));
+  EXPECT_FALSE(lf::parse_backend("", &b));
+}
+
+// auto picks GL only for a hardware GPU; cpu is always cpu; gl is gl here.
+TEST(GlBackend, AutoPicksGlOnlyOnHardware) {
+  const lf::GlInfo& gl = lf::gl_info();
+  ASSERT_TRUE(gl.available) << gl.error;
+  std::string why;
+  const lf::Backend b = lf::resolve_backend(lf::Backend::kAuto, &why);
+  EXPECT_EQ(b, gl.software ? lf::Backend::kCpu : lf::Backend::kGl) << why;
+  if (gl.software) {
+    EXPECT_TRUE(why.find("software rasteriser") != std::string::npos ||
+                why.find("no EGL device is a hardware GPU") != std::string::npos)
+        << why;
+  }
+  EXPECT_EQ(lf::resolve_backend(lf::Backend::kCpu), lf::Backend::kCpu);
+  EXPECT_EQ(lf::resolve_backend(lf::Backend::kGl), lf::Backend::kGl);
+}
+
+TEST(GlBackend, FragmentsMatchTheCpuKernel) {
+  lf::GlRenderer gl;
+  for (bool distort : {false, true}) {
+    const lf::Rig rig = grid4(distort);
+    const auto images = images_of(rig);
+    for (size_t i = 0; i < images.size(); ++i) gl.set_image(static_cast<int>(i), images[i]);
+    Diff all;
+    for (const auto& [name, req] : views()) {
+      const std::string what = name + (distort ? " (distorted)" : "");
+      SCOPED_TRACE(what);
+      const lf::ViewGeometry g(rig, req);
+      Diff view;
+      for (size_t i = 0; i < rig.cameras.size(); ++i) {
+        const auto plan = lf::plan_fragment(g, static_cast<int>(i));
+        lf::Fragment cpu, out;
+        lf::render_fragment(plan, rig.cameras[i], images[i], cpu, lf::Kernel::kScalar);
+        lf::describe_fragment(plan, out);
+        out.pixels.assign(4 * plan.pixel_count(), 0xAB);  // every byte must be written
+        gl.render_pixels(plan, rig.cameras[i], static_cast<int>(i), out.pixels.data());
+        ASSERT_EQ(out.pixels.size(), cpu.pixels.size());
+        if (plan.empty()) {
+          EXPECT_TRUE(out.pixels.empty());
+          continue;
+        }
+        const Diff d = compare(as_image(cpu), as_image(out));
+        EXPECT_LE(d.max_abs, 3) << "camera " << i;
+        EXPECT_EQ(d.mismatch_off_border, 0u) << "camera " << i;
+        view.add(d);
+      }
+      EXPECT_LE(view.mean(), 1.0);
+      all.add(view);
+    }
+    expect_close(all, distort ? "all views, distorted" : "all views", 100000);
+    std::cout << (distort ? "distorted: " : "undistorted: ") << all.both << " pixels, "
+              << all.differ << " differ, mean |GL - CPU| " << all.mean() << " LSB, max "
+              << all.max_abs << ", coverage differs at " << all.mismatch << " border pixels\n";
+  }
+}
+
+// render_fragment() with its own upload equals render_pixels() from a slot;
+// a slot without an image of the camera's size is refused.
+TEST(GlBackend, FragmentUploadsAndSlotsAreChecked) {
+  lf::GlRenderer gl;
+  const lf::Rig rig = grid4(false);
+  const auto images = images_of(rig);
+  const lf::ViewGeometry g(rig, request({0.0, 0.0, -1}, {0.0, 0.0, 10}, 40, plane_z(10)));
+  int cam = 0;
+  while (lf::plan_fragment(g, cam).empty()) ++cam;
+  const auto plan = lf::plan_fragment(g, cam);
+  lf::Fragment a, b;
+  gl.render_fragment(plan, rig.cameras[cam], images[cam], a);
+  gl.set_image(7, images[cam]);
+  lf::describe_fragment(plan, b);
+  b.pixels.resize(a.pixels.size());
+  gl.render_pixels(plan, rig.cameras[cam], 7, b.pixels.data());
+  EXPECT_EQ(a.pixels, b.pixels);
+  EXPECT_EQ(a.spans, b.spans);
+  EXPECT_EQ(a.camera_id, static_cast<uint32_t>(rig.cameras[cam].id));
+  std::vector<uint8_t> px(a.pixels.size());
+  EXPECT_THROW(gl.render_pixels(plan, rig.cameras[cam], 99, px.data()), std::invalid_argument);
+  EXPECT_THROW(gl.set_image(-2, images[cam]), std::invalid_argument);
+  EXPECT_THROW(gl.set_image(5000, images[cam]), std::invalid_argument);
+  EXPECT_THROW(gl.set_image(1, cv::Mat(10, 10, CV_8UC3)), std::invalid_argument);
+  gl.set_image(8, cv::Mat(10, 10, CV_8UC4, cv::Scalar::all(1)));
+  EXPECT_THROW(gl.render_pixels(plan, rig.cameras[cam], 8, px.data()), std::invalid_argument);
+}
+
+// The whole-view mode (all fragments blended in one target, resolved in a
+// final pass, one readback) against lf::render_view.
+TEST(GlBackend, WholeViewsMatchTheCpuPipeline) {
+  lf::GlRenderer gl;
+  for (bool distort : {false, true}) {
+    const lf::Rig rig = grid4(distort);
+    const auto images = images_of(rig);
+    Diff all;
+    bool first = true;
+    for (const auto& [name, req] : views()) {
+      SCOPED_TRACE(name + (distort ? " (distorted)" : ""));
+      lf::RenderStats cs, gs;
+      const cv::Mat cpu = lf::render_view(rig, images, req, &cs);
+      const cv::Mat out = first ? gl.render_view(rig, images, req, &gs)
+                                : gl.render_view(rig, req, &gs);  // images stay uploaded
+      first = false;
+      ASSERT_EQ(out.size(), cpu.size());
+      ASSERT_EQ(out.type(), CV_8UC4);
+      EXPECT_EQ(gs.fragment_pixels, cs.fragment_pixels);
+      EXPECT_EQ(gs.contributing, cs.contributing);
+      const Diff d = compare(cpu, out);
+      EXPECT_LE(d.max_abs, 3);
+      EXPECT_EQ(d.mismatch_off_border, 0u);
+      all.add(d);
+    }
+    expect_close(all, distort ? "whole views, distorted" : "whole views", 50000);
+    std::cout << (distort ? "distorted views: " : "views: ") << all.both << " pixels, "
+              << all.differ << " differ, mean |GL - CPU| " << all.mean() << " LSB, max "
+              << all.max_abs << "\n";
+  }
+  // A larger output than any before reuses and grows the targets.
+  const lf::Rig rig = grid4(false);
+  const auto images = images_of(rig);
+  const auto big = request({0.0, 0.0, -1}, {0.0, 0.0, 10}, 40, plane_z(10), 640, 480);
+  const Diff d = compare(lf::render_view(rig, images, big), gl.render_view(rig, images, big));
+  expect_close(d, "640x480", 200000);
+}
+
+// Compositing received fragments (lfcompositor backend=gl) against
+// lf::Compositor: the same frame, and the same fragments refused.
+TEST(GlBackend, CompositingMatchesTheCpuCompositor) {
+  lf::GlRenderer gl;
+  const lf::Rig rig = grid4(true);
+  const auto images = images_of(rig);
+  Diff all;
+  for (const auto& [name, req] : views()) {
+    SCOPED_TRACE(name);
+    const lf::ViewGeometry g(rig, req);
+    std::vector<lf::Fragment> frags(rig.cameras.size());
+    for (size_t i = 0; i < rig.cameras.size(); ++i)
+      lf::render_fragment(lf::plan_fragment(g, static_cast<int>(i)), rig.cameras[i], images[i],
+                          frags[i]);
+    // Two that add() refuses: another frame size, and pixels missing.
+    lf::Fragment other = frags[5];
+    other.out_width += 1;
+    frags.push_back(other);
+    std::vector<lf::FragmentPixels> in;
+    for (const auto& f : frags) in.push_back({&f, f.pixels.data()});
+    if (!frags[6].empty()) in.push_back({&frags[6], nullptr});
+    cv::Mat cpu, out;
+    lf::Compositor comp;
+    const auto cpu_refused = comp.composite(req.view.width, req.view.height, in, cpu);
+    const auto gl_refused = gl.composite(req.view.width, req.view.height, in, out);
+    ASSERT_EQ(gl_refused.size(), cpu_refused.size());
+    for (size_t k = 0; k < gl_refused.size(); ++k) {
+      EXPECT_EQ(gl_refused[k].first, cpu_refused[k].first);
+      EXPECT_EQ(gl_refused[k].second, cpu_refused[k].second);
+    }
+    ASSERT_EQ(out.size(), cpu.size());
+    const Diff d = compare(cpu, out);
+    EXPECT_EQ(d.mismatch, 0u);  // coverage is the fragments' spans: exact
+    all.add(d);
+  }
+  expect_close(all, "composited views", 50000);
+  std::cout << "composited: " << all.both << " pixels, " << all.differ << " differ, max "
+            << all.max_abs << "\n";
+  cv::Mat out;
+  EXPECT_THROW(gl.composite(0, 10, {}, out), std::invalid_argument);
+}
+
+// Meson runs this suite with EGL_PLATFORM=nowhere: no context can be made.
+TEST(GlAbsent, AutoFallsBackAndGlFailsClearly) {
+  const char* platform = std::getenv("EGL_PLATFORM");
+  ASSERT_TRUE(platform && std::string(platform) == "nowhere")
+      << "run with EGL_PLATFORM=nowhere (meson test gl_absent)";
+  const lf::GlInfo& gl = lf::gl_info();
+  EXPECT_FALSE(gl.available);
+  EXPECT_FALSE(gl.error.empty());
+  std::string why;
+  EXPECT_EQ(lf::resolve_backend(lf::Backend::kAuto, &why), lf::Backend::kCpu);
+  EXPECT_TRUE(why.find("backend auto: CPU (no GL") == 0 ||
+              why == "backend auto: CPU (no EGL device is a hardware GPU)")
+      << why;
+  EXPECT_EQ(lf::resolve_backend(lf::Backend::kCpu), lf::Backend::kCpu);
+  try {
+    lf::resolve_backend(lf::Backend::kGl);
+    ADD_FAILURE() << "gl resolved without GL";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("GL backend asked for but unavailable"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(lf::GlRenderer(), std::runtime_error);
+}
+
+}  // namespace
