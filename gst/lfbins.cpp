@@ -101,7 +101,8 @@ const Forward kCameraHostForwards[] = {
     {lf_cam_src_get_type, "num-buffers"},    {lf_cam_src_get_type, "loop"},
     {lf_fragment_get_type, "encoding"},      {lf_fragment_get_type, "jpeg-quality"},
     {lf_fragment_get_type, "max-pixels"},    {lf_fragment_get_type, "max-rate"},
-    {lf_fragment_get_type, "frame-timeout"}, {lf_fragment_get_type, "frame-select"}};
+    {lf_fragment_get_type, "frame-timeout"}, {lf_fragment_get_type, "frame-select"},
+    {lf_fragment_get_type, "backend"}};
 const Forward kArrayForwards[] = {{lf_compositor_get_type, "viewer-id"},
                                   {lf_compositor_get_type, "latency"},
                                   {lf_compositor_get_type, "stereo"},
@@ -343,8 +344,11 @@ static bool build(LfCameraHost* self) {
                   gst_bin_add_many(GST_BIN(self), tee, out, nullptr);
                   p->children = {tee, out};
                   auto apply = [&](GstElement* e, GType type) {
+                    // `backend` is the fragments' and, in lfarray, the compositor's.
                     for (auto& [f, v] : values)
-                      if (f.child() == type) g_object_set_property(G_OBJECT(e), f.name, &v);
+                      if (f.child() == type ||
+                          (type == lf_compositor_get_type() && g_str_equal(f.name, "backend")))
+                        g_object_set_property(G_OBJECT(e), f.name, &v);
                   };
                   if (composite_of(self)) {
                     g_object_set(out, "rig", rig_path.c_str(), nullptr);

@@ -48,6 +48,7 @@
 #include "lf/focus_probe.h"
 #include "lf/fragment.h"
 #include "lf/wire.h"
+#include "lfbackend.h"
 #include "lfcaps.h"
 #include "lfguard.h"
 #include "lfmeta.h"
@@ -83,6 +84,7 @@ struct Settings {
   gint width = DEFAULT_WIDTH, height = DEFAULT_HEIGHT;
   lfgst::Fraction framerate{DEFAULT_FPS_N, DEFAULT_FPS_D};
   bool stereo = DEFAULT_STEREO;
+  lf::Backend backend = lf::Backend::kAuto;
   // Read-only statistics, written by the aggregate thread under the lock.
   guint64 frames = 0;      // frames composited since start
   guint last_cameras = 0;  // cameras (per eye) whose fragment was in the last frame
@@ -140,6 +142,7 @@ struct State {
   gint64 stale_since_us = -1;  // first out-of-window fragment since the last frame
   int64_t viewer = -1;         // the viewer composited (viewer-id, or the first seen)
   lf::Compositor comp, comp_right;
+  std::unique_ptr<lf::GlRenderer> gl;  // backend gl (or auto on a hardware GPU)
   cv::Mat last_frame;  // RGBA of the last frame emitted (missing pixels come from it)
   cv::Mat frames[2];   // the RGBA frames resolved into, in turn (one is last_frame)
   int next_frame = 0;
@@ -226,6 +229,7 @@ static gboolean lf_compositor_start(GstAggregator* agg) {
     if (!st->rig) return FALSE;
   }
   st->viewer = st->s.viewer_id;
+  if (!lfgst::open_backend(GST_ELEMENT(self), st->s.backend, st->gl)) return FALSE;
   self->priv->state = std::move(st);
   return TRUE;
 }
@@ -411,7 +415,9 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
     std::vector<std::pair<size_t, std::string>> refused;
     if (!lfgst::guard(
             [&] {
-              refused = (e ? st->comp_right : st->comp).composite(w, H, eye[e], e ? right : rgba);
+              cv::Mat& into = e ? right : rgba;
+              refused = st->gl ? st->gl->composite(w, H, eye[e], into)
+                               : (e ? st->comp_right : st->comp).composite(w, H, eye[e], into);
             },
             &err)) {
       GST_ELEMENT_ERROR(self, STREAM, FAILED, ("Cannot composite the frame"), ("%s", err->message));
@@ -944,6 +950,14 @@ static void lf_compositor_class_init(LfCompositorClass* klass) {
                                  "twice as wide; changeable while playing (the output is then "
                                  "renegotiated)",
                                  DEFAULT_STEREO, lfgst::kReadWritePlaying));
+  props.add(oc, &Settings::backend,
+            g_param_spec_enum("backend", "Backend",
+                              "Which renderer adds the fragments and resolves the frame "
+                              "(lib/lf/gl_render.h): the CPU (bands of rows on every core) or "
+                              "EGL/GLES 3 (blending); the same frame within 1 LSB (identical on "
+                              "Mesa's llvmpipe)",
+                              lfgst::backend_type(), static_cast<gint>(lf::Backend::kAuto),
+                              lfgst::kReadWriteReady));
   const GParamFlags ro = static_cast<GParamFlags>(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS);
   props.add(oc, &Settings::frames,
             g_param_spec_uint64("frames", "Frames", "Frames composited since the element started",

@@ -48,6 +48,7 @@
 #include "lf/plan.h"
 #include "lf/render.h"
 #include "lf/wire.h"
+#include "lfbackend.h"
 #include "lfcaps.h"
 #include "lfguard.h"
 #include "lfmeta.h"
@@ -78,6 +79,7 @@ constexpr size_t kFrameRing = 8;
 #define DEFAULT_MAX_RATE 240.0
 #define DEFAULT_FRAME_TIMEOUT GST_SECOND
 #define DEFAULT_FRAME_SELECT FrameSelect::kNewest
+#define DEFAULT_BACKEND lf::Backend::kAuto
 
 #define LF_TYPE_FRAGMENT_ENCODING (lf_fragment_encoding_get_type())
 static GType lf_fragment_encoding_get_type() {
@@ -105,6 +107,8 @@ static GType lf_fragment_frame_select_get_type() {
   return lfgst::enum_type(&type, "LfFragmentFrameSelect", values);
 }
 
+#define LF_TYPE_BACKEND (lfgst::backend_type())
+
 namespace {
 struct Settings : lfgst::CameraAddress {
   std::string rig;
@@ -114,6 +118,7 @@ struct Settings : lfgst::CameraAddress {
   gdouble max_rate = DEFAULT_MAX_RATE;
   guint64 frame_timeout = DEFAULT_FRAME_TIMEOUT;
   FrameSelect frame_select = DEFAULT_FRAME_SELECT;
+  lf::Backend backend = DEFAULT_BACKEND;
 };
 
 // From READY->PAUSED to PAUSED->READY.
@@ -130,6 +135,11 @@ struct State {
   // max_rate per second (request thread only).
   double tokens = 0;
   gint64 refilled_us = -1;
+  // The GL renderer (backend gl, or auto on a hardware GPU; else null) and
+  // the frame in its texture, by buffer and PTS (request thread only).
+  std::unique_ptr<lf::GlRenderer> gl;
+  GstBuffer* uploaded_of = nullptr;
+  GstClockTime uploaded_pts = GST_CLOCK_TIME_NONE;
   // Warnings about what peers send, at most one a second each.
   lfgst::WarnLimiter bad_request, too_large, too_fast, no_frame, failed;
 };
@@ -505,8 +515,22 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
         f.sequence = req.sequence;
         f.capture_time_ns = capture_time_of(self, frame, cam.id);
         const lf::FragmentPlan plan = lf::plan_fragment(g, st->index);
+        if (st->gl && (st->uploaded_of != frame || st->uploaded_pts != GST_BUFFER_PTS(frame))) {
+          st->gl->set_image(0, rgba);
+          st->uploaded_of = frame;
+          st->uploaded_pts = GST_BUFFER_PTS(frame);
+        }
+        auto draw = [&](uint8_t* px) {
+          if (st->gl)
+            st->gl->render_pixels(plan, cam, 0, px);
+          else
+            lf::render_pixels(plan, cam, rgba, px);
+        };
         if (st->s.encoding == Encoding::kJpeg) {
-          lf::render_fragment(plan, cam, rgba, f);
+          lf::describe_fragment(plan, f);
+          f.camera_id = static_cast<uint32_t>(cam.id);
+          f.pixels.resize(4 * plan.pixel_count());
+          draw(f.pixels.data());
           lfgst::trace(GST_ELEMENT(self), "warped", req.viewer_id, req.sequence, cam.id,
                        static_cast<gint64>(f.pixel_count()));
           bytes = lf::serialize_fragment(f, lf::Encoding::kJpeg, quality);
@@ -520,7 +544,7 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
           lfgst::add_sealed_meta(out);  // while it is writable (sealed below)
           lfgst::MappedBuffer map(out, GST_MAP_WRITE);
           uint8_t* px = lf::write_raw_fragment(f, map.data(), size);
-          lf::render_pixels(plan, cam, rgba, px);
+          draw(px);
           lf::seal_fragment(map.data(), size);
           lfgst::trace(GST_ELEMENT(self), "warped", req.viewer_id, req.sequence, cam.id,
                        static_cast<gint64>(plan.pixel_count()));
@@ -556,6 +580,7 @@ static gboolean lf_fragment_start(LfFragment* self) {
   if (!st->rig) return FALSE;
   st->index = lfgst::camera_index(GST_ELEMENT(self), *st->rig, st->s);
   if (st->index < 0) return FALSE;
+  if (!lfgst::open_backend(GST_ELEMENT(self), st->s.backend, st->gl)) return FALSE;
   self->priv->state = std::move(st);
   self->priv->set_flushing(false);
   return TRUE;
@@ -638,7 +663,15 @@ static void lf_fragment_class_init(LfFragmentClass* klass) {
                               LF_TYPE_FRAGMENT_FRAME_SELECT,
                               static_cast<gint>(DEFAULT_FRAME_SELECT), lfgst::kReadWriteReady));
   gst_type_mark_as_plugin_api(LF_TYPE_FRAGMENT_ENCODING, static_cast<GstPluginAPIFlags>(0));
+  props.add(oc, &Settings::backend,
+            g_param_spec_enum("backend", "Backend",
+                              "Which renderer draws the fragments (lib/lf/gl_render.h): the CPU "
+                              "kernels or EGL/GLES 3; both give the same pixels within 1 LSB "
+                              "(identical on Mesa's llvmpipe)",
+                              LF_TYPE_BACKEND, static_cast<gint>(DEFAULT_BACKEND),
+                              lfgst::kReadWriteReady));
   gst_type_mark_as_plugin_api(LF_TYPE_FRAGMENT_FRAME_SELECT, static_cast<GstPluginAPIFlags>(0));
+  gst_type_mark_as_plugin_api(LF_TYPE_BACKEND, static_cast<GstPluginAPIFlags>(0));
   gst_element_class_add_static_pad_template(ec, &sink_template);
   gst_element_class_add_static_pad_template(ec, &request_template);
   gst_element_class_add_static_pad_template(ec, &src_template);

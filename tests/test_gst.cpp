@@ -17,6 +17,7 @@
 #include "lf/composite.h"
 #include "lf/datasets.h"
 #include "lf/focus.h"
+#include "lf/gl_render.h"
 #include "lf/parse.h"
 #include "lf/quality.h"
 #include "lf/render.h"
@@ -403,6 +404,30 @@ TEST_F(Gst, JpegFragmentsStayClose) {
   cv::cvtColor(raw[0], a, cv::COLOR_RGBA2RGB);
   cv::cvtColor(jpg[0], b, cv::COLOR_RGBA2RGB);
   EXPECT_GT(cv::PSNR(a, b), 36.0);
+}
+
+// The GL backend (lib/lf/gl_render.h) in a real pipeline: fragments drawn
+// by GL in every lffragment and added by GL in lfcompositor, against the
+// CPU pipeline: within the tolerance of tests/test_gl.cpp (mean <= 1 LSB,
+// max <= 3, at most 1 % of the pixels differing; on llvmpipe, identical).
+TEST_F(Gst, GlBackendPipelineEqualsTheCpuPipeline) {
+  ASSERT_TRUE(lf::gl_info().available) << lf::gl_info().error;
+  const std::string view = "num-buffers=2 width=320 height=240 focal-plane=param:-0.2";
+  std::string err;
+  const auto cpu = run(pipeline(view, "backend=cpu", "backend=cpu"), 100, nullptr, &err);
+  ASSERT_EQ(cpu.size(), 2u) << err;
+  const auto gl = run(pipeline(view, "backend=gl", "backend=gl"), 100, nullptr, &err);
+  ASSERT_EQ(gl.size(), 2u) << err;
+  for (size_t k = 0; k < gl.size(); ++k) {
+    cv::Mat diff;
+    cv::absdiff(gl[k], cpu[k], diff);
+    double worst = 0;
+    cv::minMaxLoc(diff.reshape(1), nullptr, &worst);
+    const cv::Scalar mad = cv::mean(diff);
+    EXPECT_LE((mad[0] + mad[1] + mad[2] + mad[3]) / 4, 1.0);
+    EXPECT_LE(worst, 3.0);
+    EXPECT_LE(cv::countNonZero(diff.reshape(1)), static_cast<int>(diff.total()) / 100);
+  }
 }
 
 TEST_F(Gst, BadPropertiesGiveClearErrors) {

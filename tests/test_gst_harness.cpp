@@ -4,6 +4,7 @@
 #include <gst/video/navigation.h>
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <filesystem>
 
 #include "gst_init.h"
@@ -11,6 +12,7 @@
 #include "lf/focus.h"
 #include "lf/focus_probe.h"
 #include "lf/fragment.h"
+#include "lf/gl_render.h"
 #include "lf/parse.h"
 #include "lf/quality.h"
 #include "lf/render.h"
@@ -60,10 +62,13 @@ class Harness : public ::testing::Test {
   // An lffragment of camera 1 whose camera sent one frame of the synthetic
   // scene (PTS 123, returned in *frame): the harness of its request pad,
   // with request caps set, and that of its camera pad in *video.
-  static GstHarness* camera1_fragment(GstHarness** video, cv::Mat* frame) {
+  // `backend`: the element's backend property (auto when null).
+  static GstHarness* camera1_fragment(GstHarness** video, cv::Mat* frame,
+                                      const char* backend = nullptr) {
     // Configure first: the harness sets its element playing when it is made.
     GstElement* el = gst_element_factory_make("lffragment", nullptr);
     g_object_set(el, "rig", rig_path_.c_str(), "camera-id", 1, nullptr);
+    if (backend) gst_util_set_object_arg(G_OBJECT(el), "backend", backend);
     GstHarness* h = gst_harness_new_with_element(el, "request", "src");
     *video = gst_harness_new_with_element(el, "sink", nullptr);
     gst_object_unref(el);
@@ -282,6 +287,59 @@ TEST_F(Harness, FragmentThroughAFocalSurface) {
   ASSERT_FALSE(ref.empty());
   EXPECT_EQ(f.pixels, ref.pixels);
   EXPECT_NE(f.pixels, flat.pixels) << "the surface changed the sampling";
+  gst_harness_teardown(video);
+  gst_harness_teardown(h);
+}
+
+// backend=gl: the fragment drawn by EGL/GLES 3 (lf/gl_render.h), the same
+// pixels as the CPU kernel's within the GL tolerance of tests/test_gl.cpp
+// (on Mesa's llvmpipe, identical); the frame is uploaded once for both
+// requests. A build or machine without GL fails to start instead.
+TEST_F(Harness, FragmentOnTheGlBackend) {
+  const char* platform = std::getenv("EGL_PLATFORM");
+  if (platform && std::string(platform) == "nowhere") {  // meson test gst_harness_nogl
+    ASSERT_FALSE(lf::gl_info().available);
+  }
+  if (!lf::gl_info().available) {
+    GstElement* el = gst_element_factory_make("lffragment", nullptr);
+    g_object_set(el, "rig", rig_path_.c_str(), "camera-id", 1, nullptr);
+    gst_util_set_object_arg(G_OBJECT(el), "backend", "gl");
+    EXPECT_EQ(gst_element_set_state(el, GST_STATE_PAUSED), GST_STATE_CHANGE_FAILURE)
+        << "no GL here (" << lf::gl_info().error << "): backend=gl must not start";
+    gst_element_set_state(el, GST_STATE_NULL);
+    gst_object_unref(el);
+    return;
+  }
+  GstHarness* video = nullptr;
+  cv::Mat frame;
+  GstHarness* h = camera1_fragment(&video, &frame, "gl");
+  for (uint64_t seq : {7u, 8u}) {
+    ASSERT_EQ(gst_harness_push(h, bytes(lf::serialize_request(request(seq)), GST_SECOND)),
+              GST_FLOW_OK);
+    GstBuffer* out = gst_harness_pull(h);
+    ASSERT_NE(out, nullptr);
+    const lf::Fragment f = parsed_fragment(out);
+    gst_buffer_unref(out);
+    lf::Fragment ref;
+    lf::render_fragment(lf::plan_fragment(lf::ViewGeometry(rig_, request(seq)), 1), rig_.cameras[1],
+                        frame, ref);
+    ASSERT_FALSE(ref.empty());
+    EXPECT_EQ(f.sequence, seq);
+    EXPECT_EQ(f.spans, ref.spans);
+    ASSERT_EQ(f.pixels.size(), ref.pixels.size());
+    double sum = 0;
+    int worst = 0;
+    size_t differ = 0;
+    for (size_t i = 0; i < f.pixels.size(); ++i) {
+      const int e = std::abs(f.pixels[i] - ref.pixels[i]);
+      sum += e;
+      worst = std::max(worst, e);
+      differ += e != 0;
+    }
+    EXPECT_LE(sum / f.pixels.size(), 1.0);
+    EXPECT_LE(worst, 3);
+    EXPECT_LE(differ, f.pixels.size() / 100);
+  }
   gst_harness_teardown(video);
   gst_harness_teardown(h);
 }

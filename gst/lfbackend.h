@@ -1,0 +1,50 @@
+// The `backend` property of lffragment and lfcompositor (lib/lf/gl_render.h):
+// its enum type and the renderer it opens at start.
+#pragma once
+
+#include <gst/gst.h>
+
+#include <memory>
+#include <string>
+
+#include "lf/gl_render.h"
+#include "lfguard.h"
+#include "lfprops.h"
+
+namespace lfgst {
+
+inline GType backend_type() {
+  static GType type = 0;
+  static const GEnumValue values[] = {
+      {static_cast<gint>(lf::Backend::kAuto),
+       "GL on a hardware GPU, else CPU (a software rasteriser such as llvmpipe is not used)",
+       "auto"},
+      {static_cast<gint>(lf::Backend::kCpu), "CPU kernels (SSE2/AVX2; the reference)", "cpu"},
+      {static_cast<gint>(lf::Backend::kGl),
+       "EGL/GLES 3: drawn and blended on the GPU; fails to start where no GL context can be made",
+       "gl"},
+      {0, nullptr, nullptr}};
+  return enum_type(&type, "LfBackend", values);
+}
+
+// Resolves `backend` and, for GL, makes the renderer into `gl` (else leaves
+// it null). Logs auto's choice at INFO; posts an element error and returns
+// false where GL is asked for and cannot be had.
+inline bool open_backend(GstElement* el, lf::Backend backend, std::unique_ptr<lf::GlRenderer>& gl) {
+  std::string why;
+  GError* err = nullptr;
+  if (!guard(
+          [&] {
+            if (lf::resolve_backend(backend, &why) == lf::Backend::kGl)
+              gl = std::make_unique<lf::GlRenderer>();
+          },
+          &err)) {
+    GST_ELEMENT_ERROR(el, RESOURCE, FAILED, ("Cannot use the GL backend"), ("%s", err->message));
+    g_error_free(err);
+    return false;
+  }
+  if (!why.empty()) GST_INFO_OBJECT(el, "%s", why.c_str());
+  return true;
+}
+
+}  // namespace lfgst
