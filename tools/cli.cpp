@@ -110,6 +110,21 @@ void progress(const std::string& label, int done, int total) {
   std::fflush(stderr);
 }
 
+lf::Backend backend_from(const std::string& text, bool quiet) {
+  lf::Backend asked;
+  if (!lf::parse_backend(text, &asked))
+    throw std::invalid_argument("--backend '" + text + "': use auto, cpu or gl");
+  std::string why;
+  const lf::Backend b = lf::resolve_backend(asked, &why);
+  if (!quiet) {
+    if (asked == lf::Backend::kAuto)
+      std::fprintf(stderr, "%s\n", why.c_str());
+    else if (b == lf::Backend::kGl)
+      std::fprintf(stderr, "backend gl: %s\n", lf::gl_info().renderer.c_str());
+  }
+  return b;
+}
+
 FocalSpec parse_focal(const std::string& s, const lf::Rig& rig) {
   FocalSpec f;
   f.text = s;

@@ -8,6 +8,7 @@
 
 #include "lf/composite.h"
 #include "lf/focus.h"
+#include "lf/gl_render.h"
 #include "lf/parse.h"
 #include "lf/path_file.h"
 #include "lf/quality.h"
@@ -59,5 +60,11 @@ struct FocalSpec {
   std::string text;
 };
 FocalSpec parse_focal(const std::string& s, const lf::Rig& rig);
+
+// --backend auto|cpu|gl resolved (lf/gl_render.h resolve_backend): prints
+// which renderer runs and why on stderr unless `quiet`; throws
+// std::invalid_argument for another word and std::runtime_error when gl is
+// asked for and unavailable.
+lf::Backend backend_from(const std::string& text, bool quiet);
 
 }  // namespace cli

@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <iostream>
 #include <map>
+#include <memory>
 #include <numeric>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -45,7 +46,13 @@ usage: lf-bench [options]
   --sweep-steps N     planes in the exhaustive sweep (default 96)
   --plot FILE         write a PNG plot (default lf-bench.png)
   --skip-quality, --skip-bandwidth, --skip-speed   leave out a section
-All timings run on one core (OpenCV single-threaded too); times are medians.
+  --backend LIST      renderers to time side by side on whole views from all the
+                      cameras, at each size of --sizes: cpu, gl (EGL/GLES 3,
+                      lib/lf/gl_render.h), auto; e.g. cpu,gl adds that table
+                      (default cpu: no table)
+All timings run on one core (OpenCV single-threaded too) except the backend
+table's, where the CPU renders cameras on every core and GL uses what its driver
+uses (Mesa's llvmpipe: a thread per core); times are medians.
 )";
 
 using Clock = std::chrono::steady_clock;
@@ -152,6 +159,80 @@ Axes axes(cv::Mat& canvas, cv::Rect area, double x0, double x1, double y0, doubl
   return a;
 }
 
+// Whole views from all cameras, each backend side by side in the same
+// repetitions: CPU lf::render_view on every core; GL GlRenderer::render_view
+// with the images uploaded once (the upload of all of them is timed apart:
+// a live pipeline pays it once per captured frame, not per view).
+void backend_table(const lf::Rig& rig, const std::vector<cv::Mat>& images,
+                   const std::vector<lf::Backend>& backends,
+                   const std::vector<std::pair<int, int>>& sizes, const lf::FocalPlane& plane) {
+  std::unique_ptr<lf::GlRenderer> gl;
+  double upload_ms = 0;
+  for (lf::Backend b : backends)
+    if (b == lf::Backend::kGl && !gl) {
+      gl = std::make_unique<lf::GlRenderer>();
+      const auto t0 = Clock::now();
+      for (size_t i = 0; i < images.size(); ++i) gl->set_image(static_cast<int>(i), images[i]);
+      upload_ms = ms_since(t0);
+    }
+  const int threads = cv::getNumberOfCPUs();
+  std::printf("\n## Backends: whole views from %zu cameras, 8 views on an orbit (median of 5)\n\n",
+              rig.cameras.size());
+  std::printf("CPU: %d threads (%s kernel). GL: %s (%s)%s.\n\n", threads,
+              lf::kernel_name(lf::best_kernel()), gl ? lf::gl_info().renderer.c_str() : "not used",
+              gl ? lf::gl_info().version.c_str() : "-",
+              gl ? (", images uploaded once in " + std::to_string(static_cast<int>(upload_ms)) +
+                    " ms for all cameras")
+                       .c_str()
+                 : "");
+  std::printf(
+      "| size | backend | ms per view | views per s | / cpu | max abs diff to cpu |\n"
+      "|---|---|---|---|---|---|\n");
+  const auto keys = lf::orbit_path(rig, 0.5, 2.0 * rig.typical_spacing(), 24);
+  for (const auto& [W, H] : sizes) {
+    const auto views = lf::sample_path(rig, keys, 24, W, H, true);
+    std::vector<lf::ViewRequest> reqs;
+    for (int v = 0; v < 8; ++v) {
+      lf::ViewRequest r;
+      r.sequence = v;
+      r.view = views[v * views.size() / 8];
+      r.focal_plane = plane;
+      reqs.push_back(r);
+    }
+    std::vector<std::vector<double>> ms(backends.size());
+    std::vector<double> max_diff(backends.size(), 0);
+    for (int rep = 0; rep < 5; ++rep) {
+      std::vector<cv::Mat> cpu_out(reqs.size());
+      for (size_t b = 0; b < backends.size(); ++b) {
+        const auto t0 = Clock::now();
+        for (size_t v = 0; v < reqs.size(); ++v) {
+          const cv::Mat out = backends[b] == lf::Backend::kGl
+                                  ? gl->render_view(rig, reqs[v], nullptr, threads)
+                                  : lf::render_view(rig, images, reqs[v], nullptr, threads);
+          if (rep > 0) continue;
+          if (backends[b] == lf::Backend::kCpu && cpu_out[v].empty()) cpu_out[v] = out;
+          if (!cpu_out[v].empty()) {
+            cv::Mat d;
+            cv::absdiff(out, cpu_out[v], d);
+            double mx = 0;
+            cv::minMaxLoc(d.reshape(1), nullptr, &mx);
+            max_diff[b] = std::max(max_diff[b], mx);
+          }
+        }
+        ms[b].push_back(ms_since(t0) / reqs.size());
+      }
+    }
+    const auto cpu_at = std::find(backends.begin(), backends.end(), lf::Backend::kCpu);
+    const double cpu_ms = cpu_at == backends.end() ? 0 : median(ms[cpu_at - backends.begin()]);
+    for (size_t b = 0; b < backends.size(); ++b) {
+      const double m = median(ms[b]);
+      std::printf("| %dx%d | %s | %.1f | %.1f | %s | %s |\n", W, H, lf::backend_name(backends[b]),
+                  m, 1000.0 / m, cpu_ms > 0 ? cv::format("%.2f", m / cpu_ms).c_str() : "-",
+                  cpu_ms > 0 ? cv::format("%.0f", max_diff[b]).c_str() : "-");
+    }
+  }
+}
+
 struct SettingStats {
   std::vector<double> psnr, ssim, ms, px_ratio, bytes;
 };
@@ -163,7 +244,7 @@ int main(int argc, char** argv) {
   try {
     cli::Args args(argc, argv,
                    {"--input", "--block", "--input-scale", "--sizes", "--encodings", "--focal",
-                    "--loo", "--sweep-steps", "--plot"},
+                    "--loo", "--sweep-steps", "--plot", "--backend"},
                    {"--skip-quality", "--skip-bandwidth", "--skip-speed"});
     cv::setNumThreads(1);
     const lf::Rig rig = cli::select_cameras(
@@ -571,6 +652,16 @@ int main(int argc, char** argv) {
           "15)\n",
           lf::kernel_name(lf::best_kernel()), o / w_same, nv / o);
     }
+    // -------------------------------------------------------------- backends
+    std::vector<lf::Backend> backends;
+    {
+      std::stringstream ss(args.get("--backend", "cpu"));
+      std::string tok;
+      while (std::getline(ss, tok, ',')) backends.push_back(cli::backend_from(tok, false));
+    }
+    if (backends.size() > 1 || (backends.size() == 1 && backends[0] != lf::Backend::kCpu))
+      backend_table(rig, images, backends, sizes,
+                    path.empty() ? lf::FocalPlane{} : path[0].focal_plane);
     const std::string plot = args.get("--plot", "lf-bench.png");
     if (!args.has("--skip-quality")) {
       if (!cv::imwrite(plot, canvas)) throw std::runtime_error("cannot write " + plot);

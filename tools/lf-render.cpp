@@ -55,6 +55,9 @@ rendering
   --refocus-every N     on a path: re-run auto-focus every N frames (default 15),
                         or estimate the focal surface every N frames (default 1)
   --threads N           render cameras in parallel (default: all cores)
+  --backend B           auto (default: GL on a hardware GPU, else CPU), cpu, or gl
+                        (EGL/GLES 3, lib/lf/gl_render.h: fragments drawn and blended
+                        on the GPU, images uploaded once; Mesa's llvmpipe without one)
 
 output
   --out FILE            .png: one image (a path writes FILE with _0000, _0001, ...)
@@ -71,7 +74,7 @@ int main(int argc, char** argv) {
     cli::Args args(argc, argv,
                    {"--input", "--block", "--input-scale", "--save-rig", "--at", "--eye",
                     "--look-at", "--vfov", "--path", "--orbit", "--dolly", "--frames", "--size",
-                    "--focal", "--refocus-every", "--threads", "--out", "--fps"},
+                    "--focal", "--refocus-every", "--threads", "--backend", "--out", "--fps"},
                    {"--quiet"});
     if (!args.has("--input")) throw std::invalid_argument("--input is required (see --help)");
     if (!args.has("--out")) throw std::invalid_argument("--out is required (see --help)");
@@ -94,6 +97,13 @@ int main(int argc, char** argv) {
 
     // Colour correction from the rig (lib/lf/colour.h; identity by default).
     lf::colour_correct_images(rig, images, lf::ChannelOrder::kBGRA);
+
+    // The renderer; GL gets the images once, as a live camera's frame is.
+    std::unique_ptr<lf::GlRenderer> gl;
+    if (cli::backend_from(args.get("--backend", "auto"), quiet) == lf::Backend::kGl) {
+      gl = std::make_unique<lf::GlRenderer>();
+      for (size_t i = 0; i < images.size(); ++i) gl->set_image(static_cast<int>(i), images[i]);
+    }
 
     // Views (lib/lf/view_builder.h, as lfviewrequest builds them).
     lf::ViewSettings vs;
@@ -179,7 +189,8 @@ int main(int argc, char** argv) {
       }
       lf::RenderStats st;
       const auto t0 = std::chrono::steady_clock::now();
-      const cv::Mat img = lf::render_view(rig, images, req, &st, threads);
+      const cv::Mat img = gl ? gl->render_view(rig, req, &st, threads)
+                             : lf::render_view(rig, images, req, &st, threads);
       total_ms +=
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       frag_px += st.fragment_pixels;
