@@ -12,9 +12,11 @@
 #include <gst/gst.h>
 #include <gst/net/gstnet.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <string>
+#include <vector>
 
 namespace {
 
@@ -35,7 +37,7 @@ int main(int argc, char** argv) {
   gint port = 0;
   gchar* client_opt = nullptr;
   gchar* base_opt = nullptr;
-  gdouble sync_timeout = 10, duration = -1;
+  gdouble sync_timeout = 10, duration = -1, max_round_trip_ms = 0, settle = 0;
   gboolean check = FALSE;
   gchar** rest = nullptr;
   const GOptionEntry entries[] = {
@@ -49,11 +51,22 @@ int main(int argc, char** argv) {
        "NS|now+MS"},
       {"sync-timeout", 0, 0, G_OPTION_ARG_DOUBLE, &sync_timeout,
        "Client: give up if not synchronised after S seconds (default 10)", "S"},
+      {"clock-settle", 0, 0, G_OPTION_ARG_DOUBLE, &settle,
+       "With --check-clock: let the clock run S seconds after sync before reading it (default 0)",
+       "S"},
+      {"max-round-trip", 0, 0, G_OPTION_ARG_DOUBLE, &max_round_trip_ms,
+       "Client: clock observations with a longer round trip are dropped (default 0: none, "
+       "GstNetClientClock's own filtering only). An observation can be off by half its round "
+       "trip, and a clock synchronised on a delayed one corrects itself only slowly "
+       "(GstNetClientClock clamps each step to a quarter of the average round trip); too small "
+       "a limit on a busy host delays synchronisation",
+       "MS"},
       {"duration", 0, 0, G_OPTION_ARG_DOUBLE, &duration,
        "Stop after S seconds (default: run to end of stream)", "S"},
       {"check-clock", 0, 0, G_OPTION_ARG_NONE, &check,
-       "Client: print \"clock-offset-ms X\" (client clock - local system clock right after "
-       "sync) and exit without running a pipeline",
+       "Client: print \"clock-offset-ms X\" (client clock - local system clock, read between two "
+       "readings of the system clock, right after sync; with --clock-settle, the median of 10 "
+       "readings 100 ms apart after it) and exit without running a pipeline",
        nullptr},
       {G_OPTION_REMAINING, 0, 0, G_OPTION_ARG_STRING_ARRAY, &rest, nullptr, nullptr},
       {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
@@ -99,17 +112,42 @@ int main(int argc, char** argv) {
     }
     clock = gst_net_client_clock_new("lf-net-clock", client.substr(0, colon).c_str(),
                                      std::stoi(client.substr(colon + 1)), 0);
+    if (max_round_trip_ms > 0)
+      g_object_set(clock, "round-trip-limit", static_cast<guint64>(max_round_trip_ms * GST_MSECOND),
+                   nullptr);
     if (!gst_clock_wait_for_sync(clock, static_cast<GstClockTime>(sync_timeout * GST_SECOND))) {
       std::fprintf(stderr, "lf-launch: error: clock %s not synchronised after %.0f s\n",
                    client.c_str(), sync_timeout);
       return 1;
     }
     if (check) {
+      // Right at sync the clock has a rate fitted to a few observations;
+      // on a busy machine it drifts by several ms over the next second
+      // until more observations come. With --clock-settle S the clock runs
+      // S seconds first (as a camera host does before its first capture
+      // instant), then the median of 10 readings 100 ms apart says how far
+      // it agrees; without, one reading right at sync. A reading preempted
+      // between the system clock's two readings (> 1 ms apart) is taken
+      // again.
+      const size_t readings = settle > 0 ? 10 : 1;
+      g_usleep(static_cast<gulong>(settle * G_USEC_PER_SEC));
       GstClock* sys = gst_system_clock_obtain();
-      const double off = (static_cast<double>(gst_clock_get_time(clock)) -
-                          static_cast<double>(gst_clock_get_time(sys))) /
-                         1e6;
-      std::printf("clock-offset-ms %.3f\n", off);
+      std::vector<double> offs;
+      for (int tries = 0; offs.size() < readings && tries < 100; ++tries) {
+        const GstClockTime a = gst_clock_get_time(sys);
+        const GstClockTime c = gst_clock_get_time(clock);
+        const GstClockTime b = gst_clock_get_time(sys);
+        if (b - a <= GST_MSECOND) {
+          offs.push_back((static_cast<double>(c) - (static_cast<double>(a) + b) / 2) / 1e6);
+          if (offs.size() < readings) g_usleep(100000);
+        }
+      }
+      if (offs.empty()) {
+        std::fprintf(stderr, "lf-launch: error: no clock reading without preemption\n");
+        return 1;
+      }
+      std::sort(offs.begin(), offs.end());
+      std::printf("clock-offset-ms %.3f\n", offs[offs.size() / 2]);
       gst_object_unref(sys);
       gst_object_unref(clock);
       return 0;
