@@ -239,7 +239,16 @@ class Runtime : public ::testing::Test {
       ASSERT_TRUE(r.seen.get(0, f.sequence, &got)) << what;
       const lf::ViewRequest exp = want.request(rig_, f.sequence);
       EXPECT_TRUE(same_view(got, exp)) << what << ": request " << f.sequence;
-      EXPECT_EQ(differing(f.rgba, render(exp)), 0) << what << ": output != lf-render";
+      // The picture is lf-render's for its request, bit for bit. A live
+      // frame composited at the deadline without a fragment that a busy
+      // machine delayed (by design; CI's sanitizer build, once) differs, so
+      // up to 10 later outputs of the same settings may show it instead.
+      int diff = differing(f.rgba, render(exp));
+      for (int more = 0; diff != 0 && more < 10; ++more) {
+        ASSERT_TRUE(pull(r.sinks[0], &f)) << what;
+        diff = differing(f.rgba, render(want.request(rig_, f.sequence)));
+      }
+      EXPECT_EQ(diff, 0) << what << ": output != lf-render in 11 outputs";
       return;
     }
     ADD_FAILURE() << what << ": no output after request " << before + 1;
