@@ -2,7 +2,8 @@
 //  1. Leave-one-out quality (PSNR, SSIM) and time per frame over a grid of
 //     settings (output size, encoding, focal-plane choice), including the
 //     best single plane of an exhaustive sweep (an oracle that sees the
-//     held-out image) and auto-focus (which does not).
+//     held-out image) and auto-focus (which does not); on an HCI folder,
+//     the focal surface's disparity error against the ground truth.
 //  2. Bandwidth: fragment pixels and bytes per output frame for 4, 16, 64
 //     cameras spread over the array and a synthetic 256-camera rig.
 //  3. Speed ratios measured side by side on one core: our fragments vs
@@ -11,6 +12,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -50,6 +52,8 @@ usage: lf-bench [options]
                       cameras, at each size of --sizes: cpu, gl (EGL/GLES 3,
                       lib/lf/gl_render.h), auto; e.g. cpu,gl adds that table
                       (default cpu: no table)
+On an HCI benchmark folder (gt_disp_lowres.pfm) the quality section ends with
+the focal surface's per-tile disparity error against the ground truth.
 All timings run on one core (OpenCV single-threaded too) except the backend
 table's, where the CPU renders cameras on every core and GL uses what its driver
 uses (Mesa's llvmpipe: a thread per core); times are medians.
@@ -231,6 +235,62 @@ void backend_table(const lf::Rig& rig, const std::vector<cv::Mat>& images,
                   cpu_ms > 0 ? cv::format("%.0f", max_diff[b]).c_str() : "-");
     }
   }
+}
+
+// The focal surface against a ground-truth disparity map (HCI benchmark
+// folders: gt_disp_lowres.pfm, the centre camera's, lf/datasets.h): the
+// centre camera held out, its view's surface estimated from the others at
+// the camera's size, and the per-tile disparity error over textured tiles
+// (lf::tile_disparity_errors), beside that of the estimate's single plane.
+void ground_truth_check(const lf::Rig& rig, const std::vector<cv::Mat>& images,
+                        const std::string& folder) {
+  const std::string gt_path = folder + "/gt_disp_lowres.pfm";
+  if (lf::detect_dataset(folder) != "hci" || !std::filesystem::exists(gt_path)) return;
+  int centre = -1;
+  for (size_t i = 0; i < rig.cameras.size(); ++i)
+    if (cv::norm(rig.cameras[i].center()) < 1e-6 * rig.typical_spacing())
+      centre = static_cast<int>(i);
+  const cv::Mat gt = lf::read_pfm(gt_path);
+  if (centre < 0 || gt.type() != CV_32FC1 ||
+      gt.size() != cv::Size(rig.cameras[centre].width, rig.cameras[centre].height)) {
+    std::printf(
+        "\nGround truth: not compared (needs the centre camera at its own %dx%d size; "
+        "--block or --input-scale changed the rig)\n",
+        gt.cols, gt.rows);
+    return;
+  }
+  const lf::Rig rj = rig.without({centre});
+  std::vector<cv::Mat> ij;
+  for (size_t i = 0; i < images.size(); ++i)
+    if (static_cast<int>(i) != centre) ij.push_back(images[i]);
+  const lf::FocalSurfaceEstimator est(rj, ij);
+  lf::ViewRequest req;
+  req.view = lf::VirtualView::from_camera(rig.cameras[centre], gt.cols, gt.rows);
+  const auto t0 = Clock::now();
+  const lf::SurfaceEstimate e = est.estimate(req);
+  const double ms = ms_since(t0);
+  const double baseline = rig.typical_spacing();
+  const int tile = est.options().tile;
+  const auto surf = lf::tile_disparity_errors(rj, e, e.tile_q, gt, tile, baseline);
+  const auto one = lf::tile_disparity_errors(
+      rj, e, std::vector<double>(e.tile_q.size(), e.single_q), gt, tile, baseline);
+  if (surf.empty()) {
+    std::printf("\nGround truth: no textured tile to compare\n");
+    return;
+  }
+  auto pct = [](const std::vector<double>& v, int p) { return v[v.size() * p / 100]; };
+  const double step =
+      std::abs(baseline * (lf::focal_param_from_inverse_depth(rj, est.candidate_q(1)) -
+                           lf::focal_param_from_inverse_depth(rj, 0)));
+  std::printf(
+      "\n## Focal surface against the ground-truth disparity (%s, centre camera held out, %dx%d)"
+      "\n\n| model | planes | textured tiles | absolute disparity error, median px | 90th "
+      "percentile px |\n"
+      "|---|---|---|---|---|\n| focal surface | %d | %zu | %.3f | %.3f |\n"
+      "| its single plane | 1 | %zu | %.3f | %.3f |\n\n"
+      "Coarse sweep step %.3f px of disparity; estimated in %.0f ms.\n",
+      gt_path.c_str(), gt.cols, gt.rows, e.planes_used, surf.size(), pct(surf, 50), pct(surf, 90),
+      one.size(), pct(one, 50), pct(one, 90), step, ms);
 }
 
 struct SettingStats {
@@ -422,6 +482,7 @@ int main(int argc, char** argv) {
         std::printf("Nearest camera alone (through the auto plane, %dx%d): PSNR %.2f dB\n", W0, H0,
                     mean(nearest_psnr));
       }
+      ground_truth_check(rig, images, args.get("--input", "../shared/data/stanford-chess"));
       // Plot (a): PSNR vs time; (b): mean sweep curve with auto / best picks.
       double pmin = 1e9, pmax = -1e9, tmax = 0;
       for (const auto& key : order) {

@@ -267,4 +267,34 @@ void apply(const SurfaceEstimate& e, ViewRequest& req) {
   req.surface = e.surface;
 }
 
+std::vector<double> tile_disparity_errors(const Rig& rig, const SurfaceEstimate& e,
+                                          const std::vector<double>& tile_q, const cv::Mat& gt,
+                                          int tile, double baseline) {
+  if (gt.type() != CV_32FC1 || tile < 1)
+    throw std::invalid_argument("tile_disparity_errors: the ground truth must be CV_32FC1");
+  const int cols = (gt.cols + tile - 1) / tile, rows = (gt.rows + tile - 1) / tile;
+  const size_t tiles = static_cast<size_t>(cols) * rows;
+  if (tile_q.size() != tiles || e.textured.size() != tiles)
+    throw std::invalid_argument("tile_disparity_errors: " + std::to_string(tile_q.size()) +
+                                " depths and " + std::to_string(e.textured.size()) +
+                                " texture flags for " + std::to_string(tiles) + " tiles");
+  std::vector<double> err;
+  std::vector<float> d;
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c) {
+      const size_t t = static_cast<size_t>(r) * cols + c;
+      if (!e.textured[t]) continue;
+      const cv::Rect box =
+          cv::Rect(c * tile, r * tile, tile, tile) & cv::Rect(0, 0, gt.cols, gt.rows);
+      d.assign(box.area(), 0.0f);
+      for (int y = 0; y < box.height; ++y)
+        std::copy_n(gt.ptr<float>(box.y + y) + box.x, box.width, d.begin() + y * box.width);
+      std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+      err.push_back(
+          std::abs(-baseline * focal_param_from_inverse_depth(rig, tile_q[t]) - d[d.size() / 2]));
+    }
+  std::sort(err.begin(), err.end());
+  return err;
+}
+
 }  // namespace lf

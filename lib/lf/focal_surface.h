@@ -103,4 +103,18 @@ class FocalSurfaceEstimator {
 // Applies an estimate to a request: its focal plane and surface.
 void apply(const SurfaceEstimate& e, ViewRequest& req);
 
+// An estimate against a ground-truth disparity map of its view, in the HCI
+// benchmark's convention (Honauer et al., ACCV 2016; lf/datasets.h): d
+// pixels of shift per camera step of `baseline` rig units, d = -a *
+// baseline with a the rig's light-slab focal parameter. Per tile of `tile`
+// pixels that `e` marks textured: |d at the inverse depth `tile_q[t]` - the
+// median ground truth over the tile (clipped to the map)|, in pixels,
+// sorted ascending. `tile_q` is e.tile_q for the surface, or one inverse
+// depth repeated for a single plane. Throws std::invalid_argument if `gt` is
+// not CV_32FC1, `tile_q` or e.textured do not have one entry per tile of
+// `gt`, or the rig has no focal parameter.
+std::vector<double> tile_disparity_errors(const Rig& rig, const SurfaceEstimate& e,
+                                          const std::vector<double>& tile_q, const cv::Mat& gt,
+                                          int tile, double baseline);
+
 }  // namespace lf
