@@ -227,16 +227,32 @@ SurfaceEstimate FocalSurfaceEstimator::estimate(const ViewRequest& req, SurfaceC
   c.phase = (c.phase + 1) % opt_.stride;
   const double fpos = best_single(c.fine, tiles, cap);
   if (fpos > 0 && fpos < opt_.fine_planes - 1) out.single_q = q_at(fine_qs, fpos);
-  gpos = (out.single_q - qa) / (qb - qa) * (opt_.fine_planes - 1);
-  out.single = plane_at_inverse_depth(*rig_, out.single_q);
-  const std::vector<int> label =
-      solve(c.fine, cols, rows, gpos, min_count(fine_), opt_, out.textured);
+  const int evaluated = out.planes_evaluated;
+  out = surface_from_costs(*rig_, c.fine, cols, rows, out.single_q, min_count(fine_), opt_);
+  out.planes_evaluated = evaluated;
+  return out;
+}
+
+SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols, int rows,
+                                   double single_q, double min_count, const SurfaceOptions& opt) {
+  const int tiles = cols * rows, M = static_cast<int>(c.qs.size());
+  if (M < 3 || c.sum.size() != static_cast<size_t>(M) * tiles || c.count.size() != c.sum.size())
+    throw std::invalid_argument("surface_from_costs: " + std::to_string(c.sum.size()) +
+                                " costs for " + std::to_string(M) + " planes of " +
+                                std::to_string(tiles) + " tiles");
+  SurfaceEstimate out;
+  const double qa = c.qs.front(), qb = c.qs.back();
+  if (std::isnan(single_q))
+    single_q = q_at(c.qs, best_single(c, tiles, opt.truncate * opt.truncate));
+  out.single_q = single_q;
+  const double gpos = (single_q - qa) / (qb - qa) * (M - 1);
+  out.single = plane_at_inverse_depth(rig, single_q);
+  const std::vector<int> label = solve(c, cols, rows, gpos, min_count, opt, out.textured);
 
   // Labels -> planes (index 0: the single plane).
-  const int M = opt_.fine_planes;
   std::vector<int> plane_of_label(M + 1, -1);
   FocalSurface fs;
-  fs.tile = T, fs.cols = cols, fs.rows = rows;
+  fs.tile = opt.tile, fs.cols = cols, fs.rows = rows;
   fs.planes.push_back(out.single);
   plane_of_label[M] = 0;
   fs.plane_of.assign(tiles, 0);
@@ -246,10 +262,10 @@ SurfaceEstimate FocalSurfaceEstimator::estimate(const ViewRequest& req, SurfaceC
     if (l < 0) continue;
     if (plane_of_label[l] < 0) {
       plane_of_label[l] = static_cast<int>(fs.planes.size());
-      fs.planes.push_back(plane_at_inverse_depth(*rig_, fine_qs[l]));
+      fs.planes.push_back(plane_at_inverse_depth(rig, c.qs[l]));
     }
     fs.plane_of[t] = static_cast<uint8_t>(plane_of_label[l]);
-    out.tile_q[t] = l == M ? out.single_q : fine_qs[l];
+    out.tile_q[t] = l == M ? out.single_q : c.qs[l];
   }
   out.planes_used = fs.planes_used();
   if (out.planes_used == 1 && fs.plane_of[0] != 0) {

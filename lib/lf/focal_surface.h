@@ -100,6 +100,20 @@ class FocalSurfaceEstimator {
   AnalysisImages coarse_, fine_;
 };
 
+// The surface from per-tile costs of one sweep, as the estimator's last
+// pass: `c.qs` holds at least 3 inverse depths in increasing order, and
+// c.sum / c.count the cost sums and sample counts per plane and tile of a
+// cols x rows grid of opt.tile pixels ([plane * tiles + tile]); the single
+// plane is at inverse depth `single_q` (NaN: the minimum of the whole
+// view's mean cost, parabola-refined). Tiles whose 3 x 3 neighbourhood has
+// fewer than `min_count` samples at some plane, or too little texture, keep
+// the single plane; the others are labelled by semi-global matching. Used
+// by FocalSurfaceEstimator and by surface probes (lf/surface_probe.h), which
+// measure the costs from the cameras' fragments. planes_evaluated is left
+// 0. Throws std::invalid_argument if the costs do not fit the grid.
+SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols, int rows,
+                                   double single_q, double min_count, const SurfaceOptions& opt);
+
 // Applies an estimate to a request: its focal plane and surface.
 void apply(const SurfaceEstimate& e, ViewRequest& req);
 
