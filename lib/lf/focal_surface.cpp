@@ -8,9 +8,7 @@
 
 namespace lf {
 
-FocalSurfaceEstimator::FocalSurfaceEstimator(const Rig& rig, const std::vector<cv::Mat>& images,
-                                             SurfaceOptions opt)
-    : rig_(&rig), opt_(opt) {
+void validate(const SurfaceOptions& opt) {
   auto bad = [](const std::string& what) {
     throw std::invalid_argument("focal surface estimator: " + what);
   };
@@ -25,11 +23,21 @@ FocalSurfaceEstimator::FocalSurfaceEstimator(const Rig& rig, const std::vector<c
   if (opt.stride < 1 || opt.stride > std::min(opt.planes, opt.fine_planes))
     bad("stride must be 1..planes");
   if (!(opt.max_parallax_px > 0) || !(opt.truncate > 0)) bad("parallax and truncation must be > 0");
+}
+
+double sweep_q_max(const Rig& rig, const SurfaceOptions& opt) {
   std::vector<double> f;
   for (const Camera& c : rig.cameras) f.push_back(c.intrinsics.fx);
-  if (f.empty()) bad("empty rig");
+  if (f.empty()) throw std::invalid_argument("focal surface estimator: empty rig");
   std::nth_element(f.begin(), f.begin() + f.size() / 2, f.end());
-  q_max_ = opt.max_parallax_px / (f[f.size() / 2] * rig.typical_spacing());
+  return opt.max_parallax_px / (f[f.size() / 2] * rig.typical_spacing());
+}
+
+FocalSurfaceEstimator::FocalSurfaceEstimator(const Rig& rig, const std::vector<cv::Mat>& images,
+                                             SurfaceOptions opt)
+    : rig_(&rig), opt_(opt) {
+  validate(opt);
+  q_max_ = sweep_q_max(rig, opt);
   coarse_ = analysis_images(rig, images, opt.analysis_width);
   fine_ = analysis_images(rig, images, opt.fine_width);
 }
@@ -241,11 +249,14 @@ SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols
                                 " costs for " + std::to_string(M) + " planes of " +
                                 std::to_string(tiles) + " tiles");
   SurfaceEstimate out;
-  const double qa = c.qs.front(), qb = c.qs.back();
   if (std::isnan(single_q))
     single_q = q_at(c.qs, best_single(c, tiles, opt.truncate * opt.truncate));
   out.single_q = single_q;
-  const double gpos = (single_q - qa) / (qb - qa) * (M - 1);
+  // Its fractional index into c.qs (the inverse of q_at; c.qs need not be
+  // evenly spaced, as when a probe lacks some planes).
+  int k = 0;
+  while (k + 2 < M && single_q > c.qs[k + 1]) ++k;
+  const double gpos = k + (single_q - c.qs[k]) / (c.qs[k + 1] - c.qs[k]);
   out.single = plane_at_inverse_depth(rig, single_q);
   const std::vector<int> label = solve(c, cols, rows, gpos, min_count, opt, out.textured);
 

@@ -80,6 +80,14 @@ struct SurfaceEstimate {
   int planes_evaluated = 0;    // candidate planes swept by this call
 };
 
+// Throws std::invalid_argument naming the first bad option.
+void validate(const SurfaceOptions& opt);
+// The first pass's largest inverse depth (rig units^-1): max_parallax_px
+// between neighbouring cameras (Rig::typical_spacing) at the cameras'
+// median focal length; candidate plane k is at q_max * k / (planes - 1).
+// Throws std::invalid_argument for an empty rig.
+double sweep_q_max(const Rig& rig, const SurfaceOptions& opt);
+
 class FocalSurfaceEstimator {
  public:
   // `images`: CV_8UC4, one per rig camera. Throws std::invalid_argument on a

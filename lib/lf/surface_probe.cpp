@@ -1,0 +1,155 @@
+#include "lf/surface_probe.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "lf/focus.h"
+
+namespace lf {
+
+std::vector<ViewRequest> surface_probe_requests(const Rig& rig, const ViewRequest& view,
+                                                uint32_t probe_id, const SurfaceOptions& opt) {
+  validate(opt);
+  const double q_max = sweep_q_max(rig, opt);
+  ViewRequest base = scaled_request(view, std::min(opt.analysis_width, view.view.width));
+  std::vector<ViewRequest> out;
+  for (int k = 0; k < opt.planes; ++k) {
+    ViewRequest r = base;
+    r.focal_plane = plane_at_inverse_depth(rig, q_max * k / (opt.planes - 1));
+    r.sequence = surface_probe_sequence(probe_id, k);
+    out.push_back(r);
+  }
+  return out;
+}
+
+SurfaceProbeAnswers::SurfaceProbeAnswers(int width, int height, SurfaceOptions opt)
+    : width_(width), height_(height), opt_(opt) {
+  validate(opt);
+  if (width < 2 || height < 2)
+    throw std::invalid_argument("surface probe: output " + std::to_string(width) + "x" +
+                                std::to_string(height));
+  // The probe's size, as scaled_request makes it.
+  aw_ = std::min(opt.analysis_width, width);
+  ah_ = std::max(2, static_cast<int>(std::lround(height * static_cast<double>(aw_) / width)));
+}
+
+bool SurfaceProbeAnswers::add(int step, Fragment f) {
+  if (step < 0 || step >= opt_.planes || f.out_width != aw_ || f.out_height != ah_) return false;
+  auto& answers = by_camera_[f.camera_id];
+  for (const auto& a : answers)
+    if (a.first == step) return false;
+  answers.emplace_back(step, std::move(f));
+  ++count_;
+  return true;
+}
+
+int SurfaceProbeAnswers::steps() const {
+  size_t most = 0;
+  for (const auto& [camera, answers] : by_camera_) most = std::max(most, answers.size());
+  return static_cast<int>(most);
+}
+
+int SurfaceProbeAnswers::complete_cameras() const {
+  const size_t most = static_cast<size_t>(steps());
+  int n = 0;
+  for (const auto& [camera, answers] : by_camera_) n += answers.size() == most;
+  return n;
+}
+
+int64_t SurfaceProbeAnswers::capture_time_ns() const {
+  const size_t most = static_cast<size_t>(steps());
+  int64_t t = -1;
+  for (const auto& [camera, answers] : by_camera_)
+    if (answers.size() == most)
+      for (const auto& a : answers) t = std::max(t, a.second.capture_time_ns);
+  return t;
+}
+
+SurfaceEstimate SurfaceProbeAnswers::estimate(const Rig& rig, bool* ok) const {
+  // The steps that every complete camera answered (the same set for all of
+  // them, so every plane compares the same cameras).
+  const size_t most = static_cast<size_t>(steps());
+  std::vector<int> answered(opt_.planes, 0);
+  int complete = 0;
+  for (const auto& [camera, answers] : by_camera_) {
+    if (answers.size() != most) continue;
+    ++complete;
+    for (const auto& a : answers) answered[a.first]++;
+  }
+  std::vector<int> steps;
+  for (int k = 0; k < opt_.planes; ++k)
+    if (complete > 0 && answered[k] == complete) steps.push_back(k);
+  const int T = opt_.tile;
+  const int cols = (width_ + T - 1) / T, rows = (height_ + T - 1) / T, tiles = cols * rows;
+  if (steps.size() < 3) {
+    if (ok) *ok = false;
+    SurfaceEstimate none;
+    none.single = FocalPlane::infinity();
+    none.tile_q.assign(tiles, 0.0);
+    none.textured.assign(tiles, false);
+    return none;
+  }
+  const double q_max = sweep_q_max(rig, opt_);
+  std::vector<int> index_of(opt_.planes, -1);
+  SweepCosts c;
+  for (size_t i = 0; i < steps.size(); ++i) {
+    index_of[steps[i]] = static_cast<int>(i);
+    c.qs.push_back(q_max * steps[i] / (opt_.planes - 1));
+  }
+  const size_t n = steps.size();
+  c.sum.assign(n * tiles, 0.0);
+  c.count.assign(n * tiles, 0.0);
+  c.have.assign(n, true);
+  // Tile of each probe column and row (as the estimator's sweep).
+  std::vector<int> tx(aw_), ty(ah_);
+  for (int x = 0; x < aw_; ++x)
+    tx[x] = std::min(cols - 1, static_cast<int>((x + 0.5) * width_ / aw_) / T);
+  for (int y = 0; y < ah_; ++y)
+    ty[y] = std::min(rows - 1, static_cast<int>((y + 0.5) * height_ / ah_) / T);
+  // Per probe pixel: sum w, sum w g, sum w g^2 (g: grey level of the
+  // un-premultiplied colour, (c0 + 2 c1 + c2) / 4, the same for RGBA and
+  // BGRA), one step at a time.
+  const size_t npx = static_cast<size_t>(aw_) * ah_;
+  std::vector<float> s0(npx), s1(npx), s2(npx);
+  const float cap = static_cast<float>(opt_.truncate * opt_.truncate);
+  for (size_t i = 0; i < n; ++i) {
+    std::fill(s0.begin(), s0.end(), 0.0f);
+    std::fill(s1.begin(), s1.end(), 0.0f);
+    std::fill(s2.begin(), s2.end(), 0.0f);
+    for (const auto& [camera, answers] : by_camera_) {
+      if (answers.size() != most) continue;
+      for (const auto& [step, f] : answers) {
+        if (step != steps[i] || f.empty()) continue;
+        const uint8_t* px = f.pixels.data();
+        for (int row = 0; row < f.rect.height; ++row) {
+          const size_t base = static_cast<size_t>(f.rect.y + row) * aw_;
+          for (int x = f.spans[row][0]; x < f.spans[row][1]; ++x, px += 4) {
+            if (px[3] == 0) continue;
+            const float w = px[3] / 255.0f;
+            const float g = (px[0] + 2.0f * px[1] + px[2]) / 4.0f;  // w times the grey level
+            s0[base + x] += w;
+            s1[base + x] += g;
+            s2[base + x] += g * g / w;
+          }
+        }
+      }
+    }
+    double* sum = &c.sum[i * tiles];
+    double* cnt = &c.count[i * tiles];
+    for (int y = 0; y < ah_; ++y)
+      for (int x = 0; x < aw_; ++x) {
+        const size_t k = static_cast<size_t>(y) * aw_ + x;
+        if (s0[k] < 0.9f) continue;  // most of the aperture must see the point
+        const float m = s1[k] / s0[k];
+        const int t = ty[y] * cols + tx[x];
+        sum[t] += std::min(std::max(0.0f, s2[k] / s0[k] - m * m), cap);
+        cnt[t] += 1.0;
+      }
+  }
+  if (ok) *ok = true;
+  return surface_from_costs(rig, c, cols, rows, std::numeric_limits<double>::quiet_NaN(),
+                            0.5 * static_cast<double>(npx) / tiles, opt_);
+}
+
+}  // namespace lf
