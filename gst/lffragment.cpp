@@ -15,9 +15,9 @@
  * `frame-timeout` for it; so every camera of a deployment warps frames of
  * one capture instant for a request, and a live run and the playback of its
  * recording pair the same frames with the same requests (lfcamerahost
- * `record`/`playback`). Focus probes (lib/lf/focus_probe.h) always pick by
- * capture time, one frame for all steps of a probe; a camera that no longer
- * holds the frame of the probe's instant (its frame period), or skipped it,
+ * `record`/`playback`). Focus probes (lib/lf/focus_probe.h) and surface
+ * probes (lib/lf/surface_probe.h) always pick by capture time, one frame for all steps of a probe;
+ * a camera that no longer holds the frame of the probe's instant (its frame period), or skipped it,
  * sits the probe out. Camera frames may come from any upstream element (e.g.
  * `uridecodebin ! videoconvert ! videoscale ! video/x-raw,format=RGBA,
  * width=W,height=H ! lffragment`); their PTS is then the capture time.
@@ -47,6 +47,7 @@
 #include "lf/focus_probe.h"
 #include "lf/plan.h"
 #include "lf/render.h"
+#include "lf/surface_probe.h"
 #include "lf/wire.h"
 #include "lfbackend.h"
 #include "lfcaps.h"
@@ -153,10 +154,11 @@ struct Priv {
   // The last camera frames (kFrameRing for frame-select=capture-time, else
   // two), oldest first, with their capture times (ns); back(): the newest.
   std::deque<std::pair<int64_t, GstBuffer*>> ring;
-  // The frame the current focus probe's first step took: its other 31
-  // steps use it too, even after newer frames pushed it out of the ring (a
-  // busy camera warps the steps while frames keep coming).
-  uint32_t probe_id = 0;
+  // The frame the current probe's first step took (a focus or a surface
+  // probe): its other steps use it too, even after newer frames pushed it
+  // out of the ring (a busy camera warps the steps while frames keep
+  // coming). The probe by its sequence without the step (kind and id).
+  uint64_t probe_key = 0;
   GstBuffer* probe_frame = nullptr;
   GstVideoInfo vinfo;
   bool have_vinfo = false;
@@ -378,7 +380,9 @@ static GstBuffer* frame_at(Priv* p, int64_t t, bool exact = false) {
   int64_t best_time = p->ring.front().first;
   for (const auto& [time, b] : p->ring)
     if (time <= t) best = b, best_time = time;
-  if (exact && period > 0 && best_time <= t - period) return nullptr;
+  // After the camera's end of stream its last frame stands for every later
+  // instant (a still, or a camera that stopped): nothing newer will come.
+  if (exact && period > 0 && best_time <= t - period && !p->video_eos) return nullptr;
   return gst_buffer_ref(best);
 }
 
@@ -462,11 +466,12 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
                            : GST_BUFFER_PTS_IS_VALID(buf)
                                ? static_cast<int64_t>(GST_BUFFER_PTS(buf))
                                : -1;
-  // A focus probe's steps must all see the frames of one capture instant, in
-  // every camera: by capture time whatever frame-select says, and one frame
-  // for all steps of a probe.
-  const bool probe = lf::is_focus_probe(req.sequence);
-  if (probe && p->probe_frame && p->probe_id == lf::focus_probe_id(req.sequence)) {
+  // A probe's steps (focus or surface) must all see the frames of one
+  // capture instant, in every camera: by capture time whatever frame-select
+  // says, and one frame for all steps of a probe.
+  const bool probe = lf::is_focus_probe(req.sequence) || lf::is_surface_probe(req.sequence);
+  const uint64_t probe_key = req.sequence >> 16;
+  if (probe && p->probe_frame && p->probe_key == probe_key) {
     frame = gst_buffer_ref(p->probe_frame);
   } else if ((st->s.frame_select == FrameSelect::kCaptureTime || probe) && req_time >= 0) {
     // A probe's instant already out of the ring (a camera lagging), or a
@@ -475,7 +480,7 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
     // different instants disagree at the true depth).
     frame = frame_at(p, req_time, probe);
     if (probe && frame) {
-      p->probe_id = lf::focus_probe_id(req.sequence);
+      p->probe_key = probe_key;
       gst_buffer_replace(&p->probe_frame, frame);
     }
   } else if (!p->ring.empty())
@@ -484,10 +489,22 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
   const bool have_info = p->have_vinfo;
   g_mutex_unlock(&p->lock);
   if (!frame && probe && req_time >= 0 && have_info) {
-    GST_DEBUG_OBJECT(self, "focus probe %u: its instant is no longer here, sat out",
-                     lf::focus_probe_id(req.sequence));
+    // Sat out with an explicitly empty fragment, as a camera that sees none
+    // of the view: the compositor knows this camera answered (a non-live
+    // pipeline would otherwise wait for it for ever), and the probe is
+    // scored without its pixels in every step.
+    GST_DEBUG_OBJECT(self, "probe %" G_GUINT64_FORMAT ": its instant is no longer here, sat out",
+                     req.sequence);
+    lf::Fragment f;
+    f.viewer_id = req.viewer_id, f.sequence = req.sequence;
+    f.camera_id = static_cast<uint32_t>(cam.id);
+    f.out_width = req.view.width, f.out_height = req.view.height;
+    const std::vector<uint8_t> bytes = lf::serialize_fragment(f, lf::Encoding::kEmpty, 90);
+    GstBuffer* out = gst_buffer_new_memdup(bytes.data(), bytes.size());
+    gst_buffer_copy_into(out, buf, GST_BUFFER_COPY_TIMESTAMPS, 0, -1);
+    GST_BUFFER_OFFSET(out) = req.sequence;
     gst_buffer_unref(buf);
-    return GST_FLOW_OK;
+    return gst_pad_push(self->srcpad, out);
   }
   GstVideoFrame vf;
   if (!frame || !have_info || !gst_video_frame_map(&vf, &info, frame, GST_MAP_READ)) {

@@ -18,6 +18,7 @@
 #include "lf/render.h"
 #include "lf/render_view.h"
 #include "lf/rig_file.h"
+#include "lf/surface_probe.h"
 #include "lf/synthetic.h"
 #include "lf/view_builder.h"
 #include "lf/wire.h"
@@ -170,6 +171,97 @@ TEST_F(Harness, ViewRequestProperties) {
 
 // A click whose probe gets no answer is probed again a second later (25
 // requests at 25 fps, live), twice at most; an answer stops the retries.
+// lfviewrequest focal-surface=true: a surface probe with the first request
+// and every surface-interval requests; an lf-surface answer to it goes into
+// the next requests; malformed answers, answers to probes it did not send,
+// and surfaces for another grid are refused.
+TEST_F(Harness, ViewRequestCarriesTheSurfaceTheCompositorSent) {
+  GstHarness* h = gst_harness_new("lfviewrequest");
+  g_object_set(h->element, "rig", rig_path_.c_str(), "viewer-id", 2u, "is-live", TRUE, "width", 64,
+               "height", 48, "eye-s", 0.01, "focal-surface", TRUE, "surface-interval", 4u, nullptr);
+  gst_util_set_object_arg(G_OBJECT(h->element), "framerate", "50/1");
+  gst_harness_use_systemclock(h);  // live: requests on the clock
+  gst_harness_play(h);
+  const int planes_per_probe = lf::SurfaceOptions{}.planes;
+  // Pulls requests until `done` says so of one (at most `limit`); false if
+  // none did.
+  auto pull_until = [&](int limit, auto done) {
+    for (int k = 0; k < limit; ++k) {
+      GstBuffer* b = gst_harness_pull(h);
+      if (!b) return false;
+      const lf::ViewRequest r = parsed_request(b);
+      gst_buffer_unref(b);
+      if (lf::is_surface_probe(r.sequence)) {
+        EXPECT_EQ(r.view.width, 64);  // below the probe's 160 pixels: the view's own
+      }
+      if (done(r)) return true;
+    }
+    return false;
+  };
+  auto probe_end = [&](uint32_t* id) {
+    return [=](const lf::ViewRequest& r) {
+      if (!lf::is_surface_probe(r.sequence) ||
+          lf::surface_probe_step(r.sequence) != planes_per_probe - 1)
+        return false;
+      *id = lf::surface_probe_id(r.sequence);
+      return true;
+    };
+  };
+  auto frame = [](bool with_surface, lf::ViewRequest* out) {
+    return [=](const lf::ViewRequest& r) {
+      if (lf::is_surface_probe(r.sequence) || r.surface.empty() == with_surface) return false;
+      *out = r;
+      return true;
+    };
+  };
+  auto answer = [&](uint32_t probe, int tile, int cols, int rows, std::vector<double> planes,
+                    std::vector<uint8_t> plane_of) {
+    GBytes* pb = g_bytes_new(planes.data(), planes.size() * sizeof(double));
+    GBytes* ob = g_bytes_new(plane_of.data(), plane_of.size());
+    gst_harness_push_upstream_event(
+        h, gst_event_new_custom(
+               GST_EVENT_CUSTOM_UPSTREAM,
+               gst_structure_new("lf-surface", "viewer-id", G_TYPE_UINT, 2u, "probe-id",
+                                 G_TYPE_UINT, probe, "tile", G_TYPE_INT, tile, "cols", G_TYPE_INT,
+                                 cols, "rows", G_TYPE_INT, rows, "planes", G_TYPE_BYTES, pb,
+                                 "plane-of", G_TYPE_BYTES, ob, nullptr)));
+    g_bytes_unref(pb);
+    g_bytes_unref(ob);
+  };
+  uint32_t first = 0, second = 0;
+  lf::ViewRequest r;
+  ASSERT_TRUE(pull_until(planes_per_probe + 1, probe_end(&first)))
+      << "a probe with the first request";
+  // 64x48 in 16-pixel tiles: 4 x 3. Two planes (z = 2 and z = 5, n = +z).
+  const std::vector<double> planes = {0, 0, 1, -2, 0, 0, 1, -5};
+  std::vector<uint8_t> plane_of(12, 0);
+  plane_of[5] = plane_of[6] = 1;
+  answer(first + 7, 16, 4, 3, planes, plane_of);  // a probe it did not send
+  answer(first, 16, 4, 3, {0, 0, 1}, plane_of);   // planes: not 4 doubles each
+  answer(first, 16, 4, 3, planes, {0, 1});        // plane-of: not one per tile
+  EXPECT_FALSE(pull_until(3 * (planes_per_probe + 4), frame(true, &r))) << "no valid answer yet";
+  answer(first, 16, 4, 3, planes, plane_of);
+  ASSERT_TRUE(pull_until(2 * (planes_per_probe + 4), frame(true, &r)));
+  EXPECT_EQ(r.surface.plane_of, plane_of);
+  EXPECT_NEAR(r.focal_plane.d, -2, 1e-12);  // plane 0, the single plane
+  guint used = 0;
+  g_object_get(h->element, "surface-planes", &used, nullptr);
+  EXPECT_EQ(used, 2u);
+  ASSERT_TRUE(pull_until(2 * (planes_per_probe + 4), probe_end(&second)));
+  EXPECT_GT(second, first);
+  ASSERT_TRUE(pull_until(2, frame(true, &r))) << "the surface stays until a newer one comes";
+  // An answer for another grid (8-pixel tiles): refused when a request
+  // takes it (lf::validate); the requests go back to the focal plane.
+  answer(second, 8, 8, 6, planes, std::vector<uint8_t>(48, 1));
+  EXPECT_TRUE(pull_until(2 * (planes_per_probe + 4), frame(false, &r)));
+  // focal-surface off: after the tick under way, no probes and no surface.
+  g_object_set(h->element, "focal-surface", FALSE, nullptr);
+  uint32_t none = 0;
+  pull_until(planes_per_probe + 2, frame(false, &r));
+  EXPECT_FALSE(pull_until(12, probe_end(&none)));
+  gst_harness_teardown(h);
+}
+
 TEST_F(Harness, AnUnansweredClickIsProbedAgainTwice) {
   // Pulls requests up to request `until`; the requests (ticks) whose probe
   // went with them, and the last probe's id.
@@ -345,8 +437,9 @@ TEST_F(Harness, FragmentOnTheGlBackend) {
 }
 
 // A focus probe is answered from the frame of its own instant only: a camera
-// that skipped that frame (late) sits the probe out, where a frame request
-// takes the newest frame before it.
+// that skipped that frame (late) sits the probe out with an explicitly empty
+// fragment (so a non-live compositor does not wait for it), where a frame
+// request takes the newest frame before it. Surface probes alike.
 TEST_F(Harness, AProbeTakesOnlyTheFrameOfItsInstant) {
   GstHarness* video = nullptr;
   cv::Mat frame;
@@ -358,14 +451,25 @@ TEST_F(Harness, AProbeTakesOnlyTheFrameOfItsInstant) {
     lf::ViewRequest r = request(sequence);
     r.time_ns = time_ns;
     EXPECT_EQ(gst_harness_push(h, bytes(lf::serialize_request(r), GST_SECOND)), GST_FLOW_OK);
+    // "empty", "pixels" or how many buffers came otherwise.
     const guint n = gst_harness_buffers_in_queue(h);
+    std::string what = std::to_string(n) + " buffers";
+    if (n == 1) {
+      GstBuffer* out = gst_harness_pull(h);
+      const lf::Fragment f = parsed_fragment(out);
+      gst_buffer_unref(out);
+      EXPECT_EQ(f.sequence, sequence);
+      what = f.empty() ? "empty" : "pixels";
+    }
     while (gst_harness_buffers_in_queue(h) > 0) gst_buffer_unref(gst_harness_pull(h));
-    return n;
+    return what;
   };
   const int64_t skipped = 123 + 2 * GST_SECOND / 30;
-  EXPECT_EQ(answers(lf::focus_probe_sequence(1, 0), skipped), 0u) << "its frame was skipped";
-  EXPECT_EQ(answers(lf::focus_probe_sequence(2, 0), 123 + 10), 1u) << "its frame is there";
-  EXPECT_EQ(answers(7, skipped), 1u) << "a frame request takes the frame before";
+  EXPECT_EQ(answers(lf::focus_probe_sequence(1, 0), skipped), "empty") << "its frame was skipped";
+  EXPECT_EQ(answers(lf::surface_probe_sequence(1, 0), skipped), "empty") << "its frame was skipped";
+  EXPECT_EQ(answers(lf::focus_probe_sequence(2, 0), 123 + 10), "pixels") << "its frame is there";
+  EXPECT_EQ(answers(lf::surface_probe_sequence(2, 0), 123 + 10), "pixels") << "its frame is there";
+  EXPECT_EQ(answers(7, skipped), "pixels") << "a frame request takes the frame before";
   gst_harness_teardown(video);
   gst_harness_teardown(h);
 }

@@ -82,14 +82,16 @@ SurfaceEstimate SurfaceProbeAnswers::estimate(const Rig& rig, bool* ok) const {
     if (complete > 0 && answered[k] == complete) steps.push_back(k);
   const int T = opt_.tile;
   const int cols = (width_ + T - 1) / T, rows = (height_ + T - 1) / T, tiles = cols * rows;
-  if (steps.size() < 3) {
+  // Nothing to estimate from: a single plane at infinity, and ok false.
+  auto none = [&] {
     if (ok) *ok = false;
-    SurfaceEstimate none;
-    none.single = FocalPlane::infinity();
-    none.tile_q.assign(tiles, 0.0);
-    none.textured.assign(tiles, false);
-    return none;
-  }
+    SurfaceEstimate e;
+    e.single = FocalPlane::infinity();
+    e.tile_q.assign(tiles, 0.0);
+    e.textured.assign(tiles, false);
+    return e;
+  };
+  if (steps.size() < 3) return none();
   const double q_max = sweep_q_max(rig, opt_);
   std::vector<int> index_of(opt_.planes, -1);
   SweepCosts c;
@@ -147,6 +149,9 @@ SurfaceEstimate SurfaceProbeAnswers::estimate(const Rig& rig, bool* ok) const {
         cnt[t] += 1.0;
       }
   }
+  // No pixel seen by most of the aperture at any plane (every camera sat
+  // the probe out, or sees none of the view): nothing to estimate from.
+  if (std::all_of(c.count.begin(), c.count.end(), [](double v) { return v == 0; })) return none();
   if (ok) *ok = true;
   return surface_from_costs(rig, c, cols, rows, std::numeric_limits<double>::quiet_NaN(),
                             0.5 * static_cast<double>(npx) / tiles, opt_);

@@ -83,8 +83,10 @@ class SurfaceProbeAnswers {
   // (camera, step), a step out of range or a fragment for another size.
   bool add(int step, Fragment f);
   size_t fragments() const { return count_; }
-  int steps() const;             // answered by the most complete camera
-  int complete_cameras() const;  // cameras with that many
+  int steps() const;                    // answered by the most complete camera
+  int complete_cameras() const;         // cameras with that many
+  int width() const { return width_; }  // the output's
+  int height() const { return height_; }
   int probe_width() const { return aw_; }
   int probe_height() const { return ah_; }
   // The newest capture time (ns) among the complete cameras' fragments; -1
@@ -92,7 +94,8 @@ class SurfaceProbeAnswers {
   int64_t capture_time_ns() const;
   // The surface (tiles of opt.tile over the output) from the complete
   // cameras; `ok` false (and a single plane at infinity) when fewer than 3
-  // planes were answered by them.
+  // planes were answered by them or no pixel was seen by most of the
+  // aperture (every camera sat the probe out with an empty fragment).
   SurfaceEstimate estimate(const Rig& rig, bool* ok = nullptr) const;
 
  private:
