@@ -21,6 +21,18 @@
  * (gst_aggregator_set_latency), unless the `latency` property is set, which
  * then replaces it.
  *
+ * Probes are scored here, never composited: the fragments of a focus probe
+ * (lib/lf/focus_probe.h) give the depth under a clicked pixel (an upstream
+ * `lf-focus` event), and those of a surface probe (lib/lf/surface_probe.h)
+ * a focal surface for the whole view (an upstream `lf-surface` event; see
+ * `lfviewrequest`'s focal-surface). A probe is scored when every camera has
+ * answered every step, or at a deadline (1 s, or `latency` when longer)
+ * from the cameras that answered every step they sent. This is where the
+ * surface is estimated in a distributed deployment because it is the one
+ * place where every camera's contribution arrives separately: no camera
+ * image leaves its host, and the probes are ordinary requests and
+ * fragments, so RTP carries them unchanged.
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 lfviewrequest rig=rig.json num-buffers=30 ! tee name=t \
@@ -47,6 +59,7 @@
 #include "lf/composite.h"
 #include "lf/focus_probe.h"
 #include "lf/fragment.h"
+#include "lf/surface_probe.h"
 #include "lf/wire.h"
 #include "lfbackend.h"
 #include "lfcaps.h"
@@ -124,12 +137,43 @@ constexpr gint64 kProbeDeadlineUs = G_USEC_PER_SEC;
 constexpr size_t kMaxProbes = 4;
 constexpr size_t kFinishedProbes = 16;
 
-// The focus probe being collected (lib/lf/focus_probe.h).
+// Surface probes (lib/lf/surface_probe.h) collected at once: one every
+// `surface-interval` requests of lfviewrequest; a second may start before
+// the first is complete.
+constexpr size_t kMaxSurfaceProbes = 2;
+
+// A probe being collected: a focus probe (lib/lf/focus_probe.h) or a
+// surface probe (lib/lf/surface_probe.h).
+template <class Answers>
 struct Probe {
   uint32_t id = 0;
   guint viewer = 0;
   gint64 started_us = 0;
-  lf::FocusProbeAnswers answers;
+  Answers answers;
+};
+// The probes of one kind being collected, by id, and the ids of the last
+// kFinishedProbes scored.
+template <class Answers>
+struct Probes {
+  std::map<uint32_t, Probe<Answers>> open;
+  std::deque<uint32_t> finished;
+  using Iter = typename std::map<uint32_t, Probe<Answers>>::iterator;
+  bool scored(uint32_t id) const {
+    return std::find(finished.begin(), finished.end(), id) != finished.end();
+  }
+  // Takes probe `it` out of the open ones, to be scored.
+  Probe<Answers> take(Iter it) {
+    Probe<Answers> p = std::move(it->second);
+    open.erase(it);
+    finished.push_back(p.id);
+    if (finished.size() > kFinishedProbes) finished.pop_front();
+    return p;
+  }
+  Iter oldest() {
+    return std::min_element(open.begin(), open.end(), [](const auto& a, const auto& b) {
+      return a.second.started_us < b.second.started_us;
+    });
+  }
 };
 
 // From start (READY->PAUSED) to stop (PAUSED->READY); used on the aggregate
@@ -159,10 +203,11 @@ struct State {
   guint64 foreign_count = 0;
   gint64 foreign_since_us = -1;
   bool warned_foreign = false;
-  // Focus probes being collected, by id; the ids of the last ones scored.
-  std::map<uint32_t, Probe> probes;
-  std::deque<uint32_t> finished_probes;
-  lfgst::WarnLimiter no_focus, bad, foreign, unknown_camera, wrong_size, no_size, out_of_window;
+  // Focus and surface probes being collected.
+  Probes<lf::FocusProbeAnswers> probes;
+  Probes<lf::SurfaceProbeAnswers> surface_probes;
+  lfgst::WarnLimiter no_focus, no_surface, bad, foreign, unknown_camera, wrong_size, no_size,
+      out_of_window;
   ~State() {
     if (convert) gst_video_converter_free(convert);
     drop_pool();
@@ -549,11 +594,8 @@ static gboolean push_upstream(GstAggregator* agg, GstEvent* event) {
 // an lf-focus event (viewer-id, probe-id, inverse-depth, and capture-time:
 // the instant measured, ns, -1 unknown), which lfviewrequest applies as its
 // focal plane.
-static void finish_probe(LfCompositor* self, State* st, std::map<uint32_t, Probe>::iterator it) {
-  const Probe probe = std::move(it->second);
-  st->probes.erase(it);
-  st->finished_probes.push_back(probe.id);
-  if (st->finished_probes.size() > kFinishedProbes) st->finished_probes.pop_front();
+static void finish_probe(LfCompositor* self, State* st, Probes<lf::FocusProbeAnswers>::Iter it) {
+  const auto probe = st->probes.take(it);
   double q = 0;
   if (!st->rig || !probe.answers.best(*st->rig, &q)) {
     LF_ELEMENT_WARNING_LIMITED(self, st->no_focus, STREAM, FAILED,
@@ -579,10 +621,8 @@ static void absorb_probe(LfCompositor* self, State* st, const guint8* data, gsiz
                          const lf::FragmentHeader& head) {
   const uint32_t id = lf::focus_probe_id(head.sequence);
   const int step = lf::focus_probe_step(head.sequence);
-  auto it = st->probes.find(id);
-  if (it == st->probes.end() && std::find(st->finished_probes.begin(), st->finished_probes.end(),
-                                          id) != st->finished_probes.end())
-    return;  // already scored
+  auto it = st->probes.open.find(id);
+  if (it == st->probes.open.end() && st->probes.scored(id)) return;
   lf::Fragment f;
   const size_t side = lf::kFocusProbeSide;
   GError* err = nullptr;
@@ -592,23 +632,111 @@ static void absorb_probe(LfCompositor* self, State* st, const guint8* data, gsiz
     g_error_free(err);
     return;
   }
-  if (it == st->probes.end()) {
-    if (st->probes.size() >= kMaxProbes)
-      finish_probe(
-          self, st,
-          std::min_element(st->probes.begin(), st->probes.end(), [](const auto& a, const auto& b) {
-            return a.second.started_us < b.second.started_us;
-          }));
-    it = st->probes.emplace(id, Probe{}).first;
-    it->second.id = id;
-    it->second.viewer = f.viewer_id;
-    it->second.started_us = g_get_monotonic_time();
+  if (it == st->probes.open.end()) {
+    if (st->probes.open.size() >= kMaxProbes) finish_probe(self, st, st->probes.oldest());
+    it = st->probes.open
+             .emplace(id, Probe<lf::FocusProbeAnswers>{id, f.viewer_id, g_get_monotonic_time(), {}})
+             .first;
   }
-  Probe& pr = it->second;
+  auto& pr = it->second;
   if (!pr.answers.add(step, std::move(f))) return;
   const size_t cameras = st->rig ? st->rig->cameras.size() : 0;
   if (cameras > 0 && pr.answers.fragments() >= cameras * lf::kFocusProbeSteps)
     finish_probe(self, st, it);
+}
+
+// Estimates the focal surface from the surface probe collected so far
+// (lf::SurfaceProbeAnswers: the cameras that answered every step) and sends
+// it upstream as an lf-surface event (viewer-id, probe-id, capture-time:
+// the instant measured, ns, -1 unknown; tile, cols, rows; planes: GBytes
+// of 4 doubles (n.x, n.y, n.z, d) per plane, plane 0 the single plane;
+// plane-of: GBytes of one plane index per tile, row-major; planes-used),
+// which lfviewrequest puts into its requests.
+static void finish_surface_probe(LfCompositor* self, State* st,
+                                 Probes<lf::SurfaceProbeAnswers>::Iter it) {
+  const auto probe = st->surface_probes.take(it);
+  lf::SurfaceEstimate e;
+  bool ok = false;
+  GError* err = nullptr;
+  const gint64 t0 = g_get_monotonic_time();
+  if (!st->rig || !lfgst::guard([&] { e = probe.answers.estimate(*st->rig, &ok); }, &err) || !ok) {
+    LF_ELEMENT_WARNING_LIMITED(self, st->no_surface, STREAM, FAILED,
+                               ("Cannot estimate the focal surface"),
+                               "surface probe %u: %s (%zu fragments from %d cameras)", probe.id,
+                               err ? err->message : "fewer than 3 planes answered by every camera",
+                               probe.answers.fragments(), probe.answers.complete_cameras());
+    if (err) g_error_free(err);
+    return;
+  }
+  const lf::SurfaceOptions opt;
+  lf::FocalSurface fs = e.surface;
+  if (fs.empty()) {  // one plane everywhere
+    const int W = probe.answers.width(), H = probe.answers.height();
+    fs.tile = opt.tile, fs.cols = (W + opt.tile - 1) / opt.tile;
+    fs.rows = (H + opt.tile - 1) / opt.tile;
+    fs.planes = {e.single};
+    fs.plane_of.assign(static_cast<size_t>(fs.cols) * fs.rows, 0);
+  }
+  std::vector<double> planes;
+  for (const lf::FocalPlane& pl : fs.planes)
+    planes.insert(planes.end(), {pl.n[0], pl.n[1], pl.n[2], pl.d});
+  GBytes* pb = g_bytes_new(planes.data(), planes.size() * sizeof(double));
+  GBytes* ob = g_bytes_new(fs.plane_of.data(), fs.plane_of.size());
+  lfgst::trace(GST_ELEMENT(self), "surface", probe.viewer, probe.id, -1,
+               static_cast<gint64>(e.planes_used));
+  GST_DEBUG_OBJECT(self,
+                   "surface probe %u: %d planes (%zd of %zu tiles textured) from %d cameras (%zu "
+                   "fragments), estimated in %.1f ms",
+                   probe.id, e.planes_used, std::count(e.textured.begin(), e.textured.end(), true),
+                   e.textured.size(), probe.answers.complete_cameras(), probe.answers.fragments(),
+                   (g_get_monotonic_time() - t0) / 1000.0);
+  GstStructure* s = gst_structure_new(
+      "lf-surface", "viewer-id", G_TYPE_UINT, probe.viewer, "probe-id", G_TYPE_UINT, probe.id,
+      "capture-time", G_TYPE_INT64, static_cast<gint64>(probe.answers.capture_time_ns()), "tile",
+      G_TYPE_INT, fs.tile, "cols", G_TYPE_INT, fs.cols, "rows", G_TYPE_INT, fs.rows, "planes",
+      G_TYPE_BYTES, pb, "plane-of", G_TYPE_BYTES, ob, "planes-used", G_TYPE_INT, e.planes_used,
+      nullptr);
+  g_bytes_unref(pb);
+  g_bytes_unref(ob);
+  push_upstream(GST_AGGREGATOR(self), gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, s));
+}
+
+// A fragment of a surface probe for an output of w x h (header already
+// checked: our viewer, a known camera): kept for the estimate, never
+// composited.
+static void absorb_surface_probe(LfCompositor* self, State* st, const guint8* data, gsize size,
+                                 const lf::FragmentHeader& head, int w, int h) {
+  const uint32_t id = lf::surface_probe_id(head.sequence);
+  auto it = st->surface_probes.open.find(id);
+  if (it == st->surface_probes.open.end() && st->surface_probes.scored(id)) return;
+  lf::Fragment f;
+  GError* err = nullptr;
+  if (!lfgst::guard(
+          [&] {
+            if (it == st->surface_probes.open.end()) {
+              if (st->surface_probes.open.size() >= kMaxSurfaceProbes)
+                finish_surface_probe(self, st, st->surface_probes.oldest());
+              it = st->surface_probes.open
+                       .emplace(id, Probe<lf::SurfaceProbeAnswers>{id, head.viewer_id,
+                                                                   g_get_monotonic_time(),
+                                                                   lf::SurfaceProbeAnswers(w, h)})
+                       .first;
+            }
+            const lf::SurfaceProbeAnswers& a = it->second.answers;
+            f = lf::parse_fragment(data, size, nullptr,
+                                   static_cast<size_t>(a.probe_width()) * a.probe_height());
+          },
+          &err)) {
+    LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE, ("Dropping a malformed fragment"),
+                               "%s", err->message);
+    g_error_free(err);
+    return;
+  }
+  auto& pr = it->second;
+  if (!pr.answers.add(lf::surface_probe_step(head.sequence), std::move(f))) return;
+  const size_t cameras = st->rig ? st->rig->cameras.size() : 0;
+  if (cameras > 0 && pr.answers.fragments() >= cameras * lf::SurfaceOptions{}.planes)
+    finish_surface_probe(self, st, it);
 }
 
 // Parses one fragment buffer and files it under its request. What a peer
@@ -647,6 +775,8 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
                                "camera %u is not in the rig", head.camera_id);
   } else if (lf::is_focus_probe(head.sequence)) {
     absorb_probe(self, st, data, size, head);
+  } else if (lf::is_surface_probe(head.sequence) && st->view_size(&w, &h)) {
+    absorb_surface_probe(self, st, data, size, head, w, h);
   } else if (!st->view_size(&w, &h)) {
     LF_ELEMENT_WARNING_LIMITED(self, st->no_size, STREAM, FORMAT,
                                ("No output size: dropping fragments"),
@@ -789,10 +919,16 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
   const gint64 probe_deadline_us =
       live ? std::max<gint64>(kProbeDeadlineUs, static_cast<gint64>(latency / GST_USECOND))
            : kProbeDeadlineUs;
-  for (auto it = st->probes.begin(); it != st->probes.end();) {
+  for (auto it = st->probes.open.begin(); it != st->probes.open.end();) {
     auto next = std::next(it);
     if (g_get_monotonic_time() - it->second.started_us > probe_deadline_us)
       finish_probe(self, st, it);
+    it = next;
+  }
+  for (auto it = st->surface_probes.open.begin(); it != st->surface_probes.open.end();) {
+    auto next = std::next(it);
+    if (g_get_monotonic_time() - it->second.started_us > probe_deadline_us)
+      finish_surface_probe(self, st, it);
     it = next;
   }
   const size_t expected = expected_fragments(self);

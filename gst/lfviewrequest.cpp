@@ -65,6 +65,28 @@
  * on a busy camera host, or every camera skipped its frame) is probed again,
  * twice at most.
  *
+ * ## Focal surface
+ *
+ * `focal-surface=true` focuses each 16-pixel tile of the view on its own
+ * plane, estimated from the cameras' fragments (Yang et al. use one focal
+ * plane per view; lib/lf/surface_probe.h): with the first request and then
+ * every `surface-interval` requests, a surface probe goes out with the
+ * tick's request: 32 requests for the view at 160 pixels wide, one per
+ * candidate plane parallel to the camera plane (0 to 24 px of neighbour
+ * parallax). The cameras answer with ordinary fragments; `lfcompositor`
+ * measures their photo-consistency per tile, labels the tiles (one plane
+ * where the scene is flat, more only where it has depth) and sends an
+ * upstream `lf-surface` event (`viewer-id`, `probe-id`, `capture-time`,
+ * `tile`, `cols`, `rows`, `planes`: #GBytes of 4 doubles (n.x, n.y, n.z, d)
+ * per plane, world frame, plane 0 the single plane; `plane-of`: #GBytes of
+ * one plane index per tile, row-major; `planes-used`). From then on the
+ * requests carry the surface (view request version 3, lib/lf/wire.h) in
+ * place of `focal-plane` and `focal-depth`, and `surface-planes` says how
+ * many planes it has; a newer probe's answer replaces it. Between probes a
+ * moving view keeps the last surface, so it suits a steady or slowly moving
+ * view. An eye on a camera sees that camera's image, for which the
+ * estimate keeps one plane.
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 lfviewrequest rig=rig.json position="<0,0,0>" focal-plane=depth:2 \
@@ -85,6 +107,7 @@
 #include "lf/focus.h"
 #include "lf/focus_probe.h"
 #include "lf/parse.h"
+#include "lf/surface_probe.h"
 #include "lf/view_builder.h"
 #include "lf/wire.h"
 #include "lfcaps.h"
@@ -116,6 +139,7 @@ G_END_DECLS
 #define DEFAULT_FPS_D 1
 #define DEFAULT_IS_LIVE FALSE
 #define DEFAULT_STEREO_BASELINE 0.0
+#define DEFAULT_SURFACE_INTERVAL 60
 // Largest eye offset or coordinate, rig units.
 #define MAX_COORD 1e12
 
@@ -136,6 +160,9 @@ struct Settings {
   bool live = DEFAULT_IS_LIVE;
   gdouble stereo_baseline = DEFAULT_STEREO_BASELINE;
   bool continuous_focus = false;
+  bool focal_surface = false;
+  guint surface_interval = DEFAULT_SURFACE_INTERVAL;
+  guint surface_planes = 0;  // read-only: planes of the surface in use (object lock)
 };
 
 // The views and focal plane that the view settings describe.
@@ -177,6 +204,13 @@ struct State {
   // list: GstBaseSrc 1.22 unrefs a NULL buffer when a state change meets a
   // submitted list (gst_base_src_get_range), a CRITICAL on a busy machine.
   std::deque<GstBuffer*> rest_of_tick;
+  // Focal surface (Priv::lock): the id of the last surface probe sent and of
+  // the last applied, the tick of the last one sent, and the surface in use
+  // (tile 0: none yet; planes[0] is the single plane).
+  guint32 next_surface_probe = 1, surface_probe = 0, applied_surface_probe = 0;
+  bool surface_sent = false;
+  guint64 surface_tick = 0;
+  lf::FocalSurface surface;
   ~State() {
     for (GstBuffer* b : rest_of_tick) gst_buffer_unref(b);
   }
@@ -558,8 +592,66 @@ static void handle_focus_event(LfViewRequest* self, GstEvent* event) {
   set_navigated(self, eye, depth);
 }
 
+// An lf-surface event (lfcompositor's answer to a surface probe): the
+// surface that the next requests carry, once per probe and never one older
+// than the surface in use. Sizes are checked here, the surface against the
+// view when a request takes it (lf::validate).
+static void handle_surface_event(LfViewRequest* self, GstEvent* event) {
+  Priv* p = self->priv;
+  const GstStructure* s = gst_event_get_structure(event);
+  guint probe = 0;
+  gint tile = 0, cols = 0, rows = 0;
+  const GValue* pv = gst_structure_get_value(s, "planes");
+  const GValue* ov = gst_structure_get_value(s, "plane-of");
+  GBytes* planes =
+      pv && G_VALUE_HOLDS(pv, G_TYPE_BYTES) ? static_cast<GBytes*>(g_value_get_boxed(pv)) : nullptr;
+  GBytes* plane_of =
+      ov && G_VALUE_HOLDS(ov, G_TYPE_BYTES) ? static_cast<GBytes*>(g_value_get_boxed(ov)) : nullptr;
+  constexpr gsize kPlaneBytes = 4 * sizeof(double);
+  const bool ok =
+      gst_structure_get_uint(s, "probe-id", &probe) && gst_structure_get_int(s, "tile", &tile) &&
+      gst_structure_get_int(s, "cols", &cols) && gst_structure_get_int(s, "rows", &rows) &&
+      planes && plane_of && tile >= lf::FocalSurface::kMinTile &&
+      tile <= lf::FocalSurface::kMaxTile && cols > 0 && rows > 0 && cols <= 16384 &&
+      rows <= 16384 && g_bytes_get_size(planes) % kPlaneBytes == 0 &&
+      g_bytes_get_size(planes) >= kPlaneBytes &&
+      g_bytes_get_size(planes) <= lf::FocalSurface::kMaxPlanes * kPlaneBytes &&
+      g_bytes_get_size(plane_of) == static_cast<gsize>(cols) * static_cast<gsize>(rows);
+  if (!ok) {
+    LF_ELEMENT_WARNING_LIMITED(self, p->bad_event, STREAM, FAILED,
+                               ("Ignoring a malformed lf-surface event"), "%s",
+                               "needs probe-id (uint), tile (4..1024), cols and rows (int > 0), "
+                               "planes (bytes: 1..64 planes of 4 doubles) and plane-of (bytes: "
+                               "cols x rows)");
+    return;
+  }
+  lf::FocalSurface fs;
+  fs.tile = tile, fs.cols = cols, fs.rows = rows;
+  gsize n = 0;
+  const auto* d = static_cast<const double*>(g_bytes_get_data(planes, &n));
+  for (gsize i = 0; i < n / kPlaneBytes; ++i) {
+    lf::FocalPlane pl;
+    pl.n = cv::Vec3d(d[4 * i], d[4 * i + 1], d[4 * i + 2]);
+    pl.d = d[4 * i + 3];
+    fs.planes.push_back(pl);
+  }
+  const auto* o = static_cast<const uint8_t*>(g_bytes_get_data(plane_of, &n));
+  fs.plane_of.assign(o, o + n);
+  g_mutex_lock(&p->lock);
+  State* st = p->state.get();
+  const bool fresh = st && probe > st->applied_surface_probe && probe <= st->surface_probe;
+  if (fresh) st->applied_surface_probe = probe, st->surface = std::move(fs);
+  g_mutex_unlock(&p->lock);
+  GST_DEBUG_OBJECT(self, "surface probe %u answered%s", probe, fresh ? "" : " (not ours or stale)");
+}
+
 static gboolean lf_view_request_event(GstBaseSrc* src, GstEvent* event) {
   LfViewRequest* self = LF_VIEW_REQUEST(src);
+  if (GST_EVENT_TYPE(event) == GST_EVENT_CUSTOM_UPSTREAM &&
+      gst_event_has_name(event, "lf-surface")) {
+    if (for_this_viewer(self, gst_event_get_structure(event))) handle_surface_event(self, event);
+    return TRUE;
+  }
   if (GST_EVENT_TYPE(event) == GST_EVENT_CUSTOM_UPSTREAM && gst_event_has_name(event, "lf-focus")) {
     if (for_this_viewer(self, gst_event_get_structure(event))) handle_focus_event(self, event);
     return TRUE;
@@ -699,7 +791,52 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
     GST_DEBUG_OBJECT(self, "focus probe %u at (%g, %g), request time %" GST_TIME_FORMAT, id, x, y,
                      GST_TIME_ARGS(pts));
   }
+  // Focal surface: a probe every surface-interval ticks (the first at once),
+  // of the view without its surface; the surface in use, if any, goes into
+  // the request.
+  const bool want_surface =
+      lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::focal_surface);
+  const guint interval =
+      lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::surface_interval);
+  if (!want_surface) st->surface = {}, st->surface_sent = false;
+  if (want_surface && (!st->surface_sent || k >= st->surface_tick + interval)) {
+    const guint32 id = st->next_surface_probe++;
+    st->surface_probe = id, st->surface_tick = k, st->surface_sent = true;
+    std::vector<lf::ViewRequest> sp;
+    GError* perr = nullptr;
+    if (lfgst::guard([&] { sp = lf::surface_probe_requests(rig, req, id); }, &perr)) {
+      probes.insert(probes.end(), sp.begin(), sp.end());
+      GST_DEBUG_OBJECT(self, "surface probe %u, request time %" GST_TIME_FORMAT, id,
+                       GST_TIME_ARGS(pts));
+    } else {
+      GST_WARNING_OBJECT(self, "no surface probe: %s", perr->message);
+      g_error_free(perr);
+    }
+  }
+  const lf::FocalSurface surface = st->surface;
   g_mutex_unlock(&p->lock);
+  guint surface_planes = 0;
+  if (!surface.empty()) {
+    lf::ViewRequest with = req;
+    with.focal_plane = surface.planes[0];
+    if (surface.planes_used() > 1) with.surface = surface;
+    GError* serr = nullptr;
+    if (lfgst::guard([&] { lf::validate(with); }, &serr)) {
+      req = with;
+      surface_planes = static_cast<guint>(surface.planes_used());
+    } else {
+      LF_ELEMENT_WARNING_LIMITED(self, p->bad_view, LIBRARY, SETTINGS,
+                                 ("Ignoring a focal surface that does not fit the view"), "%s",
+                                 serr->message);
+      g_error_free(serr);
+      g_mutex_lock(&p->lock);
+      st->surface = {};
+      g_mutex_unlock(&p->lock);
+    }
+  }
+  GST_OBJECT_LOCK(self);
+  p->settings.surface_planes = surface_planes;
+  GST_OBJECT_UNLOCK(self);
   std::vector<lf::ViewRequest> tick{req};
   if (s.stereo_baseline > 0) {
     // Left and right eyes along the view's x axis (viewer ids v, v + 1).
@@ -810,6 +947,28 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
                 "a focus probe every 5 requests, each answer moving the focal plane half way "
                 "(in inverse depth)",
                 FALSE, play));
+  props.add(oc, &Settings::focal_surface,
+            g_param_spec_boolean(
+                "focal-surface", "Focal surface",
+                "Focus each 16-pixel tile of the view on its own plane, estimated from the "
+                "cameras' fragments (lib/lf/surface_probe.h): every surface-interval requests a "
+                "surface probe (32 requests for the view at 160 pixels wide, one per candidate "
+                "plane) goes out with the request, lfcompositor estimates the surface from the "
+                "answers and sends it back (an lf-surface event), and the requests carry it "
+                "from then on (view request version 3) in place of focal-plane and focal-depth",
+                FALSE, play));
+  props.add(oc, &Settings::surface_interval,
+            g_param_spec_uint("surface-interval", "Surface interval",
+                              "Requests from one surface probe to the next with focal-surface "
+                              "(in between, the view keeps the last surface: meant for a steady "
+                              "or slowly moving view)",
+                              1, G_MAXINT32, DEFAULT_SURFACE_INTERVAL, play));
+  props.add(oc, &Settings::surface_planes,
+            g_param_spec_uint("surface-planes", "Surface planes",
+                              "Distinct planes of the focal surface in the last request (0: "
+                              "none, the focal plane)",
+                              0, lf::FocalSurface::kMaxPlanes, 0,
+                              static_cast<GParamFlags>(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
   spec_focal_depth = g_param_spec_double(
       "focal-depth", "Focal depth",
       "Focal plane parallel to the camera plane at this depth, rig units along its normal "

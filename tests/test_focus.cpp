@@ -14,13 +14,16 @@
 #include <vector>
 
 #include "gst_init.h"
+#include "lf/focal_surface.h"
 #include "lf/focus.h"
 #include "lf/focus_probe.h"
 #include "lf/plan.h"
 #include "lf/render.h"
 #include "lf/rig_file.h"
+#include "lf/surface_probe.h"
 #include "lf/synthetic.h"
 #include "lf/view_builder.h"
+#include "lf/wire.h"
 
 namespace {
 
@@ -415,6 +418,140 @@ TEST_F(ClickToFocus, ContinuousFocusConvergesOnTheCentre) {
   gst_element_set_state(p, GST_STATE_NULL);
   gst_object_unref(req);
   gst_object_unref(p);
+}
+
+// The focal surface in a live pipeline (lfviewrequest focal-surface=true):
+// surface probes answered by the cameras' fragments, the surface estimated
+// by the compositor, sent back upstream and carried by the next requests;
+// checked against the scene at the instant the probe measured. The eye is
+// off the centre camera: an eye at a camera sees that camera's image, which
+// one plane renders as well as any surface (the estimate then keeps one).
+using LiveSurface = ClickToFocus;
+TEST_F(LiveSurface, TheCompositorsSurfaceReachesTheRequests) {
+  const std::string desc =
+      "lfviewrequest name=req rig=" + rig_path + " " + kLive +
+      " vfov=20 eye-s=0.012 eye-t=-0.02 focal-surface=true surface-interval=5 ! lfarray rig=" +
+      rig_path + " " + kCameras + " latency=" + std::to_string(1000000000LL * kSlow) +
+      " ! video/x-raw,format=RGBA ! appsink name=out sync=false "
+      "max-buffers=4 drop=true";
+  GstElement* p = gst_parse_launch(desc.c_str(), nullptr);
+  ASSERT_NE(p, nullptr);
+  GstElement* req = gst_bin_get_by_name(GST_BIN(p), "req");
+  struct Surface {
+    guint probe = 0;
+    gint64 capture_ns = -1;
+    int planes_used = 0;
+    lf::FocalSurface fs;
+  };
+  struct Seen {
+    std::mutex m;
+    std::vector<Surface> surfaces;          // lf-surface events on their way to `req`
+    std::vector<lf::ViewRequest> requests;  // frame requests that `req` sent
+  } seen;
+  GstPad* req_src = gst_element_get_static_pad(req, "src");
+  gst_pad_add_probe(
+      req_src,
+      static_cast<GstPadProbeType>(GST_PAD_PROBE_TYPE_EVENT_UPSTREAM | GST_PAD_PROBE_TYPE_BUFFER),
+      [](GstPad*, GstPadProbeInfo* info, gpointer data) {
+        auto* all = static_cast<Seen*>(data);
+        if (info->type & GST_PAD_PROBE_TYPE_BUFFER) {
+          GstMapInfo map;
+          GstBuffer* b = GST_PAD_PROBE_INFO_BUFFER(info);
+          if (gst_buffer_map(b, &map, GST_MAP_READ)) {
+            const lf::ViewRequest r = lf::parse_request(map.data, map.size);
+            gst_buffer_unmap(b, &map);
+            std::lock_guard<std::mutex> l(all->m);
+            if (!lf::is_surface_probe(r.sequence) && !lf::is_focus_probe(r.sequence))
+              all->requests.push_back(r);
+          }
+          return GST_PAD_PROBE_OK;
+        }
+        const GstStructure* s = gst_event_get_structure(GST_PAD_PROBE_INFO_EVENT(info));
+        if (!s || !gst_structure_has_name(s, "lf-surface")) return GST_PAD_PROBE_OK;
+        Surface a;
+        gst_structure_get_uint(s, "probe-id", &a.probe);
+        gst_structure_get_int64(s, "capture-time", &a.capture_ns);
+        gst_structure_get_int(s, "planes-used", &a.planes_used);
+        gst_structure_get_int(s, "tile", &a.fs.tile);
+        gst_structure_get_int(s, "cols", &a.fs.cols);
+        gst_structure_get_int(s, "rows", &a.fs.rows);
+        gsize n = 0;
+        const auto* d = static_cast<const double*>(g_bytes_get_data(
+            static_cast<GBytes*>(g_value_get_boxed(gst_structure_get_value(s, "planes"))), &n));
+        for (gsize i = 0; i < n / 32; ++i) {
+          lf::FocalPlane pl;
+          pl.n = cv::Vec3d(d[4 * i], d[4 * i + 1], d[4 * i + 2]);
+          pl.d = d[4 * i + 3];
+          a.fs.planes.push_back(pl);
+        }
+        const auto* o = static_cast<const uint8_t*>(g_bytes_get_data(
+            static_cast<GBytes*>(g_value_get_boxed(gst_structure_get_value(s, "plane-of"))), &n));
+        a.fs.plane_of.assign(o, o + n);
+        std::lock_guard<std::mutex> l(all->m);
+        all->surfaces.push_back(a);
+        return GST_PAD_PROBE_OK;
+      },
+      &seen, nullptr);
+  gst_object_unref(req_src);
+  gst_element_set_state(p, GST_STATE_PLAYING);
+  // Wait for a surface of two planes or more and a frame request after it
+  // that carries it.
+  Surface got;
+  bool carried = false;
+  const gint64 until = g_get_monotonic_time() + 30 * kSlow * G_USEC_PER_SEC;
+  while (!carried && g_get_monotonic_time() < until) {
+    g_usleep(100000);
+    std::lock_guard<std::mutex> l(seen.m);
+    for (const Surface& a : seen.surfaces)
+      if (a.planes_used >= 2 && got.probe == 0) got = a;
+    if (got.probe == 0) continue;
+    for (const lf::ViewRequest& r : seen.requests)
+      carried |= !r.surface.empty() && r.surface.plane_of == got.fs.plane_of &&
+                 r.focal_plane.d == got.fs.planes[0].d;
+  }
+  guint planes_in_request = 0;
+  g_object_get(req, "surface-planes", &planes_in_request, nullptr);
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(req);
+  gst_object_unref(p);
+  ASSERT_NE(got.probe, 0u) << "no surface of two planes or more came back";
+  EXPECT_TRUE(carried) << "no request carried the surface";
+  EXPECT_GE(planes_in_request, 2u);
+  ASSERT_GE(got.capture_ns, 0);
+  // The tiles against the scene at the instant measured: wholly on the
+  // disc (a tile's margin inside its image) or wholly off it.
+  lf::ViewSettings vs;
+  vs.width = kW, vs.height = kH, vs.vfov_deg = 20;
+  const lf::VirtualView view =
+      lf::build_views(rig, vs).at(0, rig, lf::camera_plane_offset(rig, 0.012, -0.02, 0));
+  const double t = got.capture_ns / 1e9;
+  const cv::Point2d c = project(view, scene.disc_centre(t));
+  const double radius_px = scene.disc_radius * view.intrinsics().fy / scene.near_depth;
+  const double step = lf::sweep_q_max(rig, {}) / (lf::SurfaceOptions{}.planes - 1);
+  const int T = got.fs.tile;
+  int near_ok = 0, near_n = 0, far_ok = 0, far_n = 0;
+  for (int r = 0; r < got.fs.rows; ++r)
+    for (int q = 0; q < got.fs.cols; ++q) {
+      const double x0 = q * T, x1 = std::min(kW, (q + 1) * T), y0 = r * T,
+                   y1 = std::min(kH, (r + 1) * T);
+      const double far_corner =
+          std::max({cv::norm(c - cv::Point2d(x0, y0)), cv::norm(c - cv::Point2d(x1, y0)),
+                    cv::norm(c - cv::Point2d(x0, y1)), cv::norm(c - cv::Point2d(x1, y1))});
+      const double nearest =
+          cv::norm(c - cv::Point2d(std::clamp(c.x, x0, x1), std::clamp(c.y, y0, y1)));
+      const double qt =
+          lf::inverse_depth_of(rig, got.fs.planes[got.fs.plane_of[r * got.fs.cols + q]]);
+      if (far_corner < radius_px - T)
+        ++near_n, near_ok += std::abs(qt - 1 / scene.near_depth) <= step;
+      if (nearest > radius_px + T) ++far_n, far_ok += std::abs(qt - 1 / scene.far_depth) <= step;
+    }
+  std::printf(
+      "live surface: probe %u, %d planes; disc tiles %d/%d within a step, background %d/%d\n",
+      got.probe, got.planes_used, near_ok, near_n, far_ok, far_n);
+  ASSERT_GE(near_n, 4);
+  ASSERT_GE(far_n, 8);
+  EXPECT_GE(near_ok, 0.8 * near_n);
+  EXPECT_GE(far_ok, 0.8 * far_n);
 }
 
 }  // namespace
