@@ -74,8 +74,11 @@ constexpr double kOrbit = 0.5;
 constexpr int kPathFrames = 120;
 constexpr const char* kFocalPlane = "param:-0.2";
 
+// `surface` > 0: lfviewrequest focal-surface=true with that surface-interval
+// (a focal surface from the fragments, lib/lf/surface_probe.h) instead of
+// the fixed focal plane.
 std::string pipeline(const std::string& rig, const lf::Rig& r, int W, int H, const std::string& enc,
-                     bool live, int frames, int rate) {
+                     bool live, int frames, int rate, int surface = 0) {
   std::string fr;
   if (enc == "raw") {
     fr = "encoding=raw";
@@ -87,6 +90,7 @@ std::string pipeline(const std::string& rig, const lf::Rig& r, int W, int H, con
   std::ostringstream d;
   d << "lfviewrequest name=req rig=" << rig << " width=" << W << " height=" << H
     << " orbit=" << kOrbit << " path-frames=" << kPathFrames << " focal-plane=" << kFocalPlane
+    << (surface > 0 ? " focal-surface=true surface-interval=" + std::to_string(surface) : "")
     << " framerate=" << rate << "/1" << (live ? " is-live=true" : "") << " num-buffers=" << frames
     << " ! tee name=t lfcompositor name=comp rig=" << rig << (live ? " latency=100000000" : "")
     << " ! appsink name=out sync=false max-buffers=4";
@@ -345,6 +349,7 @@ int main(int argc, char** argv) {
   gint frames = 300, rate = 30;
   gchar* viewers_opt = nullptr;
   gboolean skip_bound = FALSE;
+  gchar* focal_opt = nullptr;
   const GOptionEntry entries[] = {
       {"input", 0, 0, G_OPTION_ARG_STRING, &input,
        "Dataset folder or rig file (default ../shared/data/stanford-chess)", "PATH"},
@@ -363,6 +368,11 @@ int main(int argc, char** argv) {
        "the first size and encoding; frames per second per viewer and "
        "in all, and fragments per second",
        "N,..."},
+      {"focal", 0, 0, G_OPTION_ARG_STRING, &focal_opt,
+       "Focus of the single-viewer runs: plane (one focal plane, default) and/or surface:N "
+       "(lfviewrequest focal-surface=true surface-interval=N: a focal surface estimated from "
+       "the fragments every N requests), e.g. plane,surface:30",
+       "LIST"},
       {"skip-bound", 0, 0, G_OPTION_ARG_NONE, &skip_bound,
        "Leave out the kernel bound and the pipeline efficiency", nullptr},
       {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
@@ -396,6 +406,7 @@ int main(int argc, char** argv) {
   const std::string sizes_spec = str(sizes_opt, "640x480,320x240");
   const std::string encodings_spec = str(encodings_opt, "raw,jpeg90");
   const std::string viewers_spec = str(viewers_opt, "");
+  const std::string focal_spec = str(focal_opt, "plane");
   try {
     const lf::Rig rig =
         cli::select_cameras(lf::load_rig_or_dataset(input_path), block_spec, 0, 1.0, true);
@@ -415,6 +426,23 @@ int main(int argc, char** argv) {
       }
       std::stringstream es(encodings_spec);
       while (std::getline(es, t, ',')) encodings.push_back(t);
+    }
+    // Focus: 0 for the plane, N for surface:N.
+    std::vector<int> focals;
+    {
+      std::stringstream fs(focal_spec);
+      std::string t;
+      while (std::getline(fs, t, ',')) {
+        if (t == "plane") {
+          focals.push_back(0);
+        } else if (t.rfind("surface:", 0) == 0 &&
+                   cli::parse_numbers(t.substr(8), "--focal").size() == 1 &&
+                   std::stoi(t.substr(8)) >= 1) {
+          focals.push_back(std::stoi(t.substr(8)));
+        } else {
+          throw std::invalid_argument("--focal '" + t + "': use plane or surface:N (N >= 1)");
+        }
+      }
     }
     const int cores = static_cast<int>(std::thread::hardware_concurrency());
     // The kernel bound of each size, measured before the pipelines run (the
@@ -475,47 +503,59 @@ int main(int argc, char** argv) {
     std::printf("## GStreamer pipeline, %zu cameras, one machine (%d cores)\n\n",
                 rig.cameras.size(), cores);
     std::printf(
-        "| output | encoding | throughput fps (non-live, %d requests) | kernel bound fps "
+        "| output | encoding | focus | throughput fps (non-live, %d requests) | kernel bound fps "
         "(%d cores / single-core time) | pipeline efficiency | CPU ms per frame (process) | "
-        "kernel CPU ms per frame (one core) | CPU efficiency | cores used | steal %% | latency "
-        "median ms | latency p95 ms (live, %d requests/s) | peak RSS MiB |\n"
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "kernel CPU ms per frame (one core) | CPU efficiency | cores used | steal %% | live fps "
+        "(%d requests/s) | latency median ms | latency p95 ms (live) | peak RSS MiB |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         frames, cores, rate);
     for (const auto& [W, H] : sizes)
-      for (const auto& enc : encodings) {
-        reset_peak_rss();
-        const auto t = run(pipeline(rig_path, rig, W, H, enc, false, frames, 1000), nullptr);
-        const int warm = std::min<int>(20, static_cast<int>(t.size()) / 4);
-        const bool steady = t.size() > static_cast<size_t>(warm + 1);
-        const Mark& a = steady ? t[warm] : Mark{};
-        const Mark& z = steady ? t.back() : Mark{};
-        const double frames_steady = steady ? static_cast<double>(t.size() - 1 - warm) : 0;
-        const double fps = steady ? frames_steady / (z.wall - a.wall) : 0;
-        const double cpu_ms = steady ? (z.cpu - a.cpu) * 1000.0 / frames_steady : 0;
-        const double cores_used = steady ? (z.cpu - a.cpu) / (z.wall - a.wall) : 0;
-        const auto ticks = z.machine.total - a.machine.total;
-        const double steal =
-            ticks ? 100.0 * static_cast<double>(z.machine.steal - a.machine.steal) / ticks : 0;
-        Probe probe;
-        run(pipeline(rig_path, rig, W, H, enc, true, std::max(60, rate * 4), rate), &probe);
-        std::vector<double> lat(
-            probe.latency_ms.begin() + std::min<size_t>(10, probe.latency_ms.size()),
-            probe.latency_ms.end());
-        // The bound is plan + render + composite: raw fragments only (JPEG
-        // rows add encoding and decoding that it does not count).
-        const bool has_bound = !skip_bound && enc == "raw";
-        const KernelTime k = has_bound ? bound[{W, H}] : KernelTime{};
-        const double kb = has_bound ? cores * 1000.0 / k.wall_ms : 0;
-        auto num = [&](double v, const char* f) {
-          return has_bound ? cv::format(f, v) : std::string("-");
-        };
-        std::printf(
-            "| %dx%d | %s | %.1f | %s | %s | %.2f | %s | %s | %.2f | %.0f | %.1f | %.1f | %.0f |\n",
-            W, H, enc.c_str(), fps, num(kb, "%.1f").c_str(), num(fps / kb, "%.2f").c_str(), cpu_ms,
-            num(k.cpu_ms, "%.2f").c_str(), num(k.cpu_ms / cpu_ms, "%.2f").c_str(), cores_used,
-            steal, percentile(lat, 0.5), percentile(lat, 0.95), peak_rss_mib());
-        std::fflush(stdout);
-      }
+      for (const auto& enc : encodings)
+        for (const int surface : focals) {
+          reset_peak_rss();
+          const auto t =
+              run(pipeline(rig_path, rig, W, H, enc, false, frames, 1000, surface), nullptr);
+          const int warm = std::min<int>(20, static_cast<int>(t.size()) / 4);
+          const bool steady = t.size() > static_cast<size_t>(warm + 1);
+          const Mark& a = steady ? t[warm] : Mark{};
+          const Mark& z = steady ? t.back() : Mark{};
+          const double frames_steady = steady ? static_cast<double>(t.size() - 1 - warm) : 0;
+          const double fps = steady ? frames_steady / (z.wall - a.wall) : 0;
+          const double cpu_ms = steady ? (z.cpu - a.cpu) * 1000.0 / frames_steady : 0;
+          const double cores_used = steady ? (z.cpu - a.cpu) / (z.wall - a.wall) : 0;
+          const auto ticks = z.machine.total - a.machine.total;
+          const double steal =
+              ticks ? 100.0 * static_cast<double>(z.machine.steal - a.machine.steal) / ticks : 0;
+          Probe probe;
+          const auto live =
+              run(pipeline(rig_path, rig, W, H, enc, true, std::max(60, rate * 4), rate, surface),
+                  &probe);
+          // Output frames per second of the live run, after its first quarter.
+          const size_t lw = live.size() / 4;
+          const double live_fps = live.size() > lw + 1 ? static_cast<double>(live.size() - 1 - lw) /
+                                                             (live.back().wall - live[lw].wall)
+                                                       : 0;
+          std::vector<double> lat(
+              probe.latency_ms.begin() + std::min<size_t>(10, probe.latency_ms.size()),
+              probe.latency_ms.end());
+          // The bound is plan + render + composite of one plane: raw fragments
+          // only (JPEG rows add encoding and decoding that it does not count).
+          const bool has_bound = !skip_bound && enc == "raw" && surface == 0;
+          const KernelTime k = has_bound ? bound[{W, H}] : KernelTime{};
+          const double kb = has_bound ? cores * 1000.0 / k.wall_ms : 0;
+          auto num = [&](double v, const char* f) {
+            return has_bound ? cv::format(f, v) : std::string("-");
+          };
+          std::printf(
+              "| %dx%d | %s | %s | %.1f | %s | %s | %.2f | %s | %s | %.2f | %.0f | %.1f | %.1f | "
+              "%.1f | %.0f |\n",
+              W, H, enc.c_str(),
+              surface ? ("surface, a probe every " + std::to_string(surface)).c_str() : "plane",
+              fps, num(kb, "%.1f").c_str(), num(fps / kb, "%.2f").c_str(), cpu_ms,
+              num(k.cpu_ms, "%.2f").c_str(), num(k.cpu_ms / cpu_ms, "%.2f").c_str(), cores_used,
+              steal, live_fps, percentile(lat, 0.5), percentile(lat, 0.95), peak_rss_mib());
+          std::fflush(stdout);
+        }
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "lf-gst-bench: error: %s\n", e.what());
