@@ -347,6 +347,20 @@ TEST(SurfaceProbe, LateCamerasRepeatsAndStrangersAreLeftOut) {
   f.out_width = 320;
   EXPECT_FALSE(a.add(1, f));
   EXPECT_EQ(a.fragments(), 1u);
+  // The pixel budget: kMaxOverlap x the probe's pixels per plane. Whole
+  // 160x120 fragments from more and more cameras: refused past it.
+  lf::SurfaceProbeAnswers full(320, 240);
+  lf::Fragment whole;
+  whole.out_width = 160, whole.out_height = 120, whole.rect = cv::Rect(0, 0, 160, 120);
+  whole.spans.assign(120, {0, 160});
+  whole.pixels.assign(160 * 120 * 4, 128);
+  size_t kept = 0;
+  for (uint32_t cam = 0; cam < 8; ++cam)
+    for (int step = 0; step < lf::SurfaceOptions{}.planes; ++step) {
+      whole.camera_id = cam;
+      kept += full.add(step, whole);
+    }
+  EXPECT_EQ(kept, lf::SurfaceProbeAnswers::kMaxOverlap * lf::SurfaceOptions{}.planes);
   // Too few planes answered: no surface, and it says so.
   const lf::SurfaceEstimate none = a.estimate(h.rig, &ok);
   EXPECT_FALSE(ok);

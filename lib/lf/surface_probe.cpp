@@ -36,9 +36,12 @@ SurfaceProbeAnswers::SurfaceProbeAnswers(int width, int height, SurfaceOptions o
 
 bool SurfaceProbeAnswers::add(int step, Fragment f) {
   if (step < 0 || step >= opt_.planes || f.out_width != aw_ || f.out_height != ah_) return false;
+  const size_t budget = kMaxOverlap * static_cast<size_t>(opt_.planes) * aw_ * ah_;
+  if (pixels_ + f.pixel_count() > budget) return false;
   auto& answers = by_camera_[f.camera_id];
   for (const auto& a : answers)
     if (a.first == step) return false;
+  pixels_ += f.pixel_count();
   answers.emplace_back(step, std::move(f));
   ++count_;
   return true;

@@ -73,14 +73,19 @@ std::vector<ViewRequest> surface_probe_requests(const Rig& rig, const ViewReques
 // the cameras that answered as many steps as the most complete one are
 // scored (the variance of two cameras against three is no comparison).
 // Bounded: one fragment per (camera, step); fragments for another size than
-// the probe's are refused; the caller admits only the rig's cameras.
+// the probe's are refused, and so are fragments beyond kMaxOverlap times the
+// probe's pixels in all (the tent aperture blends at most 3 cameras at a
+// pixel, so honest answers stay below 3x; a peer's cannot make it keep
+// more); the caller admits only the rig's cameras.
 class SurfaceProbeAnswers {
  public:
+  static constexpr size_t kMaxOverlap = 4;
   // For an output of width x height pixels (the probe's size follows).
   SurfaceProbeAnswers(int width, int height, SurfaceOptions opt = {});
   // Keeps fragment `f` of step `step` of camera f.camera_id (premultiplied
   // RGBA or BGRA, alpha = aperture weight); false (ignored) for a repeated
-  // (camera, step), a step out of range or a fragment for another size.
+  // (camera, step), a step out of range, a fragment for another size or
+  // one over the pixel budget.
   bool add(int step, Fragment f);
   size_t fragments() const { return count_; }
   int steps() const;                    // answered by the most complete camera
@@ -102,7 +107,7 @@ class SurfaceProbeAnswers {
   int width_, height_, aw_, ah_;
   SurfaceOptions opt_;
   std::map<uint32_t, std::vector<std::pair<int, Fragment>>> by_camera_;
-  size_t count_ = 0;
+  size_t count_ = 0, pixels_ = 0;
 };
 
 }  // namespace lf
