@@ -151,44 +151,9 @@ bool FocusProbeScore::best(const Rig& rig, double* inverse_depth) const {
   return true;
 }
 
-bool FocusProbeAnswers::add(int step, Fragment f) {
-  if (step < 0 || step >= kFocusProbeSteps) return false;
-  auto& answers = by_camera_[f.camera_id];
-  for (const auto& a : answers)
-    if (a.first == step) return false;
-  answers.emplace_back(step, std::move(f));
-  ++count_;
-  return true;
-}
-
-int FocusProbeAnswers::steps() const {
-  size_t most = 0;
-  for (const auto& [camera, answers] : by_camera_) most = std::max(most, answers.size());
-  return static_cast<int>(most);
-}
-
-int FocusProbeAnswers::complete_cameras() const {
-  const size_t most = static_cast<size_t>(steps());
-  int n = 0;
-  for (const auto& [camera, answers] : by_camera_) n += answers.size() == most;
-  return n;
-}
-
-int64_t FocusProbeAnswers::capture_time_ns() const {
-  const size_t most = static_cast<size_t>(steps());
-  int64_t t = -1;
-  for (const auto& [camera, answers] : by_camera_)
-    if (answers.size() == most)
-      for (const auto& a : answers) t = std::max(t, a.second.capture_time_ns);
-  return t;
-}
-
 bool FocusProbeAnswers::best(const Rig& rig, double* inverse_depth) const {
-  const size_t most = static_cast<size_t>(steps());
   FocusProbeScore score;
-  for (const auto& [camera, answers] : by_camera_)
-    if (answers.size() == most)
-      for (const auto& [step, f] : answers) score.add(step, f);
+  for_each_complete([&](int step, const Fragment& f) { score.add(step, f); });
   return score.best(rig, inverse_depth);
 }
 

@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "lf/fragment.h"
+#include "lf/probe_answers.h"
 #include "lf/rig.h"
 #include "lf/view.h"
 
@@ -94,34 +95,18 @@ class FocusProbeScore {
   std::vector<int> cameras_;
 };
 
-// The fragments of one probe as they come, kept by camera, scored once
-// complete or at a deadline. Only the cameras that answered as many steps
-// as the most complete one are scored: a camera missing from some steps
-// (late, or gone) would change the set of cameras compared from step to
-// step, and the variance of two cameras against three is no comparison
-// (on a loaded machine a probe scored from 164 of its 288 fragments
-// answered 1.46 for a surface at 0.80). Bounded: fragments beyond kFocusProbeSteps per camera,
-// repeats and bad steps are refused.
-class FocusProbeAnswers {
+// The fragments of one focus probe as they come, scored once complete or
+// at a deadline from the complete cameras only (lf/probe_answers.h: on a
+// loaded machine a probe scored from 164 of its 288 fragments answered 1.46
+// for a surface at 0.80). Bounded: fragments beyond kFocusProbeSteps per
+// camera, repeats and bad steps are refused.
+class FocusProbeAnswers : public ProbeFragments {
  public:
   // Keeps fragment `f` of step `step` of its camera (f.camera_id); false
   // (ignored) for a repeated (camera, step) or a step out of range.
-  bool add(int step, Fragment f);
-  size_t fragments() const { return count_; }
-  // Steps answered by the most complete camera, and the cameras with that
-  // many (those scored).
-  int steps() const;
-  int complete_cameras() const;
+  bool add(int step, Fragment f) { return keep(step, kFocusProbeSteps, std::move(f)); }
   // FocusProbeScore::best over the complete cameras.
   bool best(const Rig& rig, double* inverse_depth) const;
-  // The capture time (ns, Fragment::capture_time_ns) of the frames the
-  // complete cameras answered from, the newest if they differ; -1 if none
-  // is known.
-  int64_t capture_time_ns() const;
-
- private:
-  std::map<uint32_t, std::vector<std::pair<int, Fragment>>> by_camera_;
-  size_t count_ = 0;
 };
 
 }  // namespace lf

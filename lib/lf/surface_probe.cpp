@@ -35,51 +35,20 @@ SurfaceProbeAnswers::SurfaceProbeAnswers(int width, int height, SurfaceOptions o
 }
 
 bool SurfaceProbeAnswers::add(int step, Fragment f) {
-  if (step < 0 || step >= opt_.planes || f.out_width != aw_ || f.out_height != ah_) return false;
+  if (f.out_width != aw_ || f.out_height != ah_) return false;
   const size_t budget = kMaxOverlap * static_cast<size_t>(opt_.planes) * aw_ * ah_;
-  if (pixels_ + f.pixel_count() > budget) return false;
-  auto& answers = by_camera_[f.camera_id];
-  for (const auto& a : answers)
-    if (a.first == step) return false;
-  pixels_ += f.pixel_count();
-  answers.emplace_back(step, std::move(f));
-  ++count_;
+  const size_t n = f.pixel_count();
+  if (pixels_ + n > budget || !keep(step, opt_.planes, std::move(f))) return false;
+  pixels_ += n;
   return true;
-}
-
-int SurfaceProbeAnswers::steps() const {
-  size_t most = 0;
-  for (const auto& [camera, answers] : by_camera_) most = std::max(most, answers.size());
-  return static_cast<int>(most);
-}
-
-int SurfaceProbeAnswers::complete_cameras() const {
-  const size_t most = static_cast<size_t>(steps());
-  int n = 0;
-  for (const auto& [camera, answers] : by_camera_) n += answers.size() == most;
-  return n;
-}
-
-int64_t SurfaceProbeAnswers::capture_time_ns() const {
-  const size_t most = static_cast<size_t>(steps());
-  int64_t t = -1;
-  for (const auto& [camera, answers] : by_camera_)
-    if (answers.size() == most)
-      for (const auto& a : answers) t = std::max(t, a.second.capture_time_ns);
-  return t;
 }
 
 SurfaceEstimate SurfaceProbeAnswers::estimate(const Rig& rig, bool* ok) const {
   // The steps that every complete camera answered (the same set for all of
   // them, so every plane compares the same cameras).
-  const size_t most = static_cast<size_t>(steps());
   std::vector<int> answered(opt_.planes, 0);
-  int complete = 0;
-  for (const auto& [camera, answers] : by_camera_) {
-    if (answers.size() != most) continue;
-    ++complete;
-    for (const auto& a : answers) answered[a.first]++;
-  }
+  for_each_complete([&](int step, const Fragment&) { answered[step]++; });
+  const int complete = complete_cameras();
   std::vector<int> steps;
   for (int k = 0; k < opt_.planes; ++k)
     if (complete > 0 && answered[k] == complete) steps.push_back(k);
@@ -122,24 +91,21 @@ SurfaceEstimate SurfaceProbeAnswers::estimate(const Rig& rig, bool* ok) const {
     std::fill(s0.begin(), s0.end(), 0.0f);
     std::fill(s1.begin(), s1.end(), 0.0f);
     std::fill(s2.begin(), s2.end(), 0.0f);
-    for (const auto& [camera, answers] : by_camera_) {
-      if (answers.size() != most) continue;
-      for (const auto& [step, f] : answers) {
-        if (step != steps[i] || f.empty()) continue;
-        const uint8_t* px = f.pixels.data();
-        for (int row = 0; row < f.rect.height; ++row) {
-          const size_t base = static_cast<size_t>(f.rect.y + row) * aw_;
-          for (int x = f.spans[row][0]; x < f.spans[row][1]; ++x, px += 4) {
-            if (px[3] == 0) continue;
-            const float w = px[3] / 255.0f;
-            const float g = (px[0] + 2.0f * px[1] + px[2]) / 4.0f;  // w times the grey level
-            s0[base + x] += w;
-            s1[base + x] += g;
-            s2[base + x] += g * g / w;
-          }
+    for_each_complete([&](int step, const Fragment& f) {
+      if (step != steps[i] || f.empty()) return;
+      const uint8_t* px = f.pixels.data();
+      for (int row = 0; row < f.rect.height; ++row) {
+        const size_t base = static_cast<size_t>(f.rect.y + row) * aw_;
+        for (int x = f.spans[row][0]; x < f.spans[row][1]; ++x, px += 4) {
+          if (px[3] == 0) continue;
+          const float w = px[3] / 255.0f;
+          const float g = (px[0] + 2.0f * px[1] + px[2]) / 4.0f;  // w times the grey level
+          s0[base + x] += w;
+          s1[base + x] += g;
+          s2[base + x] += g * g / w;
         }
       }
-    }
+    });
     double* sum = &c.sum[i * tiles];
     double* cnt = &c.count[i * tiles];
     for (int y = 0; y < ah_; ++y)

@@ -36,6 +36,7 @@
 
 #include "lf/focal_surface.h"
 #include "lf/fragment.h"
+#include "lf/probe_answers.h"
 #include "lf/rig.h"
 #include "lf/view.h"
 
@@ -68,16 +69,14 @@ inline int surface_probe_step(uint64_t sequence) {
 std::vector<ViewRequest> surface_probe_requests(const Rig& rig, const ViewRequest& view,
                                                 uint32_t probe_id, const SurfaceOptions& opt = {});
 
-// The fragments of one probe as they come, kept by camera, scored once
-// complete or at a deadline. As with focus probes (lf/focus_probe.h), only
-// the cameras that answered as many steps as the most complete one are
-// scored (the variance of two cameras against three is no comparison).
+// The fragments of one surface probe as they come, scored once complete or
+// at a deadline from the complete cameras only (lf/probe_answers.h).
 // Bounded: one fragment per (camera, step); fragments for another size than
 // the probe's are refused, and so are fragments beyond kMaxOverlap times the
 // probe's pixels in all (the tent aperture blends at most 3 cameras at a
 // pixel, so honest answers stay below 3x; a peer's cannot make it keep
 // more); the caller admits only the rig's cameras.
-class SurfaceProbeAnswers {
+class SurfaceProbeAnswers : public ProbeFragments {
  public:
   static constexpr size_t kMaxOverlap = 4;
   // For an output of width x height pixels (the probe's size follows).
@@ -87,16 +86,10 @@ class SurfaceProbeAnswers {
   // (camera, step), a step out of range, a fragment for another size or
   // one over the pixel budget.
   bool add(int step, Fragment f);
-  size_t fragments() const { return count_; }
-  int steps() const;                    // answered by the most complete camera
-  int complete_cameras() const;         // cameras with that many
   int width() const { return width_; }  // the output's
   int height() const { return height_; }
   int probe_width() const { return aw_; }
   int probe_height() const { return ah_; }
-  // The newest capture time (ns) among the complete cameras' fragments; -1
-  // if none is known.
-  int64_t capture_time_ns() const;
   // The surface (tiles of opt.tile over the output) from the complete
   // cameras; `ok` false (and a single plane at infinity) when fewer than 3
   // planes were answered by them or no pixel was seen by most of the
@@ -106,8 +99,7 @@ class SurfaceProbeAnswers {
  private:
   int width_, height_, aw_, ah_;
   SurfaceOptions opt_;
-  std::map<uint32_t, std::vector<std::pair<int, Fragment>>> by_camera_;
-  size_t count_ = 0, pixels_ = 0;
+  size_t pixels_ = 0;
 };
 
 }  // namespace lf
