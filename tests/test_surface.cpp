@@ -87,6 +87,17 @@ DiscTiles disc_tiles(const lf::SurfaceEstimate& e, double step, double t) {
   return d;
 }
 
+// Two depths need few planes; of the tiles wholly on the disc, at least
+// `near_share`, and of those wholly on the background 90 %, within a step.
+void expect_two_depths(const lf::SurfaceEstimate& e, const DiscTiles& d, double near_share) {
+  EXPECT_GE(e.planes_used, 2);
+  EXPECT_LE(e.planes_used, 8) << "two depths need few planes";
+  ASSERT_GT(d.near_n, 10);
+  ASSERT_GT(d.far_n, 50);
+  EXPECT_GE(d.near_ok, near_share * d.near_n);
+  EXPECT_GE(d.far_ok, 0.9 * d.far_n);
+}
+
 TEST(Surface, AFlatSceneNeedsOnePlane) {
   const lf::Rig rig = small_rig();
   const Held h = hold_out(rig, plane_images(rig, 3.0), 12, 320, 240);
@@ -116,12 +127,7 @@ TEST(Surface, TwoDepthsGetTheirOwnPlanesAndASharperPicture) {
       "disc: %d planes; disc tiles %d/%d within a step, background %d/%d; PSNR auto %.2f dB, "
       "surface %.2f dB\n",
       e.planes_used, d.near_ok, d.near_n, d.far_ok, d.far_n, p_auto, p_surface);
-  EXPECT_GE(e.planes_used, 2);
-  EXPECT_LE(e.planes_used, 8) << "two depths need few planes";
-  ASSERT_GT(d.near_n, 10);
-  ASSERT_GT(d.far_n, 50);
-  EXPECT_GE(d.near_ok, 0.9 * d.near_n);
-  EXPECT_GE(d.far_ok, 0.9 * d.far_n);
+  expect_two_depths(e, d, 0.9);
   EXPECT_GT(p_surface, p_auto + 3.0);  // measured +4.6 dB
 }
 
@@ -314,15 +320,10 @@ TEST(SurfaceProbe, FromTheCamerasFragmentsFindsTheDiscAndTheBackground) {
       "disc from fragments: %d planes; disc tiles %d/%d within a step, background %d/%d; PSNR "
       "auto %.2f dB, probe surface %.2f dB, estimator from the images %.2f dB\n",
       e.planes_used, d.near_ok, d.near_n, d.far_ok, d.far_n, p_auto, p_probe, p_images);
-  EXPECT_GE(e.planes_used, 2);
-  EXPECT_LE(e.planes_used, 8) << "two depths need few planes";
-  ASSERT_GT(d.near_n, 10);
-  ASSERT_GT(d.far_n, 50);
   // Measured: 32 of 38 disc tiles (one pass of coarse planes: the
   // estimator's finer second pass gets 35), 230 of 230 background tiles;
   // +4.2 dB over auto-focus, 0.45 dB below the estimator.
-  EXPECT_GE(d.near_ok, 0.8 * d.near_n);
-  EXPECT_GE(d.far_ok, 0.9 * d.far_n);
+  expect_two_depths(e, d, 0.8);
   EXPECT_GT(p_probe, p_auto + 3.0);
   EXPECT_GT(p_probe, p_images - 1.0);
 }
