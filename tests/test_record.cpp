@@ -8,6 +8,7 @@
 
 #include <filesystem>
 #include <map>
+#include <mutex>
 #include <opencv2/core.hpp>
 #include <string>
 
@@ -83,6 +84,42 @@ class Recording : public ::testing::Test {
     std::map<GstClockTime, cv::Mat> frames;
     if (!p) return frames;
     GstElement* sink = gst_bin_get_by_name(GST_BIN(p), "out");
+    // Which sinks (the output, the recorders) have seen EOS: said when the
+    // pipeline's EOS does not come (a rare hang in CI, not reproduced here
+    // in 32 runs; this says where it stops).
+    struct Eos {
+      std::mutex m;
+      std::map<std::string, bool> seen;
+    } eos;
+    gst_element_set_state(p, GST_STATE_READY);  // lfarray builds its graph here
+    GstIterator* it = gst_bin_iterate_recurse(GST_BIN(p));
+    GValue v = G_VALUE_INIT;
+    while (gst_iterator_next(it, &v) == GST_ITERATOR_OK) {
+      GstElement* e = GST_ELEMENT(g_value_get_object(&v));
+      if (!GST_IS_BIN(e) && GST_OBJECT_FLAG_IS_SET(e, GST_ELEMENT_FLAG_SINK)) {
+        eos.seen[GST_OBJECT_NAME(e)] = false;
+        GstPad* pad = gst_element_get_static_pad(e, "sink");
+        if (pad) {
+          gst_pad_add_probe(
+              pad, GST_PAD_PROBE_TYPE_EVENT_DOWNSTREAM,
+              [](GstPad* pd, GstPadProbeInfo* info, gpointer data) {
+                if (GST_EVENT_TYPE(GST_PAD_PROBE_INFO_EVENT(info)) == GST_EVENT_EOS) {
+                  auto* all = static_cast<Eos*>(data);
+                  GstObject* parent = gst_pad_get_parent(pd);
+                  std::lock_guard<std::mutex> l(all->m);
+                  all->seen[GST_OBJECT_NAME(parent)] = true;
+                  gst_object_unref(parent);
+                }
+                return GST_PAD_PROBE_OK;
+              },
+              &eos, nullptr);
+          gst_object_unref(pad);
+        }
+      }
+      g_value_reset(&v);
+    }
+    g_value_unset(&v);
+    gst_iterator_free(it);
     gst_element_set_state(p, GST_STATE_PLAYING);
     GstBus* bus = gst_element_get_bus(p);
     const gint64 give_up = g_get_monotonic_time() + 30 * kSlow * G_USEC_PER_SEC;
@@ -110,7 +147,13 @@ class Recording : public ::testing::Test {
       else
         ADD_FAILURE() << why;
     }
-    EXPECT_TRUE(done) << "no EOS or error within " << 30 * kSlow << " s";
+    std::string sinks;
+    {
+      std::lock_guard<std::mutex> l(eos.m);
+      for (const auto& [name, seen] : eos.seen) sinks += " " + name + (seen ? ": EOS" : ": none");
+    }
+    EXPECT_TRUE(done) << "no EOS or error within " << 30 * kSlow << " s (" << array_props << "; "
+                      << frames.size() << " frames out; sinks' EOS:" << sinks << ")";
     gst_object_unref(bus);
     gst_element_set_state(p, GST_STATE_NULL);
     gst_object_unref(sink);
