@@ -85,7 +85,9 @@
  * many planes it has; a newer probe's answer replaces it. Between probes a
  * moving view keeps the last surface, so it suits a steady or slowly moving
  * view. An eye on a camera sees that camera's image, for which the
- * estimate keeps one plane.
+ * estimate keeps one plane. Made for live pipelines: a non-live source does
+ * not wait for the answer, so the requests it made before it came (all of
+ * a short run's, if the queues downstream hold them) keep the focal plane.
  *
  * ## Example launch line
  * |[
