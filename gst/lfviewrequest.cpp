@@ -85,9 +85,10 @@
  * many planes it has; a newer probe's answer replaces it. Between probes a
  * moving view keeps the last surface, so it suits a steady or slowly moving
  * view. An eye on a camera sees that camera's image, for which the
- * estimate keeps one plane. Made for live pipelines: a non-live source does
- * not wait for the answer, so the requests it made before it came (all of
- * a short run's, if the queues downstream hold them) keep the focal plane.
+ * estimate keeps one plane. A live source goes on while the answer is on
+ * its way; a non-live one (an offline render) makes its next request only
+ * once the answer has come (at most 2 s, once per probe), so every request
+ * after the first probe carries a surface.
  *
  * ## Example launch line
  * |[
@@ -210,6 +211,7 @@ struct State {
   // the last applied, the tick of the last one sent, and the surface in use
   // (tile 0: none yet; planes[0] is the single plane).
   guint32 next_surface_probe = 1, surface_probe = 0, applied_surface_probe = 0;
+  guint32 waited_surface_probe = 0;  // non-live: the last probe whose answer was waited for
   bool surface_sent = false;
   guint64 surface_tick = 0;
   lf::FocalSurface surface;
@@ -228,6 +230,8 @@ constexpr double kContinuousFocusGain = 0.5;
 constexpr GstClockTime kClickRetryAfter = GST_SECOND;
 constexpr guint64 kClickRetryTicks = 5;
 constexpr int kClickRetries = 2;
+// A non-live source waits this long at most for a surface probe's answer.
+constexpr GstClockTime kSurfaceWaitNonLive = 2 * GST_SECOND;
 
 struct Priv {
   Settings settings;  // properties (object lock)
@@ -237,11 +241,15 @@ struct Priv {
   // streaming thread snapshots them, so a request sees all or none.
   GMutex apply_lock;
   GMutex lock;  // guards `state` against the event threads
+  // Signalled (under `lock`) when a surface answer comes or the element is
+  // unlocked (flushing): a non-live source waits on it for a probe's answer.
+  GCond surface_cond;
+  bool unlocked = false;  // between unlock and unlock_stop (under `lock`)
   std::unique_ptr<State> state;
   lfgst::ClockWaiter waiter;
   lfgst::WarnLimiter bad_view, bad_event;
-  Priv() { g_mutex_init(&lock), g_mutex_init(&apply_lock); }
-  ~Priv() { g_mutex_clear(&lock), g_mutex_clear(&apply_lock); }
+  Priv() { g_mutex_init(&lock), g_mutex_init(&apply_lock), g_cond_init(&surface_cond); }
+  ~Priv() { g_mutex_clear(&lock), g_mutex_clear(&apply_lock), g_cond_clear(&surface_cond); }
 };
 
 lfgst::Properties<Settings> props;
@@ -345,12 +353,21 @@ static GstCaps* lf_view_request_get_caps(GstBaseSrc* src, GstCaps* filter) {
 }
 
 static gboolean lf_view_request_unlock(GstBaseSrc* src) {
-  LF_VIEW_REQUEST(src)->priv->waiter.unlock();
+  Priv* p = LF_VIEW_REQUEST(src)->priv;
+  p->waiter.unlock();
+  g_mutex_lock(&p->lock);
+  p->unlocked = true;
+  g_cond_broadcast(&p->surface_cond);
+  g_mutex_unlock(&p->lock);
   return TRUE;
 }
 
 static gboolean lf_view_request_unlock_stop(GstBaseSrc* src) {
-  LF_VIEW_REQUEST(src)->priv->waiter.unlock_stop();
+  Priv* p = LF_VIEW_REQUEST(src)->priv;
+  p->waiter.unlock_stop();
+  g_mutex_lock(&p->lock);
+  p->unlocked = false;
+  g_mutex_unlock(&p->lock);
   return TRUE;
 }
 
@@ -643,6 +660,7 @@ static void handle_surface_event(LfViewRequest* self, GstEvent* event) {
   State* st = p->state.get();
   const bool fresh = st && probe > st->applied_surface_probe && probe <= st->surface_probe;
   if (fresh) st->applied_surface_probe = probe, st->surface = std::move(fs);
+  g_cond_broadcast(&p->surface_cond);
   g_mutex_unlock(&p->lock);
   GST_DEBUG_OBJECT(self, "surface probe %u answered%s", probe, fresh ? "" : " (not ours or stale)");
 }
@@ -731,6 +749,26 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
     return GST_FLOW_OK;
   }
   const Settings& fixed = st->fixed;
+  // Non-live: the first request after a surface probe waits for its answer
+  // (at most kSurfaceWaitNonLive, once per probe), or a source that runs
+  // ahead of the pipeline would make every request of a short run before
+  // the answer came. Live sources never wait: the answer applies when it
+  // comes.
+  if (!fixed.live) {
+    g_mutex_lock(&p->lock);
+    if (st->surface_sent && st->surface_probe > st->applied_surface_probe &&
+        st->waited_surface_probe != st->surface_probe) {
+      st->waited_surface_probe = st->surface_probe;
+      const gint64 until = g_get_monotonic_time() + kSurfaceWaitNonLive / GST_USECOND;
+      while (st->surface_probe > st->applied_surface_probe && !p->unlocked)
+        if (!g_cond_wait_until(&p->surface_cond, &p->lock, until)) break;
+      if (st->surface_probe > st->applied_surface_probe)
+        GST_DEBUG_OBJECT(self, "surface probe %u: no answer, going on", st->surface_probe);
+    }
+    const bool unlocked = p->unlocked;
+    g_mutex_unlock(&p->lock);
+    if (unlocked) return GST_FLOW_FLUSHING;
+  }
   const GstClockTime period =
       gst_util_uint64_scale_int(GST_SECOND, fixed.framerate.d, fixed.framerate.n);
   if (fixed.live)  // a viewer joining late starts at the current tick

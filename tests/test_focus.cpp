@@ -554,4 +554,59 @@ TEST_F(LiveSurface, TheCompositorsSurfaceReachesTheRequests) {
   EXPECT_GE(far_ok, 0.8 * far_n);
 }
 
+// Non-live (an offline render): every request after the first probe
+// carries its answer, since the source waits for it instead of running
+// ahead of the pipeline (synthetic stills: a camera's last frame stands for
+// every later instant).
+TEST_F(LiveSurface, ANonLiveSourceWaitsForTheAnswer) {
+  const std::string desc = "lfviewrequest name=req rig=" + rig_path +
+                           " width=" + std::to_string(kW) + " height=" + std::to_string(kH) +
+                           " vfov=20 eye-s=0.012 eye-t=-0.02 focal-surface=true num-buffers=6 "
+                           "! lfarray rig=" +
+                           rig_path + " mode=synthetic num-buffers=1 ! fakesink sync=false";
+  GstElement* p = gst_parse_launch(desc.c_str(), nullptr);
+  ASSERT_NE(p, nullptr);
+  GstElement* req = gst_bin_get_by_name(GST_BIN(p), "req");
+  struct Seen {
+    std::mutex m;
+    std::vector<lf::ViewRequest> requests;  // frame requests, in order
+  } seen;
+  GstPad* req_src = gst_element_get_static_pad(req, "src");
+  gst_pad_add_probe(
+      req_src, GST_PAD_PROBE_TYPE_BUFFER,
+      [](GstPad*, GstPadProbeInfo* info, gpointer data) {
+        GstMapInfo map;
+        GstBuffer* b = GST_PAD_PROBE_INFO_BUFFER(info);
+        if (gst_buffer_map(b, &map, GST_MAP_READ)) {
+          const lf::ViewRequest r = lf::parse_request(map.data, map.size);
+          gst_buffer_unmap(b, &map);
+          auto* all = static_cast<Seen*>(data);
+          std::lock_guard<std::mutex> l(all->m);
+          if (!lf::is_surface_probe(r.sequence)) all->requests.push_back(r);
+        }
+        return GST_PAD_PROBE_OK;
+      },
+      &seen, nullptr);
+  gst_object_unref(req_src);
+  gst_element_set_state(p, GST_STATE_PLAYING);
+  GstBus* bus = gst_element_get_bus(p);
+  GstMessage* msg =
+      gst_bus_timed_pop_filtered(bus, 60 * kSlow * GST_SECOND,
+                                 static_cast<GstMessageType>(GST_MESSAGE_EOS | GST_MESSAGE_ERROR));
+  ASSERT_NE(msg, nullptr) << "no EOS";
+  EXPECT_EQ(GST_MESSAGE_TYPE(msg), GST_MESSAGE_EOS);
+  gst_message_unref(msg);
+  gst_object_unref(bus);
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(req);
+  gst_object_unref(p);
+  std::lock_guard<std::mutex> l(seen.m);
+  ASSERT_EQ(seen.requests.size(), 6u);
+  EXPECT_TRUE(seen.requests[0].surface.empty()) << "the first request goes before any answer";
+  for (size_t k = 1; k < seen.requests.size(); ++k) {
+    EXPECT_FALSE(seen.requests[k].surface.empty()) << "request " << k;
+    EXPECT_GE(seen.requests[k].surface.planes_used(), 2) << "request " << k;
+  }
+}
+
 }  // namespace
