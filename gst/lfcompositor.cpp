@@ -67,6 +67,7 @@
 #include "lfmeta.h"
 #include "lfprops.h"
 #include "lfrig.h"
+#include "lfsurface.h"
 #include "lftrace.h"
 #include "lfwarn.h"
 
@@ -647,11 +648,8 @@ static void absorb_probe(LfCompositor* self, State* st, const guint8* data, gsiz
 
 // Estimates the focal surface from the surface probe collected so far
 // (lf::SurfaceProbeAnswers: the cameras that answered every step) and sends
-// it upstream as an lf-surface event (viewer-id, probe-id, capture-time:
-// the instant measured, ns, -1 unknown; tile, cols, rows; planes: GBytes
-// of 4 doubles (n.x, n.y, n.z, d) per plane, plane 0 the single plane;
-// plane-of: GBytes of one plane index per tile, row-major; planes-used),
-// which lfviewrequest puts into its requests.
+// it upstream as an lf-surface event (gst/lfsurface.h), which lfviewrequest
+// puts into its requests.
 static void finish_surface_probe(LfCompositor* self, State* st,
                                  Probes<lf::SurfaceProbeAnswers>::Iter it) {
   const auto probe = st->surface_probes.take(it);
@@ -663,7 +661,9 @@ static void finish_surface_probe(LfCompositor* self, State* st,
     LF_ELEMENT_WARNING_LIMITED(self, st->no_surface, STREAM, FAILED,
                                ("Cannot estimate the focal surface"),
                                "surface probe %u: %s (%zu fragments from %d cameras)", probe.id,
-                               err ? err->message : "fewer than 3 planes answered by every camera",
+                               err ? err->message
+                                   : "fewer than 3 planes answered by every complete camera, "
+                                     "or no pixel seen by most of the aperture",
                                probe.answers.fragments(), probe.answers.complete_cameras());
     if (err) g_error_free(err);
     return;
@@ -677,11 +677,6 @@ static void finish_surface_probe(LfCompositor* self, State* st,
     fs.planes = {e.single};
     fs.plane_of.assign(static_cast<size_t>(fs.cols) * fs.rows, 0);
   }
-  std::vector<double> planes;
-  for (const lf::FocalPlane& pl : fs.planes)
-    planes.insert(planes.end(), {pl.n[0], pl.n[1], pl.n[2], pl.d});
-  GBytes* pb = g_bytes_new(planes.data(), planes.size() * sizeof(double));
-  GBytes* ob = g_bytes_new(fs.plane_of.data(), fs.plane_of.size());
   lfgst::trace(GST_ELEMENT(self), "surface", probe.viewer, probe.id, -1,
                static_cast<gint64>(e.planes_used));
   GST_DEBUG_OBJECT(self,
@@ -690,14 +685,8 @@ static void finish_surface_probe(LfCompositor* self, State* st,
                    probe.id, e.planes_used, std::count(e.textured.begin(), e.textured.end(), true),
                    e.textured.size(), probe.answers.complete_cameras(), probe.answers.fragments(),
                    (g_get_monotonic_time() - t0) / 1000.0);
-  GstStructure* s = gst_structure_new(
-      "lf-surface", "viewer-id", G_TYPE_UINT, probe.viewer, "probe-id", G_TYPE_UINT, probe.id,
-      "capture-time", G_TYPE_INT64, static_cast<gint64>(probe.answers.capture_time_ns()), "tile",
-      G_TYPE_INT, fs.tile, "cols", G_TYPE_INT, fs.cols, "rows", G_TYPE_INT, fs.rows, "planes",
-      G_TYPE_BYTES, pb, "plane-of", G_TYPE_BYTES, ob, "planes-used", G_TYPE_INT, e.planes_used,
-      nullptr);
-  g_bytes_unref(pb);
-  g_bytes_unref(ob);
+  GstStructure* s = lfgst::surface_structure(probe.viewer, probe.id,
+                                             probe.answers.capture_time_ns(), fs, e.planes_used);
   push_upstream(GST_AGGREGATOR(self), gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, s));
 }
 

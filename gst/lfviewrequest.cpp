@@ -118,6 +118,7 @@
 #include "lfguard.h"
 #include "lfprops.h"
 #include "lfrig.h"
+#include "lfsurface.h"
 #include "lftrace.h"
 #include "lfwarn.h"
 
@@ -619,43 +620,15 @@ static void handle_surface_event(LfViewRequest* self, GstEvent* event) {
   Priv* p = self->priv;
   const GstStructure* s = gst_event_get_structure(event);
   guint probe = 0;
-  gint tile = 0, cols = 0, rows = 0;
-  const GValue* pv = gst_structure_get_value(s, "planes");
-  const GValue* ov = gst_structure_get_value(s, "plane-of");
-  GBytes* planes =
-      pv && G_VALUE_HOLDS(pv, G_TYPE_BYTES) ? static_cast<GBytes*>(g_value_get_boxed(pv)) : nullptr;
-  GBytes* plane_of =
-      ov && G_VALUE_HOLDS(ov, G_TYPE_BYTES) ? static_cast<GBytes*>(g_value_get_boxed(ov)) : nullptr;
-  constexpr gsize kPlaneBytes = 4 * sizeof(double);
-  const bool ok =
-      gst_structure_get_uint(s, "probe-id", &probe) && gst_structure_get_int(s, "tile", &tile) &&
-      gst_structure_get_int(s, "cols", &cols) && gst_structure_get_int(s, "rows", &rows) &&
-      planes && plane_of && tile >= lf::FocalSurface::kMinTile &&
-      tile <= lf::FocalSurface::kMaxTile && cols > 0 && rows > 0 && cols <= 16384 &&
-      rows <= 16384 && g_bytes_get_size(planes) % kPlaneBytes == 0 &&
-      g_bytes_get_size(planes) >= kPlaneBytes &&
-      g_bytes_get_size(planes) <= lf::FocalSurface::kMaxPlanes * kPlaneBytes &&
-      g_bytes_get_size(plane_of) == static_cast<gsize>(cols) * static_cast<gsize>(rows);
-  if (!ok) {
+  lf::FocalSurface fs;
+  if (!lfgst::read_surface_structure(s, &probe, &fs)) {
     LF_ELEMENT_WARNING_LIMITED(self, p->bad_event, STREAM, FAILED,
                                ("Ignoring a malformed lf-surface event"), "%s",
-                               "needs probe-id (uint), tile (4..1024), cols and rows (int > 0), "
+                               "needs probe-id (uint), tile (4..1024), cols and rows (1..16384), "
                                "planes (bytes: 1..64 planes of 4 doubles) and plane-of (bytes: "
-                               "cols x rows)");
+                               "cols x rows; gst/lfsurface.h)");
     return;
   }
-  lf::FocalSurface fs;
-  fs.tile = tile, fs.cols = cols, fs.rows = rows;
-  gsize n = 0;
-  const auto* d = static_cast<const double*>(g_bytes_get_data(planes, &n));
-  for (gsize i = 0; i < n / kPlaneBytes; ++i) {
-    lf::FocalPlane pl;
-    pl.n = cv::Vec3d(d[4 * i], d[4 * i + 1], d[4 * i + 2]);
-    pl.d = d[4 * i + 3];
-    fs.planes.push_back(pl);
-  }
-  const auto* o = static_cast<const uint8_t*>(g_bytes_get_data(plane_of, &n));
-  fs.plane_of.assign(o, o + n);
   g_mutex_lock(&p->lock);
   State* st = p->state.get();
   const bool fresh = st && probe > st->applied_surface_probe && probe <= st->surface_probe;
@@ -803,6 +776,10 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   std::vector<lf::ViewRequest> probes;
   const bool continuous =
       lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::continuous_focus);
+  const bool want_surface =
+      lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::focal_surface);
+  const guint interval =
+      lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::surface_interval);
   g_mutex_lock(&p->lock);
   const guint64 retry_ticks =
       std::max<guint64>(kClickRetryTicks, (kClickRetryAfter + period - 1) / period);
@@ -834,10 +811,6 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   // Focal surface: a probe every surface-interval ticks (the first at once),
   // of the view without its surface; the surface in use, if any, goes into
   // the request.
-  const bool want_surface =
-      lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::focal_surface);
-  const guint interval =
-      lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::surface_interval);
   if (!want_surface) st->surface = {}, st->surface_sent = false;
   if (want_surface && (!st->surface_sent || k >= st->surface_tick + interval)) {
     const guint32 id = st->next_surface_probe++;

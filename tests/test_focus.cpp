@@ -24,6 +24,7 @@
 #include "lf/synthetic.h"
 #include "lf/view_builder.h"
 #include "lf/wire.h"
+#include "lfsurface.h"
 
 namespace {
 
@@ -441,6 +442,7 @@ TEST_F(LiveSurface, TheCompositorsSurfaceReachesTheRequests) {
     guint probe = 0;
     gint64 capture_ns = -1;
     int planes_used = 0;
+    bool well_formed = false;
     lf::FocalSurface fs;
   };
   struct Seen {
@@ -469,24 +471,9 @@ TEST_F(LiveSurface, TheCompositorsSurfaceReachesTheRequests) {
         const GstStructure* s = gst_event_get_structure(GST_PAD_PROBE_INFO_EVENT(info));
         if (!s || !gst_structure_has_name(s, "lf-surface")) return GST_PAD_PROBE_OK;
         Surface a;
-        gst_structure_get_uint(s, "probe-id", &a.probe);
+        a.well_formed = lfgst::read_surface_structure(s, &a.probe, &a.fs);
         gst_structure_get_int64(s, "capture-time", &a.capture_ns);
         gst_structure_get_int(s, "planes-used", &a.planes_used);
-        gst_structure_get_int(s, "tile", &a.fs.tile);
-        gst_structure_get_int(s, "cols", &a.fs.cols);
-        gst_structure_get_int(s, "rows", &a.fs.rows);
-        gsize n = 0;
-        const auto* d = static_cast<const double*>(g_bytes_get_data(
-            static_cast<GBytes*>(g_value_get_boxed(gst_structure_get_value(s, "planes"))), &n));
-        for (gsize i = 0; i < n / 32; ++i) {
-          lf::FocalPlane pl;
-          pl.n = cv::Vec3d(d[4 * i], d[4 * i + 1], d[4 * i + 2]);
-          pl.d = d[4 * i + 3];
-          a.fs.planes.push_back(pl);
-        }
-        const auto* o = static_cast<const uint8_t*>(g_bytes_get_data(
-            static_cast<GBytes*>(g_value_get_boxed(gst_structure_get_value(s, "plane-of"))), &n));
-        a.fs.plane_of.assign(o, o + n);
         std::lock_guard<std::mutex> l(all->m);
         all->surfaces.push_back(a);
         return GST_PAD_PROBE_OK;
@@ -502,8 +489,10 @@ TEST_F(LiveSurface, TheCompositorsSurfaceReachesTheRequests) {
   while (!carried && g_get_monotonic_time() < until) {
     g_usleep(100000);
     std::lock_guard<std::mutex> l(seen.m);
-    for (const Surface& a : seen.surfaces)
-      if (a.planes_used >= 2 && got.probe == 0) got = a;
+    for (const Surface& a : seen.surfaces) {
+      EXPECT_TRUE(a.well_formed) << "lf-surface of probe " << a.probe;
+      if (a.well_formed && a.planes_used >= 2 && got.probe == 0) got = a;
+    }
     if (got.probe == 0) continue;
     for (const lf::ViewRequest& r : seen.requests)
       carried |= !r.surface.empty() && r.surface.plane_of == got.fs.plane_of &&

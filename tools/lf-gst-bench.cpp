@@ -19,6 +19,7 @@
 #include <gst/gst.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -433,15 +434,15 @@ int main(int argc, char** argv) {
       std::stringstream fs(focal_spec);
       std::string t;
       while (std::getline(fs, t, ',')) {
-        if (t == "plane") {
+        const std::vector<double> n = t.rfind("surface:", 0) == 0
+                                          ? cli::parse_numbers(t.substr(8), "--focal")
+                                          : std::vector<double>{};
+        if (t == "plane")
           focals.push_back(0);
-        } else if (t.rfind("surface:", 0) == 0 &&
-                   cli::parse_numbers(t.substr(8), "--focal").size() == 1 &&
-                   std::stoi(t.substr(8)) >= 1) {
-          focals.push_back(std::stoi(t.substr(8)));
-        } else {
+        else if (n.size() == 1 && n[0] >= 1 && n[0] == std::floor(n[0]))
+          focals.push_back(static_cast<int>(n[0]));
+        else
           throw std::invalid_argument("--focal '" + t + "': use plane or surface:N (N >= 1)");
-        }
       }
     }
     const int cores = static_cast<int>(std::thread::hardware_concurrency());
@@ -506,11 +507,15 @@ int main(int argc, char** argv) {
         "| output | encoding | focus | throughput fps (non-live, %d requests) | kernel bound fps "
         "(%d cores / single-core time) | pipeline efficiency | CPU ms per frame (process) | "
         "kernel CPU ms per frame (one core) | CPU efficiency | cores used | steal %% | live fps "
-        "(%d requests/s) | latency median ms | latency p95 ms (live) | peak RSS MiB |\n"
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "(%d requests/s) | latency median ms | latency p95 ms (live) | peak RSS MiB | vs the "
+        "plane row (throughput, live fps, CPU per frame) |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         frames, cores, rate);
     for (const auto& [W, H] : sizes)
-      for (const auto& enc : encodings)
+      for (const auto& enc : encodings) {
+        // The plane row of this size and encoding (run before the surface
+        // rows when --focal lists it first): fps, live fps, CPU ms per frame.
+        double plane[3] = {0, 0, 0};
         for (const int surface : focals) {
           reset_peak_rss();
           const auto t =
@@ -546,16 +551,23 @@ int main(int argc, char** argv) {
           auto num = [&](double v, const char* f) {
             return has_bound ? cv::format(f, v) : std::string("-");
           };
+          if (surface == 0) plane[0] = fps, plane[1] = live_fps, plane[2] = cpu_ms;
+          const std::string vs = surface > 0 && plane[0] > 0 && plane[1] > 0 && plane[2] > 0
+                                     ? cv::format("%.2f, %.2f, %.2fx", fps / plane[0],
+                                                  live_fps / plane[1], cpu_ms / plane[2])
+                                     : std::string("-");
           std::printf(
               "| %dx%d | %s | %s | %.1f | %s | %s | %.2f | %s | %s | %.2f | %.0f | %.1f | %.1f | "
-              "%.1f | %.0f |\n",
+              "%.1f | %.0f | %s |\n",
               W, H, enc.c_str(),
               surface ? ("surface, a probe every " + std::to_string(surface)).c_str() : "plane",
               fps, num(kb, "%.1f").c_str(), num(fps / kb, "%.2f").c_str(), cpu_ms,
               num(k.cpu_ms, "%.2f").c_str(), num(k.cpu_ms / cpu_ms, "%.2f").c_str(), cores_used,
-              steal, live_fps, percentile(lat, 0.5), percentile(lat, 0.95), peak_rss_mib());
+              steal, live_fps, percentile(lat, 0.5), percentile(lat, 0.95), peak_rss_mib(),
+              vs.c_str());
           std::fflush(stdout);
         }
+      }
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "lf-gst-bench: error: %s\n", e.what());

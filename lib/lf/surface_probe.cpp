@@ -65,12 +65,8 @@ SurfaceEstimate SurfaceProbeAnswers::estimate(const Rig& rig, bool* ok) const {
   };
   if (steps.size() < 3) return none();
   const double q_max = sweep_q_max(rig, opt_);
-  std::vector<int> index_of(opt_.planes, -1);
   SweepCosts c;
-  for (size_t i = 0; i < steps.size(); ++i) {
-    index_of[steps[i]] = static_cast<int>(i);
-    c.qs.push_back(q_max * steps[i] / (opt_.planes - 1));
-  }
+  for (const int k : steps) c.qs.push_back(q_max * k / (opt_.planes - 1));
   const size_t n = steps.size();
   c.sum.assign(n * tiles, 0.0);
   c.count.assign(n * tiles, 0.0);
