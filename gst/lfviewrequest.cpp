@@ -157,6 +157,7 @@ struct Settings {
   gdouble vfov = DEFAULT_VFOV;
   std::string focal_plane = DEFAULT_FOCAL_PLANE;
   gdouble focal_depth = DEFAULT_FOCAL_DEPTH;
+  gdouble aperture = 0, f_number = 0;  // rig units; full-frame-equivalent
   std::string path;
   gdouble orbit = DEFAULT_ORBIT, dolly = DEFAULT_DOLLY;
   gint path_frames = DEFAULT_PATH_FRAMES;
@@ -302,6 +303,25 @@ static std::shared_ptr<const Views> build(const Settings& s, const lf::Rig& rig)
   v->plane = s.focal_depth > 0 ? lf::plane_at_inverse_depth(rig, 1.0 / s.focal_depth)
                                : lf::parse_focal_plane(s.focal_plane, rig);
   return v;
+}
+
+// The aperture's scale (lf/view.h Aperture) for settings `s`: f-number
+// (when > 0 and the rig's unit is a length) else aperture, in rig units;
+// never below the tent.
+static double aperture_scale(LfViewRequest* self, const lf::Rig& rig, const Settings& s,
+                             const lf::VirtualView& view) {
+  double diameter = s.aperture;
+  if (s.f_number > 0) {
+    const double mm = lf::millimetres_per_unit(rig.unit);
+    if (mm > 0)
+      diameter = lf::diameter_for_f_number(s.f_number, view.focal_px(), view.width, mm);
+    else
+      LF_ELEMENT_WARNING_LIMITED(
+          self, self->priv->bad_view, LIBRARY, SETTINGS, ("Ignoring f-number"),
+          "the rig's unit '%s' is not a length (mm, cm or m): set aperture in rig units",
+          rig.unit.c_str());
+  }
+  return lf::aperture_scale_for(diameter, rig.typical_spacing());
 }
 
 static gboolean lf_view_request_start(GstBaseSrc* src) {
@@ -757,6 +777,7 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   req.sequence = k;
   req.focal_plane = views->plane;
   const lf::Rig& rig = *st->rig;
+  req.aperture_scale = aperture_scale(self, rig, s, views->sequence.at(k, rig));
   GError* err = nullptr;
   if (!lfgst::guard(
           [&] {
@@ -988,6 +1009,23 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
       "(0: use focal-plane); the wheel changes it",
       0, MAX_COORD, DEFAULT_FOCAL_DEPTH, ctrl);
   props.add(oc, &Settings::focal_depth, spec_focal_depth);
+  props.add(oc, &Settings::aperture,
+            g_param_spec_double(
+                "aperture", "Aperture",
+                "Synthetic aperture diameter on the camera plane, rig units (Isaksen et al. "
+                "2000): the paper's tent spans 2 camera spacings and is the smallest (0 or "
+                "anything up to it: the tent); wider apertures blend more cameras, so what is "
+                "off the focal plane blurs instead of doubling, at more fragment pixels "
+                "(up to 16 tents wide)",
+                0, MAX_COORD, 0, ctrl));
+  props.add(oc, &Settings::f_number,
+            g_param_spec_double(
+                "f-number", "f-number",
+                "Aperture as a full-frame-equivalent f-number, overriding aperture when > 0: "
+                "N = F / D with F = 36 mm x fx / width, the focal length of a 36 mm wide sensor "
+                "with the view's field of view (such a lens at f/N, focused on the focal plane, "
+                "blurs as this aperture does); needs the rig's unit to be mm, cm or m",
+                0, 1e6, 0, ctrl));
   props.add(oc, &Settings::path,
             g_param_spec_string("path", "Camera path",
                                 "Keyframed camera path (JSON, see README); overrides position",

@@ -169,6 +169,51 @@ TEST_F(Harness, ViewRequestProperties) {
   gst_harness_teardown(bad);
 }
 
+// lfviewrequest aperture (rig units) and f-number (full-frame equivalent,
+// rigs in mm, cm or m) set the requests' aperture scale while playing.
+TEST_F(Harness, ViewRequestApertureAndFNumber) {
+  lf::Rig mm = rig_;
+  mm.unit = "mm";
+  const std::string mm_path = (std::filesystem::temp_directory_path() / "lf_rig_mm.json").string();
+  lf::save_rig(mm, mm_path);
+  const double tent = lf::aperture_diameter(1, rig_.typical_spacing());
+  for (const std::string& path : {rig_path_, mm_path}) {
+    GstHarness* h = gst_harness_new("lfviewrequest");
+    g_object_set(h->element, "rig", path.c_str(), "width", 64, "height", 48, "vfov", 30.0,
+                 "is-live", TRUE, nullptr);
+    gst_util_set_object_arg(G_OBJECT(h->element), "framerate", "100/1");
+    gst_harness_use_systemclock(h);  // live: requests on the clock
+    gst_harness_play(h);
+    // The scale of a request made after the last change: those queued and
+    // the one in the making are passed over.
+    auto next_scale = [&] {
+      while (gst_harness_buffers_in_queue(h) > 0) gst_buffer_unref(gst_harness_pull(h));
+      double k = -1;
+      for (int i = 0; i < 2; ++i) {
+        GstBuffer* b = gst_harness_pull(h);
+        EXPECT_NE(b, nullptr);
+        if (!b) return -1.0;
+        k = parsed_request(b).aperture_scale;
+        gst_buffer_unref(b);
+      }
+      return k;
+    };
+    EXPECT_EQ(next_scale(), 1.0) << "the tent by default";
+    g_object_set(h->element, "aperture", 2.5 * tent, nullptr);
+    EXPECT_NEAR(next_scale(), 2.5, 0.5 / 256);
+    g_object_set(h->element, "aperture", 0.5 * tent, nullptr);
+    EXPECT_EQ(next_scale(), 1.0) << "never narrower than the tent";
+    // f/N: D = 36 mm * fx / width / N.
+    const double fx = 24.0 / std::tan(15.0 * CV_PI / 180), n = 36.0 * fx / 64 / (3 * tent);
+    g_object_set(h->element, "aperture", 0.0, "f-number", n, nullptr);
+    if (path == mm_path)
+      EXPECT_NEAR(next_scale(), 3.0, 0.5 / 256) << "f/" << n;
+    else
+      EXPECT_EQ(next_scale(), 1.0) << "f-number ignored: the rig's unit is not a length";
+    gst_harness_teardown(h);
+  }
+}
+
 // A click whose probe gets no answer is probed again a second later (25
 // requests at 25 fps, live), twice at most; an answer stops the retries.
 // lfviewrequest focal-surface=true: a surface probe with the first request

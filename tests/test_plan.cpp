@@ -231,3 +231,108 @@ TEST(Plan, MalformedSurfacesAreRefused) {
 }
 
 }  // namespace
+
+// The tent weight of camera `i` at plane point (x, y) of a rig on z = 0: its
+// barycentric coordinate in a triangle of the rig's triangulation that holds
+// the point and the camera (independent of the planner's facet forms).
+double tent_weight(const lf::Rig& rig, int i, double x, double y) {
+  double best = 0;
+  for (const auto& tri : rig.triangles) {
+    int slot = -1;
+    std::array<cv::Vec3d, 3> c;
+    for (int k = 0; k < 3; ++k) {
+      const int idx = rig.index_of(tri[k]);
+      c[k] = rig.cameras[idx].center();
+      if (idx == i) slot = k;
+    }
+    if (slot < 0) continue;
+    const cv::Matx22d M(c[1][0] - c[0][0], c[2][0] - c[0][0], c[1][1] - c[0][1], c[2][1] - c[0][1]);
+    const cv::Vec2d bc = M.inv() * cv::Vec2d(x - c[0][0], y - c[0][1]);
+    const std::array<double, 3> b{1 - bc[0] - bc[1], bc[0], bc[1]};
+    if (b[0] >= -1e-12 && b[1] >= -1e-12 && b[2] >= -1e-12) best = std::max(best, b[slot]);
+  }
+  return best;
+}
+
+TEST(Plan, AWiderApertureIsTheTentScaledAboutEachCamera) {
+  // lf/view.h Aperture: with scale k, camera i's weight where the pixel's
+  // line meets the camera plane at X is its tent weight at
+  // C_i + (X - C_i) / k. Checked at every pixel of every camera's fragment
+  // (the planned piece's num / den) and for coverage (the runs are exactly
+  // the pixels with a positive reference weight that the camera sees).
+  lf::Rig rig = lf::synthetic_grid_rig(5, 5, 1.0, 160, 120, 45);
+  std::mt19937_64 rng(11);
+  const int W = 96, H = 72;
+  size_t weighted_pixels = 0, checked_views = 0;
+  for (const double k : {1.0, 2.0, 3.5}) {
+    size_t pixels_at_scale = 0;
+    for (int trial = 0; trial < 4; ++trial) {
+      lf::ViewRequest req = random_request(rig, rng, W, H, trial == 3);
+      req.aperture_scale = k;
+      const lf::ViewGeometry g(rig, req);
+      const cv::Vec3d E = req.view.position;
+      for (int i = 0; i < static_cast<int>(rig.cameras.size()); ++i) {
+        const lf::FragmentPlan plan = lf::plan_fragment(g, i);
+        std::vector<double> planned(static_cast<size_t>(W) * H, -1);
+        for (const lf::Run& r : plan.runs) {
+          const lf::FragmentPiece& piece = plan.pieces[r.piece];
+          for (int x = r.x0; x < r.x1; ++x)
+            planned[static_cast<size_t>(r.y) * W + x] =
+                std::clamp(piece.weight_num(x, r.y) / piece.weight_den(x, r.y), 0.0, 1.0);
+        }
+        const cv::Vec3d C = rig.cameras[i].center();
+        size_t wrong_weight = 0, wrong_coverage = 0;
+        for (int y = 0; y < H; ++y)
+          for (int x = 0; x < W; ++x) {
+            const cv::Vec3d D = g.ray(x, y);
+            if (E[2] != 0 && D[2] == 0) continue;
+            const cv::Vec3d X = E[2] == 0 ? E : E + D * (-E[2] / D[2]);
+            const double ref =
+                tent_weight(rig, i, C[0] + (X[0] - C[0]) / k, C[1] + (X[1] - C[1]) / k);
+            const double got = planned[static_cast<size_t>(y) * W + x];
+            const bool expect_in = ref > 1e-9 && g.visible(i, x, y);
+            if (got >= 0) {
+              ++pixels_at_scale;
+              if (std::abs(got - ref) > 1e-9) ++wrong_weight;
+            }
+            // At a support's border (reference weight ~0) either is right.
+            if ((got >= 0) != expect_in && ref > 1e-9) ++wrong_coverage;
+          }
+        EXPECT_EQ(wrong_weight, 0u) << "scale " << k << ", view " << trial << ", camera " << i;
+        EXPECT_EQ(wrong_coverage, 0u) << "scale " << k << ", view " << trial << ", camera " << i;
+      }
+      ++checked_views;
+    }
+    weighted_pixels += pixels_at_scale;
+    std::printf("aperture scale %.1f: %zu fragment pixels over 4 views\n", k, pixels_at_scale);
+  }
+  EXPECT_EQ(checked_views, 12u);
+  EXPECT_GT(weighted_pixels, 50000u);
+  // A line of cameras (segments) and a single camera (a point): planned
+  // with weights in (0, 1], more cameras than the tent's where it is wider.
+  for (const int cols : {5, 1}) {
+    const lf::Rig line = lf::synthetic_grid_rig(1, cols, 1.0, 160, 120, 45);
+    size_t contributing[2] = {0, 0};
+    for (const double k : {1.0, 3.0}) {
+      lf::ViewRequest req = random_request(line, rng, W, H, false);
+      req.view = lf::VirtualView::look_at({0.3, 0, -1}, {0.3, 0, 10}, {0, 1, 0}, 40, W, H);
+      req.aperture_scale = k;
+      const lf::ViewGeometry g(line, req);
+      for (int i = 0; i < cols; ++i) {
+        const lf::FragmentPlan plan = lf::plan_fragment(g, i);
+        contributing[k > 1] += !plan.empty();
+        for (const lf::Run& r : plan.runs)
+          for (int x = r.x0; x < r.x1; ++x) {
+            const lf::FragmentPiece& piece = plan.pieces[r.piece];
+            const double w = piece.weight_num(x, r.y) / piece.weight_den(x, r.y);
+            EXPECT_GT(w, -1e-12);
+            EXPECT_LT(w, 1 + 1e-12);
+          }
+      }
+    }
+    EXPECT_GE(contributing[0], 1u);
+    if (cols > 1) {
+      EXPECT_GT(contributing[1], contributing[0]) << "a wider aperture, more cameras";
+    }
+  }
+}

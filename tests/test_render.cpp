@@ -74,6 +74,100 @@ TEST(Render, MatchesAnalyticImageOfTheFocalPlane) {
   }
 }
 
+// 10-90 % width (pixels) of the mean radial profile of a bright disc's
+// edge in `img`: centre c, radius r pixels, profile over r +- span.
+double edge_width(const cv::Mat& img, cv::Point2d c, double r, double span) {
+  cv::Mat grey;
+  cv::cvtColor(img, grey, cv::COLOR_RGBA2GRAY);
+  std::vector<double> prof;
+  const double step = 0.25;
+  for (double rr = r - span; rr <= r + span; rr += step) {
+    double sum = 0;
+    int n = 0;
+    for (int a = 0; a < 720; ++a) {
+      const double t = a * CV_PI / 360;
+      cv::Mat px;
+      cv::getRectSubPix(grey, {1, 1}, cv::Point2f(c.x + rr * std::cos(t), c.y + rr * std::sin(t)),
+                        px, CV_32F);
+      sum += px.at<float>(0, 0), ++n;
+    }
+    prof.push_back(sum / n);
+  }
+  const double hi = prof.front(), lo = prof.back();  // the disc inside, the background out
+  auto cross = [&](double f) {
+    const double level = lo + f * (hi - lo);
+    for (size_t i = 1; i < prof.size(); ++i)
+      if (prof[i] <= level && prof[i - 1] > level)
+        return (i - 1 + (prof[i - 1] - level) / (prof[i - 1] - prof[i])) * step;
+    return prof.size() * step;
+  };
+  return cross(0.1) - cross(0.9);
+}
+
+TEST(Render, AWiderApertureBlursOffPlaneEdgesAndKeepsThePlaneSharp) {
+  // A white disc at depth 6 in front of the textured plane at depth 10, the
+  // view focused on the plane from the camera plane (constant weights: the
+  // output is the aperture's weighted sum of shifted images). The disc's
+  // edge blurs over fx * D * |1/6 - 1/10| pixels, D = 2 * spacing * scale
+  // (lf::aperture_diameter); the plane stays as sharp as with the tent.
+  const double spacing = 0.2, near = 6, disc_r = 1.0;
+  const lf::Rig rig = lf::synthetic_grid_rig(9, 9, spacing, 200, 150, 50);
+  // The scene, and the disc alone on black (its edge profile, free of the
+  // plane's texture).
+  std::vector<cv::Mat> images, disc_only;
+  for (const auto& cam : rig.cameras) {
+    cv::Mat im = lf::render_textured_plane(cam, kDepth, kPeriod);
+    cv::Mat disc(im.size(), CV_8UC4, cv::Scalar(0, 0, 0, 255));
+    for (int y = 0; y < im.rows; ++y)
+      for (int x = 0; x < im.cols; ++x) {
+        const auto d = cam.unproject({double(x), double(y)});
+        if (!d || (*d)[2] <= 0) continue;
+        const cv::Vec3d P = cam.center() + *d * ((near - cam.center()[2]) / (*d)[2]);
+        if (std::hypot(P[0], P[1]) >= disc_r) continue;
+        im.at<cv::Vec4b>(y, x) = disc.at<cv::Vec4b>(y, x) = {255, 255, 255, 255};
+      }
+    images.push_back(im);
+    disc_only.push_back(disc);
+  }
+  lf::ViewRequest req = view_at({0.03, 0.01, 0}, {0.03, 0.01, kDepth});
+  const double fx = req.view.focal_px();
+  const cv::Point2d centre(req.view.width / 2.0 - 0.5 - fx * 0.03 / near,
+                           req.view.height / 2.0 - 0.5 - fx * 0.01 / near);
+  const double radius = fx * disc_r / near;  // the disc's image, pixels
+  const cv::Mat truth = lf::render_textured_plane(camera_of(req.view), kDepth, kPeriod);
+  cv::Mat far_mask(req.view.height, req.view.width, CV_8U, cv::Scalar(0));
+  double tent_width = 0, tent_psnr = 0;
+  for (const double k : {1.0, 3.0}) {
+    req.aperture_scale = k;
+    lf::RenderStats st;
+    const cv::Mat out = lf::render_view(rig, images, req, &st);
+    const double blur = fx * lf::aperture_diameter(k, spacing) * (1 / near - 1 / kDepth);
+    const double width =
+        edge_width(lf::render_view(rig, disc_only, req), centre, radius, 0.45 * radius);
+    // The plane: pixels clear of the widest blur of the disc's edge.
+    far_mask.setTo(0);
+    cv::circle(far_mask, centre,
+               radius + 0.6 * fx * lf::aperture_diameter(3, spacing) * (1 / near - 1 / kDepth) + 3,
+               255, -1);
+    cv::Mat plane_out = out.clone(), plane_truth = truth.clone();
+    plane_out.setTo(0, far_mask), plane_truth.setTo(0, far_mask);
+    const double p = covered_psnr(plane_out, plane_truth);
+    std::printf(
+        "aperture scale %.0f: %d cameras, %zu fragment px; edge 10-90 %% %.1f px (blur %.1f px); "
+        "plane %.1f dB\n",
+        k, st.contributing, st.fragment_pixels, width, blur, p);
+    if (k == 1) {
+      tent_width = width, tent_psnr = p;
+      continue;
+    }
+    EXPECT_GT(width, 2 * tent_width) << "the off-plane edge blurs";
+    EXPECT_GT(width, 0.25 * blur);
+    EXPECT_LT(width, 0.75 * blur);
+    EXPECT_GT(p, tent_psnr - 1.0) << "the plane stays sharp";
+    EXPECT_GT(p, 38.0);
+  }
+}
+
 TEST(Render, LensDistortionIsAppliedToSamplingCoordinates) {
   lf::Rig rig = lf::synthetic_grid_rig(4, 4, 0.5, 240, 180, 50, 1.0, 8);
   for (auto& c : rig.cameras) c.intrinsics.k1 = -0.2, c.intrinsics.k2 = 0.05;

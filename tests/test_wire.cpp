@@ -283,6 +283,17 @@ TEST(Wire, RequestRoundTrip) {
   EXPECT_EQ(std::string(b.begin(), b.begin() + 4), "LFVR");
   EXPECT_EQ(b[4], 0);
   EXPECT_EQ(b[5], 2);
+  // The tent (scale 1) is 0 in bytes 138..139, as before the field existed;
+  // a wider aperture travels in 1/256 (rounded to the nearest).
+  EXPECT_EQ(s.aperture_scale, 1.0);
+  EXPECT_EQ(b[138] | b[139], 0);
+  for (const double k : {2.5, 16.0, 1.0 + 1.0 / 256, 3.1}) {
+    lf::ViewRequest a = r;
+    a.aperture_scale = k;
+    const auto ab = lf::serialize_request(a);
+    EXPECT_EQ(lf::parse_request(ab.data(), ab.size()).aperture_scale, std::round(k * 256) / 256)
+        << k;
+  }
   // An unknown time travels as -1.
   lf::ViewRequest u = r;
   u.time_ns = -5;
@@ -524,7 +535,21 @@ TEST(Wire, InvalidRequestsAreRejected) {
   v1[5] = 1;
   resign(v1);
   expect_request_error(v1, "unsupported version 1");
+  // Aperture scales at or below 1 (other than 0, the tent) or over 16.
+  for (const int q8 : {1, 256, 4097, 0xffff}) {
+    auto a = b;
+    a[138] = static_cast<uint8_t>(q8 >> 8), a[139] = static_cast<uint8_t>(q8);
+    resign(a);
+    expect_request_error(a, "aperture scale");
+  }
+  auto ar = b;
+  ar[137] = 1;
+  resign(ar);
+  expect_request_error(ar, "reserved");
   // Serializing an invalid request refuses.
+  r.aperture_scale = 0.5;
+  EXPECT_THROW(lf::serialize_request(r), std::invalid_argument);
+  r.aperture_scale = 1;
   r.view.vfov_deg = 200;
   EXPECT_THROW(lf::serialize_request(r), std::invalid_argument);
   // Random garbage never crashes.

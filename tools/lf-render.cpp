@@ -54,6 +54,12 @@ rendering
                         keeps one plane)
   --refocus-every N     on a path: re-run auto-focus every N frames (default 15),
                         or estimate the focal surface every N frames (default 1)
+  --aperture D          synthetic aperture diameter on the camera plane, rig units
+                        (default 0: the paper's tent, 2 camera spacings wide, the
+                        smallest); wider blends more cameras: what is off the focal
+                        plane blurs instead of doubling (lib/lf/view.h Aperture)
+  --f-number N          the aperture as a full-frame-equivalent f-number (N = F / D,
+                        F = 36 mm x fx / width; needs the rig's unit mm, cm or m)
   --threads N           render cameras in parallel (default: all cores)
   --backend B           auto (default: GL on a hardware GPU, else CPU), cpu, or gl
                         (EGL/GLES 3, lib/lf/gl_render.h: fragments drawn and blended
@@ -72,9 +78,11 @@ int main(int argc, char** argv) {
   if (cli::help_requested(argc, argv, kHelp)) return 0;
   try {
     cli::Args args(argc, argv,
-                   {"--input", "--block", "--input-scale", "--save-rig", "--at", "--eye",
-                    "--look-at", "--vfov", "--path", "--orbit", "--dolly", "--frames", "--size",
-                    "--focal", "--refocus-every", "--threads", "--backend", "--out", "--fps"},
+                   {"--input",    "--block",    "--input-scale", "--save-rig", "--at",
+                    "--eye",      "--look-at",  "--vfov",        "--path",     "--orbit",
+                    "--dolly",    "--frames",   "--size",        "--focal",    "--refocus-every",
+                    "--aperture", "--f-number", "--threads",     "--backend",  "--out",
+                    "--fps"},
                    {"--quiet"});
     if (!args.has("--input")) throw std::invalid_argument("--input is required (see --help)");
     if (!args.has("--out")) throw std::invalid_argument("--out is required (see --help)");
@@ -175,6 +183,23 @@ int main(int argc, char** argv) {
         }
       }
       req.focal_plane = plane;
+      if (args.has("--f-number")) {
+        const double mm = lf::millimetres_per_unit(rig.unit);
+        if (mm <= 0)
+          throw std::invalid_argument("--f-number needs the rig's unit to be mm, cm or m (it is '" +
+                                      rig.unit + "'): give --aperture in rig units");
+        req.aperture_scale = lf::aperture_scale_for(
+            lf::diameter_for_f_number(args.number("--f-number", 0), req.view.focal_px(),
+                                      req.view.width, mm),
+            rig.typical_spacing());
+      } else {
+        req.aperture_scale =
+            lf::aperture_scale_for(args.number("--aperture", 0), rig.typical_spacing());
+      }
+      if (!quiet && f == 0 && req.aperture_scale > 1)
+        std::fprintf(stderr, "aperture: %.4g %s across (%.2f x the tent's)\n",
+                     lf::aperture_diameter(req.aperture_scale, rig.typical_spacing()),
+                     rig.unit.c_str(), req.aperture_scale);
       if (surface) {
         if (f % refocus == 0) {
           const auto e0 = std::chrono::steady_clock::now();

@@ -115,6 +115,36 @@ bool ViewGeometry::inside(int s, double x, double y, std::array<double, 3>* w) c
   return true;
 }
 
+bool ViewGeometry::inside_scaled(int s, int slot, double x, double y, double* weight) const {
+  const Simplex& sx = rig_->simplices()[s];
+  const double k = req_.aperture_scale;
+  if (sx.size == 1) {
+    if (weight) *weight = 1.0;
+    return true;
+  }
+  std::array<double, 3> v{0, 0, 0};
+  double orient = 1.0;
+  if (eye_dist_ == 0.0) {
+    for (int j = 0; j < sx.size; ++j) v[j] = facet_at_eye(sx.facet[j], sx.sign[j]);
+  } else {
+    const double dn = dn_(x, y);
+    if (dn == 0.0) return false;
+    orient = dn > 0 ? 1.0 : -1.0;
+    for (int j = 0; j < sx.size; ++j) v[j] = facet_form(sx.facet[j], sx.sign[j])(x, y);
+  }
+  double sum = 0;
+  for (int j = 0; j < sx.size; ++j) {
+    sum += v[j];
+    if (j == slot) continue;
+    const double e = v[j] * orient;
+    if (e < 0 || (e == 0 && !tie_positive(sx.facet[j], sx.sign[j]))) return false;
+  }
+  const double num = v[slot] + (k - 1.0) * sum;
+  if (!(num * orient > 0)) return false;
+  if (weight) *weight = std::clamp(num / (k * sum), 0.0, 1.0);
+  return true;
+}
+
 ApertureSample ViewGeometry::locate(double x, double y) const {
   ApertureSample out;
   const auto& simplices = rig_->simplices();
@@ -258,6 +288,7 @@ bool weighted(const ViewGeometry& g, const Part& part, int x, int y) {
     const double dn = g.camera_plane_denominator()(x, y);
     if ((dn > 0 ? 1 : -1) != part.sd || dn == 0) return false;
   }
+  if (g.request().aperture_scale != 1.0) return g.inside_scaled(part.s, part.slot, x, y);
   std::array<double, 3> w;
   return g.inside(part.s, x, y, &w) && w[part.slot] > 0;
 }
@@ -323,6 +354,16 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
       num = g.facet_form(sx.facet[slot], sx.sign[slot]);
       for (int k = 0; k < sx.size; ++k) den = den + g.facet_form(sx.facet[k], sx.sign[k]);
     }
+    // A wider aperture (scale k): the camera's barycentric b becomes
+    // (b + k - 1) / k, positive on the simplex scaled by k about the camera.
+    const double k = g.request().aperture_scale;
+    PixelForm slot_facet;
+    if (sx.size > 1) slot_facet = g.facet_form(sx.facet[slot], sx.sign[slot]);
+    if (k != 1.0 && sx.size > 1) {
+      slot_facet = slot_facet + den * (k - 1.0);
+      num = num + den * (k - 1.0);
+      den = den * k;
+    }
     const double dscale = max_abs(den);
     if (dscale > 0) num = num * (1.0 / dscale), den = den * (1.0 / dscale);
 
@@ -333,11 +374,11 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
       Polygon base = frame;
       if (!single) {
         base = clip(base, g.camera_plane_denominator() * sd);
-        for (int k = 0; k < sx.size && !base.empty(); ++k)
-          base = clip(base, g.facet_form(sx.facet[k], sx.sign[k]) * sd);
+        for (int j = 0; j < sx.size && !base.empty(); ++j)
+          base = clip(base, (j == slot ? slot_facet : g.facet_form(sx.facet[j], sx.sign[j])) * sd);
       } else if (sx.size > 1) {
-        std::array<double, 3> w;
-        if (!g.inside(static_cast<int>(s), 0, 0, &w) || !(w[slot] > 0)) break;
+        Part probe{static_cast<int>(s), slot, sd, single, num, den, {}, 0, 0, 0, 0, {}};
+        if (!weighted(g, probe, 0, 0)) break;
       }
       if (base.size() < 3) continue;
       Part part{static_cast<int>(s), slot,      sd, single, num, den, base, INFINITY, INFINITY,

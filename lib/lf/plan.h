@@ -13,7 +13,9 @@
 //    plane's homography;
 //  * the camera plane at X(p) = E_2d - dist(E) * D_2d(p) / D_n(p); the aperture
 //    weight of camera i is its barycentric coordinate of X(p) in the simplex
-//    of the rig triangulation containing X(p). Every barycentric coordinate is
+//    of the rig triangulation containing X(p) (a wider aperture, scale k:
+//    (b + k - 1) / k in each simplex of camera i scaled by k about it, see
+//    ViewGeometry::inside_scaled; still a ratio of linear forms). Every barycentric coordinate is
 //    e_k(X(p)) / sum_j e_j(X(p)) with e_k linear on the plane, so multiplied by
 //    D_n(p) it is a ratio of two linear functions of (x, y): perspective-
 //    correct, and every region where a camera contributes is an intersection of
@@ -107,6 +109,14 @@ class ViewGeometry {
   // Exact membership of a pixel's line in simplex `s`; fills barycentric
   // weights (per simplex vertex) when inside.
   bool inside(int s, double x, double y, std::array<double, 3>* weights = nullptr) const;
+  // With the request's aperture scale k > 1 (lf/view.h Aperture): whether
+  // the pixel's line meets simplex `s` scaled by k about its vertex `slot`
+  // with a positive weight of that vertex's camera, and the weight,
+  // (e_slot + (k - 1) sum_j e_j) / (k sum_j e_j) (the vertex's barycentric
+  // coordinate b becomes (b + k - 1) / k): the facets through the vertex
+  // are the simplex's own, with its tie rule, so the scaled simplices of
+  // one camera tile its scaled star exactly.
+  bool inside_scaled(int s, int slot, double x, double y, double* weight = nullptr) const;
   // The simplex containing the pixel's line and its weights.
   ApertureSample locate(double x, double y) const;
   // Whether camera `index` sees the focal point of pixel (x, y).

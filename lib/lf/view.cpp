@@ -85,6 +85,9 @@ void validate(const ViewRequest& req) {
   if (!std::isfinite(p.d)) bad("focal plane offset is not finite");
   if (p.at_infinity() && p.d == 0.0) bad("focal plane (0, 0, 0, 0) is not a plane");
   if (req.aperture != Aperture::kTent) bad("unknown aperture");
+  if (!(req.aperture_scale >= 1.0 && req.aperture_scale <= kMaxApertureScale))
+    bad("aperture scale " + std::to_string(req.aperture_scale) + " is outside 1.." +
+        std::to_string(static_cast<int>(kMaxApertureScale)));
   const FocalSurface& fs = req.surface;
   if (fs.empty()) return;
   if (fs.tile < FocalSurface::kMinTile || fs.tile > FocalSurface::kMaxTile)
@@ -115,6 +118,32 @@ int FocalSurface::planes_used() const {
   for (uint8_t k : plane_of)
     if (k < used.size()) used[k] = true;
   return static_cast<int>(std::count(used.begin(), used.end(), true));
+}
+
+double aperture_diameter(double scale, double spacing) {
+  return 2.0 * spacing * scale;
+}
+
+double aperture_scale_for(double diameter, double spacing) {
+  if (!(spacing > 0) || !std::isfinite(diameter)) return 1.0;
+  return std::clamp(diameter / (2.0 * spacing), 1.0, kMaxApertureScale);
+}
+
+double full_frame_f_number(double diameter_mm, double fx, int width) {
+  if (!(diameter_mm > 0) || width <= 0) return 0.0;
+  return 36.0 * fx / width / diameter_mm;
+}
+
+double diameter_for_f_number(double f_number, double fx, int width, double mm_per_unit) {
+  if (!(f_number > 0) || !(mm_per_unit > 0) || width <= 0) return 0.0;
+  return 36.0 * fx / width / f_number / mm_per_unit;
+}
+
+double millimetres_per_unit(const std::string& unit) {
+  if (unit == "mm") return 1.0;
+  if (unit == "cm") return 10.0;
+  if (unit == "m") return 1000.0;
+  return 0.0;
 }
 
 }  // namespace lf

@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <opencv2/core.hpp>
+#include <string>
 #include <vector>
 
 #include "lf/camera.h"
@@ -50,8 +51,35 @@ struct FocalSurface {
 
 // Aperture filter over the camera plane (Isaksen et al. 2000). The paper's
 // renderer uses the tent: barycentric weights over the rig's triangulation
-// (1 at a camera, 0 at its neighbours).
+// (1 at a camera, 0 at its neighbours). ViewRequest::aperture_scale widens
+// it: camera i's weight at camera-plane point X is its tent weight at
+// C_i + (X - C_i) / scale (C_i: the camera's position on the plane), so its
+// support (the triangles around it, its "star") grows by `scale` about the
+// camera and overlaps its neighbours'; the compositor's renormalisation
+// makes the weights a partition of unity again. Off-surface content then
+// blurs over more cameras instead of doubling (a synthetic large aperture,
+// Vaish et al. 2004); scale 1 is the paper's, the smallest.
 enum class Aperture : uint8_t { kTent = 0 };
+constexpr double kMaxApertureScale = 16.0;
+// The aperture's diameter in rig units for a scale: the tent's support
+// spans two camera spacings (neighbour to neighbour), so D = 2 * spacing *
+// scale (Rig::typical_spacing()); and back (never below 1, the tent).
+double aperture_diameter(double scale, double spacing);
+double aperture_scale_for(double diameter, double spacing);
+// Full-frame-equivalent f-number of an aperture of `diameter_mm` for a view
+// `width` pixels wide with focal length `fx` pixels: N = F / D with
+// F = 36 mm * fx / width, the focal length of a 36 mm wide (full-frame)
+// sensor with the view's field of view. Such a camera at f/N, focused where
+// the view is focused, blurs a point at inverse depth q over
+// fx * D * |q - q_focus| pixels (thin lens, focus distance >> F), as the
+// synthetic aperture does. 0 for a diameter of 0.
+double full_frame_f_number(double diameter_mm, double fx, int width);
+// Millimetres per rig unit for a Rig::unit of "mm", "cm" or "m"; 0 when the
+// unit is not a length (e.g. the Stanford archive's parallax unit).
+double millimetres_per_unit(const std::string& unit);
+// The diameter (rig units) of full-frame-equivalent f-number `f_number`
+// (the inverse of full_frame_f_number), or 0 when mm_per_unit is 0.
+double diameter_for_f_number(double f_number, double fx, int width, double mm_per_unit);
 
 // The virtual camera. Intrinsics are derived from the vertical field of view
 // and the size; `shift_x/shift_y` move the principal point off the image
@@ -83,6 +111,7 @@ struct ViewRequest {
   FocalPlane focal_plane;  // the single plane; with a surface, where it has none
   FocalSurface surface;    // optional per-tile focal planes (empty: focal_plane)
   Aperture aperture = Aperture::kTent;
+  double aperture_scale = 1.0;  // 1..kMaxApertureScale (see Aperture)
   // The instant the request is for (ns of running time on the pipeline
   // clock; in a deployment, the shared network clock and base time), or -1
   // when unknown. Set by the viewer from the request's PTS, so a camera host
@@ -94,7 +123,8 @@ struct ViewRequest {
 
 // Throws std::invalid_argument naming the field when a request cannot be
 // rendered: non-finite numbers, size outside 1..16384, fov outside
-// (0, 179.9] degrees, R not a rotation, a focal plane with n = 0 and d = 0, or
+// (0, 179.9] degrees, R not a rotation, an aperture scale outside
+// 1..kMaxApertureScale, a focal plane with n = 0 and d = 0, or
 // a surface whose tile size is outside kMinTile..kMaxTile, whose grid does
 // not match the output size, with 0 or more than kMaxPlanes planes, a bad
 // plane, or a tile naming a plane that is not there.

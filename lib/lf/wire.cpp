@@ -571,7 +571,8 @@ std::vector<uint8_t> serialize_request(const ViewRequest& req) {
   for (int i = 0; i < 3; ++i) w.f64(req.focal_plane.n[i]);
   w.f64(req.focal_plane.d);
   w.u8(static_cast<uint8_t>(req.aperture));
-  w.u8(0), w.u8(0), w.u8(0);
+  w.u8(0);
+  w.u16(aperture_scale_q8(req.aperture_scale));
   w.u64(static_cast<uint64_t>(req.time_ns < 0 ? -1 : req.time_ns));
   if (!sf.empty()) {
     w.u32(static_cast<uint32_t>(block));
@@ -588,6 +589,15 @@ std::vector<uint8_t> serialize_request(const ViewRequest& req) {
   }
   w.u32(crc(out.data(), out.size()));
   return out;
+}
+
+uint16_t aperture_scale_q8(double scale) {
+  if (!(scale >= 1.0 && scale <= kMaxApertureScale))
+    throw std::invalid_argument("view request: aperture scale " + std::to_string(scale) +
+                                " is outside 1.." +
+                                std::to_string(static_cast<int>(kMaxApertureScale)));
+  const long q = std::lround(scale * 256.0);
+  return static_cast<uint16_t>(q <= 256 ? 0 : q);
 }
 
 ViewRequest parse_request(const uint8_t* data, size_t size) {
@@ -619,7 +629,8 @@ ViewRequest parse_request(const uint8_t* data, size_t size) {
   for (int i = 0; i < 3; ++i) req.focal_plane.n[i] = r.f64();
   req.focal_plane.d = r.f64();
   const uint8_t ap = r.u8();
-  const uint8_t r0 = r.u8(), r1 = r.u8(), r2 = r.u8();
+  const uint8_t r0 = r.u8();
+  const uint16_t scale_q8 = r.u16();
   req.time_ns = static_cast<int64_t>(r.u64());
   if (version == 3) {
     // The surface block: its size first, checked against what came and the
@@ -657,9 +668,13 @@ ViewRequest parse_request(const uint8_t* data, size_t size) {
     const uint32_t sum = r.u32();
     if (crc(data, kRequestSize - 4) != sum) bad("CRC mismatch (corrupt data)");
   }
-  if (r0 || r1 || r2) bad("reserved bytes are not zero");
+  if (r0) bad("reserved byte is not zero");
   if (req.time_ns < -1) bad("time " + std::to_string(req.time_ns) + " ns is negative");
   if (ap != 0) bad("unknown aperture " + std::to_string(ap));
+  if (scale_q8 != 0 && (scale_q8 <= 256 || scale_q8 > 256 * kMaxApertureScale))
+    bad("aperture scale " + std::to_string(scale_q8) + "/256 is outside (1, " +
+        std::to_string(static_cast<int>(kMaxApertureScale)) + "] (0: the tent)");
+  req.aperture_scale = scale_q8 == 0 ? 1.0 : scale_q8 / 256.0;
   const double qn = cv::norm(q);
   if (!std::isfinite(qn) || std::abs(qn - 1.0) > 1e-6) bad("orientation quaternion is not unit");
   req.view.R = rotation_from_quaternion(q);

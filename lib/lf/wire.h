@@ -34,8 +34,11 @@
 //  20 position f64 x 3, 44 orientation quaternion (w, x, y, z) f64 x 4 (world -> view,
 //     unit within 1e-6), 76 vfov_deg f64, 84 width u16, 86 height u16,
 //  88 shift_x f64, 96 shift_y f64, 104 focal plane n f64 x 3, 128 d f64,
-// 136 aperture u8, 137 reserved 3 bytes (0), 140 time_ns i64 (>= -1),
-// 148 crc32 u32 (bytes 0..147). Version 1 (144 bytes, no time) is refused.
+// 136 aperture u8 (0: tent), 137 reserved u8 (0), 138 aperture scale u16
+// in 1/256 (view.h Aperture: 0 for the paper's tent, scale 1, else
+// 257..4096, scales (1, 16]; serialize_request rounds to the nearest 1/256),
+// 140 time_ns i64 (>= -1), 148 crc32 u32 (bytes 0..147). Version 1 (144
+// bytes, no time) is refused.
 //
 // View request, version 3: a request with a focal surface (view.h
 // FocalSurface; serialize_request writes version 2 when it has none). Bytes
@@ -128,6 +131,11 @@ struct FragmentHeader {
   uint32_t payload_size = 0;
 };
 FragmentHeader peek_fragment_header(const uint8_t* data, size_t size);
+
+// A request's aperture scale on the wire (bytes 138..139): 0 for 1 (the
+// tent, as before the field existed), else round(256 * scale). Throws
+// std::invalid_argument outside 1..kMaxApertureScale.
+uint16_t aperture_scale_q8(double scale);
 
 // Version 2, or 3 with a focal surface. Throws std::invalid_argument on a
 // request lf::validate() refuses or a surface over kMaxSurfaceBytes.
