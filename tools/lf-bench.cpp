@@ -44,6 +44,9 @@ usage: lf-bench [options]
                       image: an oracle), surface (a focal plane per 16-pixel tile
                       estimated from the images, lf/focal_surface.h), infinity,
                       depth:Z, param:A (default auto,best,surface)
+  --apertures LIST    aperture scales to add to each focal choice (lib/lf/view.h
+                      Aperture: 1 is the paper's tent, 2 twice as wide, ...;
+                      default 1): PSNR, time and fragment bytes of each
   --loo N             number of held-out cameras, spread over the block's interior (12)
   --sweep-steps N     planes in the exhaustive sweep (default 96)
   --plot FILE         write a PNG plot (default lf-bench.png)
@@ -304,7 +307,7 @@ int main(int argc, char** argv) {
   try {
     cli::Args args(argc, argv,
                    {"--input", "--block", "--input-scale", "--sizes", "--encodings", "--focal",
-                    "--loo", "--sweep-steps", "--plot", "--backend"},
+                    "--loo", "--sweep-steps", "--plot", "--backend", "--apertures"},
                    {"--skip-quality", "--skip-bandwidth", "--skip-speed"});
     cv::setNumThreads(1);
     const lf::Rig rig = cli::select_cameras(
@@ -334,6 +337,13 @@ int main(int argc, char** argv) {
       std::stringstream ss(args.get("--focal", "auto,best,surface"));
       std::string tok;
       while (std::getline(ss, tok, ',')) focals.push_back(tok);
+    }
+    std::vector<double> apertures = {1};
+    if (args.has("--apertures")) {
+      apertures = args.numbers("--apertures", 1, 16);
+      for (const double k : apertures)
+        if (!(k >= 1 && k <= lf::kMaxApertureScale))
+          throw std::invalid_argument("--apertures: scales in 1..16");
     }
     const int W0 = sizes.back().first, H0 = sizes.back().second;
     cv::Mat canvas(570, 1100, CV_8UC3, cv::Scalar(255, 255, 255));
@@ -420,26 +430,30 @@ int main(int argc, char** argv) {
               req.focal_plane = lf::plane_at_inverse_depth(rj, qbest);
             else
               req.focal_plane = cli::parse_focal(fs, rj).plane;
-            for (const Encoding& e : encodings) {
-              const std::string key =
-                  std::to_string(W) + "x" + std::to_string(H) + " | " + e.name + " | " + fs;
-              if (!stats.count(key)) order.push_back(key);
-              auto& st = stats[key];
-              std::vector<double> times;
-              FrameResult fr;
-              for (int rep = 0; rep < 3; ++rep) {
-                fr = render_frame(rj, ij, req, e);
-                times.push_back(fr.ms);
+            for (const double ap : apertures)
+              for (const Encoding& e : encodings) {
+                req.aperture_scale = ap;
+                char ap_label[48] = "";
+                if (ap != 1) std::snprintf(ap_label, sizeof ap_label, ", aperture %gx", ap);
+                const std::string key = std::to_string(W) + "x" + std::to_string(H) + " | " +
+                                        e.name + " | " + fs + ap_label;
+                if (!stats.count(key)) order.push_back(key);
+                auto& st = stats[key];
+                std::vector<double> times;
+                FrameResult fr;
+                for (int rep = 0; rep < 3; ++rep) {
+                  fr = render_frame(rj, ij, req, e);
+                  times.push_back(fr.ms);
+                }
+                const double p = lf::psnr(fr.image, gt, border);
+                st.psnr.push_back(p);
+                st.ssim.push_back(lf::ssim(fr.image, gt, border));
+                st.ms.push_back(median(times));
+                st.px_ratio.push_back(static_cast<double>(fr.fragment_pixels) / (W * H));
+                st.bytes.push_back(static_cast<double>(fr.bytes));
+                if (e.name == encodings.front().name && fs == "auto" && ap == 1) p_auto = p;
+                if (e.name == encodings.front().name && fs == "best" && ap == 1) p_best = p;
               }
-              const double p = lf::psnr(fr.image, gt, border);
-              st.psnr.push_back(p);
-              st.ssim.push_back(lf::ssim(fr.image, gt, border));
-              st.ms.push_back(median(times));
-              st.px_ratio.push_back(static_cast<double>(fr.fragment_pixels) / (W * H));
-              st.bytes.push_back(static_cast<double>(fr.bytes));
-              if (e.name == encodings.front().name && fs == "auto") p_auto = p;
-              if (e.name == encodings.front().name && fs == "best") p_best = p;
-            }
           }
           if (W == W0) {
             gap_auto.push_back(p_best - p_auto);
@@ -452,6 +466,7 @@ int main(int argc, char** argv) {
             const lf::Rig one = rj.subset({nearest});
             req.focal_plane = auto_plane;
             req.surface = {};
+            req.aperture_scale = 1;
             nearest_psnr.push_back(
                 lf::psnr(render_frame(one, {ij[nearest]}, req, {"none"}).image, gt, border));
           }
