@@ -167,29 +167,37 @@ TEST_F(Gst, PipelineOutputEqualsOfflineRenderer) {
   const lf::Rig rig = lf::load_rig(rig_path_);
   const auto images = lf::load_images(rig);  // BGRA; the elements use RGBA
   const cv::Vec3d c = rig.plane().origin;
-  for (const std::string focal : {"param:-0.2", "infinity"}) {
-    for (const cv::Vec3d& eye : {c + cv::Vec3d(1.5, -2.0, 0), c + cv::Vec3d(-2.0, 1.0, 6.0)}) {
-      char pos[128];
-      std::snprintf(pos, sizeof pos, "\"<%.17g,%.17g,%.17g>\"", eye[0], eye[1], eye[2]);
-      std::string err;
-      const auto frames = run(pipeline(std::string("num-buffers=2 width=320 height=240 position=") +
-                                       pos + " focal-plane=" + focal),
-                              100, nullptr, &err);
-      ASSERT_EQ(frames.size(), 2u) << err;
-      lf::ViewRequest req;
-      req.view = lf::view_between_cameras(rig, eye, 320, 240);
-      req.focal_plane = lf::parse_focal_plane(focal, rig);
-      cv::Mat ref = lf::render_view(rig, images, req);
-      cv::cvtColor(ref, ref, cv::COLOR_BGRA2RGBA);
-      for (const cv::Mat& f : frames) {
-        cv::Mat diff;
-        cv::absdiff(f, ref, diff);
-        const cv::Scalar mad = cv::mean(diff);
-        EXPECT_LE((mad[0] + mad[1] + mad[2]) / 3, 1.0) << focal;
-        EXPECT_EQ(cv::countNonZero(diff.reshape(1)), 0) << "expected bit-identical output";
-      }
+  // `aperture`: lfviewrequest's, rig units (0: the tent).
+  auto check = [&](const std::string& focal, const cv::Vec3d& eye, double aperture) {
+    char pos[128];
+    std::snprintf(pos, sizeof pos, "\"<%.17g,%.17g,%.17g>\" aperture=%.17g", eye[0], eye[1], eye[2],
+                  aperture);
+    std::string err;
+    const auto frames = run(pipeline(std::string("num-buffers=2 width=320 height=240 position=") +
+                                     pos + " focal-plane=" + focal),
+                            100, nullptr, &err);
+    ASSERT_EQ(frames.size(), 2u) << err;
+    lf::ViewRequest req;
+    req.view = lf::view_between_cameras(rig, eye, 320, 240);
+    req.focal_plane = lf::parse_focal_plane(focal, rig);
+    req.aperture_scale = lf::aperture_scale_for(aperture, rig.typical_spacing());
+    cv::Mat ref = lf::render_view(rig, images, req);
+    cv::cvtColor(ref, ref, cv::COLOR_BGRA2RGBA);
+    for (const cv::Mat& f : frames) {
+      cv::Mat diff;
+      cv::absdiff(f, ref, diff);
+      const cv::Scalar mad = cv::mean(diff);
+      EXPECT_LE((mad[0] + mad[1] + mad[2]) / 3, 1.0) << focal;
+      EXPECT_EQ(cv::countNonZero(diff.reshape(1)), 0)
+          << "expected bit-identical output (" << focal << ", aperture " << aperture << ")";
     }
-  }
+  };
+  for (const std::string focal : {"param:-0.2", "infinity"})
+    for (const cv::Vec3d& eye : {c + cv::Vec3d(1.5, -2.0, 0), c + cv::Vec3d(-2.0, 1.0, 6.0)})
+      check(focal, eye, 0);
+  // A wider aperture (2.5 tents; a multiple of 1/256, as the wire carries it).
+  check("param:-0.2", c + cv::Vec3d(1.5, -2.0, 0),
+        lf::aperture_diameter(2.5, rig.typical_spacing()));
 }
 
 TEST_F(Gst, ColourCorrectionFromTheRigIsApplied) {
