@@ -255,6 +255,43 @@ TEST(Render, MissingFragmentDegradesGracefully) {
   EXPECT_LT(holes, n / 3 / 50);
 }
 
+// A lost camera with the eye on it: the tent weights only that camera
+// there, so its loss leaves a hole (the compositor has nothing to
+// renormalise); an aperture of 2 tents covers it with its neighbours'
+// fragments, on the focal plane as exactly as the full rig.
+TEST(Render, AWiderApertureCoversALostCamera) {
+  const lf::Rig rig = lf::synthetic_grid_rig(5, 5, 0.5, 240, 180, 50);
+  const auto images = images_of(rig);
+  const int lost = 12;  // the centre camera
+  const cv::Vec3d at = rig.cameras[lost].center();
+  lf::ViewRequest req = view_at(at, at + cv::Vec3d(0, 0, kDepth));
+  const cv::Mat truth = lf::render_textured_plane(camera_of(req.view), kDepth, kPeriod);
+  for (const double k : {1.0, 2.0}) {
+    req.aperture_scale = k;
+    const lf::ViewGeometry g(rig, req);
+    lf::Compositor c;
+    c.reset(req.view.width, req.view.height);
+    for (size_t i = 0; i < rig.cameras.size(); ++i) {
+      if (static_cast<int>(i) == lost) continue;
+      lf::Fragment f;
+      lf::render_fragment(lf::plan_fragment(g, static_cast<int>(i)), rig.cameras[i], images[i], f);
+      c.add(f);
+    }
+    cv::Mat out;
+    c.resolve(out);
+    double coverage = 0;
+    const double p = covered_psnr(out, truth, &coverage);
+    std::printf("aperture scale %.0f without the camera under the eye: %.1f %% covered, %.1f dB\n",
+                k, 100 * coverage, p);
+    if (k == 1) {
+      EXPECT_LT(coverage, 0.05) << "the tent leaves a hole";
+    } else {
+      EXPECT_EQ(coverage, 1.0) << "no hole";
+      EXPECT_GT(p, 40.0);
+    }
+  }
+}
+
 // Every vector kernel that this CPU and build have against the scalar
 // reference, byte for byte, with and without lens distortion, on views whose
 // fragments have runs of every length (so the vector loops' tails run too).
