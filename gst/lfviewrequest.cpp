@@ -90,6 +90,20 @@
  * once the answer has come (at most 2 s, once per probe), so every request
  * after the first probe carries a surface.
  *
+ * ## Aperture
+ *
+ * `aperture` (rig units) widens the synthetic aperture beyond the paper's
+ * tent, whose support spans two camera spacings (lib/lf/view.h Aperture;
+ * Isaksen et al. 2000): each camera's tent is scaled by D / (2 spacing)
+ * about the camera (at most 16), so more cameras blend and what is off the
+ * focal plane blurs instead of doubling, at about 3 x scale^2 the output in
+ * fragment pixels. `f-number` sets it photographically, overriding
+ * `aperture` when > 0: N = F / D with F = 36 mm x fx / width, the focal
+ * length of a 36 mm wide sensor with the view's field of view; it needs the
+ * rig's `unit` to be mm, cm or m (else a warning, and `aperture` holds).
+ * The requests carry the scale in 1/256 (lib/lf/wire.h); probes keep the
+ * tent.
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 lfviewrequest rig=rig.json position="<0,0,0>" focal-plane=depth:2 \
