@@ -198,41 +198,45 @@ TEST(GlBackend, AutoPicksGlOnlyOnHardware) {
 
 TEST(GlBackend, FragmentsMatchTheCpuKernel) {
   lf::GlRenderer gl;
-  for (bool distort : {false, true}) {
-    const lf::Rig rig = grid4(distort);
-    const auto images = images_of(rig);
-    for (size_t i = 0; i < images.size(); ++i) gl.set_image(static_cast<int>(i), images[i]);
-    Diff all;
-    for (const auto& [name, req] : views()) {
-      const std::string what = name + (distort ? " (distorted)" : "");
-      SCOPED_TRACE(what);
-      const lf::ViewGeometry g(rig, req);
-      Diff view;
-      for (size_t i = 0; i < rig.cameras.size(); ++i) {
-        const auto plan = lf::plan_fragment(g, static_cast<int>(i));
-        lf::Fragment cpu, out;
-        lf::render_fragment(plan, rig.cameras[i], images[i], cpu, lf::Kernel::kScalar);
-        lf::describe_fragment(plan, out);
-        out.pixels.assign(4 * plan.pixel_count(), 0xAB);  // every byte must be written
-        gl.render_pixels(plan, rig.cameras[i], static_cast<int>(i), out.pixels.data());
-        ASSERT_EQ(out.pixels.size(), cpu.pixels.size());
-        if (plan.empty()) {
-          EXPECT_TRUE(out.pixels.empty());
-          continue;
+  for (bool distort : {false, true})
+    for (const lf::Sampling sampling : {lf::Sampling::kBilinear, lf::Sampling::kBicubic}) {
+      const bool cubic = sampling == lf::Sampling::kBicubic;
+      const lf::Rig rig = grid4(distort);
+      const auto images = images_of(rig);
+      for (size_t i = 0; i < images.size(); ++i) gl.set_image(static_cast<int>(i), images[i]);
+      Diff all;
+      for (auto [name, req] : views()) {
+        req.sampling = sampling;
+        const std::string what = name + (distort ? " (distorted)" : "") + (cubic ? " bicubic" : "");
+        SCOPED_TRACE(what);
+        const lf::ViewGeometry g(rig, req);
+        Diff view;
+        for (size_t i = 0; i < rig.cameras.size(); ++i) {
+          const auto plan = lf::plan_fragment(g, static_cast<int>(i));
+          lf::Fragment cpu, out;
+          lf::render_fragment(plan, rig.cameras[i], images[i], cpu, lf::Kernel::kScalar);
+          lf::describe_fragment(plan, out);
+          out.pixels.assign(4 * plan.pixel_count(), 0xAB);  // every byte must be written
+          gl.render_pixels(plan, rig.cameras[i], static_cast<int>(i), out.pixels.data());
+          ASSERT_EQ(out.pixels.size(), cpu.pixels.size());
+          if (plan.empty()) {
+            EXPECT_TRUE(out.pixels.empty());
+            continue;
+          }
+          const Diff d = compare(as_image(cpu), as_image(out));
+          EXPECT_LE(d.max_abs, 3) << "camera " << i;
+          EXPECT_EQ(d.mismatch_off_border, 0u) << "camera " << i;
+          view.add(d);
         }
-        const Diff d = compare(as_image(cpu), as_image(out));
-        EXPECT_LE(d.max_abs, 3) << "camera " << i;
-        EXPECT_EQ(d.mismatch_off_border, 0u) << "camera " << i;
-        view.add(d);
+        EXPECT_LE(view.mean(), 1.0);
+        all.add(view);
       }
-      EXPECT_LE(view.mean(), 1.0);
-      all.add(view);
+      expect_close(all, distort ? "all views, distorted" : "all views", 100000);
+      std::cout << (distort ? "distorted" : "undistorted") << (cubic ? ", bicubic: " : ": ")
+                << all.both << " pixels, " << all.differ << " differ, mean |GL - CPU| "
+                << all.mean() << " LSB, max " << all.max_abs << ", coverage differs at "
+                << all.mismatch << " border pixels\n";
     }
-    expect_close(all, distort ? "all views, distorted" : "all views", 100000);
-    std::cout << (distort ? "distorted: " : "undistorted: ") << all.both << " pixels, "
-              << all.differ << " differ, mean |GL - CPU| " << all.mean() << " LSB, max "
-              << all.max_abs << ", coverage differs at " << all.mismatch << " border pixels\n";
-  }
 }
 
 // render_fragment() with its own upload equals render_pixels() from a slot;

@@ -138,4 +138,10 @@ FocalSpec parse_focal(const std::string& s, const lf::Rig& rig) {
   return f;
 }
 
+lf::Sampling parse_sampling(const std::string& text) {
+  if (text == "bilinear") return lf::Sampling::kBilinear;
+  if (text == "bicubic") return lf::Sampling::kBicubic;
+  throw std::invalid_argument("sampling '" + text + "': bilinear or bicubic");
+}
+
 }  // namespace cli

@@ -67,4 +67,8 @@ FocalSpec parse_focal(const std::string& s, const lf::Rig& rig);
 // asked for and unavailable.
 lf::Backend backend_from(const std::string& text, bool quiet);
 
+// --sampling bilinear|bicubic (lf/view.h Sampling); throws
+// std::invalid_argument for another word.
+lf::Sampling parse_sampling(const std::string& text);
+
 }  // namespace cli

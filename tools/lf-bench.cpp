@@ -47,6 +47,8 @@ usage: lf-bench [options]
   --apertures LIST    aperture scales to add to each focal choice (lib/lf/view.h
                       Aperture: 1 is the paper's tent, 2 twice as wide, ...;
                       default 1): PSNR, time and fragment bytes of each
+  --samplings LIST    sampling filters to add to each focal choice: bilinear
+                      (default), bicubic (lib/lf/view.h Sampling)
   --loo N             number of held-out cameras, spread over the block's interior (12)
   --sweep-steps N     planes in the exhaustive sweep (default 96)
   --plot FILE         write a PNG plot (default lf-bench.png)
@@ -307,7 +309,7 @@ int main(int argc, char** argv) {
   try {
     cli::Args args(argc, argv,
                    {"--input", "--block", "--input-scale", "--sizes", "--encodings", "--focal",
-                    "--loo", "--sweep-steps", "--plot", "--backend", "--apertures"},
+                    "--loo", "--sweep-steps", "--plot", "--backend", "--apertures", "--samplings"},
                    {"--skip-quality", "--skip-bandwidth", "--skip-speed"});
     cv::setNumThreads(1);
     const lf::Rig rig = cli::select_cameras(
@@ -344,6 +346,12 @@ int main(int argc, char** argv) {
       for (const double k : apertures)
         if (!(k >= 1 && k <= lf::kMaxApertureScale))
           throw std::invalid_argument("--apertures: scales in 1..16");
+    }
+    std::vector<lf::Sampling> samplings;
+    {
+      std::stringstream ss(args.get("--samplings", "bilinear"));
+      std::string tok;
+      while (std::getline(ss, tok, ',')) samplings.push_back(cli::parse_sampling(tok));
     }
     const int W0 = sizes.back().first, H0 = sizes.back().second;
     cv::Mat canvas(570, 1100, CV_8UC3, cv::Scalar(255, 255, 255));
@@ -430,30 +438,35 @@ int main(int argc, char** argv) {
               req.focal_plane = lf::plane_at_inverse_depth(rj, qbest);
             else
               req.focal_plane = cli::parse_focal(fs, rj).plane;
-            for (const double ap : apertures)
-              for (const Encoding& e : encodings) {
-                req.aperture_scale = ap;
-                char ap_label[48] = "";
-                if (ap != 1) std::snprintf(ap_label, sizeof ap_label, ", aperture %gx", ap);
-                const std::string key = std::to_string(W) + "x" + std::to_string(H) + " | " +
-                                        e.name + " | " + fs + ap_label;
-                if (!stats.count(key)) order.push_back(key);
-                auto& st = stats[key];
-                std::vector<double> times;
-                FrameResult fr;
-                for (int rep = 0; rep < 3; ++rep) {
-                  fr = render_frame(rj, ij, req, e);
-                  times.push_back(fr.ms);
+            for (const lf::Sampling sampling : samplings)
+              for (const double ap : apertures)
+                for (const Encoding& e : encodings) {
+                  req.aperture_scale = ap;
+                  req.sampling = sampling;
+                  const bool cubic = sampling == lf::Sampling::kBicubic;
+                  char ap_label[48] = "";
+                  if (ap != 1) std::snprintf(ap_label, sizeof ap_label, ", aperture %gx", ap);
+                  const std::string key = std::to_string(W) + "x" + std::to_string(H) + " | " +
+                                          e.name + " | " + fs + ap_label +
+                                          (cubic ? ", bicubic" : "");
+                  if (!stats.count(key)) order.push_back(key);
+                  auto& st = stats[key];
+                  std::vector<double> times;
+                  FrameResult fr;
+                  for (int rep = 0; rep < 3; ++rep) {
+                    fr = render_frame(rj, ij, req, e);
+                    times.push_back(fr.ms);
+                  }
+                  const double p = lf::psnr(fr.image, gt, border);
+                  st.psnr.push_back(p);
+                  st.ssim.push_back(lf::ssim(fr.image, gt, border));
+                  st.ms.push_back(median(times));
+                  st.px_ratio.push_back(static_cast<double>(fr.fragment_pixels) / (W * H));
+                  st.bytes.push_back(static_cast<double>(fr.bytes));
+                  const bool base = e.name == encodings.front().name && ap == 1 && !cubic;
+                  if (base && fs == "auto") p_auto = p;
+                  if (base && fs == "best") p_best = p;
                 }
-                const double p = lf::psnr(fr.image, gt, border);
-                st.psnr.push_back(p);
-                st.ssim.push_back(lf::ssim(fr.image, gt, border));
-                st.ms.push_back(median(times));
-                st.px_ratio.push_back(static_cast<double>(fr.fragment_pixels) / (W * H));
-                st.bytes.push_back(static_cast<double>(fr.bytes));
-                if (e.name == encodings.front().name && fs == "auto" && ap == 1) p_auto = p;
-                if (e.name == encodings.front().name && fs == "best" && ap == 1) p_best = p;
-              }
           }
           if (W == W0) {
             gap_auto.push_back(p_best - p_auto);
@@ -467,6 +480,7 @@ int main(int argc, char** argv) {
             req.focal_plane = auto_plane;
             req.surface = {};
             req.aperture_scale = 1;
+            req.sampling = lf::Sampling::kBilinear;
             nearest_psnr.push_back(
                 lf::psnr(render_frame(one, {ij[nearest]}, req, {"none"}).image, gt, border));
           }

@@ -60,6 +60,8 @@ rendering
                         plane blurs instead of doubling (lib/lf/view.h Aperture)
   --f-number N          the aperture as a full-frame-equivalent f-number (N = F / D,
                         F = 36 mm x fx / width; needs the rig's unit mm, cm or m)
+  --sampling S          bilinear (default, the paper's) or bicubic (Keys, a = -0.5:
+                        sharper, slower to warp)
   --threads N           render cameras in parallel (default: all cores)
   --backend B           auto (default: GL on a hardware GPU, else CPU), cpu, or gl
                         (EGL/GLES 3, lib/lf/gl_render.h: fragments drawn and blended
@@ -196,6 +198,7 @@ int main(int argc, char** argv) {
         req.aperture_scale =
             lf::aperture_scale_for(args.number("--aperture", 0), rig.typical_spacing());
       }
+      req.sampling = cli::parse_sampling(args.get("--sampling", "bilinear"));
       if (!quiet && f == 0 && req.aperture_scale > 1)
         std::fprintf(stderr, "aperture: %.4g %s across (%.2f x the tent's)\n",
                      lf::aperture_diameter(req.aperture_scale, rig.typical_spacing()),

@@ -73,8 +73,9 @@ std::vector<ViewRequest> focus_probe_requests(const Rig& rig, const ViewRequest&
     }
     if (c[2] <= 0) continue;  // behind the probe's eye: no window
     ViewRequest req = view;
-    req.surface = {};        // the window has its own size: one plane per step
-    req.aperture_scale = 1;  // photo-consistency among the tent's cameras
+    req.surface = {};                    // the window has its own size: one plane per step
+    req.aperture_scale = 1;              // photo-consistency among the tent's cameras
+    req.sampling = Sampling::kBilinear;  // the cheaper warp
     req.view = w;
     req.view.shift_x = k.cx - (k.fx * c[0] / c[2] + k.cx);
     req.view.shift_y = k.cy - (k.fy * c[1] / c[2] + k.cy);

@@ -11,6 +11,7 @@
 
 #include "lf/projection.h"
 #include "lf/render.h"
+#include "lf/render_kernels.h"
 
 #ifdef LF_HAVE_GL
 #include <EGL/egl.h>
@@ -321,17 +322,36 @@ uniform vec4 u_distort;    // 1/fx, 1/fy, k1, k2
 uniform float u_r2max;
 uniform bool u_has_distortion;
 uniform float u_scale;
+uniform isampler2D u_cubic;  // 257 x 1: Keys' taps per phase, 1/4096 (kernels::cubic_taps)
 out vec4 o;
 const int W = 4096;
 ivec2 at(int i) { return ivec2(i % W, i / W); }
+// kernels::gather_cubic1: rows first (rounded to levels), then columns.
+ivec4 cubic(int iu, int iv, int pu, int pv, int wq) {
+  ivec4 h = texelFetch(u_cubic, ivec2(pu, 0), 0), v = texelFetch(u_cubic, ivec2(pv, 0), 0);
+  int w = int(u_limits.x + 0.5), ht = int(u_limits.y + 0.5);
+  ivec4 acc = ivec4(0);
+  for (int j = 0; j < 4; ++j) {
+    int y = clamp(iv - 1 + j, 0, ht - 1);
+    ivec4 r = ivec4(texelFetch(u_image, ivec2(clamp(iu - 1, 0, w - 1), y), 0)) * h.x +
+              ivec4(texelFetch(u_image, ivec2(clamp(iu, 0, w - 1), y), 0)) * h.y +
+              ivec4(texelFetch(u_image, ivec2(clamp(iu + 1, 0, w - 1), y), 0)) * h.z +
+              ivec4(texelFetch(u_image, ivec2(clamp(iu + 2, 0, w - 1), y), 0)) * h.w + 2048;
+    acc += (r >> 12) * v[j];
+  }
+  acc = clamp((acc + 2048) >> 12, ivec4(0), ivec4(255));
+  return (acc * wq + 8192) >> 14;
+}
 void main() {
   int xi = int(gl_FragCoord.x) + u_origin.x, yi = int(gl_FragCoord.y) + u_origin.y;
   ivec2 row = texelFetch(u_rows, at(u_rect.y + yi - u_rect.x), 0).xy;
   int run = -1;
+  bool bicubic = false;
   for (int k = 0; k < row.y; ++k) {
     vec4 box = texelFetch(u_runs, at(4 * (row.x + k)), 0);
     if (float(xi) >= box.x && float(xi) < box.y) {
       run = row.x + k;
+      bicubic = box.w > 0.5;
       break;
     }
   }
@@ -365,6 +385,11 @@ void main() {
   int iu = int(u), iv = int(v);
   float fu = u - float(iu), fv = v - float(iv);
   float wq = w * 16384.0;
+  if (bicubic) {
+    ivec4 c = cubic(iu, iv, int(fu * 256.0 + 0.5), int(fv * 256.0 + 0.5), int(wq + 0.5));
+    o = vec4(c) * u_scale;
+    return;
+  }
   float top = (1.0 - fv) * wq, bot = fv * wq;
   int w00 = int((1.0 - fu) * top + 0.5);
   int w01 = int(fu * top + 0.5);
@@ -499,8 +524,8 @@ int append_tables(const FragmentPlan& plan, std::vector<glm::vec4>& runs,
     glm::ivec2& row = rows[first_row + run.y - plan.rect.y];
     if (row.y == 0) row.x = static_cast<int>(runs.size() / 4);
     ++row.y;  // runs are sorted by (y, x0): a row's runs are consecutive
-    runs.push_back(
-        {static_cast<float>(run.x0), static_cast<float>(run.x1), static_cast<float>(run.y), 0.0f});
+    runs.push_back({static_cast<float>(run.x0), static_cast<float>(run.x1),
+                    static_cast<float>(run.y), plan.sampling == Sampling::kBicubic ? 1.0f : 0.0f});
     runs.push_back({static_cast<float>(H(0, 0)), static_cast<float>(H(0, 1) * y + H(0, 2)),
                     static_cast<float>(H(1, 0)), static_cast<float>(H(1, 1) * y + H(1, 2))});
     runs.push_back({static_cast<float>(H(2, 0)), static_cast<float>(H(2, 1) * y + H(2, 2)),
@@ -542,6 +567,7 @@ struct GlRenderer::Impl {
   GLuint run_program = 0, resolve_program = 0, add_program = 0;
   GLuint vao = 0;
   GLuint run_table = 0, row_table = 0;     // textures (see kTableWidth)
+  GLuint cubic_table = 0;                  // unit 5: kernels::cubic_taps()
   int run_capacity = 0, row_capacity = 0;  // texture rows
   GLuint pixel_table = 0, span_table = 0;  // composite(): pixels and spans
   int pixel_capacity = 0, span_capacity = 0;
@@ -718,6 +744,7 @@ struct GlRenderer::Impl {
     glUniform1i(glGetUniformLocation(run_program, "u_image"), 0);
     glUniform1i(glGetUniformLocation(run_program, "u_runs"), 1);
     glUniform1i(glGetUniformLocation(run_program, "u_rows"), 2);
+    glUniform1i(glGetUniformLocation(run_program, "u_cubic"), 5);
     glUseProgram(resolve_program);
     glUniform1i(glGetUniformLocation(resolve_program, "u_sum"), 0);
     add_program = link(kRunVertex, kAddFragment);
@@ -735,6 +762,23 @@ struct GlRenderer::Impl {
     glGenVertexArrays(1, &vao);  // no attributes: positions come from gl_VertexID
     glGenTextures(1, &run_table);
     glGenTextures(1, &row_table);
+    {
+      // The bicubic taps, bound to unit 5 for good.
+      const int phases = (1 << kernels::kPhaseBits) + 1;
+      std::vector<glm::ivec4> taps(phases);
+      for (int k = 0; k < phases; ++k) {
+        const int16_t* t = kernels::cubic_taps()[k];
+        taps[k] = glm::ivec4(t[0], t[1], t[2], t[3]);
+      }
+      glGenTextures(1, &cubic_table);
+      glActiveTexture(GL_TEXTURE5);
+      glBindTexture(GL_TEXTURE_2D, cubic_table);
+      glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32I, phases, 1, 0, GL_RGBA_INTEGER, GL_INT,
+                   taps.data());
+      glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+      glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+      glActiveTexture(GL_TEXTURE0);
+    }
     glDisable(GL_DITHER);
     glPixelStorei(GL_PACK_ALIGNMENT, 4);
     check_gl("setup");
@@ -746,8 +790,9 @@ struct GlRenderer::Impl {
       Current cur(context);
       for (const Slot& s : slots)
         if (s.texture) glDeleteTextures(1, &s.texture);
-      const GLuint textures[] = {target, sum, run_table, row_table, pixel_table, span_table};
-      glDeleteTextures(6, textures);
+      const GLuint textures[] = {target,      sum,        run_table,  row_table,
+                                 pixel_table, span_table, cubic_table};
+      glDeleteTextures(7, textures);
       const GLuint fbos[] = {fbo, sum_fbo};
       glDeleteFramebuffers(2, fbos);
       glDeleteVertexArrays(1, &vao);

@@ -327,6 +327,7 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
   plan.camera_id = rig.cameras[index].id;
   plan.out_width = g.width();
   plan.out_height = g.height();
+  plan.sampling = g.request().sampling;
   const int W = g.width(), H = g.height();
   std::vector<std::array<int, 4>> piece_keys;  // of plan.pieces
 

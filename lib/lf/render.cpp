@@ -1,6 +1,7 @@
 #include "lf/render.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
@@ -24,7 +25,7 @@ using kernels::kWeightBits;
 
 // Pass 1 (lf/render_kernels.h): SSE2, four pixels per step, the same
 // expressions in the same order as the scalar reference: bit-identical.
-template <bool kDistort>
+template <bool kDistort, bool kCubic>
 void coords_sse2(bool simd, const Consts& k, int x0, int n, int32_t* iu, int32_t* iv, int32_t* wt,
                  int32_t* wb) {
   int i = 0;
@@ -69,21 +70,31 @@ void coords_sse2(bool simd, const Consts& k, int x0, int n, int32_t* iu, int32_t
     const __m128i iuv = _mm_cvttps_epi32(u), ivv = _mm_cvttps_epi32(v);
     const __m128 fu = _mm_sub_ps(u, _mm_cvtepi32_ps(iuv)), fv = _mm_sub_ps(v, _mm_cvtepi32_ps(ivv));
     const __m128 wq = _mm_mul_ps(w, scale);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(iu + i), iuv);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(iv + i), ivv);
+    if constexpr (kCubic) {
+      const __m128 phases = _mm_set1_ps(static_cast<float>(1 << kernels::kPhaseBits));
+      const __m128i pu = _mm_cvttps_epi32(_mm_add_ps(_mm_mul_ps(fu, phases), half));
+      const __m128i pv = _mm_cvttps_epi32(_mm_add_ps(_mm_mul_ps(fv, phases), half));
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(wt + i),
+                       _mm_or_si128(pu, _mm_slli_epi32(pv, 16)));
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(wb + i), _mm_cvttps_epi32(_mm_add_ps(wq, half)));
+      continue;
+    }
     const __m128 top = _mm_mul_ps(_mm_sub_ps(one, fv), wq), bot = _mm_mul_ps(fv, wq);
     const __m128 ifu = _mm_sub_ps(one, fu);
     const __m128i w00 = _mm_cvttps_epi32(_mm_add_ps(_mm_mul_ps(ifu, top), half));
     const __m128i w01 = _mm_cvttps_epi32(_mm_add_ps(_mm_mul_ps(fu, top), half));
     const __m128i w10 = _mm_cvttps_epi32(_mm_add_ps(_mm_mul_ps(ifu, bot), half));
     const __m128i w11 = _mm_cvttps_epi32(_mm_add_ps(_mm_mul_ps(fu, bot), half));
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(iu + i), iuv);
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(iv + i), ivv);
     _mm_storeu_si128(reinterpret_cast<__m128i*>(wt + i),
                      _mm_or_si128(w00, _mm_slli_epi32(w01, 16)));
     _mm_storeu_si128(reinterpret_cast<__m128i*>(wb + i),
                      _mm_or_si128(w10, _mm_slli_epi32(w11, 16)));
   }
 #endif
-  for (; i < n; ++i) coord1<kDistort>(k, static_cast<float>(x0 + i), iu[i], iv[i], wt[i], wb[i]);
+  for (; i < n; ++i)
+    coord1<kDistort, kCubic>(k, static_cast<float>(x0 + i), iu[i], iv[i], wt[i], wb[i]);
 }
 
 // Pass 2: gather four taps per pixel and blend in fixed point (SSE2: one
@@ -115,6 +126,31 @@ void gather_sse2(bool simd, const uint8_t* src, int stride, int n, const int32_t
 }
 
 }  // namespace
+
+namespace kernels {
+// Keys' cubic convolution kernel with a = -0.5 at phases t = k / 256,
+// rounded to 1/4096 with the largest tap absorbing the rounding, so each
+// entry sums to 4096 exactly (a flat image stays flat).
+const CubicTaps* cubic_taps() {
+  static const auto table = [] {
+    std::array<std::array<int16_t, 4>, (1 << kPhaseBits) + 1> t{};
+    for (int k = 0; k <= (1 << kPhaseBits); ++k) {
+      const double x = static_cast<double>(k) / (1 << kPhaseBits);
+      const double w[4] = {((-0.5 * x + 1.0) * x - 0.5) * x, (1.5 * x - 2.5) * x * x + 1.0,
+                           ((-1.5 * x + 2.0) * x + 0.5) * x, (0.5 * x - 0.5) * x * x};
+      int sum = 0, big = 0;
+      for (int j = 0; j < 4; ++j) {
+        t[k][j] = static_cast<int16_t>(std::lround(w[j] * (1 << kCubicBits)));
+        sum += t[k][j];
+        if (w[j] > w[big]) big = j;
+      }
+      t[k][big] = static_cast<int16_t>(t[k][big] + ((1 << kCubicBits) - sum));
+    }
+    return t;
+  }();
+  return reinterpret_cast<const CubicTaps*>(table.data());
+}
+}  // namespace kernels
 
 bool simd_available() {
   return kernel_available(Kernel::kSse2);
@@ -227,6 +263,7 @@ void render_pixels(const FragmentPlan& plan, const Camera& cam, const cv::Mat& i
   const double rf = distortion_fold_radius(K);
   k.r2max = std::isfinite(rf) ? static_cast<float>(rf * rf) : INFINITY;
   const int stride = static_cast<int>(image.step[0]);
+  const bool cubic = plan.sampling == Sampling::kBicubic;
 
   alignas(32) int32_t iu[kBlock], iv[kBlock], wtop[kBlock], wbot[kBlock];
   for (const Run& run : plan.runs) {
@@ -249,16 +286,31 @@ void render_pixels(const FragmentPlan& plan, const Camera& cam, const cv::Mat& i
       uint8_t* dst = row + 4 * (x - spans[r][0]);
 #ifdef LF_X86_SIMD
       if (kernel == Kernel::kAvx2) {
-        kernels::coords_avx2(distort, k, x, n, iu, iv, wtop, wbot);
-        kernels::gather_avx2(image.data, stride, n, iu, iv, wtop, wbot, dst);
+        kernels::coords_avx2(distort, cubic, k, x, n, iu, iv, wtop, wbot);
+        if (cubic)
+          kernels::gather_cubic_avx2(image.data, stride, cam.width, cam.height, n, iu, iv, wtop,
+                                     wbot, dst);
+        else
+          kernels::gather_avx2(image.data, stride, n, iu, iv, wtop, wbot, dst);
         continue;
       }
 #endif
       const bool sse2 = kernel == Kernel::kSse2;
+      if (cubic) {
+        // SSE2 has no byte shuffle: its bicubic gather is the reference.
+        if (distort)
+          coords_sse2<true, true>(sse2, k, x, n, iu, iv, wtop, wbot);
+        else
+          coords_sse2<false, true>(sse2, k, x, n, iu, iv, wtop, wbot);
+        for (int i = 0; i < n; ++i)
+          kernels::gather_cubic1(image.data, stride, cam.width, cam.height, iu[i], iv[i], wtop[i],
+                                 wbot[i], dst + 4 * i);
+        continue;
+      }
       if (distort)
-        coords_sse2<true>(sse2, k, x, n, iu, iv, wtop, wbot);
+        coords_sse2<true, false>(sse2, k, x, n, iu, iv, wtop, wbot);
       else
-        coords_sse2<false>(sse2, k, x, n, iu, iv, wtop, wbot);
+        coords_sse2<false, false>(sse2, k, x, n, iu, iv, wtop, wbot);
       gather_sse2(sse2, image.data, stride, n, iu, iv, wtop, wbot, dst);
     }
   }

@@ -17,7 +17,7 @@ namespace lf::kernels {
 
 namespace {
 
-template <bool kDistort>
+template <bool kDistort, bool kCubic>
 LF_AVX2 void coords8(const Consts& k, int x0, int n, int32_t* iu, int32_t* iv, int32_t* wt,
                      int32_t* wb) {
   const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
@@ -69,20 +69,31 @@ LF_AVX2 void coords8(const Consts& k, int x0, int n, int32_t* iu, int32_t* iv, i
     const __m256 fu = _mm256_sub_ps(u, _mm256_cvtepi32_ps(iuv));
     const __m256 fv = _mm256_sub_ps(v, _mm256_cvtepi32_ps(ivv));
     const __m256 wq = _mm256_mul_ps(w, scale);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(iu + i), iuv);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(iv + i), ivv);
+    if constexpr (kCubic) {
+      const __m256 phases = _mm256_set1_ps(static_cast<float>(1 << kPhaseBits));
+      const __m256i pu = _mm256_cvttps_epi32(_mm256_add_ps(_mm256_mul_ps(fu, phases), half));
+      const __m256i pv = _mm256_cvttps_epi32(_mm256_add_ps(_mm256_mul_ps(fv, phases), half));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(wt + i),
+                          _mm256_or_si256(pu, _mm256_slli_epi32(pv, 16)));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(wb + i),
+                          _mm256_cvttps_epi32(_mm256_add_ps(wq, half)));
+      continue;
+    }
     const __m256 top = _mm256_mul_ps(_mm256_sub_ps(one, fv), wq), bot = _mm256_mul_ps(fv, wq);
     const __m256 ifu = _mm256_sub_ps(one, fu);
     const __m256i w00 = _mm256_cvttps_epi32(_mm256_add_ps(_mm256_mul_ps(ifu, top), half));
     const __m256i w01 = _mm256_cvttps_epi32(_mm256_add_ps(_mm256_mul_ps(fu, top), half));
     const __m256i w10 = _mm256_cvttps_epi32(_mm256_add_ps(_mm256_mul_ps(ifu, bot), half));
     const __m256i w11 = _mm256_cvttps_epi32(_mm256_add_ps(_mm256_mul_ps(fu, bot), half));
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(iu + i), iuv);
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(iv + i), ivv);
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(wt + i),
                         _mm256_or_si256(w00, _mm256_slli_epi32(w01, 16)));
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(wb + i),
                         _mm256_or_si256(w10, _mm256_slli_epi32(w11, 16)));
   }
-  for (; i < n; ++i) coord1<kDistort>(k, static_cast<float>(x0 + i), iu[i], iv[i], wt[i], wb[i]);
+  for (; i < n; ++i)
+    coord1<kDistort, kCubic>(k, static_cast<float>(x0 + i), iu[i], iv[i], wt[i], wb[i]);
 }
 
 // The two horizontally adjacent taps at p (8 bytes: RGBA RGBA).
@@ -94,12 +105,67 @@ LF_AVX2 inline int64_t taps(const uint8_t* p) {
 
 }  // namespace
 
-LF_AVX2 void coords_avx2(bool distort, const Consts& k, int x0, int n, int32_t* iu, int32_t* iv,
-                         int32_t* wt, int32_t* wb) {
-  if (distort)
-    coords8<true>(k, x0, n, iu, iv, wt, wb);
-  else
-    coords8<false>(k, x0, n, iu, iv, wt, wb);
+LF_AVX2 void coords_avx2(bool distort, bool cubic, const Consts& k, int x0, int n, int32_t* iu,
+                         int32_t* iv, int32_t* wt, int32_t* wb) {
+  if (cubic) {
+    if (distort)
+      coords8<true, true>(k, x0, n, iu, iv, wt, wb);
+    else
+      coords8<false, true>(k, x0, n, iu, iv, wt, wb);
+  } else if (distort) {
+    coords8<true, false>(k, x0, n, iu, iv, wt, wb);
+  } else {
+    coords8<false, false>(k, x0, n, iu, iv, wt, wb);
+  }
+}
+
+// Bicubic, one pixel per step where all 16 taps are inside the image (else
+// the reference): each of the four rows is one 16-byte load (taps -1..2),
+// shuffled so that two taps of a channel sit side by side, widened to 16
+// bits and reduced by two madds with the pixel's horizontal tap weights to
+// four 32-bit channel sums; those are rounded to levels, weighted by the
+// vertical taps and summed (32-bit products: the same integers as
+// gather_cubic1), then clamped and scaled by the aperture weight.
+LF_AVX2 void gather_cubic_avx2(const uint8_t* src, int stride, int width, int height, int n,
+                               const int32_t* iu, const int32_t* iv, const int32_t* phases,
+                               const int32_t* wq, uint8_t* dst) {
+  const __m128i pair = _mm_setr_epi8(0, 4, 1, 5, 2, 6, 3, 7, 8, 12, 9, 13, 10, 14, 11, 15);
+  const __m128i round_c = _mm_set1_epi32(1 << (kCubicBits - 1));
+  const __m128i round_w = _mm_set1_epi32(1 << (kWeightBits - 1));
+  const __m128i zero = _mm_setzero_si128(), max = _mm_set1_epi32(255);
+  const CubicTaps* table = cubic_taps();
+  for (int i = 0; i < n; ++i) {
+    if (iu[i] < 1 || iu[i] > width - 3 || iv[i] < 1 || iv[i] > height - 3) {
+      gather_cubic1(src, stride, width, height, iu[i], iv[i], phases[i], wq[i], dst + 4 * i);
+      continue;
+    }
+    const int16_t* h = table[phases[i] & 0xffff];
+    const int16_t* v = table[(phases[i] >> 16) & 0xffff];
+    auto pack = [](int16_t a, int16_t b) {
+      return static_cast<int>(static_cast<uint16_t>(a) |
+                              (static_cast<uint32_t>(static_cast<uint16_t>(b)) << 16));
+    };
+    const __m128i h01 = _mm_set1_epi32(pack(h[0], h[1]));
+    const __m128i h23 = _mm_set1_epi32(pack(h[2], h[3]));
+    const uint8_t* p = src + static_cast<std::ptrdiff_t>(iv[i] - 1) * stride + 4 * (iu[i] - 1);
+    __m128i acc = zero;
+    for (int j = 0; j < 4; ++j) {
+      const __m128i s = _mm_shuffle_epi8(_mm_loadu_si128(reinterpret_cast<const __m128i*>(
+                                             p + static_cast<std::ptrdiff_t>(j) * stride)),
+                                         pair);
+      __m128i r = _mm_add_epi32(_mm_madd_epi16(_mm_cvtepu8_epi16(s), h01),
+                                _mm_madd_epi16(_mm_cvtepu8_epi16(_mm_srli_si128(s, 8)), h23));
+      r = _mm_srai_epi32(_mm_add_epi32(r, round_c), kCubicBits);
+      acc = _mm_add_epi32(acc, _mm_mullo_epi32(r, _mm_set1_epi32(v[j])));
+    }
+    acc = _mm_srai_epi32(_mm_add_epi32(acc, round_c), kCubicBits);
+    acc = _mm_min_epi32(_mm_max_epi32(acc, zero), max);
+    acc = _mm_srli_epi32(_mm_add_epi32(_mm_mullo_epi32(acc, _mm_set1_epi32(wq[i])), round_w),
+                         kWeightBits);
+    acc = _mm_packus_epi16(_mm_packs_epi32(acc, acc), zero);
+    const int32_t px = _mm_cvtsi128_si32(acc);
+    std::memcpy(dst + 4 * i, &px, 4);
+  }
 }
 
 // Four pixels per step. Each pixel's two top taps become, after a byte

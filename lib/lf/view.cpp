@@ -85,6 +85,8 @@ void validate(const ViewRequest& req) {
   if (!std::isfinite(p.d)) bad("focal plane offset is not finite");
   if (p.at_infinity() && p.d == 0.0) bad("focal plane (0, 0, 0, 0) is not a plane");
   if (req.aperture != Aperture::kTent) bad("unknown aperture");
+  if (req.sampling != Sampling::kBilinear && req.sampling != Sampling::kBicubic)
+    bad("unknown sampling filter");
   if (!(req.aperture_scale >= 1.0 && req.aperture_scale <= kMaxApertureScale))
     bad("aperture scale " + std::to_string(req.aperture_scale) + " is outside 1.." +
         std::to_string(static_cast<int>(kMaxApertureScale)));

@@ -571,7 +571,7 @@ std::vector<uint8_t> serialize_request(const ViewRequest& req) {
   for (int i = 0; i < 3; ++i) w.f64(req.focal_plane.n[i]);
   w.f64(req.focal_plane.d);
   w.u8(static_cast<uint8_t>(req.aperture));
-  w.u8(0);
+  w.u8(static_cast<uint8_t>(req.sampling));
   w.u16(aperture_scale_q8(req.aperture_scale));
   w.u64(static_cast<uint64_t>(req.time_ns < 0 ? -1 : req.time_ns));
   if (!sf.empty()) {
@@ -629,7 +629,7 @@ ViewRequest parse_request(const uint8_t* data, size_t size) {
   for (int i = 0; i < 3; ++i) req.focal_plane.n[i] = r.f64();
   req.focal_plane.d = r.f64();
   const uint8_t ap = r.u8();
-  const uint8_t r0 = r.u8();
+  const uint8_t sampling = r.u8();
   const uint16_t scale_q8 = r.u16();
   req.time_ns = static_cast<int64_t>(r.u64());
   if (version == 3) {
@@ -668,7 +668,8 @@ ViewRequest parse_request(const uint8_t* data, size_t size) {
     const uint32_t sum = r.u32();
     if (crc(data, kRequestSize - 4) != sum) bad("CRC mismatch (corrupt data)");
   }
-  if (r0) bad("reserved byte is not zero");
+  if (sampling > 1) bad("unknown sampling filter " + std::to_string(sampling));
+  req.sampling = static_cast<Sampling>(sampling);
   if (req.time_ns < -1) bad("time " + std::to_string(req.time_ns) + " ns is negative");
   if (ap != 0) bad("unknown aperture " + std::to_string(ap));
   if (scale_q8 != 0 && (scale_q8 <= 256 || scale_q8 > 256 * kMaxApertureScale))
