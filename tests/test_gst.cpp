@@ -167,11 +167,14 @@ TEST_F(Gst, PipelineOutputEqualsOfflineRenderer) {
   const lf::Rig rig = lf::load_rig(rig_path_);
   const auto images = lf::load_images(rig);  // BGRA; the elements use RGBA
   const cv::Vec3d c = rig.plane().origin;
-  // `aperture`: lfviewrequest's, rig units (0: the tent).
-  auto check = [&](const std::string& focal, const cv::Vec3d& eye, double aperture) {
-    char pos[128];
-    std::snprintf(pos, sizeof pos, "\"<%.17g,%.17g,%.17g>\" aperture=%.17g", eye[0], eye[1], eye[2],
-                  aperture);
+  // `aperture`: lfviewrequest's, rig units (0: the tent); `sampling` its
+  // sampling filter.
+  auto check = [&](const std::string& focal, const cv::Vec3d& eye, double aperture,
+                   lf::Sampling sampling = lf::Sampling::kBilinear) {
+    char pos[160];
+    std::snprintf(pos, sizeof pos, "\"<%.17g,%.17g,%.17g>\" aperture=%.17g sampling=%s", eye[0],
+                  eye[1], eye[2], aperture,
+                  sampling == lf::Sampling::kBicubic ? "bicubic" : "bilinear");
     std::string err;
     const auto frames = run(pipeline(std::string("num-buffers=2 width=320 height=240 position=") +
                                      pos + " focal-plane=" + focal),
@@ -181,6 +184,7 @@ TEST_F(Gst, PipelineOutputEqualsOfflineRenderer) {
     req.view = lf::view_between_cameras(rig, eye, 320, 240);
     req.focal_plane = lf::parse_focal_plane(focal, rig);
     req.aperture_scale = lf::aperture_scale_for(aperture, rig.typical_spacing());
+    req.sampling = sampling;
     cv::Mat ref = lf::render_view(rig, images, req);
     cv::cvtColor(ref, ref, cv::COLOR_BGRA2RGBA);
     for (const cv::Mat& f : frames) {
@@ -198,6 +202,7 @@ TEST_F(Gst, PipelineOutputEqualsOfflineRenderer) {
   // A wider aperture (2.5 tents; a multiple of 1/256, as the wire carries it).
   check("param:-0.2", c + cv::Vec3d(1.5, -2.0, 0),
         lf::aperture_diameter(2.5, rig.typical_spacing()));
+  check("param:-0.2", c + cv::Vec3d(-2.0, 1.0, 6.0), 0, lf::Sampling::kBicubic);
 }
 
 TEST_F(Gst, ColourCorrectionFromTheRigIsApplied) {
