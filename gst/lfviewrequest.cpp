@@ -107,9 +107,10 @@
  * ## Sampling
  *
  * `sampling=bicubic` asks the cameras to resample their images with Keys'
- * cubic (a = -0.5) instead of the paper's bilinear filter: sharper (on
- * Chess leave-one-out about 1 dB closer to the real views), at a slower
- * warp (lib/lf/render.h). The requests carry it (byte 137, lib/lf/wire.h).
+ * cubic (a = -0.5) instead of the paper's bilinear filter: sharper where
+ * the view samples the scene as finely as the cameras (lib/lf/view.h
+ * Sampling gives the figures), at about 2.2x the warp time
+ * (lib/lf/render.h). The requests carry it (byte 137, lib/lf/wire.h).
  *
  * ## Example launch line
  * |[

@@ -14,8 +14,9 @@
 namespace lf {
 
 // Renders a planned fragment from the camera's current image (CV_8UC4,
-// camera.width x camera.height). Bilinear sampling with edge clamping within
-// half a pixel of the border; samples outside, behind the camera, or where
+// camera.width x camera.height). Bilinear sampling (or bicubic, when the
+// plan's request asks: Keys a = -0.5, taps clamped to the image) with edge
+// clamping within half a pixel of the border; samples outside, behind the camera, or where
 // the camera's distortion cannot be evaluated get alpha 0. Lens distortion is
 // applied to the sampling coordinates when the camera has any. No threads,
 // no allocation beyond `out`'s spans and pixels. Throws std::invalid_argument on an image

@@ -62,8 +62,11 @@ struct FocalSurface {
 enum class Aperture : uint8_t { kTent = 0 };
 
 // How a camera's image is resampled into its fragment (lf/render.h): the
-// paper's bilinear filter, or bicubic (Keys 1981, a = -0.5: sharper, about
-// 1 dB closer to real in-between views on Chess, at a slower gather).
+// paper's bilinear filter, or bicubic (Keys 1981, a = -0.5): sharper where
+// cameras and view sample the scene alike (Chess leave-one-out at 1:1 with
+// a focal surface: +0.74 dB), no help through a single plane (its double
+// images dominate) and a little worse when minifying (neither prefilters);
+// its warp costs about 2.2x the bilinear one.
 enum class Sampling : uint8_t { kBilinear = 0, kBicubic = 1 };
 constexpr double kMaxApertureScale = 16.0;
 // The aperture's diameter in rig units for a scale: the tent's support
