@@ -232,27 +232,42 @@ TEST(Plan, MalformedSurfacesAreRefused) {
 
 }  // namespace
 
-// The tent weight of camera `i` at plane point (x, y) of a rig on z = 0: its
-// barycentric coordinate in a triangle of the rig's triangulation that holds
-// the point and the camera (independent of the planner's facet forms).
-double tent_weight(const lf::Rig& rig, int i, double x, double y) {
-  double best = 0;
-  for (const auto& tri : rig.triangles) {
-    int slot = -1;
-    std::array<cv::Vec3d, 3> c;
-    for (int k = 0; k < 3; ++k) {
-      const int idx = rig.index_of(tri[k]);
-      c[k] = rig.cameras[idx].center();
-      if (idx == i) slot = k;
+// Camera i's tent on a rig on z = 0: its barycentric coordinate in the
+// triangles of the rig's triangulation that hold it (independent of the
+// planner's facet forms).
+struct Tent {
+  struct Tri {
+    cv::Matx22d inv;  // plane point - c0 -> barycentrics of vertices 1, 2
+    cv::Vec2d c0;
+    int slot;
+  };
+  std::vector<Tri> star;
+  Tent(const lf::Rig& rig, int i) {
+    for (const auto& tri : rig.triangles) {
+      int slot = -1;
+      std::array<cv::Vec3d, 3> c;
+      for (int k = 0; k < 3; ++k) {
+        const int idx = rig.index_of(tri[k]);
+        c[k] = rig.cameras[idx].center();
+        if (idx == i) slot = k;
+      }
+      if (slot < 0) continue;
+      const cv::Matx22d M(c[1][0] - c[0][0], c[2][0] - c[0][0], c[1][1] - c[0][1],
+                          c[2][1] - c[0][1]);
+      star.push_back({M.inv(), {c[0][0], c[0][1]}, slot});
     }
-    if (slot < 0) continue;
-    const cv::Matx22d M(c[1][0] - c[0][0], c[2][0] - c[0][0], c[1][1] - c[0][1], c[2][1] - c[0][1]);
-    const cv::Vec2d bc = M.inv() * cv::Vec2d(x - c[0][0], y - c[0][1]);
-    const std::array<double, 3> b{1 - bc[0] - bc[1], bc[0], bc[1]};
-    if (b[0] >= -1e-12 && b[1] >= -1e-12 && b[2] >= -1e-12) best = std::max(best, b[slot]);
   }
-  return best;
-}
+  // The weight at plane point (x, y).
+  double operator()(double x, double y) const {
+    double best = 0;
+    for (const Tri& t : star) {
+      const cv::Vec2d bc = t.inv * cv::Vec2d(x - t.c0[0], y - t.c0[1]);
+      const std::array<double, 3> b{1 - bc[0] - bc[1], bc[0], bc[1]};
+      if (b[0] >= -1e-12 && b[1] >= -1e-12 && b[2] >= -1e-12) best = std::max(best, b[t.slot]);
+    }
+    return best;
+  }
+};
 
 TEST(Plan, AWiderApertureIsTheTentScaledAboutEachCamera) {
   // lf/view.h Aperture: with scale k, camera i's weight where the pixel's
@@ -272,6 +287,7 @@ TEST(Plan, AWiderApertureIsTheTentScaledAboutEachCamera) {
       const lf::ViewGeometry g(rig, req);
       const cv::Vec3d E = req.view.position;
       for (int i = 0; i < static_cast<int>(rig.cameras.size()); ++i) {
+        const Tent tent_weight(rig, i);
         const lf::FragmentPlan plan = lf::plan_fragment(g, i);
         std::vector<double> planned(static_cast<size_t>(W) * H, -1);
         for (const lf::Run& r : plan.runs) {
@@ -287,8 +303,7 @@ TEST(Plan, AWiderApertureIsTheTentScaledAboutEachCamera) {
             const cv::Vec3d D = g.ray(x, y);
             if (E[2] != 0 && D[2] == 0) continue;
             const cv::Vec3d X = E[2] == 0 ? E : E + D * (-E[2] / D[2]);
-            const double ref =
-                tent_weight(rig, i, C[0] + (X[0] - C[0]) / k, C[1] + (X[1] - C[1]) / k);
+            const double ref = tent_weight(C[0] + (X[0] - C[0]) / k, C[1] + (X[1] - C[1]) / k);
             const double got = planned[static_cast<size_t>(y) * W + x];
             const bool expect_in = ref > 1e-9 && g.visible(i, x, y);
             if (got >= 0) {
