@@ -531,28 +531,30 @@ TEST(Wire, InvalidRequestsAreRejected) {
       EXPECT_NE(std::string(e.what()).find(word), std::string::npos) << e.what();
     }
   };
-  // A time below -1 with a valid CRC.
-  auto t = b;
-  for (int i = 140; i < 148; ++i) t[i] = 0xff;
-  t[147] = 0xfe;  // -2
-  resign(t);
-  expect_request_error(t, "negative");
+  // `b` changed by `edit`, with a valid CRC, is refused naming `word`.
+  auto expect_edit_refused = [&](auto edit, const std::string& word) {
+    auto v = b;
+    edit(v);
+    resign(v);
+    expect_request_error(v, word);
+  };
+  // A time below -1.
+  expect_edit_refused(
+      [](auto& v) {
+        for (int i = 140; i < 148; ++i) v[i] = 0xff;
+        v[147] = 0xfe;  // -2
+      },
+      "negative");
   // Version 1 (no time) is refused by name.
-  auto v1 = b;
-  v1[5] = 1;
-  resign(v1);
-  expect_request_error(v1, "unsupported version 1");
+  expect_edit_refused([](auto& v) { v[5] = 1; }, "unsupported version 1");
   // Aperture scales at or below 1 (other than 0, the tent) or over 16.
-  for (const int q8 : {1, 256, 4097, 0xffff}) {
-    auto a = b;
-    a[138] = static_cast<uint8_t>(q8 >> 8), a[139] = static_cast<uint8_t>(q8);
-    resign(a);
-    expect_request_error(a, "aperture scale");
-  }
-  auto ar = b;
-  ar[137] = 2;
-  resign(ar);
-  expect_request_error(ar, "sampling");
+  for (const int q8 : {1, 256, 4097, 0xffff})
+    expect_edit_refused(
+        [q8](auto& v) {
+          v[138] = static_cast<uint8_t>(q8 >> 8), v[139] = static_cast<uint8_t>(q8);
+        },
+        "aperture scale");
+  expect_edit_refused([](auto& v) { v[137] = 2; }, "sampling");
   // Serializing an invalid request refuses.
   r.aperture_scale = 0.5;
   EXPECT_THROW(lf::serialize_request(r), std::invalid_argument);

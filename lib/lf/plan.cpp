@@ -86,22 +86,30 @@ bool ViewGeometry::tie_positive(int facet, int sign) const {
   return a > 0 || (a == 0 && b > 0);
 }
 
+bool ViewGeometry::facet_values(const Simplex& sx, double x, double y, std::array<double, 3>& v,
+                                double& orient) const {
+  v = {0, 0, 0};
+  orient = 1.0;
+  if (eye_dist_ == 0.0) {
+    for (int k = 0; k < sx.size; ++k) v[k] = facet_at_eye(sx.facet[k], sx.sign[k]);
+    return true;
+  }
+  const double dn = dn_(x, y);
+  if (dn == 0.0) return false;
+  orient = dn > 0 ? 1.0 : -1.0;
+  for (int k = 0; k < sx.size; ++k) v[k] = facet_form(sx.facet[k], sx.sign[k])(x, y);
+  return true;
+}
+
 bool ViewGeometry::inside(int s, double x, double y, std::array<double, 3>* w) const {
   const Simplex& sx = rig_->simplices()[s];
   if (sx.size == 1) {
     if (w) *w = {1.0, 0.0, 0.0};
     return true;
   }
-  std::array<double, 3> v{0, 0, 0};
-  double orient = 1.0;
-  if (eye_dist_ == 0.0) {
-    for (int k = 0; k < sx.size; ++k) v[k] = facet_at_eye(sx.facet[k], sx.sign[k]);
-  } else {
-    const double dn = dn_(x, y);
-    if (dn == 0.0) return false;
-    orient = dn > 0 ? 1.0 : -1.0;
-    for (int k = 0; k < sx.size; ++k) v[k] = facet_form(sx.facet[k], sx.sign[k])(x, y);
-  }
+  std::array<double, 3> v;
+  double orient;
+  if (!facet_values(sx, x, y, v, orient)) return false;
   double sum = 0;
   for (int k = 0; k < sx.size; ++k) {
     const double e = v[k] * orient;
@@ -122,16 +130,9 @@ bool ViewGeometry::inside_scaled(int s, int slot, double x, double y, double* we
     if (weight) *weight = 1.0;
     return true;
   }
-  std::array<double, 3> v{0, 0, 0};
-  double orient = 1.0;
-  if (eye_dist_ == 0.0) {
-    for (int j = 0; j < sx.size; ++j) v[j] = facet_at_eye(sx.facet[j], sx.sign[j]);
-  } else {
-    const double dn = dn_(x, y);
-    if (dn == 0.0) return false;
-    orient = dn > 0 ? 1.0 : -1.0;
-    for (int j = 0; j < sx.size; ++j) v[j] = facet_form(sx.facet[j], sx.sign[j])(x, y);
-  }
+  std::array<double, 3> v;
+  double orient;
+  if (!facet_values(sx, x, y, v, orient)) return false;
   double sum = 0;
   for (int j = 0; j < sx.size; ++j) {
     sum += v[j];

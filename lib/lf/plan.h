@@ -131,6 +131,11 @@ class ViewGeometry {
 
  private:
   bool tie_positive(int facet, int sign) const;
+  // The simplex's facet forms at the pixel's line (at the eye when it is
+  // on the camera plane) and the side of the camera plane the line meets
+  // (+-1); false for a line parallel to the plane.
+  bool facet_values(const Simplex& sx, double x, double y, std::array<double, 3>& v,
+                    double& orient) const;
   const Rig* rig_;
   ViewRequest req_;
   cv::Matx33d M_;
