@@ -38,6 +38,7 @@
 #include "lf-web-resources.h"  // the page (glib-compile-resources)
 #include "lf/datasets.h"
 #include "lf/rig_file.h"
+#include "lf/view.h"
 
 namespace {
 
@@ -296,7 +297,8 @@ void to_request(Control& c, GstEvent* ev) {
 
 // The view fields a browser may set, checked against lfviewrequest's own
 // property ranges.
-constexpr const char* kViewFields[] = {"eye-s", "eye-t", "eye-w", "focal-depth", "vfov"};
+constexpr const char* kViewFields[] = {"eye-s",       "eye-t", "eye-w",
+                                       "focal-depth", "vfov",  "aperture"};
 
 // One control message. Returns an error text, empty when applied.
 std::string apply_control(Control& c, const json& j) {
@@ -393,6 +395,15 @@ std::string apply_control(Control& c, const json& j) {
     if (on) g_object_set(c.request, "stereo-baseline", c.server->opt.spacing, nullptr);
     g_object_set(c.compositor, "stereo", on ? TRUE : FALSE, nullptr);
     if (!on) g_object_set(c.request, "stereo-baseline", 0.0, nullptr);
+    return "";
+  }
+  if (type == "sampling") {  // how the cameras resample: bilinear | bicubic
+    if (!only_fields(j, {"type", "filter"}, &err)) return err;
+    if (!j.contains("filter") || !j["filter"].is_string() ||
+        (j["filter"] != "bilinear" && j["filter"] != "bicubic"))
+      return "'filter' must be bilinear or bicubic";
+    gst_util_set_object_arg(G_OBJECT(c.request), "sampling",
+                            j["filter"].get<std::string>().c_str());
     return "";
   }
   if (type == "ping") {  // round trip of the control path, measured by the page
@@ -555,15 +566,19 @@ bool add_viewer(Server* s, SoupWebsocketConnection* ws) {
   g_signal_connect(ws, "closed", G_CALLBACK(on_ws_closed), reinterpret_cast<gpointer>(ctl->serial));
   v->ctl = ctl;
   const double dmin = s->opt.fx * s->opt.spacing / 24, dmax = s->opt.fx * s->opt.spacing / 0.1;
-  soup_websocket_connection_send_text(ws, json{{"type", "hello"},
-                                               {"viewer", ctl->viewer_id},
-                                               {"width", s->opt.width},
-                                               {"height", s->opt.height},
-                                               {"fps", s->opt.fps},
-                                               {"cameras", s->opt.cameras},
-                                               {"focal_depth_range", {dmin, dmax}}}
-                                              .dump()
-                                              .c_str());
+  soup_websocket_connection_send_text(
+      ws,
+      json{{"type", "hello"},
+           {"viewer", ctl->viewer_id},
+           {"width", s->opt.width},
+           {"height", s->opt.height},
+           {"fps", s->opt.fps},
+           {"cameras", s->opt.cameras},
+           {"focal_depth_range", {dmin, dmax}},
+           {"aperture_range",
+            {lf::aperture_diameter(1, s->opt.spacing), lf::aperture_diameter(4, s->opt.spacing)}}}
+          .dump()
+          .c_str());
   say(s, "viewer %u connected (%zu viewer%s)", ctl->viewer_id, s->viewers.size() + 1,
       s->viewers.empty() ? "" : "s");
   s->viewers[ctl->serial] = std::move(v);
@@ -707,10 +722,11 @@ gboolean send_stats(gpointer data) {
     Control& c = *v->ctl;
     guint64 frames = 0;
     guint cams = 0;
-    gdouble es = 0, et = 0, ew = 0, depth = 0;
+    gdouble es = 0, et = 0, ew = 0, depth = 0, aperture = 0;
+    gint sampling = 0;
     g_object_get(c.compositor, "frames", &frames, "last-cameras", &cams, nullptr);
     g_object_get(c.request, "eye-s", &es, "eye-t", &et, "eye-w", &ew, "focal-depth", &depth,
-                 nullptr);
+                 "aperture", &aperture, "sampling", &sampling, nullptr);
     c.send({{"type", "stats"},
             {"viewer", c.viewer_id},
             {"frames", frames},
@@ -719,6 +735,9 @@ gboolean send_stats(gpointer data) {
             {"viewers", s->viewers.size()},
             {"eye", {es, et, ew}},
             {"focal_depth", depth},
+            {"aperture", aperture},
+            {"sampling",
+             sampling == static_cast<gint>(lf::Sampling::kBicubic) ? "bicubic" : "bilinear"},
             {"stereo", c.stereo.load()},
             {"refused", c.refused.load()}});
   }

@@ -193,6 +193,32 @@ try {
     `on: ${on.frameWidth}x${on.frameHeight}, ${on.stats.cameras_answered}/${on.stats.cameras} cameras per eye; ` +
     `off: ${s.frameWidth}x${s.frameHeight}`);
 
+  // Aperture: the slider's wide end reaches the requests (the server's
+  // state) and changes the picture; back to the tent. Bicubic: the box
+  // reaches the requests, and back.
+  await settle(A);
+  await grab(A, 'tent');
+  const [, widest] = await A.page.evaluate(() => lf.apertureRange);
+  const setAperture = (v) => A.page.evaluate((x) => {
+    const el = document.getElementById('aperture');
+    el.value = x;
+    el.dispatchEvent(new Event('input'));
+  }, v);
+  await setAperture(1000);
+  const wide = await waitFor(A, 'the widest aperture', (x) => Math.abs(x.stats.aperture - widest) < 1e-6 * widest, 20);
+  await settle(A);
+  await grab(A, 'wide');
+  const dWide = await A.page.evaluate(() => window.__diff('tent', 'wide'));
+  await setAperture(0);
+  await waitFor(A, 'the tent again', (x) => x.stats.aperture === 0, 20);
+  check('aperture slider', dWide > 1, `aperture ${wide.stats.aperture.toFixed(3)} (4 tents): mean |luma difference| from the tent ${dWide.toFixed(2)} (> 1)`);
+  await A.page.locator('#bicubic').check();
+  const cubic = await waitFor(A, 'bicubic sampling', (x) => x.stats.sampling === 'bicubic', 20);
+  await A.page.locator('#bicubic').uncheck();
+  const linear = await waitFor(A, 'bilinear sampling', (x) => x.stats.sampling === 'bilinear', 20);
+  check('bicubic box', cubic.stats.sampling === 'bicubic' && linear.stats.sampling === 'bilinear',
+    `server: ${cubic.stats.sampling}, then ${linear.stats.sampling}`);
+
   // 3. Focal plane: out of focus at the near end of the slider's range, then
   //    click to focus on the board under the view centre: sharper there.
   const [near] = await A.page.evaluate(() => lf.focalRange);

@@ -1,7 +1,8 @@
 // lf-web's viewer page script (plain JS, no build step).
 //
 // Signalling on the WebSocket /ws (JSON): the server sends
-//   {type: "hello", viewer, width, height, fps, cameras, focal_depth_range: [near, far]},
+//   {type: "hello", viewer, width, height, fps, cameras, focal_depth_range: [near, far],
+//    aperture_range: [tent, widest]},
 //   {type: "offer", sdp}, {type: "ice", candidate, sdpMLineIndex}, {type: "error", message};
 // the page answers {type: "answer", sdp} and {type: "ice", candidate, sdpMLineIndex}.
 // View control on the WebRTC data channel "control" (JSON text, <= 4096 bytes,
@@ -10,7 +11,8 @@
 //   {type: "focus", x, y}            focus on the scene under that pixel
 //   {type: "wheel", dy}              focal plane: +1 one notch nearer, -1 farther
 //   {type: "key", key}               Left, Right, Up, Down, Page_Up, Page_Down, r (reset)
-//   {type: "set", "focal-depth": d, "eye-s": s, ...}  view properties (rig units)
+//   {type: "set", "focal-depth": d, "eye-s": s, "aperture": D, ...}  view properties (rig units)
+//   {type: "sampling", filter: "bilinear"|"bicubic"}
 //   {type: "stereo", on: true|false}  {type: "ping", t}
 // and the server sends {type: "stats", ...} twice a second, {type: "pong", t},
 // {type: "warning", message} when it refused something.
@@ -20,6 +22,8 @@
   const video = document.getElementById('video');
   const stage = document.getElementById('stage');
   const focal = document.getElementById('focal');
+  const aperture = document.getElementById('aperture');
+  const bicubic = document.getElementById('bicubic');
   const stereo = document.getElementById('stereo');
   let stereoWanted = null, stereoSince = 0; // a toggle not yet confirmed by the server
   const statusLine = document.getElementById('status');
@@ -27,7 +31,7 @@
 
   // The page's state, readable from the console (and by the browser test).
   const lf = window.lf = {
-    viewer: null, width: 640, height: 480, cameras: 0, focalRange: [1, 100],
+    viewer: null, width: 640, height: 480, cameras: 0, focalRange: [1, 100], apertureRange: [1, 4],
     stats: null, rttMs: null, fps: 0, framesDecoded: 0, frameWidth: 0, frameHeight: 0,
     warnings: [], connected: false, channelOpen: false,
     send(msg) { this.sendText(JSON.stringify(msg)); },
@@ -59,6 +63,7 @@
       if (m.type === 'hello') {
         lf.viewer = m.viewer; lf.width = m.width; lf.height = m.height; lf.cameras = m.cameras;
         lf.focalRange = m.focal_depth_range;
+        if (m.aperture_range) lf.apertureRange = m.aperture_range;
         stage.style.aspectRatio = `${m.width} / ${m.height}`;
         startPeer();
       } else if (m.type === 'offer') {
@@ -100,6 +105,8 @@
       if (stereoWanted !== null && (m.stereo === stereoWanted || performance.now() - stereoSince > 3000)) stereoWanted = null;
       if (stereoWanted === null && stereo.checked !== m.stereo) stereo.checked = m.stereo;
       if (document.activeElement !== focal && m.focal_depth > 0) focal.value = depthToSlider(m.focal_depth);
+      if (document.activeElement !== aperture && m.aperture !== undefined) aperture.value = apertureToSlider(m.aperture);
+      if (document.activeElement !== bicubic && m.sampling) bicubic.checked = m.sampling === 'bicubic';
     } else if (m.type === 'pong') {
       lf.rttMs = performance.now() - m.t;
     } else if (m.type === 'warning') {
@@ -170,6 +177,18 @@
     if (keys[e.key]) { e.preventDefault(); lf.send({ type: 'key', key: keys[e.key] }); }
   });
   focal.addEventListener('input', () => lf.send({ type: 'set', 'focal-depth': sliderToDepth(Number(focal.value)) }));
+  // The aperture slider is linear in diameter from the tent (0: the paper's)
+  // to the server's widest.
+  function sliderToAperture(v) {
+    const [a, b] = lf.apertureRange;
+    return v === 0 ? 0 : a + (b - a) * v / 1000;
+  }
+  function apertureToSlider(d) {
+    const [a, b] = lf.apertureRange;
+    return d <= a ? 0 : Math.round(1000 * (d - a) / (b - a));
+  }
+  aperture.addEventListener('input', () => lf.send({ type: 'set', aperture: sliderToAperture(Number(aperture.value)) }));
+  bicubic.addEventListener('change', () => lf.send({ type: 'sampling', filter: bicubic.checked ? 'bicubic' : 'bilinear' }));
   function setStereo(on) {
     stereo.checked = on;
     stereoWanted = on;
