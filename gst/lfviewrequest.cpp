@@ -180,6 +180,7 @@ struct Settings {
   std::string focal_plane = DEFAULT_FOCAL_PLANE;
   gdouble focal_depth = DEFAULT_FOCAL_DEPTH;
   gdouble aperture = 0, f_number = 0;  // rig units; full-frame-equivalent
+  guint ulr_cameras = 0;               // 0: the tent (aperture, f-number); else ULR's k
   lf::Sampling sampling = lf::Sampling::kBilinear;
   std::string path;
   gdouble orbit = DEFAULT_ORBIT, dolly = DEFAULT_DOLLY;
@@ -811,7 +812,12 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   req.sequence = k;
   req.focal_plane = views->plane;
   const lf::Rig& rig = *st->rig;
-  req.aperture_scale = aperture_scale(self, rig, s, views->sequence.at(k, rig));
+  if (s.ulr_cameras > 0) {
+    req.aperture = lf::Aperture::kUlr;
+    req.ulr_cameras = static_cast<int>(s.ulr_cameras);
+  } else {
+    req.aperture_scale = aperture_scale(self, rig, s, views->sequence.at(k, rig));
+  }
   req.sampling = s.sampling;
   GError* err = nullptr;
   if (!lfgst::guard(
@@ -1061,6 +1067,13 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
                 "with the view's field of view (such a lens at f/N, focused on the focal plane, "
                 "blurs as this aperture does); needs the rig's unit to be mm, cm or m",
                 0, 1e6, 0, ctrl));
+  props.add(oc, &Settings::ulr_cameras,
+            g_param_spec_uint(
+                "ulr-cameras", "ULR cameras",
+                "Unstructured Lumigraph weights (Buehler et al. 2001, lib/lf/view.h) blending the "
+                "k cameras nearest each ray in angle, for rigs without a grid and so that a lost "
+                "camera leaves no hole; 0: the tent (aperture, f-number apply), else k (2..16)",
+                0, lf::kMaxUlrCameras, 0, ctrl));
   props.add(oc, &Settings::sampling,
             g_param_spec_enum("sampling", "Sampling",
                               "How the cameras resample their images into fragments (the "

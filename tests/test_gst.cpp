@@ -170,11 +170,12 @@ TEST_F(Gst, PipelineOutputEqualsOfflineRenderer) {
   // `aperture`: lfviewrequest's, rig units (0: the tent); `sampling` its
   // sampling filter.
   auto check = [&](const std::string& focal, const cv::Vec3d& eye, double aperture,
-                   lf::Sampling sampling = lf::Sampling::kBilinear) {
-    char pos[160];
-    std::snprintf(pos, sizeof pos, "\"<%.17g,%.17g,%.17g>\" aperture=%.17g sampling=%s", eye[0],
+                   lf::Sampling sampling = lf::Sampling::kBilinear, int ulr = 0) {
+    char pos[192];
+    std::snprintf(pos, sizeof pos,
+                  "\"<%.17g,%.17g,%.17g>\" aperture=%.17g sampling=%s ulr-cameras=%d", eye[0],
                   eye[1], eye[2], aperture,
-                  sampling == lf::Sampling::kBicubic ? "bicubic" : "bilinear");
+                  sampling == lf::Sampling::kBicubic ? "bicubic" : "bilinear", ulr);
     std::string err;
     const auto frames = run(pipeline(std::string("num-buffers=2 width=320 height=240 position=") +
                                      pos + " focal-plane=" + focal),
@@ -185,6 +186,7 @@ TEST_F(Gst, PipelineOutputEqualsOfflineRenderer) {
     req.focal_plane = lf::parse_focal_plane(focal, rig);
     req.aperture_scale = lf::aperture_scale_for(aperture, rig.typical_spacing());
     req.sampling = sampling;
+    if (ulr > 0) req.aperture = lf::Aperture::kUlr, req.ulr_cameras = ulr;
     cv::Mat ref = lf::render_view(rig, images, req);
     cv::cvtColor(ref, ref, cv::COLOR_BGRA2RGBA);
     for (const cv::Mat& f : frames) {
@@ -203,6 +205,7 @@ TEST_F(Gst, PipelineOutputEqualsOfflineRenderer) {
   check("param:-0.2", c + cv::Vec3d(1.5, -2.0, 0),
         lf::aperture_diameter(2.5, rig.typical_spacing()));
   check("param:-0.2", c + cv::Vec3d(-2.0, 1.0, 6.0), 0, lf::Sampling::kBicubic);
+  check("param:-0.2", c + cv::Vec3d(1.5, -2.0, 0), 0, lf::Sampling::kBilinear, 4);  // ULR
 }
 
 TEST_F(Gst, ColourCorrectionFromTheRigIsApplied) {

@@ -170,7 +170,8 @@ TEST_F(Harness, ViewRequestProperties) {
 }
 
 // lfviewrequest aperture (rig units) and f-number (full-frame equivalent,
-// rigs in mm, cm or m) set the requests' aperture scale while playing.
+// rigs in mm, cm or m) set the requests' aperture scale while playing, and
+// ulr-cameras their ULR aperture.
 TEST_F(Harness, ViewRequestApertureAndFNumber) {
   lf::Rig mm = rig_;
   mm.unit = "mm";
@@ -210,6 +211,15 @@ TEST_F(Harness, ViewRequestApertureAndFNumber) {
       EXPECT_NEAR(next_scale(), 3.0, 0.5 / 256) << "f/" << n;
     else
       EXPECT_EQ(next_scale(), 1.0) << "f-number ignored: the rig's unit is not a length";
+    // ulr-cameras: ULR weights over k cameras in place of the tent.
+    g_object_set(h->element, "f-number", 0.0, "ulr-cameras", 5u, nullptr);
+    EXPECT_EQ(next_scale(), 1.0);
+    GstBuffer* b = gst_harness_pull(h);
+    ASSERT_NE(b, nullptr);
+    const lf::ViewRequest u = parsed_request(b);
+    gst_buffer_unref(b);
+    EXPECT_EQ(u.aperture, lf::Aperture::kUlr);
+    EXPECT_EQ(u.ulr_cameras, 5);
     gst_harness_teardown(h);
   }
 }

@@ -351,3 +351,68 @@ TEST(Plan, AWiderApertureIsTheTentScaledAboutEachCamera) {
     }
   }
 }
+
+// ULR weights (lf/view.h Aperture::kUlr): planned weights sum to 1 at every
+// pixel, two cameras or more blend everywhere (so a lost camera leaves no
+// hole; k where no penalties tie), where the k nearest tie (the centre of
+// a grid cell with k = 4) all k blend equally, and with the eye right over
+// a camera its tying neighbours blend too.
+TEST(Plan, UlrWeightsSumToOneAndCoverALostCamera) {
+  const lf::Rig rig = lf::synthetic_grid_rig(5, 5, 1.0, 160, 120, 60);
+  const int W = 129, H = 129;  // vertex (2, 2) is pixel (64, 64), the centre
+  for (const int k : {3, 4, 6}) {
+    lf::ViewRequest req;
+    req.view = lf::VirtualView::look_at({0.5, 0.5, -1.0}, {0.5, 0.5, 10}, {0, 1, 0}, 25, W, H);
+    req.focal_plane = lf::FocalPlane::through({0, 0, 10}, {0, 0, 1});
+    req.aperture = lf::Aperture::kUlr;
+    req.ulr_cameras = k;
+    const lf::ViewGeometry g(rig, req);
+    ASSERT_EQ(g.ulr_cols(), 5);
+    std::vector<double> sum(static_cast<size_t>(W) * H, 0.0);
+    std::vector<int> count(sum.size(), 0);
+    size_t pixels = 0;
+    for (int i = 0; i < static_cast<int>(rig.cameras.size()); ++i) {
+      const lf::FragmentPlan plan = lf::plan_fragment(g, i);
+      for (const lf::Run& r : plan.runs)
+        for (int x = r.x0; x < r.x1; ++x) {
+          const lf::FragmentPiece& pc = plan.pieces[r.piece];
+          const double w = pc.weight_num(x, r.y) / pc.weight_den(x, r.y);
+          EXPECT_GT(w, 0) << "camera " << i;
+          EXPECT_LE(w, 1 + 1e-12);
+          sum[static_cast<size_t>(r.y) * W + x] += w;
+          ++count[static_cast<size_t>(r.y) * W + x];
+          ++pixels;
+        }
+    }
+    double worst = 0;
+    int fewest = 1 << 20;
+    for (size_t p = 0; p < sum.size(); ++p) {
+      worst = std::max(worst, std::abs(sum[p] - 1));
+      fewest = std::min(fewest, count[p]);
+    }
+    std::printf("ULR k = %d: %.2f fragment px per output px, |sum - 1| <= %.1e, >= %d cameras\n", k,
+                static_cast<double>(pixels) / (W * H), worst, fewest);
+    EXPECT_LT(worst, 1e-9) << "k = " << k;
+    EXPECT_GE(fewest, 2) << "k = " << k;
+    // The view's centre looks through the centre of a grid cell (eye at
+    // (0.5, 0.5)): with k = 4 the four corners tie and blend equally there.
+    if (k == 4) {
+      std::vector<double> w;
+      for (int i = 0; i < static_cast<int>(rig.cameras.size()); ++i)
+        if (g.ulr_weight(i, 2, 2) > 0) w.push_back(g.ulr_weight(i, 2, 2));
+      ASSERT_EQ(w.size(), 4u) << "the vertex at pixel (64, 64)";
+      for (const double v : w) EXPECT_NEAR(v, 0.25, 1e-9);
+    }
+  }
+  // The eye over camera (2, 2), k = 3: its four neighbours tie for 2nd.
+  lf::ViewRequest req;
+  req.view = lf::VirtualView::look_at({0, 0, -1.0}, {0, 0, 10}, {0, 1, 0}, 25, W, H);
+  req.focal_plane = lf::FocalPlane::through({0, 0, 10}, {0, 0, 1});
+  req.aperture = lf::Aperture::kUlr;
+  req.ulr_cameras = 3;
+  const lf::ViewGeometry g(rig, req);
+  int blended = 0;
+  for (int i = 0; i < static_cast<int>(rig.cameras.size()); ++i)
+    blended += g.ulr_weight(i, 2, 2) > 0;
+  EXPECT_EQ(blended, 5) << "the camera under the eye and its four neighbours";
+}

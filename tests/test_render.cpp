@@ -299,7 +299,8 @@ TEST(Render, MissingFragmentDegradesGracefully) {
 // A lost camera with the eye on it: the tent weights only that camera
 // there, so its loss leaves a hole (the compositor has nothing to
 // renormalise); an aperture of 2 tents covers it with its neighbours'
-// fragments, on the focal plane as exactly as the full rig.
+// fragments, on the focal plane as exactly as the full rig; so do ULR
+// weights.
 TEST(Render, AWiderApertureCoversALostCamera) {
   const lf::Rig rig = lf::synthetic_grid_rig(5, 5, 0.5, 240, 180, 50);
   const auto images = images_of(rig);
@@ -331,6 +332,29 @@ TEST(Render, AWiderApertureCoversALostCamera) {
       EXPECT_GT(p, 40.0);
     }
   }
+  // ULR weights (k = 4) cover it too: its neighbours blend wherever it did.
+  req.aperture_scale = 1;
+  req.aperture = lf::Aperture::kUlr;
+  req.ulr_cameras = 4;
+  const lf::ViewGeometry g(rig, req);
+  lf::Compositor c;
+  c.reset(req.view.width, req.view.height);
+  for (size_t i = 0; i < rig.cameras.size(); ++i) {
+    if (static_cast<int>(i) == lost) continue;
+    lf::Fragment f;
+    lf::render_fragment(lf::plan_fragment(g, static_cast<int>(i)), rig.cameras[i], images[i], f);
+    c.add(f);
+  }
+  cv::Mat out;
+  c.resolve(out);
+  double coverage = 0;
+  const double p = covered_psnr(out, truth, &coverage);
+  std::printf("ULR k = 4 without the camera under the eye: %.1f %% covered, %.1f dB\n",
+              100 * coverage, p);
+  EXPECT_EQ(coverage, 1.0) << "no hole";
+  // Where the lost camera dominated, the rest carried small weights, so
+  // their 8-bit premultiplied colour is coarse there (49.4 dB with it).
+  EXPECT_GT(p, 25.0);
 }
 
 // Every vector kernel that this CPU and build have against the scalar

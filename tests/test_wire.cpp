@@ -294,6 +294,16 @@ TEST(Wire, RequestRoundTrip) {
     EXPECT_EQ(lf::parse_request(ab.data(), ab.size()).aperture_scale, std::round(k * 256) / 256)
         << k;
   }
+  // A ULR aperture: byte 136 = 1, its k in bytes 138..139.
+  lf::ViewRequest u4 = r;
+  u4.aperture = lf::Aperture::kUlr;
+  u4.ulr_cameras = 5;
+  const auto ub4 = lf::serialize_request(u4);
+  EXPECT_EQ(ub4[136], 1);
+  EXPECT_EQ(ub4[139], 5);
+  const lf::ViewRequest pu = lf::parse_request(ub4.data(), ub4.size());
+  EXPECT_EQ(pu.aperture, lf::Aperture::kUlr);
+  EXPECT_EQ(pu.ulr_cameras, 5);
   // The sampling filter: byte 137.
   lf::ViewRequest c = r;
   c.sampling = lf::Sampling::kBicubic;
@@ -555,6 +565,9 @@ TEST(Wire, InvalidRequestsAreRejected) {
         },
         "aperture scale");
   expect_edit_refused([](auto& v) { v[137] = 2; }, "sampling");
+  expect_edit_refused([](auto& v) { v[136] = 2; }, "unknown aperture");
+  expect_edit_refused([](auto& v) { v[136] = 1, v[138] = 0, v[139] = 1; }, "ULR aperture");
+  expect_edit_refused([](auto& v) { v[136] = 1, v[138] = 0, v[139] = 17; }, "ULR aperture");
   // Serializing an invalid request refuses.
   r.aperture_scale = 0.5;
   EXPECT_THROW(lf::serialize_request(r), std::invalid_argument);

@@ -46,6 +46,7 @@ usage: lf-bench [options]
                       depth:Z, param:A (default auto,best,surface)
   --apertures LIST    aperture scales to add to each focal choice (lib/lf/view.h
                       Aperture: 1 is the paper's tent, 2 twice as wide, ...;
+                      ulrK: Unstructured Lumigraph weights over K cameras;
                       default 1): PSNR, time and fragment bytes of each
   --samplings LIST    sampling filters to add to each focal choice: bilinear
                       (default), bicubic (lib/lf/view.h Sampling)
@@ -340,12 +341,25 @@ int main(int argc, char** argv) {
       std::string tok;
       while (std::getline(ss, tok, ',')) focals.push_back(tok);
     }
+    // Aperture scales (> 0) and ULR (-k).
     std::vector<double> apertures = {1};
     if (args.has("--apertures")) {
-      apertures = args.numbers("--apertures", 1, 16);
-      for (const double k : apertures)
+      apertures.clear();
+      std::stringstream ss(args.get("--apertures", "1"));
+      std::string tok;
+      while (std::getline(ss, tok, ',')) {
+        if (tok.rfind("ulr", 0) == 0) {
+          const int k = tok.size() > 3 ? std::atoi(tok.c_str() + 3) : 4;
+          if (k < lf::kMinUlrCameras || k > lf::kMaxUlrCameras)
+            throw std::invalid_argument("--apertures: ulrK with K in 2..16");
+          apertures.push_back(-k);
+          continue;
+        }
+        const double k = cli::parse_numbers(tok, "--apertures").at(0);
         if (!(k >= 1 && k <= lf::kMaxApertureScale))
-          throw std::invalid_argument("--apertures: scales in 1..16");
+          throw std::invalid_argument("--apertures: scales in 1..16, or ulrK");
+        apertures.push_back(k);
+      }
     }
     std::vector<lf::Sampling> samplings;
     {
@@ -441,11 +455,16 @@ int main(int argc, char** argv) {
             for (const lf::Sampling sampling : samplings)
               for (const double ap : apertures)
                 for (const Encoding& e : encodings) {
-                  req.aperture_scale = ap;
+                  req.aperture_scale = ap > 0 ? ap : 1;
+                  req.aperture = ap > 0 ? lf::Aperture::kTent : lf::Aperture::kUlr;
+                  req.ulr_cameras = ap > 0 ? 4 : static_cast<int>(-ap);
                   req.sampling = sampling;
                   const bool cubic = sampling == lf::Sampling::kBicubic;
                   char ap_label[48] = "";
-                  if (ap != 1) std::snprintf(ap_label, sizeof ap_label, ", aperture %gx", ap);
+                  if (ap < 0)
+                    std::snprintf(ap_label, sizeof ap_label, ", ULR k = %d", static_cast<int>(-ap));
+                  else if (ap != 1)
+                    std::snprintf(ap_label, sizeof ap_label, ", aperture %gx", ap);
                   const std::string key = std::to_string(W) + "x" + std::to_string(H) + " | " +
                                           e.name + " | " + fs + ap_label +
                                           (cubic ? ", bicubic" : "");
@@ -480,6 +499,7 @@ int main(int argc, char** argv) {
             req.focal_plane = auto_plane;
             req.surface = {};
             req.aperture_scale = 1;
+            req.aperture = lf::Aperture::kTent;
             req.sampling = lf::Sampling::kBilinear;
             nearest_psnr.push_back(
                 lf::psnr(render_frame(one, {ij[nearest]}, req, {"none"}).image, gt, border));

@@ -60,6 +60,8 @@ rendering
                         plane blurs instead of doubling (lib/lf/view.h Aperture)
   --f-number N          the aperture as a full-frame-equivalent f-number (N = F / D,
                         F = 36 mm x fx / width; needs the rig's unit mm, cm or m)
+  --ulr K               Unstructured Lumigraph weights over the K cameras nearest each
+                        ray in angle (2..16; lib/lf/view.h), for rigs without a grid
   --sampling S          bilinear (default, the paper's) or bicubic (Keys, a = -0.5:
                         sharper, slower to warp)
   --threads N           render cameras in parallel (default: all cores)
@@ -79,13 +81,13 @@ output
 int main(int argc, char** argv) {
   if (cli::help_requested(argc, argv, kHelp)) return 0;
   try {
-    cli::Args args(argc, argv,
-                   {"--input",    "--block",    "--input-scale", "--save-rig", "--at",
-                    "--eye",      "--look-at",  "--vfov",        "--path",     "--orbit",
-                    "--dolly",    "--frames",   "--size",        "--focal",    "--refocus-every",
-                    "--aperture", "--f-number", "--threads",     "--backend",  "--out",
-                    "--fps"},
-                   {"--quiet"});
+    cli::Args args(
+        argc, argv,
+        {"--input",    "--block",   "--input-scale",   "--save-rig", "--at",       "--eye",
+         "--look-at",  "--vfov",    "--path",          "--orbit",    "--dolly",    "--frames",
+         "--size",     "--focal",   "--refocus-every", "--aperture", "--f-number", "--ulr",
+         "--sampling", "--threads", "--backend",       "--out",      "--fps"},
+        {"--quiet"});
     if (!args.has("--input")) throw std::invalid_argument("--input is required (see --help)");
     if (!args.has("--out")) throw std::invalid_argument("--out is required (see --help)");
     const bool quiet = args.has("--quiet");
@@ -199,6 +201,11 @@ int main(int argc, char** argv) {
             lf::aperture_scale_for(args.number("--aperture", 0), rig.typical_spacing());
       }
       req.sampling = cli::parse_sampling(args.get("--sampling", "bilinear"));
+      if (args.has("--ulr")) {
+        req.aperture = lf::Aperture::kUlr;
+        req.aperture_scale = 1;
+        req.ulr_cameras = args.integer("--ulr", 4);
+      }
       if (!quiet && f == 0 && req.aperture_scale > 1)
         std::fprintf(stderr, "aperture: %.4g %s across (%.2f x the tent's)\n",
                      lf::aperture_diameter(req.aperture_scale, rig.typical_spacing()),

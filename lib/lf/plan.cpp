@@ -58,6 +58,84 @@ ViewGeometry::ViewGeometry(const Rig& rig, const ViewRequest& request, int only_
       H_[p * ncam_ + i] = c.intrinsics.K() * A * M_;
     }
   }
+  if (req_.aperture == Aperture::kUlr) compute_ulr();
+}
+
+// The blending field of a kUlr request (lf/view.h Aperture).
+void ViewGeometry::compute_ulr() {
+  const Rig& rig = *rig_;
+  const int W = req_.view.width, H = req_.view.height, G = kUlrGrid;
+  ulr_cols_ = (W + G - 1) / G;
+  ulr_rows_ = (H + G - 1) / G;
+  ulr_w_.assign(static_cast<size_t>(ulr_cols_ + 1) * (ulr_rows_ + 1) * ncam_, 0.0);
+  const cv::Vec3d E = req_.view.position;
+  const int k = req_.ulr_cameras;
+  const double far = 1e4 * std::max(rig.typical_spacing(), cv::norm(E - rig.plane().origin));
+  std::vector<std::pair<double, int>> ranked;
+  for (int vy = 0; vy <= ulr_rows_; ++vy)
+    for (int vx = 0; vx <= ulr_cols_; ++vx) {
+      const double x = vx * G, y = vy * G;
+      const cv::Vec3d D = ray(x, y);
+      // The focal point: through the plane of the vertex's tile (the
+      // nearest pixel's), or far along the ray where that plane is at
+      // infinity or behind the eye.
+      const FocalPlane& fp = planes_[plane_at(std::min(static_cast<int>(x), W - 1),
+                                              std::min(static_cast<int>(y), H - 1))];
+      const double dn = fp.n.dot(D);
+      const double t = fp.at_infinity() || dn == 0 ? -1 : -(fp.n.dot(E) + fp.d) / dn;
+      const cv::Vec3d F = t > 0 ? E + t * D : E + D * (far / cv::norm(D));
+      const cv::Vec3d to_eye = F - E;
+      const double eye_dist = cv::norm(to_eye);
+      ranked.clear();
+      for (int i = 0; i < ncam_; ++i) {
+        const Camera& c = rig.cameras[i];
+        const auto px = c.project(F);
+        if (!px || (*px)[0] < -0.5 || (*px)[1] < -0.5 || (*px)[0] > c.width - 0.5 ||
+            (*px)[1] > c.height - 0.5)
+          continue;  // the camera does not see the focal point
+        const cv::Vec3d from_cam = F - c.center();
+        const double ang = std::atan2(cv::norm(from_cam.cross(to_eye)), from_cam.dot(to_eye));
+        const double res = std::max(0.0, cv::norm(from_cam) - eye_dist) / eye_dist;
+        ranked.push_back({(1 - kUlrResolutionWeight) * ang + kUlrResolutionWeight * res, i});
+      }
+      if (ranked.empty()) continue;
+      std::sort(ranked.begin(), ranked.end());
+      // The threshold: the (k+1)-th penalty; where that ties with the 2nd,
+      // the first penalty above the 2nd (all that tie with it blend), or
+      // 1.001 x the largest when none is.
+      const int n = static_cast<int>(ranked.size());
+      int m = std::min(k, n);
+      double thresh = n > k ? ranked[k].first : 1.001 * ranked.back().first;
+      if (n >= 2 && !(thresh > ranked[1].first)) {
+        m = 1;
+        while (m < n && ranked[m].first <= ranked[1].first) ++m;
+        thresh = m < n ? ranked[m].first : 1.001 * ranked[1].first;
+      }
+      double* w = &ulr_w_[(static_cast<size_t>(vy) * (ulr_cols_ + 1) + vx) * ncam_];
+      double sum = 0;
+      for (int j = 0; j < m; ++j) {
+        // Penalties all 0 (a threshold of 0): equal weights.
+        const double v = thresh > 0 ? std::max(0.0, 1.0 - ranked[j].first / thresh) : 1.0;
+        w[ranked[j].second] = v;
+        sum += v;
+      }
+      if (sum > 0)
+        for (int j = 0; j < m; ++j) w[ranked[j].second] /= sum;
+    }
+}
+
+PixelForm ViewGeometry::ulr_form(int index, int cx, int cy, int half) const {
+  const double G = kUlrGrid;
+  const double w00 = ulr_weight(index, cx, cy), w11 = ulr_weight(index, cx + 1, cy + 1);
+  double a, b;
+  if (half == 0) {  // vertices (0, 0), (G, 0), (G, G)
+    const double w10 = ulr_weight(index, cx + 1, cy);
+    a = (w10 - w00) / G, b = (w11 - w10) / G;
+  } else {  // vertices (0, 0), (0, G), (G, G)
+    const double w01 = ulr_weight(index, cx, cy + 1);
+    a = (w11 - w01) / G, b = (w01 - w00) / G;
+  }
+  return {a, b, w00 - a * cx * G - b * cy * G};
 }
 
 int ViewGeometry::focal_sign(double x, double y, int p) const {
@@ -274,6 +352,8 @@ FragmentPiece make_piece(const cv::Matx33d& H, int sf, const PixelForm& num, con
 
 // A part of a camera-plane simplex that holds the planned camera (in
 // `slot`), on one side `sd` of the camera plane.
+// With a ULR aperture, a half of a blending-field cell instead (`ulr`: its
+// cell and half, lf/plan.h ViewGeometry::in_ulr_half).
 struct Part {
   int s, slot, sd;
   bool single;  // one camera, or the eye on the camera plane: no side to check
@@ -281,10 +361,14 @@ struct Part {
   Polygon base;
   double x0, y0, x1, y1;                 // bounding box of base
   std::vector<std::array<int, 3>> rows;  // with a surface: (y, x0, x1) where the weight is > 0
+  std::array<int, 3> ulr{-1, -1, -1};    // cx, cy, half
 };
 
 // Whether the camera's weight in the part is positive at pixel (x, y).
 bool weighted(const ViewGeometry& g, const Part& part, int x, int y) {
+  if (part.ulr[0] >= 0)
+    return ViewGeometry::in_ulr_half(x, y, part.ulr[0], part.ulr[1], part.ulr[2]) &&
+           part.num(x, y) > 0;
   if (!part.single) {
     const double dn = g.camera_plane_denominator()(x, y);
     if ((dn > 0 ? 1 : -1) != part.sd || dn == 0) return false;
@@ -337,7 +421,42 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
   std::vector<Part> parts;
   const Polygon frame = {{-0.5, -0.5}, {W - 0.5, -0.5}, {W - 0.5, H - 0.5}, {-0.5, H - 0.5}};
   const auto& simplices = rig.simplices();
-  for (size_t s = 0; s < simplices.size(); ++s) {
+  // ULR: the halves of the blending field's cells where the camera has
+  // weight at a vertex (linear over the half: positive somewhere in it).
+  for (int cy = 0; cy < g.ulr_rows(); ++cy)
+    for (int cx = 0; cx < g.ulr_cols(); ++cx)
+      for (int half = 0; half < 2; ++half) {
+        const int G = kUlrGrid;
+        const double w0 = g.ulr_weight(index, cx, cy), w2 = g.ulr_weight(index, cx + 1, cy + 1);
+        const double w1 =
+            half == 0 ? g.ulr_weight(index, cx + 1, cy) : g.ulr_weight(index, cx, cy + 1);
+        if (!(w0 > 0 || w1 > 0 || w2 > 0)) continue;
+        Part part{-1 - ((cy * g.ulr_cols() + cx) * 2 + half),
+                  0,
+                  1,
+                  true,
+                  g.ulr_form(index, cx, cy, half),
+                  constant(1.0),
+                  {},
+                  0,
+                  0,
+                  0,
+                  0,
+                  {}};
+        part.ulr = {cx, cy, half};
+        const double x0 = cx * G - 0.5, y0 = cy * G - 0.5;
+        const double x1 = std::min(W, (cx + 1) * G) - 0.5, y1 = std::min(H, (cy + 1) * G) - 0.5;
+        part.base = {{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}};
+        part.x0 = x0, part.y0 = y0, part.x1 = x1, part.y1 = y1;
+        if (!g.request().surface.empty())
+          scan_rows(
+              part.base, 0, H - 1, 0, W - 1, [&](int x, int y) { return weighted(g, part, x, y); },
+              [&](int y, int a, int b) {
+                part.rows.push_back({y, a, b});
+              });
+        parts.push_back(std::move(part));
+      }
+  for (size_t s = 0; s < simplices.size() && g.ulr_cols() == 0; ++s) {
     const Simplex& sx = simplices[s];
     int slot = -1;
     for (int k = 0; k < sx.size; ++k)

@@ -119,6 +119,25 @@ class ViewGeometry {
   bool inside_scaled(int s, int slot, double x, double y, double* weight = nullptr) const;
   // The simplex containing the pixel's line and its weights.
   ApertureSample locate(double x, double y) const;
+
+  // kUlr (lf/view.h Aperture): the blending field. Its cells are kUlrGrid
+  // output pixels square, ulr_cols() x ulr_rows() of them; cell (cx, cy)
+  // holds pixels [cx G, cx G + G) x [cy G, cy G + G), split by its diagonal
+  // into half 0 (u >= v, with u, v the pixel's offsets in the cell) and half
+  // 1 (u < v), each holding its pixels exactly once. ulr_weight(): camera
+  // `index`'s weight at vertex (vx, vy), pixel (vx G, vy G); ulr_form():
+  // its weight over a half, linear in the pixel (interpolated from the
+  // half's three vertices). Empty (0 cells) for other apertures.
+  int ulr_cols() const { return ulr_cols_; }
+  int ulr_rows() const { return ulr_rows_; }
+  double ulr_weight(int index, int vx, int vy) const {
+    return ulr_w_[(static_cast<size_t>(vy) * (ulr_cols_ + 1) + vx) * ncam_ + index];
+  }
+  PixelForm ulr_form(int index, int cx, int cy, int half) const;
+  static bool in_ulr_half(int x, int y, int cx, int cy, int half) {
+    const int u = x - cx * kUlrGrid, v = y - cy * kUlrGrid;
+    return u >= 0 && v >= 0 && u < kUlrGrid && v < kUlrGrid && (half == 0 ? u >= v : u < v);
+  }
   // Whether camera `index` sees the focal point of pixel (x, y).
   bool visible(int index, int x, int y) const;
 
@@ -148,6 +167,9 @@ class ViewGeometry {
   std::vector<PixelForm> fw_;  // per plane
   int ncam_ = 0;
   std::vector<cv::Matx33d> H_;  // plane-major: H_[p * ncam_ + camera]
+  void compute_ulr();
+  int ulr_cols_ = 0, ulr_rows_ = 0;
+  std::vector<double> ulr_w_;  // per vertex (row-major), per camera
 };
 
 // A run of output pixels [x0, x1) on row y rendered with one piece.

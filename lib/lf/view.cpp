@@ -84,7 +84,13 @@ void validate(const ViewRequest& req) {
     if (!std::isfinite(p.n[i])) bad("focal plane normal is not finite");
   if (!std::isfinite(p.d)) bad("focal plane offset is not finite");
   if (p.at_infinity() && p.d == 0.0) bad("focal plane (0, 0, 0, 0) is not a plane");
-  if (req.aperture != Aperture::kTent) bad("unknown aperture");
+  if (req.aperture != Aperture::kTent && req.aperture != Aperture::kUlr) bad("unknown aperture");
+  if (req.aperture == Aperture::kUlr &&
+      (req.ulr_cameras < kMinUlrCameras || req.ulr_cameras > kMaxUlrCameras))
+    bad("ULR aperture with " + std::to_string(req.ulr_cameras) + " cameras (" +
+        std::to_string(kMinUlrCameras) + ".." + std::to_string(kMaxUlrCameras) + ")");
+  if (req.aperture == Aperture::kUlr && req.aperture_scale != 1.0)
+    bad("a ULR aperture has no scale");
   if (req.sampling != Sampling::kBilinear && req.sampling != Sampling::kBicubic)
     bad("unknown sampling filter");
   if (!(req.aperture_scale >= 1.0 && req.aperture_scale <= kMaxApertureScale))

@@ -59,7 +59,29 @@ struct FocalSurface {
 // makes the weights a partition of unity again. Off-surface content then
 // blurs over more cameras instead of doubling (a synthetic large aperture,
 // Vaish et al. 2004); scale 1 is the paper's, the smallest.
-enum class Aperture : uint8_t { kTent = 0 };
+//
+// kUlr: Unstructured Lumigraph weights (Buehler et al. 2001) for rigs
+// without a grid and for covering a lost camera: at the vertices of a grid
+// of kUlrGrid-pixel cells over the output, the k = ulr_cameras cameras that
+// see the pixel's focal point with the least penalty
+// (1 - r) * angle + r * max(0, |F - C_i| - |F - E|) / |F - E| (radians;
+// F the focal point, E the eye, C_i the camera, r = kUlrResolutionWeight)
+// get w_i = 1 - penalty_i / threshold, normalised to sum 1, and the weights
+// are interpolated linearly over the two triangles of each cell (as the
+// paper's blending field). Tie rule: the threshold is the penalty of the
+// (k+1)-th camera (not the k-th, which would give every camera 0 where the
+// k nearest tie, as at the centre of a grid cell); where that ties with the
+// 2nd (an eye right over a camera, whose neighbours tie), every camera
+// tying with the 2nd blends and the threshold is the next larger penalty;
+// with k or fewer cameras seeing the point, all of them blend (threshold
+// 1.001 x the largest penalty). Weights are continuous except at such
+// ties, sum to 1 at every pixel some camera sees, and every pixel seen by
+// two cameras or more is blended from two or more, so a lost camera leaves
+// no hole.
+enum class Aperture : uint8_t { kTent = 0, kUlr = 1 };
+constexpr int kUlrGrid = 32;  // output pixels per blending-field cell
+constexpr double kUlrResolutionWeight = 0.2;
+constexpr int kMinUlrCameras = 2, kMaxUlrCameras = 16;
 
 // How a camera's image is resampled into its fragment (lf/render.h): the
 // paper's bilinear filter, or bicubic (Keys 1981, a = -0.5): sharper where
@@ -119,7 +141,8 @@ struct ViewRequest {
   FocalPlane focal_plane;  // the single plane; with a surface, where it has none
   FocalSurface surface;    // optional per-tile focal planes (empty: focal_plane)
   Aperture aperture = Aperture::kTent;
-  double aperture_scale = 1.0;  // 1..kMaxApertureScale (see Aperture)
+  double aperture_scale = 1.0;  // 1..kMaxApertureScale (see Aperture); 1 with kUlr
+  int ulr_cameras = 4;          // k of kUlr, kMinUlrCameras..kMaxUlrCameras
   Sampling sampling = Sampling::kBilinear;
   // The instant the request is for (ns of running time on the pipeline
   // clock; in a deployment, the shared network clock and base time), or -1

@@ -572,7 +572,8 @@ std::vector<uint8_t> serialize_request(const ViewRequest& req) {
   w.f64(req.focal_plane.d);
   w.u8(static_cast<uint8_t>(req.aperture));
   w.u8(static_cast<uint8_t>(req.sampling));
-  w.u16(aperture_scale_q8(req.aperture_scale));
+  w.u16(req.aperture == Aperture::kUlr ? static_cast<uint16_t>(req.ulr_cameras)
+                                       : aperture_scale_q8(req.aperture_scale));
   w.u64(static_cast<uint64_t>(req.time_ns < 0 ? -1 : req.time_ns));
   if (!sf.empty()) {
     w.u32(static_cast<uint32_t>(block));
@@ -671,11 +672,16 @@ ViewRequest parse_request(const uint8_t* data, size_t size) {
   if (sampling > 1) bad("unknown sampling filter " + std::to_string(sampling));
   req.sampling = static_cast<Sampling>(sampling);
   if (req.time_ns < -1) bad("time " + std::to_string(req.time_ns) + " ns is negative");
-  if (ap != 0) bad("unknown aperture " + std::to_string(ap));
-  if (scale_q8 != 0 && (scale_q8 <= 256 || scale_q8 > 256 * kMaxApertureScale))
-    bad("aperture scale " + std::to_string(scale_q8) + "/256 is outside (1, " +
-        std::to_string(static_cast<int>(kMaxApertureScale)) + "] (0: the tent)");
-  req.aperture_scale = scale_q8 == 0 ? 1.0 : scale_q8 / 256.0;
+  if (ap > 1) bad("unknown aperture " + std::to_string(ap));
+  if (ap == 1) {
+    req.aperture = Aperture::kUlr;
+    req.ulr_cameras = scale_q8;  // checked by validate() below
+  } else {
+    if (scale_q8 != 0 && (scale_q8 <= 256 || scale_q8 > 256 * kMaxApertureScale))
+      bad("aperture scale " + std::to_string(scale_q8) + "/256 is outside (1, " +
+          std::to_string(static_cast<int>(kMaxApertureScale)) + "] (0: the tent)");
+    req.aperture_scale = scale_q8 == 0 ? 1.0 : scale_q8 / 256.0;
+  }
   const double qn = cv::norm(q);
   if (!std::isfinite(qn) || std::abs(qn - 1.0) > 1e-6) bad("orientation quaternion is not unit");
   req.view.R = rotation_from_quaternion(q);
