@@ -359,7 +359,7 @@ TEST(Plan, AWiderApertureIsTheTentScaledAboutEachCamera) {
 // a camera its tying neighbours blend too.
 TEST(Plan, UlrWeightsSumToOneAndCoverALostCamera) {
   const lf::Rig rig = lf::synthetic_grid_rig(5, 5, 1.0, 160, 120, 60);
-  const int W = 129, H = 129;  // vertex (2, 2) is pixel (64, 64), the centre
+  const int W = 129, H = 129;  // vertex (1, 1) is pixel (64, 64), the centre
   for (const int k : {3, 4, 6}) {
     lf::ViewRequest req;
     req.view = lf::VirtualView::look_at({0.5, 0.5, -1.0}, {0.5, 0.5, 10}, {0, 1, 0}, 25, W, H);
@@ -367,7 +367,7 @@ TEST(Plan, UlrWeightsSumToOneAndCoverALostCamera) {
     req.aperture = lf::Aperture::kUlr;
     req.ulr_cameras = k;
     const lf::ViewGeometry g(rig, req);
-    ASSERT_EQ(g.ulr_cols(), 5);
+    ASSERT_EQ(g.ulr_cols(), 3);
     std::vector<double> sum(static_cast<size_t>(W) * H, 0.0);
     std::vector<int> count(sum.size(), 0);
     size_t pixels = 0;
@@ -399,10 +399,32 @@ TEST(Plan, UlrWeightsSumToOneAndCoverALostCamera) {
     if (k == 4) {
       std::vector<double> w;
       for (int i = 0; i < static_cast<int>(rig.cameras.size()); ++i)
-        if (g.ulr_weight(i, 2, 2) > 0) w.push_back(g.ulr_weight(i, 2, 2));
+        if (g.ulr_weight(i, 1, 1) > 0) w.push_back(g.ulr_weight(i, 1, 1));
       ASSERT_EQ(w.size(), 4u) << "the vertex at pixel (64, 64)";
       for (const double v : w) EXPECT_NEAR(v, 0.25, 1e-9);
     }
+  }
+  // Through a focal surface of 3 planes in 8-pixel tiles: still 1.
+  {
+    std::mt19937_64 rng(4);
+    lf::ViewRequest req;
+    req.view = lf::VirtualView::look_at({0.3, 0.4, -1.0}, {0.5, 0.5, 10}, {0, 1, 0}, 25, W, H);
+    req.focal_plane = lf::FocalPlane::through({0, 0, 10}, {0, 0, 1});
+    req = with_random_surface(req, rng, 3);
+    req.aperture = lf::Aperture::kUlr;
+    const lf::ViewGeometry g(rig, req);
+    std::vector<double> sum(static_cast<size_t>(W) * H, 0.0);
+    for (int i = 0; i < static_cast<int>(rig.cameras.size()); ++i) {
+      const lf::FragmentPlan plan = lf::plan_fragment(g, i);
+      for (const lf::Run& r : plan.runs)
+        for (int x = r.x0; x < r.x1; ++x) {
+          const lf::FragmentPiece& pc = plan.pieces[r.piece];
+          sum[static_cast<size_t>(r.y) * W + x] += pc.weight_num(x, r.y) / pc.weight_den(x, r.y);
+        }
+    }
+    double worst = 0;
+    for (const double v : sum) worst = std::max(worst, std::abs(v - 1));
+    EXPECT_LT(worst, 1e-9) << "through a focal surface";
   }
   // The eye over camera (2, 2), k = 3: its four neighbours tie for 2nd.
   lf::ViewRequest req;
@@ -413,6 +435,6 @@ TEST(Plan, UlrWeightsSumToOneAndCoverALostCamera) {
   const lf::ViewGeometry g(rig, req);
   int blended = 0;
   for (int i = 0; i < static_cast<int>(rig.cameras.size()); ++i)
-    blended += g.ulr_weight(i, 2, 2) > 0;
+    blended += g.ulr_weight(i, 1, 1) > 0;
   EXPECT_EQ(blended, 5) << "the camera under the eye and its four neighbours";
 }

@@ -362,6 +362,7 @@ struct Part {
   double x0, y0, x1, y1;                 // bounding box of base
   std::vector<std::array<int, 3>> rows;  // with a surface: (y, x0, x1) where the weight is > 0
   std::array<int, 3> ulr{-1, -1, -1};    // cx, cy, half
+  bool ulr_all_positive = false;         // the weight at its three vertices
 };
 
 // Whether the camera's weight in the part is positive at pixel (x, y).
@@ -444,6 +445,7 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
                   0,
                   {}};
         part.ulr = {cx, cy, half};
+        part.ulr_all_positive = w0 > 0 && w1 > 0 && w2 > 0;
         const double x0 = cx * G - 0.5, y0 = cy * G - 0.5;
         const double x1 = std::min(W, (cx + 1) * G) - 0.5, y1 = std::min(H, (cy + 1) * G) - 0.5;
         part.base = {{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}};
@@ -545,6 +547,26 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
       if (part.x1 < reg.x0 - 1.5 || part.x0 > reg.x1 + 0.5 || part.y1 < reg.y0 - 1.5 ||
           part.y0 > reg.y1 + 0.5)
         continue;
+      // A ULR half whose three vertex weights are positive, in a region
+      // whose focal points the camera sees (the usual case): its pixels are
+      // the half's, row by row, in integers (ViewGeometry::in_ulr_half).
+      if (part.ulr[0] >= 0 && part.ulr_all_positive) {
+        const int G = kUlrGrid, cx0 = part.ulr[0] * G, cy0 = part.ulr[1] * G;
+        const int x0 = std::max(cx0, reg.x0), x1 = std::min(cx0 + G, reg.x1);
+        const int y0 = std::max(cy0, reg.y0), y1 = std::min(cy0 + G, reg.y1);
+        if (x0 < x1 && y0 < y1 &&
+            (g.focal_at_infinity(fp) || positive_on(g.focal_denominator(fp), x0, y0, x1, y1)) &&
+            positive_on(zc, x0, y0, x1, y1)) {
+          const int id = piece_id(part, 1);
+          for (int y = y0; y < y1; ++y) {
+            const int v = y - cy0;  // half 0: u >= v; half 1: u < v
+            const int a = part.ulr[2] == 0 ? std::max(x0, cx0 + v) : x0;
+            const int b = part.ulr[2] == 0 ? x1 : std::min(x1, cx0 + v);
+            if (a < b) add_run(id, part, 1, y, a, b);
+          }
+          continue;
+        }
+      }
       // A region whose focal points are all in front of the camera and on
       // the focal plane's positive side (the usual case) is the part's
       // weighted pixels there, without evaluating any predicate again.

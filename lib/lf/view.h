@@ -79,7 +79,7 @@ struct FocalSurface {
 // two cameras or more is blended from two or more, so a lost camera leaves
 // no hole.
 enum class Aperture : uint8_t { kTent = 0, kUlr = 1 };
-constexpr int kUlrGrid = 32;  // output pixels per blending-field cell
+constexpr int kUlrGrid = 64;  // output pixels per blending-field cell
 constexpr double kUlrResolutionWeight = 0.2;
 constexpr int kMinUlrCameras = 2, kMaxUlrCameras = 16;
 
