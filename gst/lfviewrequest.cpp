@@ -104,6 +104,10 @@
  * The requests carry the scale in 1/256 (lib/lf/wire.h); probes keep the
  * tent.
  *
+ * `ulr-cameras=K` (2..16) uses Unstructured Lumigraph weights over the K
+ * cameras nearest each ray instead (lib/lf/view.h Aperture::kUlr): for rigs
+ * without a grid, and so that a lost camera leaves no hole.
+ *
  * ## Sampling
  *
  * `sampling=bicubic` asks the cameras to resample their images with Keys'
