@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 namespace lf {
 
@@ -415,7 +416,7 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
   plan.out_height = g.height();
   plan.sampling = g.request().sampling;
   const int W = g.width(), H = g.height();
-  std::vector<std::array<int, 4>> piece_keys;  // of plan.pieces
+  std::map<std::array<int, 4>, int> piece_keys;  // -> index in plan.pieces
 
   // The parts of the camera plane's simplices that hold this camera, as
   // polygons of output pixels: they do not depend on the focal plane.
@@ -450,12 +451,21 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
         const double x1 = std::min(W, (cx + 1) * G) - 0.5, y1 = std::min(H, (cy + 1) * G) - 0.5;
         part.base = {{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}};
         part.x0 = x0, part.y0 = y0, part.x1 = x1, part.y1 = y1;
-        if (!g.request().surface.empty())
+        if (!g.request().surface.empty() && part.ulr_all_positive) {
+          // Weighted throughout: the half's own rows, in integers.
+          for (int y = cy * G; y < std::min(H, (cy + 1) * G); ++y) {
+            const int v = y - cy * G, xe = std::min(W, (cx + 1) * G);
+            const int a = half == 0 ? cx * G + v : cx * G,
+                      b = half == 0 ? xe : std::min(xe, cx * G + v);
+            if (a < b) part.rows.push_back({y, a, b});
+          }
+        } else if (!g.request().surface.empty()) {
           scan_rows(
               part.base, 0, H - 1, 0, W - 1, [&](int x, int y) { return weighted(g, part, x, y); },
               [&](int y, int a, int b) {
                 part.rows.push_back({y, a, b});
               });
+        }
         parts.push_back(std::move(part));
       }
   for (size_t s = 0; s < simplices.size() && g.ulr_cols() == 0; ++s) {
@@ -530,14 +540,13 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
     // Pieces by (simplex, camera-plane side, focal side, plane), made when
     // their first run is.
     auto piece_id = [&](const Part& part, int sf) {
-      const std::array<int, 4> key{part.s, part.sd, sf, fp};
-      return static_cast<int>(std::find(piece_keys.begin(), piece_keys.end(), key) -
-                              piece_keys.begin());
+      const auto it = piece_keys.find({part.s, part.sd, sf, fp});
+      return it == piece_keys.end() ? static_cast<int>(plan.pieces.size()) : it->second;
     };
     auto add_run = [&](int id, const Part& part, int sf, int y, int a, int b) {
-      if (id == static_cast<int>(piece_keys.size())) {
+      if (id == static_cast<int>(plan.pieces.size())) {
         plan.pieces.push_back(make_piece(Hc, sf, part.num, part.den));
-        piece_keys.push_back({part.s, part.sd, sf, fp});
+        piece_keys[{part.s, part.sd, sf, fp}] = id;
       }
       plan.runs.push_back({y, a, b, id});
     };
