@@ -77,9 +77,11 @@ constexpr const char* kFocalPlane = "param:-0.2";
 
 // `surface` > 0: lfviewrequest focal-surface=true with that surface-interval
 // (a focal surface from the fragments, lib/lf/surface_probe.h) instead of
-// the fixed focal plane.
+// the fixed focal plane; `props`: more lfviewrequest properties
+// ("name=value ...", e.g. "ulr-cameras=4 sampling=bicubic").
 std::string pipeline(const std::string& rig, const lf::Rig& r, int W, int H, const std::string& enc,
-                     bool live, int frames, int rate, int surface = 0) {
+                     bool live, int frames, int rate, int surface = 0,
+                     const std::string& props = "") {
   std::string fr;
   if (enc == "raw") {
     fr = "encoding=raw";
@@ -92,7 +94,8 @@ std::string pipeline(const std::string& rig, const lf::Rig& r, int W, int H, con
   d << "lfviewrequest name=req rig=" << rig << " width=" << W << " height=" << H
     << " orbit=" << kOrbit << " path-frames=" << kPathFrames << " focal-plane=" << kFocalPlane
     << (surface > 0 ? " focal-surface=true surface-interval=" + std::to_string(surface) : "")
-    << " framerate=" << rate << "/1" << (live ? " is-live=true" : "") << " num-buffers=" << frames
+    << (props.empty() ? "" : " " + props) << " framerate=" << rate << "/1"
+    << (live ? " is-live=true" : "") << " num-buffers=" << frames
     << " ! tee name=t lfcompositor name=comp rig=" << rig << (live ? " latency=100000000" : "")
     << " ! appsink name=out sync=false max-buffers=4";
   for (size_t i = 0; i < r.cameras.size(); ++i)
@@ -372,7 +375,9 @@ int main(int argc, char** argv) {
       {"focal", 0, 0, G_OPTION_ARG_STRING, &focal_opt,
        "Focus of the single-viewer runs: plane (one focal plane, default) and/or surface:N "
        "(lfviewrequest focal-surface=true surface-interval=N: a focal surface estimated from "
-       "the fragments every N requests), e.g. plane,surface:30",
+       "the fragments every N requests), each optionally with more lfviewrequest properties "
+       "after '+' signs, e.g. plane,surface:30,plane+ulr-cameras=4,plane+sampling=bicubic; "
+       "each row is compared with the first plain plane row",
        "LIST"},
       {"skip-bound", 0, 0, G_OPTION_ARG_NONE, &skip_bound,
        "Leave out the kernel bound and the pipeline efficiency", nullptr},
@@ -428,21 +433,40 @@ int main(int argc, char** argv) {
       std::stringstream es(encodings_spec);
       while (std::getline(es, t, ',')) encodings.push_back(t);
     }
-    // Focus: 0 for the plane, N for surface:N.
-    std::vector<int> focals;
+    // Focus: surface 0 for the plane, N for surface:N; props: more
+    // lfviewrequest properties ("name=value" words).
+    struct Focus {
+      int surface = 0;
+      std::string props, label;
+    };
+    std::vector<Focus> focals;
     {
       std::stringstream fs(focal_spec);
       std::string t;
       while (std::getline(fs, t, ',')) {
-        const std::vector<double> n = t.rfind("surface:", 0) == 0
-                                          ? cli::parse_numbers(t.substr(8), "--focal")
+        Focus f;
+        std::stringstream ps(t);
+        std::string kind, prop;
+        std::getline(ps, kind, '+');
+        while (std::getline(ps, prop, '+')) {
+          if (prop.find('=') == std::string::npos ||
+              prop.find_first_of(" !\"'") != std::string::npos)
+            throw std::invalid_argument("--focal '" + t + "': '" + prop +
+                                        "' is not a property=value of lfviewrequest");
+          f.props += (f.props.empty() ? "" : " ") + prop;
+        }
+        const std::vector<double> n = kind.rfind("surface:", 0) == 0
+                                          ? cli::parse_numbers(kind.substr(8), "--focal")
                                           : std::vector<double>{};
-        if (t == "plane")
-          focals.push_back(0);
+        if (kind == "plane")
+          f.surface = 0;
         else if (n.size() == 1 && n[0] >= 1 && n[0] == std::floor(n[0]))
-          focals.push_back(static_cast<int>(n[0]));
+          f.surface = static_cast<int>(n[0]);
         else
           throw std::invalid_argument("--focal '" + t + "': use plane or surface:N (N >= 1)");
+        f.label = f.surface ? "surface, a probe every " + std::to_string(f.surface) : "plane";
+        if (!f.props.empty()) f.label += ", " + f.props;
+        focals.push_back(f);
       }
     }
     const int cores = static_cast<int>(std::thread::hardware_concurrency());
@@ -516,10 +540,13 @@ int main(int argc, char** argv) {
         // The plane row of this size and encoding (run before the surface
         // rows when --focal lists it first): fps, live fps, CPU ms per frame.
         double plane[3] = {0, 0, 0};
-        for (const int surface : focals) {
+        for (const Focus& focus : focals) {
+          const int surface = focus.surface;
+          const bool baseline = surface == 0 && focus.props.empty();
           reset_peak_rss();
           const auto t =
-              run(pipeline(rig_path, rig, W, H, enc, false, frames, 1000, surface), nullptr);
+              run(pipeline(rig_path, rig, W, H, enc, false, frames, 1000, surface, focus.props),
+                  nullptr);
           const int warm = std::min<int>(20, static_cast<int>(t.size()) / 4);
           const bool steady = t.size() > static_cast<size_t>(warm + 1);
           const Mark& a = steady ? t[warm] : Mark{};
@@ -532,9 +559,9 @@ int main(int argc, char** argv) {
           const double steal =
               ticks ? 100.0 * static_cast<double>(z.machine.steal - a.machine.steal) / ticks : 0;
           Probe probe;
-          const auto live =
-              run(pipeline(rig_path, rig, W, H, enc, true, std::max(60, rate * 4), rate, surface),
-                  &probe);
+          const auto live = run(pipeline(rig_path, rig, W, H, enc, true, std::max(60, rate * 4),
+                                         rate, surface, focus.props),
+                                &probe);
           // Output frames per second of the live run, after its first quarter.
           const size_t lw = live.size() / 4;
           const double live_fps = live.size() > lw + 1 ? static_cast<double>(live.size() - 1 - lw) /
@@ -545,26 +572,24 @@ int main(int argc, char** argv) {
               probe.latency_ms.end());
           // The bound is plan + render + composite of one plane: raw fragments
           // only (JPEG rows add encoding and decoding that it does not count).
-          const bool has_bound = !skip_bound && enc == "raw" && surface == 0;
+          const bool has_bound = !skip_bound && enc == "raw" && baseline;
           const KernelTime k = has_bound ? bound[{W, H}] : KernelTime{};
           const double kb = has_bound ? cores * 1000.0 / k.wall_ms : 0;
           auto num = [&](double v, const char* f) {
             return has_bound ? cv::format(f, v) : std::string("-");
           };
-          if (surface == 0) plane[0] = fps, plane[1] = live_fps, plane[2] = cpu_ms;
-          const std::string vs = surface > 0 && plane[0] > 0 && plane[1] > 0 && plane[2] > 0
+          if (baseline && plane[0] == 0) plane[0] = fps, plane[1] = live_fps, plane[2] = cpu_ms;
+          const std::string vs = !baseline && plane[0] > 0 && plane[1] > 0 && plane[2] > 0
                                      ? cv::format("%.2f, %.2f, %.2fx", fps / plane[0],
                                                   live_fps / plane[1], cpu_ms / plane[2])
                                      : std::string("-");
           std::printf(
               "| %dx%d | %s | %s | %.1f | %s | %s | %.2f | %s | %s | %.2f | %.0f | %.1f | %.1f | "
               "%.1f | %.0f | %s |\n",
-              W, H, enc.c_str(),
-              surface ? ("surface, a probe every " + std::to_string(surface)).c_str() : "plane",
-              fps, num(kb, "%.1f").c_str(), num(fps / kb, "%.2f").c_str(), cpu_ms,
-              num(k.cpu_ms, "%.2f").c_str(), num(k.cpu_ms / cpu_ms, "%.2f").c_str(), cores_used,
-              steal, live_fps, percentile(lat, 0.5), percentile(lat, 0.95), peak_rss_mib(),
-              vs.c_str());
+              W, H, enc.c_str(), focus.label.c_str(), fps, num(kb, "%.1f").c_str(),
+              num(fps / kb, "%.2f").c_str(), cpu_ms, num(k.cpu_ms, "%.2f").c_str(),
+              num(k.cpu_ms / cpu_ms, "%.2f").c_str(), cores_used, steal, live_fps,
+              percentile(lat, 0.5), percentile(lat, 0.95), peak_rss_mib(), vs.c_str());
           std::fflush(stdout);
         }
       }
