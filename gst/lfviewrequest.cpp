@@ -816,13 +816,6 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   req.sequence = k;
   req.focal_plane = views->plane;
   const lf::Rig& rig = *st->rig;
-  if (s.ulr_cameras > 0) {
-    req.aperture = lf::Aperture::kUlr;
-    req.ulr_cameras = static_cast<int>(s.ulr_cameras);
-  } else {
-    req.aperture_scale = aperture_scale(self, rig, s, views->sequence.at(k, rig));
-  }
-  req.sampling = s.sampling;
   GError* err = nullptr;
   if (!lfgst::guard(
           [&] {
@@ -837,6 +830,14 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
     g_error_free(err);
     req.view = views->sequence.at(k, rig);
   }
+  // The aperture (its f-number needs the view's focal length) and sampling.
+  if (s.ulr_cameras > 0) {
+    req.aperture = lf::Aperture::kUlr;
+    req.ulr_cameras = std::max<int>(lf::kMinUlrCameras, static_cast<int>(s.ulr_cameras));
+  } else {
+    req.aperture_scale = aperture_scale(self, rig, s, req.view);
+  }
+  req.sampling = s.sampling;
   // Click to focus: the probe's requests go with this tick's request (a
   // click's, else every kContinuousFocusEvery ticks a continuous one).
   std::vector<lf::ViewRequest> probes;
@@ -1071,13 +1072,14 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
                 "with the view's field of view (such a lens at f/N, focused on the focal plane, "
                 "blurs as this aperture does); needs the rig's unit to be mm, cm or m",
                 0, 1e6, 0, ctrl));
-  props.add(oc, &Settings::ulr_cameras,
-            g_param_spec_uint(
-                "ulr-cameras", "ULR cameras",
-                "Unstructured Lumigraph weights (Buehler et al. 2001, lib/lf/view.h) blending the "
-                "k cameras nearest each ray in angle, for rigs without a grid and so that a lost "
-                "camera leaves no hole; 0: the tent (aperture, f-number apply), else k (2..16)",
-                0, lf::kMaxUlrCameras, 0, ctrl));
+  props.add(
+      oc, &Settings::ulr_cameras,
+      g_param_spec_uint(
+          "ulr-cameras", "ULR cameras",
+          "Unstructured Lumigraph weights (Buehler et al. 2001, lib/lf/view.h) blending the "
+          "k cameras nearest each ray in angle, for rigs without a grid and so that a lost "
+          "camera leaves no hole; 0: the tent (aperture, f-number apply), else k (1 counts as 2)",
+          0, lf::kMaxUlrCameras, 0, ctrl));
   props.add(oc, &Settings::sampling,
             g_param_spec_enum("sampling", "Sampling",
                               "How the cameras resample their images into fragments (the "

@@ -74,6 +74,25 @@ TEST(Render, MatchesAnalyticImageOfTheFocalPlane) {
   }
 }
 
+// The f-number mapping (lf/view.h): a diameter and its full-frame f-number
+// convert into each other; a 50 mm-equivalent view at f/2 has a 25 mm
+// aperture; lengths other than mm, cm, m are not lengths.
+TEST(View, FNumberMappingRoundTrips) {
+  const int width = 720;
+  const double fx = 50.0 / 36.0 * width;  // 50 mm on a 36 mm wide sensor
+  EXPECT_NEAR(lf::diameter_for_f_number(2.0, fx, width, 1.0), 25.0, 1e-12);
+  EXPECT_NEAR(lf::diameter_for_f_number(2.0, fx, width, 1000.0), 0.025, 1e-12);  // metres
+  EXPECT_NEAR(lf::full_frame_f_number(25.0, fx, width), 2.0, 1e-12);
+  for (const double n : {1.4, 5.6, 22.0})
+    EXPECT_NEAR(
+        lf::full_frame_f_number(lf::diameter_for_f_number(n, fx, width, 10.0) * 10.0, fx, width), n,
+        1e-12);
+  EXPECT_EQ(lf::millimetres_per_unit("stanford-parallax-unit"), 0.0);
+  EXPECT_EQ(lf::diameter_for_f_number(2.0, fx, width, 0.0), 0.0);
+  EXPECT_EQ(lf::aperture_scale_for(lf::aperture_diameter(2.5, 0.3), 0.3), 2.5);
+  EXPECT_EQ(lf::aperture_scale_for(0.1, 0.3), 1.0) << "never narrower than the tent";
+}
+
 // 10-90 % width (pixels) of the mean radial profile of a bright disc's
 // edge in `img`: centre c, radius r pixels, profile over r +- span.
 double edge_width(const cv::Mat& img, cv::Point2d c, double r, double span) {

@@ -206,10 +206,15 @@ int main(int argc, char** argv) {
         req.aperture_scale = 1;
         req.ulr_cameras = args.integer("--ulr", 4);
       }
-      if (!quiet && f == 0 && req.aperture_scale > 1)
-        std::fprintf(stderr, "aperture: %.4g %s across (%.2f x the tent's)\n",
-                     lf::aperture_diameter(req.aperture_scale, rig.typical_spacing()),
-                     rig.unit.c_str(), req.aperture_scale);
+      if (!quiet && f == 0 && req.aperture_scale > 1) {
+        const double d = lf::aperture_diameter(req.aperture_scale, rig.typical_spacing());
+        std::fprintf(stderr, "aperture: %.4g %s across (%.2f x the tent's)", d, rig.unit.c_str(),
+                     req.aperture_scale);
+        if (const double mm = lf::millimetres_per_unit(rig.unit); mm > 0)
+          std::fprintf(stderr, ", f/%.3g full-frame equivalent",
+                       lf::full_frame_f_number(d * mm, req.view.focal_px(), req.view.width));
+        std::fprintf(stderr, "\n");
+      }
       if (surface) {
         if (f % refocus == 0) {
           const auto e0 = std::chrono::steady_clock::now();

@@ -359,12 +359,20 @@ struct Part {
   int s, slot, sd;
   bool single;  // one camera, or the eye on the camera plane: no side to check
   PixelForm num, den;
-  Polygon base;
-  double x0, y0, x1, y1;                 // bounding box of base
-  std::vector<std::array<int, 3>> rows;  // with a surface: (y, x0, x1) where the weight is > 0
-  std::array<int, 3> ulr{-1, -1, -1};    // cx, cy, half
-  bool ulr_all_positive = false;         // the weight at its three vertices
+  Polygon base = {};
+  double x0 = 0, y0 = 0, x1 = 0, y1 = 0;      // bounding box of base
+  std::vector<std::array<int, 3>> rows = {};  // with a surface: (y, x0, x1) where the weight is > 0
+  std::array<int, 3> ulr{-1, -1, -1};         // cx, cy, half
+  bool ulr_all_positive = false;              // the weight at its three vertices
 };
+
+// Pixels [a, b) of row y in ULR half (cx, cy, half) (ViewGeometry::
+// in_ulr_half), within [x0, x1) (inside the cell's columns).
+std::array<int, 2> ulr_half_span(int cx, int cy, int half, int y, int x0, int x1) {
+  const int cx0 = cx * kUlrGrid, v = y - cy * kUlrGrid;  // half 0: u >= v; half 1: u < v
+  return half == 0 ? std::array<int, 2>{std::max(x0, cx0 + v), x1}
+                   : std::array<int, 2>{x0, std::min(x1, cx0 + v)};
+}
 
 // Whether the camera's weight in the part is positive at pixel (x, y).
 bool weighted(const ViewGeometry& g, const Part& part, int x, int y) {
@@ -433,18 +441,8 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
         const double w1 =
             half == 0 ? g.ulr_weight(index, cx + 1, cy) : g.ulr_weight(index, cx, cy + 1);
         if (!(w0 > 0 || w1 > 0 || w2 > 0)) continue;
-        Part part{-1 - ((cy * g.ulr_cols() + cx) * 2 + half),
-                  0,
-                  1,
-                  true,
-                  g.ulr_form(index, cx, cy, half),
-                  constant(1.0),
-                  {},
-                  0,
-                  0,
-                  0,
-                  0,
-                  {}};
+        const int id = -1 - ((cy * g.ulr_cols() + cx) * 2 + half);  // unique among parts
+        Part part{id, 0, 1, true, g.ulr_form(index, cx, cy, half), constant(1.0)};
         part.ulr = {cx, cy, half};
         part.ulr_all_positive = w0 > 0 && w1 > 0 && w2 > 0;
         const double x0 = cx * G - 0.5, y0 = cy * G - 0.5;
@@ -454,9 +452,7 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
         if (!g.request().surface.empty() && part.ulr_all_positive) {
           // Weighted throughout: the half's own rows, in integers.
           for (int y = cy * G; y < std::min(H, (cy + 1) * G); ++y) {
-            const int v = y - cy * G, xe = std::min(W, (cx + 1) * G);
-            const int a = half == 0 ? cx * G + v : cx * G,
-                      b = half == 0 ? xe : std::min(xe, cx * G + v);
+            const auto [a, b] = ulr_half_span(cx, cy, half, y, cx * G, std::min(W, (cx + 1) * G));
             if (a < b) part.rows.push_back({y, a, b});
           }
         } else if (!g.request().surface.empty()) {
@@ -510,7 +506,7 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
         for (int j = 0; j < sx.size && !base.empty(); ++j)
           base = clip(base, (j == slot ? slot_facet : g.facet_form(sx.facet[j], sx.sign[j])) * sd);
       } else if (sx.size > 1) {
-        Part probe{static_cast<int>(s), slot, sd, single, num, den, {}, 0, 0, 0, 0, {}};
+        const Part probe{static_cast<int>(s), slot, sd, single, num, den};
         if (!weighted(g, probe, 0, 0)) break;
       }
       if (base.size() < 3) continue;
@@ -568,9 +564,7 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
             positive_on(zc, x0, y0, x1, y1)) {
           const int id = piece_id(part, 1);
           for (int y = y0; y < y1; ++y) {
-            const int v = y - cy0;  // half 0: u >= v; half 1: u < v
-            const int a = part.ulr[2] == 0 ? std::max(x0, cx0 + v) : x0;
-            const int b = part.ulr[2] == 0 ? x1 : std::min(x1, cx0 + v);
+            const auto [a, b] = ulr_half_span(part.ulr[0], part.ulr[1], part.ulr[2], y, x0, x1);
             if (a < b) add_run(id, part, 1, y, a, b);
           }
           continue;

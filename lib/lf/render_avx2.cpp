@@ -120,8 +120,8 @@ LF_AVX2 void coords_avx2(bool distort, bool cubic, const Consts& k, int x0, int 
 }
 
 // Bicubic. Two pixels per step where all 16 taps of both are inside the
-// image (one pixel per 128-bit lane), else one at a time (the single-pixel
-// step below, or the reference at the border): each of a pixel's four rows
+// image (one pixel per 128-bit lane), else one at a time (in both lanes,
+// or the reference at the border): each of a pixel's four rows
 // is one 16-byte load (taps -1..2), shuffled so that two taps of a channel
 // sit side by side, widened to 16 bits and reduced by two madds with the
 // pixel's horizontal tap weights to four 32-bit channel sums; those are
@@ -139,31 +139,50 @@ LF_AVX2 inline bool inside(int iu, int iv, int width, int height) {
   return iu >= 1 && iu <= width - 3 && iv >= 1 && iv <= height - 3;
 }
 
-// One interior pixel in 128 bits.
-LF_AVX2 inline void cubic_one(const uint8_t* p, int stride, const int16_t* h, const int16_t* v,
-                              int32_t wq, uint8_t* dst) {
-  const __m128i pair = _mm_setr_epi8(0, 4, 1, 5, 2, 6, 3, 7, 8, 12, 9, 13, 10, 14, 11, 15);
-  const __m128i round_c = _mm_set1_epi32(1 << (kCubicBits - 1));
-  const __m128i zero = _mm_setzero_si128();
-  const __m128i h01 = _mm_set1_epi32(pack16(h[0], h[1])), h23 = _mm_set1_epi32(pack16(h[2], h[3]));
-  __m128i acc = zero;
+// Interior pixels a and b (b may be a again), one per 128-bit lane; their
+// RGBA bytes in *out_a and *out_b.
+LF_AVX2 inline void cubic_two(const uint8_t* src, int stride, const int32_t* iu, const int32_t* iv,
+                              const int32_t* phases, const int32_t* wq, int a, int b,
+                              int32_t* out_a, int32_t* out_b) {
+  const __m256i pair = _mm256_setr_epi8(0, 4, 1, 5, 2, 6, 3, 7, 8, 12, 9, 13, 10, 14, 11, 15, 0, 4,
+                                        1, 5, 2, 6, 3, 7, 8, 12, 9, 13, 10, 14, 11, 15);
+  const __m256i round_c = _mm256_set1_epi32(1 << (kCubicBits - 1));
+  const __m256i round_w = _mm256_set1_epi32(1 << (kWeightBits - 1));
+  const __m256i zero = _mm256_setzero_si256(), max = _mm256_set1_epi32(255);
+  const CubicTaps* table = cubic_taps();
+  const int16_t* ha = table[phases[a] & 0xffff];
+  const int16_t* va = table[(phases[a] >> 16) & 0xffff];
+  const int16_t* hb = table[phases[b] & 0xffff];
+  const int16_t* vb = table[(phases[b] >> 16) & 0xffff];
+  const int a01 = pack16(ha[0], ha[1]), a23 = pack16(ha[2], ha[3]);
+  const int b01 = pack16(hb[0], hb[1]), b23 = pack16(hb[2], hb[3]);
+  const __m256i h01 = _mm256_setr_epi32(a01, a01, a01, a01, b01, b01, b01, b01);
+  const __m256i h23 = _mm256_setr_epi32(a23, a23, a23, a23, b23, b23, b23, b23);
+  auto at = [&](int k) {
+    return src + static_cast<std::ptrdiff_t>(iv[k] - 1) * stride + 4 * (iu[k] - 1);
+  };
+  const uint8_t* pa = at(a);
+  const uint8_t* pb = at(b);
+  __m256i acc = zero;
   for (int j = 0; j < 4; ++j) {
-    const __m128i s = _mm_shuffle_epi8(_mm_loadu_si128(reinterpret_cast<const __m128i*>(
-                                           p + static_cast<std::ptrdiff_t>(j) * stride)),
-                                       pair);
-    __m128i r = _mm_add_epi32(_mm_madd_epi16(_mm_unpacklo_epi8(s, zero), h01),
-                              _mm_madd_epi16(_mm_unpackhi_epi8(s, zero), h23));
-    r = _mm_srai_epi32(_mm_add_epi32(r, round_c), kCubicBits);
-    acc = _mm_add_epi32(acc, _mm_mullo_epi32(r, _mm_set1_epi32(v[j])));
+    const std::ptrdiff_t off = static_cast<std::ptrdiff_t>(j) * stride;
+    const __m256i rows = _mm256_inserti128_si256(
+        _mm256_castsi128_si256(_mm_loadu_si128(reinterpret_cast<const __m128i*>(pa + off))),
+        _mm_loadu_si128(reinterpret_cast<const __m128i*>(pb + off)), 1);
+    const __m256i s = _mm256_shuffle_epi8(rows, pair);
+    __m256i r = _mm256_add_epi32(_mm256_madd_epi16(_mm256_unpacklo_epi8(s, zero), h01),
+                                 _mm256_madd_epi16(_mm256_unpackhi_epi8(s, zero), h23));
+    r = _mm256_srai_epi32(_mm256_add_epi32(r, round_c), kCubicBits);
+    const __m256i vj = _mm256_setr_epi32(va[j], va[j], va[j], va[j], vb[j], vb[j], vb[j], vb[j]);
+    acc = _mm256_add_epi32(acc, _mm256_mullo_epi32(r, vj));
   }
-  acc = _mm_srai_epi32(_mm_add_epi32(acc, round_c), kCubicBits);
-  acc = _mm_min_epi32(_mm_max_epi32(acc, zero), _mm_set1_epi32(255));
-  acc = _mm_srli_epi32(_mm_add_epi32(_mm_mullo_epi32(acc, _mm_set1_epi32(wq)),
-                                     _mm_set1_epi32(1 << (kWeightBits - 1))),
-                       kWeightBits);
-  acc = _mm_packus_epi16(_mm_packs_epi32(acc, acc), zero);
-  const int32_t px = _mm_cvtsi128_si32(acc);
-  std::memcpy(dst, &px, 4);
+  acc = _mm256_srai_epi32(_mm256_add_epi32(acc, round_c), kCubicBits);
+  acc = _mm256_min_epi32(_mm256_max_epi32(acc, zero), max);
+  const __m256i w = _mm256_setr_epi32(wq[a], wq[a], wq[a], wq[a], wq[b], wq[b], wq[b], wq[b]);
+  acc = _mm256_srli_epi32(_mm256_add_epi32(_mm256_mullo_epi32(acc, w), round_w), kWeightBits);
+  acc = _mm256_packus_epi16(_mm256_packs_epi32(acc, acc), zero);
+  *out_a = _mm_cvtsi128_si32(_mm256_castsi256_si128(acc));
+  *out_b = _mm_cvtsi128_si32(_mm256_extracti128_si256(acc, 1));
 }
 
 }  // namespace
@@ -171,61 +190,19 @@ LF_AVX2 inline void cubic_one(const uint8_t* p, int stride, const int16_t* h, co
 LF_AVX2 void gather_cubic_avx2(const uint8_t* src, int stride, int width, int height, int n,
                                const int32_t* iu, const int32_t* iv, const int32_t* phases,
                                const int32_t* wq, uint8_t* dst) {
-  const __m256i pair = _mm256_setr_epi8(0, 4, 1, 5, 2, 6, 3, 7, 8, 12, 9, 13, 10, 14, 11, 15, 0, 4,
-                                        1, 5, 2, 6, 3, 7, 8, 12, 9, 13, 10, 14, 11, 15);
-  const __m256i round_c = _mm256_set1_epi32(1 << (kCubicBits - 1));
-  const __m256i round_w = _mm256_set1_epi32(1 << (kWeightBits - 1));
-  const __m256i zero = _mm256_setzero_si256(), max = _mm256_set1_epi32(255);
-  const CubicTaps* table = cubic_taps();
-  auto at = [&](int k) {
-    return src + static_cast<std::ptrdiff_t>(iv[k] - 1) * stride + 4 * (iu[k] - 1);
-  };
   int i = 0;
   while (i < n) {
-    const bool a_in = inside(iu[i], iv[i], width, height);
-    if (!a_in || i + 1 == n || !inside(iu[i + 1], iv[i + 1], width, height)) {
-      if (a_in)
-        cubic_one(at(i), stride, table[phases[i] & 0xffff], table[(phases[i] >> 16) & 0xffff],
-                  wq[i], dst + 4 * i);
-      else
-        gather_cubic1(src, stride, width, height, iu[i], iv[i], phases[i], wq[i], dst + 4 * i);
+    if (!inside(iu[i], iv[i], width, height)) {
+      gather_cubic1(src, stride, width, height, iu[i], iv[i], phases[i], wq[i], dst + 4 * i);
       ++i;
       continue;
     }
-    const int16_t* ha = table[phases[i] & 0xffff];
-    const int16_t* va = table[(phases[i] >> 16) & 0xffff];
-    const int16_t* hb = table[phases[i + 1] & 0xffff];
-    const int16_t* vb = table[(phases[i + 1] >> 16) & 0xffff];
-    const int a01 = pack16(ha[0], ha[1]), a23 = pack16(ha[2], ha[3]);
-    const int b01 = pack16(hb[0], hb[1]), b23 = pack16(hb[2], hb[3]);
-    const __m256i h01 = _mm256_setr_epi32(a01, a01, a01, a01, b01, b01, b01, b01);
-    const __m256i h23 = _mm256_setr_epi32(a23, a23, a23, a23, b23, b23, b23, b23);
-    const uint8_t* pa = at(i);
-    const uint8_t* pb = at(i + 1);
-    __m256i acc = zero;
-    for (int j = 0; j < 4; ++j) {
-      const std::ptrdiff_t off = static_cast<std::ptrdiff_t>(j) * stride;
-      const __m256i rows = _mm256_inserti128_si256(
-          _mm256_castsi128_si256(_mm_loadu_si128(reinterpret_cast<const __m128i*>(pa + off))),
-          _mm_loadu_si128(reinterpret_cast<const __m128i*>(pb + off)), 1);
-      const __m256i s = _mm256_shuffle_epi8(rows, pair);
-      __m256i r = _mm256_add_epi32(_mm256_madd_epi16(_mm256_unpacklo_epi8(s, zero), h01),
-                                   _mm256_madd_epi16(_mm256_unpackhi_epi8(s, zero), h23));
-      r = _mm256_srai_epi32(_mm256_add_epi32(r, round_c), kCubicBits);
-      const __m256i vj = _mm256_setr_epi32(va[j], va[j], va[j], va[j], vb[j], vb[j], vb[j], vb[j]);
-      acc = _mm256_add_epi32(acc, _mm256_mullo_epi32(r, vj));
-    }
-    acc = _mm256_srai_epi32(_mm256_add_epi32(acc, round_c), kCubicBits);
-    acc = _mm256_min_epi32(_mm256_max_epi32(acc, zero), max);
-    const __m256i w =
-        _mm256_setr_epi32(wq[i], wq[i], wq[i], wq[i], wq[i + 1], wq[i + 1], wq[i + 1], wq[i + 1]);
-    acc = _mm256_srli_epi32(_mm256_add_epi32(_mm256_mullo_epi32(acc, w), round_w), kWeightBits);
-    acc = _mm256_packus_epi16(_mm256_packs_epi32(acc, acc), zero);
-    const int32_t pxa = _mm_cvtsi128_si32(_mm256_castsi256_si128(acc));
-    const int32_t pxb = _mm_cvtsi128_si32(_mm256_extracti128_si256(acc, 1));
-    std::memcpy(dst + 4 * i, &pxa, 4);
-    std::memcpy(dst + 4 * i + 4, &pxb, 4);
-    i += 2;
+    // With the next pixel when it is interior too, else alone (twice).
+    const bool two = i + 1 < n && inside(iu[i + 1], iv[i + 1], width, height);
+    int32_t px[2];
+    cubic_two(src, stride, iu, iv, phases, wq, i, two ? i + 1 : i, &px[0], &px[1]);
+    std::memcpy(dst + 4 * i, px, two ? 8 : 4);
+    i += two ? 2 : 1;
   }
 }
 

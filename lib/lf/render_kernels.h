@@ -3,6 +3,7 @@
 // vector kernels that must reproduce it bit for bit.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 
@@ -107,17 +108,11 @@ inline void gather_cubic1(const uint8_t* src, int stride, int width, int height,
   const int16_t* h = cubic_taps()[phases & 0xffff];
   const int16_t* v = cubic_taps()[(phases >> 16) & 0xffff];
   int col[4];
-  for (int i = 0; i < 4; ++i) {
-    const int x = iu - 1 + i;
-    col[i] = 4 * (x < 0 ? 0 : x >= width ? width - 1 : x);
-  }
+  for (int i = 0; i < 4; ++i) col[i] = 4 * std::clamp(iu - 1 + i, 0, width - 1);
   int acc[4] = {0, 0, 0, 0};
   for (int j = 0; j < 4; ++j) {
-    const int y = iv - 1 + j;
-    const uint8_t* row = src + static_cast<std::ptrdiff_t>(y < 0         ? 0
-                                                           : y >= height ? height - 1
-                                                                         : y) *
-                                   stride;
+    const uint8_t* row =
+        src + static_cast<std::ptrdiff_t>(std::clamp(iv - 1 + j, 0, height - 1)) * stride;
     for (int ch = 0; ch < 4; ++ch) {
       const int r = row[col[0] + ch] * h[0] + row[col[1] + ch] * h[1] + row[col[2] + ch] * h[2] +
                     row[col[3] + ch] * h[3] + (1 << (kCubicBits - 1));
@@ -125,8 +120,7 @@ inline void gather_cubic1(const uint8_t* src, int stride, int width, int height,
     }
   }
   for (int ch = 0; ch < 4; ++ch) {
-    int val = (acc[ch] + (1 << (kCubicBits - 1))) >> kCubicBits;
-    val = val < 0 ? 0 : val > 255 ? 255 : val;
+    const int val = std::clamp((acc[ch] + (1 << (kCubicBits - 1))) >> kCubicBits, 0, 255);
     dst[ch] = static_cast<uint8_t>((val * wq + (1 << (kWeightBits - 1))) >> kWeightBits);
   }
 }
