@@ -220,6 +220,13 @@ TEST_F(Harness, ViewRequestApertureAndFNumber) {
     gst_buffer_unref(b);
     EXPECT_EQ(u.aperture, lf::Aperture::kUlr);
     EXPECT_EQ(u.ulr_cameras, 5);
+    // ULR needs two cameras: 1 counts as 2.
+    g_object_set(h->element, "ulr-cameras", 1u, nullptr);
+    EXPECT_EQ(next_scale(), 1.0);
+    GstBuffer* b1 = gst_harness_pull(h);
+    ASSERT_NE(b1, nullptr);
+    EXPECT_EQ(parsed_request(b1).ulr_cameras, 2);
+    gst_buffer_unref(b1);
     gst_harness_teardown(h);
   }
 }

@@ -142,14 +142,13 @@ LF_AVX2 inline bool inside(int iu, int iv, int width, int height) {
 // Interior pixels a and b (b may be a again), one per 128-bit lane; their
 // RGBA bytes in *out_a and *out_b.
 LF_AVX2 inline void cubic_two(const uint8_t* src, int stride, const int32_t* iu, const int32_t* iv,
-                              const int32_t* phases, const int32_t* wq, int a, int b,
-                              int32_t* out_a, int32_t* out_b) {
+                              const int32_t* phases, const int32_t* wq, const CubicTaps* table,
+                              int a, int b, int32_t* out_a, int32_t* out_b) {
   const __m256i pair = _mm256_setr_epi8(0, 4, 1, 5, 2, 6, 3, 7, 8, 12, 9, 13, 10, 14, 11, 15, 0, 4,
                                         1, 5, 2, 6, 3, 7, 8, 12, 9, 13, 10, 14, 11, 15);
   const __m256i round_c = _mm256_set1_epi32(1 << (kCubicBits - 1));
   const __m256i round_w = _mm256_set1_epi32(1 << (kWeightBits - 1));
   const __m256i zero = _mm256_setzero_si256(), max = _mm256_set1_epi32(255);
-  const CubicTaps* table = cubic_taps();
   const int16_t* ha = table[phases[a] & 0xffff];
   const int16_t* va = table[(phases[a] >> 16) & 0xffff];
   const int16_t* hb = table[phases[b] & 0xffff];
@@ -190,6 +189,7 @@ LF_AVX2 inline void cubic_two(const uint8_t* src, int stride, const int32_t* iu,
 LF_AVX2 void gather_cubic_avx2(const uint8_t* src, int stride, int width, int height, int n,
                                const int32_t* iu, const int32_t* iv, const int32_t* phases,
                                const int32_t* wq, uint8_t* dst) {
+  const CubicTaps* table = cubic_taps();
   int i = 0;
   while (i < n) {
     if (!inside(iu[i], iv[i], width, height)) {
@@ -200,7 +200,7 @@ LF_AVX2 void gather_cubic_avx2(const uint8_t* src, int stride, int width, int he
     // With the next pixel when it is interior too, else alone (twice).
     const bool two = i + 1 < n && inside(iu[i + 1], iv[i + 1], width, height);
     int32_t px[2];
-    cubic_two(src, stride, iu, iv, phases, wq, i, two ? i + 1 : i, &px[0], &px[1]);
+    cubic_two(src, stride, iu, iv, phases, wq, table, i, two ? i + 1 : i, &px[0], &px[1]);
     std::memcpy(dst + 4 * i, px, two ? 8 : 4);
     i += two ? 2 : 1;
   }
