@@ -3,6 +3,7 @@
 // rectangles exactly the pixels with nonzero weight.
 #include <gtest/gtest.h>
 
+#include <map>
 #include <random>
 
 #include "helpers.h"
@@ -209,6 +210,61 @@ TEST(Plan, OnePlaneSurfacePlansTheSinglePlanesFragment) {
   }
 }
 
+TEST(Plan, SecondPlanesAreTheirTilesThroughTheSecondPlane) {
+  // Layer 1 of a surface with second planes in some tiles: exactly the
+  // pixels and homographies that the same camera's fragment has in those
+  // tiles when they name their second plane as their first.
+  lf::Rig rig = lf::synthetic_grid_rig(4, 5, 0.5, 160, 120, 45, 2.0, 3);
+  std::mt19937_64 rng(33);
+  size_t pixels = 0;
+  for (int v = 0; v < 8; ++v) {
+    lf::ViewRequest req =
+        with_random_surface(random_request(rig, rng, 100, 75, v % 3 == 0), rng, 3);
+    lf::FocalSurface& fs = req.surface;
+    fs.second_of.assign(fs.plane_of.size(), lf::FocalSurface::kNone);
+    for (size_t t = 0; t < fs.plane_of.size(); ++t)
+      if (rng() % 3 == 0) fs.second_of[t] = static_cast<uint8_t>((fs.plane_of[t] + 1) % 3);
+    lf::ViewRequest swapped = req;
+    std::vector<bool> two(fs.plane_of.size());
+    for (size_t t = 0; t < fs.plane_of.size(); ++t) {
+      two[t] = fs.second_of[t] != lf::FocalSurface::kNone;
+      if (two[t]) swapped.surface.plane_of[t] = fs.second_of[t];
+    }
+    swapped.surface.second_of.clear();
+    const lf::ViewGeometry g(rig, req), gs(rig, swapped);
+    for (int i = 0; i < static_cast<int>(rig.cameras.size()); ++i) {
+      // (y, x) -> homography row of that pixel, per plan.
+      auto pixel_map = [&](const lf::FragmentPlan& p, bool only_two) {
+        std::map<std::pair<int, int>, cv::Matx33d> m;
+        for (const lf::Run& r : p.runs)
+          for (int x = r.x0; x < r.x1; ++x)
+            if (!only_two || two[(r.y / fs.tile) * fs.cols + x / fs.tile])
+              m[{r.y, x}] = p.pieces[r.piece].H;
+        return m;
+      };
+      const auto layer1 = pixel_map(lf::plan_fragment(g, i, 1), false);
+      const auto expect = pixel_map(lf::plan_fragment(gs, i, 0), true);
+      ASSERT_EQ(layer1.size(), expect.size()) << "view " << v << " camera " << i;
+      for (const auto& [at, H] : layer1) {
+        const auto it = expect.find(at);
+        ASSERT_TRUE(it != expect.end());
+        EXPECT_EQ(H, it->second);
+      }
+      pixels += layer1.size();
+      // Layer 0 is the fragment without second planes.
+      lf::ViewRequest first = req;
+      first.surface.second_of.clear();
+      EXPECT_EQ(pixel_map(lf::plan_fragment(g, i, 0), false).size(),
+                pixel_map(lf::plan_fragment(lf::ViewGeometry(rig, first), i, 0), false).size());
+    }
+  }
+  EXPECT_GT(pixels, 10000u);
+  // Without second planes, layer 1 is empty.
+  const lf::ViewRequest plain =
+      with_random_surface(random_request(rig, rng, 64, 48, false), rng, 2);
+  EXPECT_TRUE(lf::plan_fragment(lf::ViewGeometry(rig, plain), 0, 1).empty());
+}
+
 TEST(Plan, MalformedSurfacesAreRefused) {
   lf::Rig rig = lf::synthetic_grid_rig(3, 3, 0.5, 160, 120, 45, 2.0, 1);
   std::mt19937_64 rng(9);
@@ -228,6 +284,25 @@ TEST(Plan, MalformedSurfacesAreRefused) {
   refused([](lf::FocalSurface& s) { s.planes[1] = {{0, 0, 0}, 0.0}; }, "not a plane");
   refused([](lf::FocalSurface& s) { s.planes.resize(lf::FocalSurface::kMaxPlanes + 1); },
           "too many planes");
+  refused([](lf::FocalSurface& s) { s.second_of.assign(s.plane_of.size() - 1, 1); },
+          "second planes: missing tile");
+  refused(
+      [](lf::FocalSurface& s) {
+        s.second_of.assign(s.plane_of.size(), lf::FocalSurface::kNone);
+        s.second_of[0] = s.plane_of[0];
+      },
+      "second plane is the first");
+  refused(
+      [](lf::FocalSurface& s) {
+        s.second_of.assign(s.plane_of.size(), lf::FocalSurface::kNone);
+        s.second_of[0] = 7;
+      },
+      "second plane out of range");
+  lf::ViewRequest ok = good;
+  ok.surface.second_of.assign(ok.surface.plane_of.size(), lf::FocalSurface::kNone);
+  ok.surface.second_of[0] = static_cast<uint8_t>(1 - ok.surface.plane_of[0]);
+  EXPECT_NO_THROW(lf::validate(ok));
+  EXPECT_EQ(ok.surface.two_plane_tiles(), 1);
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstring>
 #include <opencv2/core/utility.hpp>
+#include <opencv2/imgproc.hpp>
 #include <stdexcept>
 #include <string>
 
@@ -173,6 +174,98 @@ size_t Compositor::fill_from(cv::Mat& out, const cv::Mat& previous) {
       }
   }
   return n;
+}
+
+void LayerCompositor::reset(int width, int height, int tile, std::vector<uint8_t> nearer) {
+  for (int l = 0; l < 2; ++l) comp_[l].reset(width, height);
+  if (!nearer.empty() &&
+      (tile < 1 || nearer.size() != static_cast<size_t>((width + tile - 1) / tile) *
+                                        ((height + tile - 1) / tile)))
+    throw std::invalid_argument("compositor: " + std::to_string(nearer.size()) +
+                                " nearer-layer entries do not fit the tiles");
+  for (int l = 0; l < 2; ++l) sq_[l] = cv::Mat::zeros(height, width, CV_32FC1);
+  tile_ = tile;
+  nearer_ = std::move(nearer);
+}
+
+void LayerCompositor::add(int layer, const Fragment& f) {
+  if (f.pixels.size() !=
+      4 * Compositor::check(f, f.pixels.data(), comp_[0].width(), comp_[0].height()))
+    check_fragment(f);  // throws, naming the mismatch
+  add(layer, f, f.pixels.data());
+}
+
+void LayerCompositor::add(int layer, const Fragment& f, const uint8_t* pixels) {
+  if (layer != 0 && layer != 1)
+    throw std::invalid_argument("compositor: layer " + std::to_string(layer) + " is not 0 or 1");
+  comp_[layer].add(f, pixels);  // checks
+  // w |c|^2 with w = a / 255 and c = 255 p / a (premultiplied p): 255 |p|^2 / a.
+  const uint8_t* px = pixels;
+  for (int r = 0; r < f.rect.height; ++r) {
+    const int b = f.spans[r][0], e = f.spans[r][1];
+    float* sq = sq_[layer].ptr<float>(f.rect.y + r);
+    for (int x = b; x < e; ++x, px += 4) {
+      if (px[3] == 0) continue;
+      const float p0 = px[0], p1 = px[1], p2 = px[2];
+      sq[x] += 255.0f * (p0 * p0 + p1 * p1 + p2 * p2) / px[3];
+    }
+  }
+}
+
+cv::Mat LayerCompositor::variance(int layer) const {
+  const Compositor& c = comp_[layer];
+  cv::Mat v(c.height(), c.width(), CV_32FC1);
+  for (int y = 0; y < c.height(); ++y) {
+    const float* sq = sq_[layer].ptr<float>(y);
+    float* o = v.ptr<float>(y);
+    for (int x = 0; x < c.width(); ++x) {
+      const uint32_t* a = c.sums_at(x, y);
+      if (a[3] == 0) {
+        o[x] = 0;
+        continue;
+      }
+      // (sum w |c|^2 - |sum w c|^2 / W) / W with W = sum a / 255.
+      const float W = a[3] / 255.0f;
+      const float m0 = a[0] / W, m1 = a[1] / W, m2 = a[2] / W;  // the mean colour
+      o[x] = std::max(0.0f, sq[x] / W - (m0 * m0 + m1 * m1 + m2 * m2));
+    }
+  }
+  return v;
+}
+
+void LayerCompositor::resolve(cv::Mat& out, cv::Mat* choice) const {
+  comp_[0].resolve(out);
+  const int w = comp_[0].width(), h = comp_[0].height();
+  cv::Mat covered(h, w, CV_32FC1, cv::Scalar(0));
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) covered.at<float>(y, x) = comp_[1].weight_at(x, y) > 0 ? 1.f : 0.f;
+  if (choice) *choice = cv::Mat::zeros(h, w, CV_8UC1);
+  if (cv::countNonZero(covered) == 0) return;
+  // Window sums over layer 1's pixels: both layers' variances, and the count.
+  const cv::Size win(kChoiceWindow, kChoiceWindow);
+  cv::Mat v0, v1, count;
+  cv::boxFilter(variance(0).mul(covered), v0, -1, win, {-1, -1}, false, cv::BORDER_CONSTANT);
+  cv::boxFilter(variance(1).mul(covered), v1, -1, win, {-1, -1}, false, cv::BORDER_CONSTANT);
+  cv::boxFilter(covered, count, -1, win, {-1, -1}, false, cv::BORDER_CONSTANT);
+  cv::max(count, 1.0f, count);
+  cv::divide(v0, count, v0);  // window means
+  cv::divide(v1, count, v1);
+  cv::Mat one;
+  comp_[1].resolve(one);
+  const int cols = tile_ > 0 ? (w + tile_ - 1) / tile_ : 0;
+  for (int y = 0; y < h; ++y) {
+    const float* c = covered.ptr<float>(y);
+    const float *a = v0.ptr<float>(y), *b = v1.ptr<float>(y);
+    for (int x = 0; x < w; ++x) {
+      if (c[x] == 0) continue;
+      const bool near1 = !nearer_.empty() && nearer_[(y / tile_) * cols + x / tile_] == 1;
+      // The nearer layer, unless the other agrees clearly better.
+      const bool take1 = near1 ? !(a[x] + kChoiceMargin < b[x]) : b[x] + kChoiceMargin < a[x];
+      if (!take1 && comp_[0].weight_at(x, y) > 0) continue;
+      out.at<cv::Vec4b>(y, x) = one.at<cv::Vec4b>(y, x);
+      if (choice) choice->at<uint8_t>(y, x) = 1;
+    }
+  }
 }
 
 }  // namespace lf

@@ -56,6 +56,10 @@ class Compositor {
   static size_t check(const Fragment& f, const uint8_t* pixels, int width, int height);
   // Accumulated weight (0..255 per full contribution) at a pixel.
   uint32_t weight_at(int x, int y) const { return acc_[(static_cast<size_t>(y) * w_ + x) * 4 + 3]; }
+  // The four accumulated sums (premultiplied colour, weight) of a pixel.
+  const uint32_t* sums_at(int x, int y) const {
+    return acc_.data() + (static_cast<size_t>(y) * w_ + x) * 4;
+  }
   int width() const { return w_; }
   int height() const { return h_; }
 
@@ -67,6 +71,49 @@ class Compositor {
   void resolve_rows(cv::Mat& out, int y0, int y1) const;
   int w_ = 0, h_ = 0;
   std::vector<uint32_t> acc_;
+};
+
+// Two planes per tile (lf/view.h FocalSurface::second_of: a tile that holds
+// two depths, e.g. a thin structure before a background), composited with
+// a choice per pixel. Layer 0 holds every camera's fragment through the
+// tiles' first planes, layer 1 their fragments through the second planes
+// of the tiles that have one (lf/plan.h plan_fragment's layer). Each layer
+// is added as by Compositor, and also accumulates its cameras' weighted
+// squared colours, so that at each pixel the weighted variance of the
+// cameras' colours (levels^2 summed over the three channels) is known: the
+// photo-consistency of lf/focus.h, measured on the fragments, which the
+// compositor receives separately. Where layer 1 has weight, the output
+// takes the nearer layer (along the view's ray) unless the other one's
+// variance, averaged over the kChoiceWindow x kChoiceWindow pixels around
+// it that layer 1 covers, is lower by more than kChoiceMargin: a thin
+// structure before a background is seen past by cameras on either side,
+// so both layers can agree there, and then the nearer one occludes. Every
+// other pixel is layer 0's, exactly as Compositor's.
+class LayerCompositor {
+ public:
+  static constexpr int kChoiceWindow = 3;
+  static constexpr float kChoiceMargin = 64.0f;  // levels^2, 3 channels
+  // `nearer`: per tile of `tile` output pixels (row-major, lf/view.h
+  // FocalSurface), which layer is nearer there (lf/plan.h nearer_layers);
+  // empty: layer 0 everywhere. Throws std::invalid_argument for a size out
+  // of range or a `nearer` that does not have one entry per tile.
+  void reset(int width, int height, int tile = 0, std::vector<uint8_t> nearer = {});
+  // Adds a fragment to layer 0 or 1; the same checks and exceptions as
+  // Compositor::add (and std::invalid_argument for another layer).
+  void add(int layer, const Fragment& f);
+  void add(int layer, const Fragment& f, const uint8_t* pixels);
+  // The chosen frame (CV_8UC4, as Compositor::resolve); `choice`, when
+  // given: CV_8UC1, 1 where layer 1 was taken, else 0.
+  void resolve(cv::Mat& out, cv::Mat* choice = nullptr) const;
+  // A layer's colour variance at each pixel (CV_32FC1, levels^2 summed
+  // over 3 channels; 0 where the layer has no weight).
+  cv::Mat variance(int layer) const;
+
+ private:
+  Compositor comp_[2];
+  cv::Mat sq_[2];  // CV_32FC1: sum over cameras of w * |c|^2
+  int tile_ = 0;
+  std::vector<uint8_t> nearer_;
 };
 
 }  // namespace lf

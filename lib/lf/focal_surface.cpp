@@ -278,6 +278,30 @@ SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols
     fs.plane_of[t] = static_cast<uint8_t>(plane_of_label[l]);
     out.tile_q[t] = l == M ? out.single_q : c.qs[l];
   }
+  if (opt.second_planes) {
+    // A tile next to a depth edge holds both depths: its second plane is
+    // the label among its 8 neighbours furthest from its own, when that is
+    // at least second_gap planes away.
+    fs.second_of.assign(tiles, FocalSurface::kNone);
+    auto pos = [&](int l) { return l == M ? gpos : static_cast<double>(l); };
+    for (int r = 0; r < rows; ++r)
+      for (int q = 0; q < cols; ++q) {
+        const int t = r * cols + q, l = label[t];
+        if (l < 0) continue;
+        int far = -1;
+        for (int dr = -1; dr <= 1; ++dr)
+          for (int dq = -1; dq <= 1; ++dq) {
+            const int rr = r + dr, qq = q + dq;
+            if (rr < 0 || qq < 0 || rr >= rows || qq >= cols) continue;
+            const int n = label[rr * cols + qq];
+            if (n < 0 || std::abs(pos(n) - pos(l)) < opt.second_gap) continue;
+            if (far < 0 || std::abs(pos(n) - pos(l)) > std::abs(pos(far) - pos(l))) far = n;
+          }
+        if (far >= 0) fs.second_of[t] = static_cast<uint8_t>(plane_of_label[far]);
+      }
+    out.two_plane_tiles = fs.two_plane_tiles();
+    if (out.two_plane_tiles == 0) fs.second_of.clear();
+  }
   out.planes_used = fs.planes_used();
   if (out.planes_used == 1 && fs.plane_of[0] != 0) {
     // Every tile agrees on one plane other than the single: that is the plane.

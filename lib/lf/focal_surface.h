@@ -53,6 +53,13 @@ struct SurfaceOptions {
   // evaluates every stride-th candidate plane (a different phase each call)
   // and reuses the other planes' costs from earlier calls.
   int stride = 1;
+  // Two planes per tile: a textured tile next to a depth edge (a neighbour
+  // labelled second_gap planes or more of the last pass from its own) gets
+  // the furthest such neighbour's plane as its second
+  // (FocalSurface::second_of; each camera then sends those tiles twice and
+  // the compositor chooses per pixel, lf/composite.h LayerCompositor).
+  bool second_planes = false;
+  double second_gap = 4.0;
 };
 
 // Per-tile costs of one sweep.
@@ -76,7 +83,8 @@ struct SurfaceEstimate {
   FocalSurface surface;        // tiles of SurfaceOptions::tile
   std::vector<double> tile_q;  // inverse depth per tile (rows * cols)
   std::vector<bool> textured;  // per tile: decided by the images (not a fallback)
-  int planes_used = 1;         // distinct planes over the tiles
+  int planes_used = 1;         // distinct planes over the tiles (first and second)
+  int two_plane_tiles = 0;     // tiles with a second plane (SurfaceOptions::second_planes)
   int planes_evaluated = 0;    // candidate planes swept by this call
 };
 

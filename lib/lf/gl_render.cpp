@@ -897,6 +897,10 @@ cv::Mat GlRenderer::render_view(const Rig& rig, const std::vector<cv::Mat>& imag
 
 cv::Mat GlRenderer::render_view(const Rig& rig, const ViewRequest& request, RenderStats* stats,
                                 int threads) {
+  if (request.surface.two_planes())
+    throw std::invalid_argument(
+        "GlRenderer::render_view: two planes per tile are composited on the CPU only "
+        "(lf::render_view)");
   const double t0 = now_ms();
   const ViewGeometry g(rig, request);
   const int n = static_cast<int>(rig.cameras.size());

@@ -107,6 +107,9 @@ class GlRenderer {
   // uploaded in slots 0..n-1 (set_image) for the rig's n cameras. Returns
   // CV_8UC4, the request's size. `stats` as lf::render_view (render_ms:
   // drawing and readback; composite_ms: 0, the resolve is part of it).
+  // Throws std::invalid_argument for a surface with two planes in some
+  // tiles (their per-pixel choice, lf/composite.h LayerCompositor, is CPU
+  // only).
   cv::Mat render_view(const Rig& rig, const ViewRequest& request, RenderStats* stats = nullptr,
                       int threads = 1);
   // As lf::Compositor::composite() (lf/composite.h): adds the fragments

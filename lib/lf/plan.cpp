@@ -394,19 +394,23 @@ struct Region {
 };
 
 // Regions of one plane each: the whole frame, or per tile row the maximal
-// horizontal stretches of tiles that share a plane.
-std::vector<Region> focal_regions(const ViewGeometry& g) {
+// horizontal stretches of tiles that share a plane. Layer 1: the tiles with
+// a second plane, through it.
+std::vector<Region> focal_regions(const ViewGeometry& g, int layer) {
   const int W = g.width(), H = g.height();
   const FocalSurface& fs = g.request().surface;
+  if (layer == 1 && !fs.two_planes()) return {};
   if (fs.empty()) return {{0, 0, W, H, 0}};
+  const std::vector<uint8_t>& of = layer == 0 ? fs.plane_of : fs.second_of;
   std::vector<Region> out;
   for (int r = 0; r < fs.rows; ++r) {
     const int y0 = r * fs.tile, y1 = std::min(H, y0 + fs.tile);
     for (int c = 0; c < fs.cols;) {
-      const int p = fs.plane_of[r * fs.cols + c];
+      const int p = of[r * fs.cols + c];
       int e = c + 1;
-      while (e < fs.cols && fs.plane_of[r * fs.cols + e] == p) ++e;
-      out.push_back({c * fs.tile, y0, std::min(W, e * fs.tile), y1, p});
+      while (e < fs.cols && of[r * fs.cols + e] == p) ++e;
+      if (p != FocalSurface::kNone)
+        out.push_back({c * fs.tile, y0, std::min(W, e * fs.tile), y1, p});
       c = e;
     }
   }
@@ -415,7 +419,7 @@ std::vector<Region> focal_regions(const ViewGeometry& g) {
 
 }  // namespace
 
-FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
+FragmentPlan plan_fragment(const ViewGeometry& g, int index, int layer) {
   const Rig& rig = g.rig();
   FragmentPlan plan;
   plan.camera_index = index;
@@ -423,6 +427,8 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
   plan.out_width = g.width();
   plan.out_height = g.height();
   plan.sampling = g.request().sampling;
+  const std::vector<Region> regions = focal_regions(g, layer);
+  if (regions.empty()) return plan;
   const int W = g.width(), H = g.height();
   std::map<std::array<int, 4>, int> piece_keys;  // -> index in plan.pieces
 
@@ -528,7 +534,7 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
     }
   }
 
-  for (const Region& reg : focal_regions(g)) {
+  for (const Region& reg : regions) {
     const bool whole = reg.x0 == 0 && reg.y0 == 0 && reg.x1 == W && reg.y1 == H;
     const int fp = reg.plane;
     const cv::Matx33d& Hc = g.homography(index, fp);
@@ -655,6 +661,28 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index) {
   for (int k = 0; k < plan.rect.height; ++k)
     if (!seen[k]) plan.row_spans[k] = {plan.rect.x, plan.rect.x};
   return plan;
+}
+
+std::vector<uint8_t> nearer_layers(const ViewGeometry& g) {
+  const FocalSurface& fs = g.request().surface;
+  if (!fs.two_planes()) return {};
+  const cv::Vec3d E = g.request().view.position;
+  // Distance along the ray (in units of its direction) to a plane.
+  auto along = [&](const FocalPlane& p, const cv::Vec3d& D) {
+    const double nd = p.n.dot(D), t = -(p.n.dot(E) + p.d) / nd;
+    return p.at_infinity() || !(t > 0) || !std::isfinite(t) ? INFINITY : t;
+  };
+  std::vector<uint8_t> out(fs.plane_of.size(), 0);
+  for (int r = 0; r < fs.rows; ++r)
+    for (int c = 0; c < fs.cols; ++c) {
+      const int t = r * fs.cols + c;
+      if (fs.second_of[t] == FocalSurface::kNone) continue;
+      const double x = (std::min(g.width(), (c + 1) * fs.tile) + c * fs.tile - 1) * 0.5;
+      const double y = (std::min(g.height(), (r + 1) * fs.tile) + r * fs.tile - 1) * 0.5;
+      const cv::Vec3d D = g.ray(x, y);
+      out[t] = along(fs.planes[fs.second_of[t]], D) < along(fs.planes[fs.plane_of[t]], D) ? 1 : 0;
+    }
+  return out;
 }
 
 }  // namespace lf

@@ -206,6 +206,17 @@ struct FragmentPlan {
 // focal surface, each tile is planned through its own plane (the pixel sets
 // are those of the same predicates with that plane) and runs are cut at tile
 // edges where the plane changes: one piece per (simplex, orientation, plane).
-FragmentPlan plan_fragment(const ViewGeometry& geometry, int index);
+// Layer 1 (a surface with two planes in some tiles, lf/view.h
+// FocalSurface::second_of): the same camera's pixels in just those tiles,
+// through their second planes (empty when no tile has one); layer 0 is the
+// fragment through the tiles' first planes, as without second planes.
+FragmentPlan plan_fragment(const ViewGeometry& geometry, int index, int layer = 0);
+
+// Per tile of the request's surface (row-major): 1 where the tile's second
+// plane is nearer to the eye than its first along the ray of the tile's
+// centre pixel (a plane behind the eye, parallel to the ray or at infinity
+// counts as infinitely far), else 0 (also for tiles with one plane). Empty
+// without second planes. For lf/composite.h LayerCompositor.
+std::vector<uint8_t> nearer_layers(const ViewGeometry& geometry);
 
 }  // namespace lf

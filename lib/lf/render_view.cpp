@@ -26,43 +26,54 @@ cv::Mat render_view(const Rig& rig, const std::vector<cv::Mat>& images, const Vi
   const double t0 = now_ms();
   const ViewGeometry g(rig, req);
   const int n = static_cast<int>(rig.cameras.size());
-  std::vector<FragmentPlan> plans(n);
-  std::vector<Fragment> frags(n);
+  // Fragment k: camera k % n in layer k / n (layer 1: a surface's second
+  // planes, lf/plan.h).
+  const int layers = req.surface.two_planes() ? 2 : 1;
+  std::vector<FragmentPlan> plans(n * layers);
+  std::vector<Fragment> frags(n * layers);
   double t1 = 0, t2 = 0;
   auto work = [&](const cv::Range& r) {
-    for (int i = r.start; i < r.end; ++i) {
-      plans[i] = plan_fragment(g, i);
-      frags[i].viewer_id = req.viewer_id;
-      frags[i].sequence = req.sequence;
+    for (int k = r.start; k < r.end; ++k) {
+      plans[k] = plan_fragment(g, k % n, k / n);
+      frags[k].viewer_id = req.viewer_id;
+      frags[k].sequence = req.sequence;
     }
   };
   auto draw = [&](const cv::Range& r) {
-    for (int i = r.start; i < r.end; ++i)
-      render_fragment(plans[i], rig.cameras[i], images[i], frags[i]);
+    for (int k = r.start; k < r.end; ++k)
+      render_fragment(plans[k], rig.cameras[k % n], images[k % n], frags[k]);
   };
+  const cv::Range all(0, n * layers);
   if (threads > 1) {
     const int old = cv::getNumThreads();
     cv::setNumThreads(threads);
-    cv::parallel_for_(cv::Range(0, n), work);
+    cv::parallel_for_(all, work);
     t1 = now_ms();
-    cv::parallel_for_(cv::Range(0, n), draw);
+    cv::parallel_for_(all, draw);
     cv::setNumThreads(old);
   } else {
-    work(cv::Range(0, n));
+    work(all);
     t1 = now_ms();
-    draw(cv::Range(0, n));
+    draw(all);
   }
   t2 = now_ms();
-  Compositor comp;
-  comp.reset(req.view.width, req.view.height);
   RenderStats s;
-  for (const Fragment& f : frags) {
-    comp.add(f);
-    s.fragment_pixels += f.pixel_count();
-    s.contributing += f.empty() ? 0 : 1;
+  for (int k = 0; k < n * layers; ++k) {
+    s.fragment_pixels += frags[k].pixel_count();
+    s.contributing += k < n && !frags[k].empty() ? 1 : 0;
   }
   cv::Mat out;
-  comp.resolve(out);
+  if (layers == 1) {
+    Compositor comp;
+    comp.reset(req.view.width, req.view.height);
+    for (const Fragment& f : frags) comp.add(f);
+    comp.resolve(out);
+  } else {
+    LayerCompositor comp;
+    comp.reset(req.view.width, req.view.height, req.surface.tile, nearer_layers(g));
+    for (int k = 0; k < n * layers; ++k) comp.add(k / n, frags[k]);
+    comp.resolve(out);
+  }
   const double t3 = now_ms();
   s.plan_ms = t1 - t0;
   s.render_ms = t2 - t1;

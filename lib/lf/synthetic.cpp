@@ -68,6 +68,15 @@ cv::Mat render_textured_plane(const Camera& cam, double depth, double period) {
   return img;
 }
 
+namespace {
+// Stripes of width w about every pitch p, irregularly spaced (a regular
+// grating would alias in a plane sweep: the picket-fence problem).
+bool in_bar(double x, double w, double p) {
+  const double s = std::abs(x + 0.3 * p * std::sin(x * 2 * CV_PI / (3.7 * p)));
+  return std::fmod(s, p) < w;
+}
+}  // namespace
+
 SyntheticScene SyntheticScene::for_rig(const Rig& rig) {
   SyntheticScene sc;
   const CameraPlane& P = rig.plane();
@@ -103,7 +112,8 @@ cv::Mat SyntheticScene::render(const Camera& cam, double t, bool rgba) const {
         const double tn = (near_depth - cn) / dn;
         const cv::Vec3d Xn = C + *d * tn;
         const cv::Vec3d r = Xn - D0;
-        if (tn > 0 && r.dot(r) <= disc_radius * disc_radius) {
+        if (tn > 0 && r.dot(r) <= disc_radius * disc_radius &&
+            (bar_width <= 0 || in_bar(r.dot(u), bar_width, bar_pitch))) {
           const cv::Vec3d c = texture_colour(r.dot(u), r.dot(v), near_period);
           col = {255 - c[0], c[2], 0.5 * (c[1] + 255)};  // distinct from the background
         } else {

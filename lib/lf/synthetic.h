@@ -36,6 +36,11 @@ struct SyntheticScene {
   double far_depth = 0, near_depth = 0, disc_radius = 0, orbit_radius = 0;
   double period_s = 4.0;
   double far_period = 0, near_period = 0;  // texture wavelengths, rig units
+  // Thin structures: with bar_width > 0 the disc is a grating, only its
+  // stripes across u, bar_width wide and bar_pitch apart on average
+  // (irregularly spaced, so that a plane sweep cannot alias them; rig
+  // units) are there; the background shows between them.
+  double bar_width = 0, bar_pitch = 0;
 
   static SyntheticScene for_rig(const Rig& rig);
   // Image of the scene at time t (seconds) from `cam` (distortion included),

@@ -119,11 +119,32 @@ void validate(const ViewRequest& req) {
         std::to_string(fs.cols * fs.rows) + " tiles");
   for (uint8_t k : fs.plane_of)
     if (k >= fs.planes.size()) bad("focal surface tile names plane " + std::to_string(k));
+  if (fs.second_of.empty()) return;
+  if (fs.second_of.size() != fs.plane_of.size())
+    bad("focal surface has " + std::to_string(fs.second_of.size()) + " second-plane entries for " +
+        std::to_string(fs.plane_of.size()) + " tiles");
+  for (size_t t = 0; t < fs.second_of.size(); ++t) {
+    const uint8_t k = fs.second_of[t];
+    if (k == FocalSurface::kNone) continue;
+    if (k >= fs.planes.size()) bad("focal surface tile names second plane " + std::to_string(k));
+    if (k == fs.plane_of[t]) bad("focal surface tile's second plane is its first");
+  }
+}
+
+bool FocalSurface::two_planes() const {
+  return two_plane_tiles() > 0;
+}
+
+int FocalSurface::two_plane_tiles() const {
+  return static_cast<int>(
+      std::count_if(second_of.begin(), second_of.end(), [](uint8_t k) { return k != kNone; }));
 }
 
 int FocalSurface::planes_used() const {
   std::vector<bool> used(planes.size(), false);
   for (uint8_t k : plane_of)
+    if (k < used.size()) used[k] = true;
+  for (uint8_t k : second_of)
     if (k < used.size()) used[k] = true;
   return static_cast<int>(std::count(used.begin(), used.end(), true));
 }

@@ -41,11 +41,23 @@ struct FocalSurface {
   int cols = 0, rows = 0;          // ceil(width / tile), ceil(height / tile)
   std::vector<FocalPlane> planes;  // distinct planes, 1..kMaxPlanes
   std::vector<uint8_t> plane_of;   // rows * cols, row-major: index into planes
+  // Thin structures (a tile that holds two depths): optionally a second
+  // plane per tile, rows * cols indices into planes, kNone where the tile
+  // has one plane; empty when no tile has two. Each camera then sends a
+  // second fragment holding just those tiles through their second planes
+  // (plan_fragment's layer 1), and the compositor picks per pixel the layer
+  // whose cameras agree best (lf/composite.h LayerCompositor).
+  std::vector<uint8_t> second_of;
+  static constexpr uint8_t kNone = 0xFF;
   static constexpr int kMinTile = 4, kMaxTile = 1024, kMaxPlanes = 64;
 
   bool empty() const { return tile == 0; }
   int plane_at(int x, int y) const { return plane_of[(y / tile) * cols + x / tile]; }
-  // Distinct planes that some tile uses.
+  // Whether some tile has a second plane.
+  bool two_planes() const;
+  // Tiles with a second plane.
+  int two_plane_tiles() const;
+  // Distinct planes that some tile uses (first or second).
   int planes_used() const;
 };
 
@@ -159,7 +171,8 @@ struct ViewRequest {
 // 1..kMaxApertureScale, a focal plane with n = 0 and d = 0, or
 // a surface whose tile size is outside kMinTile..kMaxTile, whose grid does
 // not match the output size, with 0 or more than kMaxPlanes planes, a bad
-// plane, or a tile naming a plane that is not there.
+// plane, or a tile naming a plane that is not there (a second plane must
+// name another plane than the tile's first).
 void validate(const ViewRequest& req);
 
 }  // namespace lf

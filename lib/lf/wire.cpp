@@ -547,6 +547,9 @@ size_t surface_bytes(size_t planes, size_t tiles) {
 std::vector<uint8_t> serialize_request(const ViewRequest& req) {
   validate(req);
   const FocalSurface& sf = req.surface;
+  if (sf.two_planes())
+    throw std::invalid_argument(
+        "view request: two planes per tile are not carried on the wire (versions 2 and 3)");
   const size_t tiles = sf.empty() ? 0 : static_cast<size_t>(sf.cols) * sf.rows;
   const size_t block = sf.empty() ? 0 : surface_bytes(sf.planes.size(), tiles);
   if (block > kMaxSurfaceBytes)

@@ -140,7 +140,8 @@ FragmentHeader peek_fragment_header(const uint8_t* data, size_t size);
 uint16_t aperture_scale_q8(double scale);
 
 // Version 2, or 3 with a focal surface. Throws std::invalid_argument on a
-// request lf::validate() refuses or a surface over kMaxSurfaceBytes.
+// request lf::validate() refuses, a surface over kMaxSurfaceBytes, or one
+// with second planes (FocalSurface::second_of: in-process only so far).
 std::vector<uint8_t> serialize_request(const ViewRequest& r);
 // Parses and validates (including lf::validate()); versions 2 and 3.
 ViewRequest parse_request(const uint8_t* data, size_t size);
