@@ -42,7 +42,9 @@ usage: lf-bench [options]
                       default none,jpeg90
   --focal LIST        focal choices: auto, best (exhaustive sweep against the held-out
                       image: an oracle), surface (a focal plane per 16-pixel tile
-                      estimated from the images, lf/focal_surface.h), infinity,
+                      estimated from the images, lf/focal_surface.h), surface2 (the
+                      same with a second plane in tiles next to a depth edge,
+                      chosen per pixel by the compositor), infinity,
                       depth:Z, param:A (default auto,best,surface)
   --apertures LIST    aperture scales to add to each focal choice (lib/lf/view.h
                       Aperture: 1 is the paper's tent, 2 twice as wide, ...;
@@ -114,22 +116,38 @@ FrameResult render_frame(const lf::Rig& rig, const std::vector<cv::Mat>& images,
   FrameResult r;
   const auto t0 = Clock::now();
   const lf::ViewGeometry g(rig, req);
-  lf::Compositor comp;
-  comp.reset(req.view.width, req.view.height);
+  // Layer 1: the second planes of a surface's two-plane tiles (lf/plan.h).
+  const int layers = req.surface.two_planes() ? 2 : 1;
+  lf::Compositor comp;  // one layer: the paper's compositor
+  lf::LayerCompositor comp2;
+  if (layers == 1)
+    comp.reset(req.view.width, req.view.height);
+  else
+    comp2.reset(req.view.width, req.view.height, req.surface.tile, lf::nearer_layers(g));
+  auto add = [&](int layer, const lf::Fragment& frag) {
+    if (layers == 1)
+      comp.add(frag);
+    else
+      comp2.add(layer, frag);
+  };
   lf::Fragment f;
-  for (size_t i = 0; i < rig.cameras.size(); ++i) {
-    const lf::FragmentPlan plan = lf::plan_fragment(g, static_cast<int>(i));
-    lf::render_fragment(plan, rig.cameras[i], images[i], f);
-    r.fragment_pixels += f.pixel_count();
-    if (e.wire) {
-      const auto bytes = lf::serialize_fragment(f, e.enc, e.quality);
-      r.bytes += bytes.size();
-      comp.add(lf::parse_fragment(bytes.data(), bytes.size()));
-    } else {
-      comp.add(f);
+  for (int layer = 0; layer < layers; ++layer)
+    for (size_t i = 0; i < rig.cameras.size(); ++i) {
+      const lf::FragmentPlan plan = lf::plan_fragment(g, static_cast<int>(i), layer);
+      lf::render_fragment(plan, rig.cameras[i], images[i], f);
+      r.fragment_pixels += f.pixel_count();
+      if (e.wire) {
+        const auto bytes = lf::serialize_fragment(f, e.enc, e.quality);
+        r.bytes += bytes.size();
+        add(layer, lf::parse_fragment(bytes.data(), bytes.size()));
+      } else {
+        add(layer, f);
+      }
     }
-  }
-  comp.resolve(r.image);
+  if (layers == 1)
+    comp.resolve(r.image);
+  else
+    comp2.resolve(r.image);
   r.ms = ms_since(t0);
   return r;
 }
@@ -412,7 +430,9 @@ int main(int argc, char** argv) {
         for (size_t i = 0; i < images.size(); ++i)
           if (static_cast<int>(i) != j) ij.push_back(images[i]);
         const lf::AutofocusContext af(rj, ij);
-        const lf::FocalSurfaceEstimator surf(rj, ij);
+        lf::SurfaceOptions surf_opt;
+        surf_opt.second_planes = true;  // "surface" leaves them out
+        const lf::FocalSurfaceEstimator surf(rj, ij, surf_opt);
         // Exhaustive sweep at the smallest size (an oracle: it sees the truth).
         const auto [ws, hs] = sizes.front();
         lf::ViewRequest sreq;
@@ -446,9 +466,10 @@ int main(int argc, char** argv) {
             req.surface = {};
             if (fs == "auto")
               req.focal_plane = auto_plane;
-            else if (fs == "surface")
+            else if (fs == "surface" || fs == "surface2") {
               lf::apply(est, req);
-            else if (fs == "best")
+              if (fs == "surface") req.surface.second_of.clear();
+            } else if (fs == "best")
               req.focal_plane = lf::plane_at_inverse_depth(rj, qbest);
             else
               req.focal_plane = cli::parse_focal(fs, rj).plane;
