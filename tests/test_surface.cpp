@@ -218,7 +218,7 @@ TEST(Surface, ThinBarsArePickedPerPixelFromTwoPlanes) {
   // Per-pixel variances: 0 where a layer has no weight, finite elsewhere.
   const lf::ViewGeometry g(v.rig, both);
   lf::LayerCompositor lc;
-  lc.reset(320, 240, 16, lf::nearer_layers(g));
+  lc.reset(320, 240, both.surface, lf::nearer_layers(g));
   lf::Compositor plain;
   plain.reset(320, 240);
   for (int i = 0; i < static_cast<int>(v.rig.cameras.size()); ++i) {
@@ -236,7 +236,8 @@ TEST(Surface, ThinBarsArePickedPerPixelFromTwoPlanes) {
   EXPECT_EQ(cv::countNonZero(lc.variance(1)), 0);
   EXPECT_TRUE(cv::checkRange(lc.variance(0)));
   EXPECT_THROW(lc.add(2, lf::Fragment{}), std::invalid_argument);
-  EXPECT_THROW(lc.reset(320, 240, 16, std::vector<uint8_t>(7)), std::invalid_argument);
+  EXPECT_THROW(lc.reset(320, 240, both.surface, std::vector<uint8_t>(7)), std::invalid_argument);
+  EXPECT_THROW(lc.reset(336, 240, both.surface), std::invalid_argument);
 }
 
 TEST(Surface, HardCasesAreFiniteAndFallBack) {

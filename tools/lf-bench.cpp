@@ -123,7 +123,7 @@ FrameResult render_frame(const lf::Rig& rig, const std::vector<cv::Mat>& images,
   if (layers == 1)
     comp.reset(req.view.width, req.view.height);
   else
-    comp2.reset(req.view.width, req.view.height, req.surface.tile, lf::nearer_layers(g));
+    comp2.reset(req.view.width, req.view.height, req.surface, lf::nearer_layers(g));
   auto add = [&](int layer, const lf::Fragment& frag) {
     if (layers == 1)
       comp.add(frag);
@@ -131,10 +131,14 @@ FrameResult render_frame(const lf::Rig& rig, const std::vector<cv::Mat>& images,
       comp2.add(layer, frag);
   };
   lf::Fragment f;
-  for (int layer = 0; layer < layers; ++layer)
-    for (size_t i = 0; i < rig.cameras.size(); ++i) {
-      const lf::FragmentPlan plan = lf::plan_fragment(g, static_cast<int>(i), layer);
-      lf::render_fragment(plan, rig.cameras[i], images[i], f);
+  for (size_t i = 0; i < rig.cameras.size(); ++i) {
+    std::array<lf::FragmentPlan, 2> plans;
+    if (layers == 1)
+      plans[0] = lf::plan_fragment(g, static_cast<int>(i));
+    else
+      plans = lf::plan_fragment_layers(g, static_cast<int>(i));
+    for (int layer = 0; layer < layers; ++layer) {
+      lf::render_fragment(plans[layer], rig.cameras[i], images[i], f);
       r.fragment_pixels += f.pixel_count();
       if (e.wire) {
         const auto bytes = lf::serialize_fragment(f, e.enc, e.quality);
@@ -144,6 +148,7 @@ FrameResult render_frame(const lf::Rig& rig, const std::vector<cv::Mat>& images,
         add(layer, f);
       }
     }
+  }
   if (layers == 1)
     comp.resolve(r.image);
   else

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cstring>
 #include <opencv2/core/utility.hpp>
-#include <opencv2/imgproc.hpp>
 #include <stdexcept>
 #include <string>
 
@@ -176,16 +175,25 @@ size_t Compositor::fill_from(cv::Mat& out, const cv::Mat& previous) {
   return n;
 }
 
-void LayerCompositor::reset(int width, int height, int tile, std::vector<uint8_t> nearer) {
+void LayerCompositor::reset(int width, int height, const FocalSurface& surface,
+                            std::vector<uint8_t> nearer) {
   for (int l = 0; l < 2; ++l) comp_[l].reset(width, height);
-  if (!nearer.empty() &&
-      (tile < 1 || nearer.size() != static_cast<size_t>((width + tile - 1) / tile) *
-                                        ((height + tile - 1) / tile)))
-    throw std::invalid_argument("compositor: " + std::to_string(nearer.size()) +
-                                " nearer-layer entries do not fit the tiles");
+  tile_ = std::max(1, surface.tile);
+  cols_ = (width + tile_ - 1) / tile_;
+  rows_ = (height + tile_ - 1) / tile_;
+  const size_t tiles = static_cast<size_t>(cols_) * rows_;
+  kind_.assign(tiles, 0);
+  if (surface.two_planes()) {
+    if (surface.cols != cols_ || surface.rows != rows_ || surface.second_of.size() != tiles)
+      throw std::invalid_argument("compositor: the focal surface's tiles do not fit the frame");
+    if (!nearer.empty() && nearer.size() != tiles)
+      throw std::invalid_argument("compositor: " + std::to_string(nearer.size()) +
+                                  " nearer-layer entries for " + std::to_string(tiles) + " tiles");
+    for (size_t t = 0; t < tiles; ++t)
+      if (surface.second_of[t] != FocalSurface::kNone)
+        kind_[t] = !nearer.empty() && nearer[t] == 1 ? 2 : 1;
+  }
   for (int l = 0; l < 2; ++l) sq_[l] = cv::Mat::zeros(height, width, CV_32FC1);
-  tile_ = tile;
-  nearer_ = std::move(nearer);
 }
 
 void LayerCompositor::add(int layer, const Fragment& f) {
@@ -199,73 +207,91 @@ void LayerCompositor::add(int layer, const Fragment& f, const uint8_t* pixels) {
   if (layer != 0 && layer != 1)
     throw std::invalid_argument("compositor: layer " + std::to_string(layer) + " is not 0 or 1");
   comp_[layer].add(f, pixels);  // checks
-  // w |c|^2 with w = a / 255 and c = 255 p / a (premultiplied p): 255 |p|^2 / a.
+  // w |c|^2 with w = a / 255 and c = 255 p / a (premultiplied p): 255 |p|^2 / a,
+  // in the two-plane tiles only.
   const uint8_t* px = pixels;
   for (int r = 0; r < f.rect.height; ++r) {
-    const int b = f.spans[r][0], e = f.spans[r][1];
-    float* sq = sq_[layer].ptr<float>(f.rect.y + r);
-    for (int x = b; x < e; ++x, px += 4) {
-      if (px[3] == 0) continue;
-      const float p0 = px[0], p1 = px[1], p2 = px[2];
-      sq[x] += 255.0f * (p0 * p0 + p1 * p1 + p2 * p2) / px[3];
+    const int b = f.spans[r][0], e = f.spans[r][1], y = f.rect.y + r;
+    float* sq = sq_[layer].ptr<float>(y);
+    const uint8_t* kind = &kind_[static_cast<size_t>(y / tile_) * cols_];
+    for (int x = b; x < e;) {
+      const int end = std::min(e, (x / tile_ + 1) * tile_);  // the tile's last column + 1
+      if (kind[x / tile_] != 0)
+        for (int k = x; k < end; ++k) {
+          const uint8_t* q = px + 4 * (k - b);
+          if (q[3] == 0) continue;
+          const float p0 = q[0], p1 = q[1], p2 = q[2];
+          sq[k] += 255.0f * (p0 * p0 + p1 * p1 + p2 * p2) / q[3];
+        }
+      x = end;
     }
+    px += 4 * (e - b);
   }
 }
 
+float LayerCompositor::variance_at(int layer, int x, int y) const {
+  const uint32_t* a = comp_[layer].sums_at(x, y);
+  if (a[3] == 0) return 0;
+  // (sum w |c|^2 - |sum w c|^2 / W) / W with W = sum a / 255.
+  const float W = a[3] / 255.0f;
+  const float m0 = a[0] / W, m1 = a[1] / W, m2 = a[2] / W;  // the mean colour
+  return std::max(0.0f, sq_[layer].at<float>(y, x) / W - (m0 * m0 + m1 * m1 + m2 * m2));
+}
+
 cv::Mat LayerCompositor::variance(int layer) const {
-  const Compositor& c = comp_[layer];
-  cv::Mat v(c.height(), c.width(), CV_32FC1);
-  for (int y = 0; y < c.height(); ++y) {
-    const float* sq = sq_[layer].ptr<float>(y);
-    float* o = v.ptr<float>(y);
-    for (int x = 0; x < c.width(); ++x) {
-      const uint32_t* a = c.sums_at(x, y);
-      if (a[3] == 0) {
-        o[x] = 0;
-        continue;
-      }
-      // (sum w |c|^2 - |sum w c|^2 / W) / W with W = sum a / 255.
-      const float W = a[3] / 255.0f;
-      const float m0 = a[0] / W, m1 = a[1] / W, m2 = a[2] / W;  // the mean colour
-      o[x] = std::max(0.0f, sq[x] / W - (m0 * m0 + m1 * m1 + m2 * m2));
-    }
-  }
+  const int w = comp_[0].width(), h = comp_[0].height();
+  cv::Mat v(h, w, CV_32FC1, cv::Scalar(0));
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      if (two(x, y)) v.at<float>(y, x) = variance_at(layer, x, y);
   return v;
 }
 
 void LayerCompositor::resolve(cv::Mat& out, cv::Mat* choice) const {
   comp_[0].resolve(out);
   const int w = comp_[0].width(), h = comp_[0].height();
-  cv::Mat covered(h, w, CV_32FC1, cv::Scalar(0));
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) covered.at<float>(y, x) = comp_[1].weight_at(x, y) > 0 ? 1.f : 0.f;
   if (choice) *choice = cv::Mat::zeros(h, w, CV_8UC1);
-  if (cv::countNonZero(covered) == 0) return;
-  // Window sums over layer 1's pixels: both layers' variances, and the count.
-  const cv::Size win(kChoiceWindow, kChoiceWindow);
-  cv::Mat v0, v1, count;
-  cv::boxFilter(variance(0).mul(covered), v0, -1, win, {-1, -1}, false, cv::BORDER_CONSTANT);
-  cv::boxFilter(variance(1).mul(covered), v1, -1, win, {-1, -1}, false, cv::BORDER_CONSTANT);
-  cv::boxFilter(covered, count, -1, win, {-1, -1}, false, cv::BORDER_CONSTANT);
-  cv::max(count, 1.0f, count);
-  cv::divide(v0, count, v0);  // window means
-  cv::divide(v1, count, v1);
-  cv::Mat one;
-  comp_[1].resolve(one);
-  const int cols = tile_ > 0 ? (w + tile_ - 1) / tile_ : 0;
-  for (int y = 0; y < h; ++y) {
-    const float* c = covered.ptr<float>(y);
-    const float *a = v0.ptr<float>(y), *b = v1.ptr<float>(y);
-    for (int x = 0; x < w; ++x) {
-      if (c[x] == 0) continue;
-      const bool near1 = !nearer_.empty() && nearer_[(y / tile_) * cols + x / tile_] == 1;
-      // The nearer layer, unless the other agrees clearly better.
-      const bool take1 = near1 ? !(a[x] + kChoiceMargin < b[x]) : b[x] + kChoiceMargin < a[x];
-      if (!take1 && comp_[0].weight_at(x, y) > 0) continue;
-      out.at<cv::Vec4b>(y, x) = one.at<cv::Vec4b>(y, x);
-      if (choice) choice->at<uint8_t>(y, x) = 1;
+  const int R = kChoiceWindow / 2;
+  std::vector<float> v0, v1, n;  // per pixel of a tile grown by R
+  for (int tr = 0; tr < rows_; ++tr)
+    for (int tc = 0; tc < cols_; ++tc) {
+      const uint8_t kind = kind_[static_cast<size_t>(tr) * cols_ + tc];
+      if (kind == 0) continue;
+      const cv::Rect inner = cv::Rect(tc * tile_, tr * tile_, tile_, tile_) & cv::Rect(0, 0, w, h);
+      // The variances where layer 1 has weight, in the tile and R around it
+      // (within two-plane tiles).
+      const cv::Rect grown =
+          cv::Rect(inner.x - R, inner.y - R, inner.width + 2 * R, inner.height + 2 * R) &
+          cv::Rect(0, 0, w, h);
+      v0.assign(grown.area(), 0.f), v1.assign(grown.area(), 0.f), n.assign(grown.area(), 0.f);
+      for (int y = grown.y; y < grown.y + grown.height; ++y)
+        for (int x = grown.x; x < grown.x + grown.width; ++x) {
+          if (!two(x, y) || comp_[1].weight_at(x, y) == 0) continue;
+          const size_t i = static_cast<size_t>(y - grown.y) * grown.width + (x - grown.x);
+          v0[i] = variance_at(0, x, y), v1[i] = variance_at(1, x, y), n[i] = 1;
+        }
+      for (int y = inner.y; y < inner.y + inner.height; ++y)
+        for (int x = inner.x; x < inner.x + inner.width; ++x) {
+          if (comp_[1].weight_at(x, y) == 0) continue;
+          // Window means over layer 1's pixels.
+          float a = 0, b = 0, c = 0;
+          for (int yy = std::max(grown.y, y - R); yy <= std::min(grown.y + grown.height - 1, y + R);
+               ++yy)
+            for (int xx = std::max(grown.x, x - R);
+                 xx <= std::min(grown.x + grown.width - 1, x + R); ++xx) {
+              const size_t i = static_cast<size_t>(yy - grown.y) * grown.width + (xx - grown.x);
+              a += v0[i], b += v1[i], c += n[i];
+            }
+          a /= c, b /= c;
+          // The nearer layer, unless the other agrees clearly better.
+          const bool take1 = kind == 2 ? !(a + kChoiceMargin < b) : b + kChoiceMargin < a;
+          if (!take1 && comp_[0].weight_at(x, y) > 0) continue;
+          const uint32_t* s1 = comp_[1].sums_at(x, y);
+          uint8_t* px = out.ptr<uint8_t>(y) + 4 * x;
+          resolve1(s1, px);
+          if (choice) choice->at<uint8_t>(y, x) = 1;
+        }
     }
-  }
 }
 
 }  // namespace lf

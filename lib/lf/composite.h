@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "lf/fragment.h"
+#include "lf/view.h"
 
 namespace lf {
 
@@ -93,11 +94,14 @@ class LayerCompositor {
  public:
   static constexpr int kChoiceWindow = 3;
   static constexpr float kChoiceMargin = 64.0f;  // levels^2, 3 channels
-  // `nearer`: per tile of `tile` output pixels (row-major, lf/view.h
-  // FocalSurface), which layer is nearer there (lf/plan.h nearer_layers);
-  // empty: layer 0 everywhere. Throws std::invalid_argument for a size out
-  // of range or a `nearer` that does not have one entry per tile.
-  void reset(int width, int height, int tile = 0, std::vector<uint8_t> nearer = {});
+  // `surface`: the request's (lf/view.h), whose tiles with a second plane
+  // are where the choice is made (an empty one or one without second
+  // planes: layer 0 everywhere); `nearer`: per tile, which layer is nearer
+  // there (lf/plan.h nearer_layers; empty: layer 0). Throws
+  // std::invalid_argument for a size out of range, a surface whose grid
+  // does not fit it, or a `nearer` without one entry per tile.
+  void reset(int width, int height, const FocalSurface& surface = {},
+             std::vector<uint8_t> nearer = {});
   // Adds a fragment to layer 0 or 1; the same checks and exceptions as
   // Compositor::add (and std::invalid_argument for another layer).
   void add(int layer, const Fragment& f);
@@ -110,10 +114,13 @@ class LayerCompositor {
   cv::Mat variance(int layer) const;
 
  private:
+  // Whether pixel (x, y) is in a two-plane tile.
+  bool two(int x, int y) const { return kind_[(y / tile_) * cols_ + x / tile_] != 0; }
+  float variance_at(int layer, int x, int y) const;
   Compositor comp_[2];
-  cv::Mat sq_[2];  // CV_32FC1: sum over cameras of w * |c|^2
-  int tile_ = 0;
-  std::vector<uint8_t> nearer_;
+  cv::Mat sq_[2];  // CV_32FC1: sum over cameras of w * |c|^2 (in two-plane tiles)
+  int tile_ = 0, cols_ = 0, rows_ = 0;
+  std::vector<uint8_t> kind_;  // per tile: 0 one plane, 1 two (layer 0 nearer), 2 two (layer 1)
 };
 
 }  // namespace lf

@@ -417,23 +417,11 @@ std::vector<Region> focal_regions(const ViewGeometry& g, int layer) {
   return out;
 }
 
-}  // namespace
-
-FragmentPlan plan_fragment(const ViewGeometry& g, int index, int layer) {
+// The parts of the camera plane's simplices that hold camera `index`, as
+// polygons of output pixels: they do not depend on the focal plane.
+std::vector<Part> camera_parts(const ViewGeometry& g, int index) {
   const Rig& rig = g.rig();
-  FragmentPlan plan;
-  plan.camera_index = index;
-  plan.camera_id = rig.cameras[index].id;
-  plan.out_width = g.width();
-  plan.out_height = g.height();
-  plan.sampling = g.request().sampling;
-  const std::vector<Region> regions = focal_regions(g, layer);
-  if (regions.empty()) return plan;
   const int W = g.width(), H = g.height();
-  std::map<std::array<int, 4>, int> piece_keys;  // -> index in plan.pieces
-
-  // The parts of the camera plane's simplices that hold this camera, as
-  // polygons of output pixels: they do not depend on the focal plane.
   std::vector<Part> parts;
   const Polygon frame = {{-0.5, -0.5}, {W - 0.5, -0.5}, {W - 0.5, H - 0.5}, {-0.5, H - 0.5}};
   const auto& simplices = rig.simplices();
@@ -533,6 +521,22 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index, int layer) {
       parts.push_back(std::move(part));
     }
   }
+
+  return parts;
+}
+
+// Camera `index`'s plan over `regions` from its parts.
+FragmentPlan plan_regions(const ViewGeometry& g, int index, const std::vector<Part>& parts,
+                          const std::vector<Region>& regions) {
+  FragmentPlan plan;
+  plan.camera_index = index;
+  plan.camera_id = g.rig().cameras[index].id;
+  plan.out_width = g.width();
+  plan.out_height = g.height();
+  plan.sampling = g.request().sampling;
+  if (regions.empty()) return plan;
+  const int W = g.width(), H = g.height();
+  std::map<std::array<int, 4>, int> piece_keys;  // -> index in plan.pieces
 
   for (const Region& reg : regions) {
     const bool whole = reg.x0 == 0 && reg.y0 == 0 && reg.x1 == W && reg.y1 == H;
@@ -661,6 +665,20 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index, int layer) {
   for (int k = 0; k < plan.rect.height; ++k)
     if (!seen[k]) plan.row_spans[k] = {plan.rect.x, plan.rect.x};
   return plan;
+}
+
+}  // namespace
+
+FragmentPlan plan_fragment(const ViewGeometry& g, int index, int layer) {
+  const std::vector<Region> regions = focal_regions(g, layer);
+  return plan_regions(g, index, regions.empty() ? std::vector<Part>{} : camera_parts(g, index),
+                      regions);
+}
+
+std::array<FragmentPlan, 2> plan_fragment_layers(const ViewGeometry& g, int index) {
+  const std::vector<Part> parts = camera_parts(g, index);
+  return {plan_regions(g, index, parts, focal_regions(g, 0)),
+          plan_regions(g, index, parts, focal_regions(g, 1))};
 }
 
 std::vector<uint8_t> nearer_layers(const ViewGeometry& g) {

@@ -211,6 +211,11 @@ struct FragmentPlan {
 // through their second planes (empty when no tile has one); layer 0 is the
 // fragment through the tiles' first planes, as without second planes.
 FragmentPlan plan_fragment(const ViewGeometry& geometry, int index, int layer = 0);
+// Both layers of camera `index` at once (what the camera plans with when
+// the request has second planes): {plan_fragment(g, index, 0),
+// plan_fragment(g, index, 1)}, sharing the work that does not depend on
+// the focal plane.
+std::array<FragmentPlan, 2> plan_fragment_layers(const ViewGeometry& geometry, int index);
 
 // Per tile of the request's surface (row-major): 1 where the tile's second
 // plane is nearer to the eye than its first along the ray of the tile's

@@ -33,10 +33,18 @@ cv::Mat render_view(const Rig& rig, const std::vector<cv::Mat>& images, const Vi
   std::vector<Fragment> frags(n * layers);
   double t1 = 0, t2 = 0;
   auto work = [&](const cv::Range& r) {
-    for (int k = r.start; k < r.end; ++k) {
-      plans[k] = plan_fragment(g, k % n, k / n);
-      frags[k].viewer_id = req.viewer_id;
-      frags[k].sequence = req.sequence;
+    for (int i = r.start; i < r.end; ++i) {
+      if (layers == 1) {
+        plans[i] = plan_fragment(g, i);
+      } else {
+        auto both = plan_fragment_layers(g, i);
+        plans[i] = std::move(both[0]);
+        plans[n + i] = std::move(both[1]);
+      }
+      for (int k = i; k < n * layers; k += n) {
+        frags[k].viewer_id = req.viewer_id;
+        frags[k].sequence = req.sequence;
+      }
     }
   };
   auto draw = [&](const cv::Range& r) {
@@ -47,12 +55,12 @@ cv::Mat render_view(const Rig& rig, const std::vector<cv::Mat>& images, const Vi
   if (threads > 1) {
     const int old = cv::getNumThreads();
     cv::setNumThreads(threads);
-    cv::parallel_for_(all, work);
+    cv::parallel_for_(cv::Range(0, n), work);
     t1 = now_ms();
     cv::parallel_for_(all, draw);
     cv::setNumThreads(old);
   } else {
-    work(all);
+    work(cv::Range(0, n));
     t1 = now_ms();
     draw(all);
   }
@@ -70,7 +78,7 @@ cv::Mat render_view(const Rig& rig, const std::vector<cv::Mat>& images, const Vi
     comp.resolve(out);
   } else {
     LayerCompositor comp;
-    comp.reset(req.view.width, req.view.height, req.surface.tile, nearer_layers(g));
+    comp.reset(req.view.width, req.view.height, req.surface, nearer_layers(g));
     for (int k = 0; k < n * layers; ++k) comp.add(k / n, frags[k]);
     comp.resolve(out);
   }
