@@ -75,6 +75,14 @@ TEST(Wire, RawFragmentRoundTrip) {
   EXPECT_EQ(g.out_width, f.out_width);
   EXPECT_EQ(g.spans, f.spans);
   EXPECT_EQ(g.pixels, f.pixels);
+  EXPECT_EQ(g.layer, 0);
+  // A second-plane fragment says so (byte 46), in full and when peeked.
+  lf::Fragment f1 = f;
+  f1.layer = 1;
+  const auto b1 = lf::serialize_fragment(f1, lf::Encoding::kRaw);
+  EXPECT_EQ(b1[46], 1);
+  EXPECT_EQ(lf::parse_fragment(b1.data(), b1.size()).layer, 1);
+  EXPECT_EQ(lf::peek_fragment_header(b1.data(), b1.size()).layer, 1);
 }
 
 // Serialising in place (header and spans, pixels rendered straight into
@@ -370,6 +378,50 @@ TEST(Wire, FocalSurfaceRoundTrip) {
   EXPECT_EQ(v2[5], 2);
 }
 
+// Second planes (flag 1 in byte 159) travel after the first ones; a surface
+// whose second planes are all "none" is sent without them.
+TEST(Wire, SecondPlanesRoundTrip) {
+  lf::ViewRequest r = sample_surface_request();
+  r.surface.second_of.assign(40 * 30, lf::FocalSurface::kNone);
+  const auto none = lf::serialize_request(r);
+  EXPECT_EQ(none.size(), lf::kRequestSize + 8 + 3 * 32 + 40 * 30 + 4);
+  EXPECT_EQ(none[159], 0);
+  for (size_t i = 0; i < r.surface.second_of.size(); i += 5)
+    r.surface.second_of[i] = static_cast<uint8_t>((r.surface.plane_of[i] + 1) % 3);
+  auto b = lf::serialize_request(r);
+  ASSERT_EQ(b.size(), lf::kRequestSize + 8 + 3 * 32 + 2 * 40 * 30 + 4);
+  EXPECT_EQ(b[159], 1);
+  const lf::ViewRequest s = lf::parse_request(b.data(), b.size());
+  EXPECT_EQ(s.surface.plane_of, r.surface.plane_of);
+  EXPECT_EQ(s.surface.second_of, r.surface.second_of);
+  EXPECT_EQ(s.surface.two_plane_tiles(), 240);
+  auto refused = [](std::vector<uint8_t> v, const std::string& word) {
+    resign_request3(v);
+    try {
+      lf::parse_request(v.data(), v.size());
+      ADD_FAILURE() << "accepted (" << word << ")";
+    } catch (const lf::WireError& e) {
+      EXPECT_NE(std::string(e.what()).find(word), std::string::npos) << e.what();
+    }
+  };
+  auto v = b;
+  v[159] = 2;
+  refused(v, "flags");
+  v = b;
+  v[159] = 0;  // then the block is too long for its grid
+  refused(v, "does not fill");
+  v = b;
+  const size_t second = lf::kRequestSize + 8 + 3 * 32 + 40 * 30;
+  v[second] = r.surface.plane_of[0];  // a tile's second plane is its first
+  refused(v, "second plane is its first");
+  v = b;
+  v[second + 1] = 3;  // a missing plane
+  refused(v, "second plane 3");
+  v = b;
+  std::fill(v.begin() + second, v.end() - 4, lf::FocalSurface::kNone);
+  refused(v, "names none");
+}
+
 // A surface block is checked before anything is allocated: sizes that
 // disagree, a block over the limit, planes 0 or over 64, a grid that does
 // not match the view, a tile naming a missing plane; at every length and
@@ -406,7 +458,8 @@ TEST(Wire, BadFocalSurfacesAreRejected) {
        "expected"},
       {[](auto& v) { v[158] = 0; }, "planes"},
       {[](auto& v) { v[158] = 65; }, "planes"},
-      {[](auto& v) { v[159] = 1; }, "reserved"},
+      {[](auto& v) { v[159] = 1; }, "does not fill"},  // flags second planes: too short
+      {[](auto& v) { v[159] = 2; }, "flags"},
       // 30 x 40 tiles: the same bytes, not the view's grid.
       {[](auto& v) { v[155] = 30, v[157] = 40; }, "surface"},
       {[&](auto& v) { v[last] = 3; }, "plane"}};  // plane 3 of 0..2
@@ -494,6 +547,12 @@ TEST(Wire, InconsistentFragmentsAreRejected) {
   b = good;
   b[44] = 7;
   expect_error(b, "unknown encoding");
+  b = good;
+  b[46] = 2;
+  expect_error(b, "layer 2");
+  b = good;
+  b[47] = 1;
+  expect_error(b, "reserved");
   b = good;
   b[5] = 2;
   expect_error(b, "version");

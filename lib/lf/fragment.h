@@ -22,7 +22,10 @@ struct Fragment {
   uint32_t viewer_id = 0;
   uint64_t sequence = 0;
   uint32_t camera_id = 0;
-  int64_t capture_time_ns = -1;       // capture time of the source frame, ns (-1: unknown)
+  int64_t capture_time_ns = -1;  // capture time of the source frame, ns (-1: unknown)
+  // 0, or 1 for the second planes of a focal surface's two-plane tiles
+  // (lf/view.h FocalSurface::second_of, lf/plan.h plan_fragment's layer).
+  uint8_t layer = 0;
   int out_width = 0, out_height = 0;  // size of the output frame it belongs to
   cv::Rect rect;                      // bounding box in output pixels (empty: no contribution)
   // Per row of rect: [begin, end) in output x. Pixels are stored row after

@@ -527,8 +527,9 @@ std::vector<Part> camera_parts(const ViewGeometry& g, int index) {
 
 // Camera `index`'s plan over `regions` from its parts.
 FragmentPlan plan_regions(const ViewGeometry& g, int index, const std::vector<Part>& parts,
-                          const std::vector<Region>& regions) {
+                          const std::vector<Region>& regions, int layer) {
   FragmentPlan plan;
+  plan.layer = layer;
   plan.camera_index = index;
   plan.camera_id = g.rig().cameras[index].id;
   plan.out_width = g.width();
@@ -672,13 +673,13 @@ FragmentPlan plan_regions(const ViewGeometry& g, int index, const std::vector<Pa
 FragmentPlan plan_fragment(const ViewGeometry& g, int index, int layer) {
   const std::vector<Region> regions = focal_regions(g, layer);
   return plan_regions(g, index, regions.empty() ? std::vector<Part>{} : camera_parts(g, index),
-                      regions);
+                      regions, layer);
 }
 
 std::array<FragmentPlan, 2> plan_fragment_layers(const ViewGeometry& g, int index) {
   const std::vector<Part> parts = camera_parts(g, index);
-  return {plan_regions(g, index, parts, focal_regions(g, 0)),
-          plan_regions(g, index, parts, focal_regions(g, 1))};
+  return {plan_regions(g, index, parts, focal_regions(g, 0), 0),
+          plan_regions(g, index, parts, focal_regions(g, 1), 1)};
 }
 
 std::vector<uint8_t> nearer_layers(const ViewGeometry& g) {

@@ -192,6 +192,7 @@ struct FragmentPlan {
   int out_width = 0, out_height = 0;
   cv::Rect rect;  // bounding box of the pixels with nonzero weight (empty if none)
   Sampling sampling = Sampling::kBilinear;  // the request's (lf/render.h)
+  int layer = 0;                            // plan_fragment's layer
   std::vector<FragmentPiece> pieces;
   std::vector<Run> runs;  // sorted by (y, x0), disjoint
   // Per row of rect: [begin, end) in output x (the hull of that row's runs).

@@ -199,6 +199,7 @@ const char* kernel_name(Kernel kernel) {
 
 void describe_fragment(const FragmentPlan& plan, Fragment& out) {
   out.camera_id = static_cast<uint32_t>(plan.camera_id);
+  out.layer = static_cast<uint8_t>(plan.layer);
   out.out_width = plan.out_width;
   out.out_height = plan.out_height;
   out.rect = plan.rect;

@@ -283,7 +283,8 @@ void write_header(const Fragment& f, Encoding enc, int quality, size_t payload_s
   w.u16(e ? 0 : f.rect.width), w.u16(e ? 0 : f.rect.height);
   w.u8(static_cast<uint8_t>(enc));
   w.u8(enc == Encoding::kJpeg ? static_cast<uint8_t>(quality) : 0);
-  w.u16(0);
+  w.u8(f.layer);
+  w.u8(0);
   w.u32(static_cast<uint32_t>(payload_size));
 }
 
@@ -404,6 +405,7 @@ FragmentHeader peek_fragment_header(const uint8_t* data, size_t size) {
   h.camera_id = r.u32();
   h.capture_time_ns = static_cast<int64_t>(r.u64());
   h.encoding = static_cast<Encoding>(data[44]);
+  h.layer = data[46];
   h.payload_size = (uint32_t{data[48]} << 24) | (uint32_t{data[49]} << 16) |
                    (uint32_t{data[50]} << 8) | uint32_t{data[51]};
   return h;
@@ -426,9 +428,11 @@ Fragment parse_fragment_impl(const uint8_t* data, size_t size, Encoding* enc_out
   const int x = r.u16(), y = r.u16(), w = r.u16(), h = r.u16();
   const uint8_t enc = r.u8();
   const uint8_t quality = r.u8();
-  const uint16_t reserved = r.u16();
+  f.layer = r.u8();
+  const uint8_t reserved = r.u8();
   const uint32_t psize = r.u32();
   const uint32_t sum = r.u32();
+  if (f.layer > 1) bad_fragment("layer " + std::to_string(f.layer) + " is not 0 or 1");
   if (reserved != 0) bad_fragment("reserved field is not zero");
   if (f.out_width < 1 || f.out_height < 1 || f.out_width > 16384 || f.out_height > 16384)
     bad_fragment("output size " + std::to_string(f.out_width) + "x" + std::to_string(f.out_height) +
@@ -538,8 +542,8 @@ Fragment parse_fragment_in_place(const uint8_t* data, size_t size, const uint8_t
 namespace {
 
 // Bytes of a surface block (version 3), after its size field.
-size_t surface_bytes(size_t planes, size_t tiles) {
-  return 8 + 32 * planes + tiles;
+size_t surface_bytes(size_t planes, size_t tiles, bool second) {
+  return 8 + 32 * planes + tiles * (second ? 2 : 1);
 }
 
 }  // namespace
@@ -547,11 +551,9 @@ size_t surface_bytes(size_t planes, size_t tiles) {
 std::vector<uint8_t> serialize_request(const ViewRequest& req) {
   validate(req);
   const FocalSurface& sf = req.surface;
-  if (sf.two_planes())
-    throw std::invalid_argument(
-        "view request: two planes per tile are not carried on the wire (versions 2 and 3)");
+  const bool second = sf.two_planes();
   const size_t tiles = sf.empty() ? 0 : static_cast<size_t>(sf.cols) * sf.rows;
-  const size_t block = sf.empty() ? 0 : surface_bytes(sf.planes.size(), tiles);
+  const size_t block = sf.empty() ? 0 : surface_bytes(sf.planes.size(), tiles, second);
   if (block > kMaxSurfaceBytes)
     throw std::invalid_argument("view request: focal surface of " + std::to_string(tiles) +
                                 " tiles exceeds the wire limit");
@@ -584,12 +586,13 @@ std::vector<uint8_t> serialize_request(const ViewRequest& req) {
     w.u16(static_cast<uint16_t>(sf.cols));
     w.u16(static_cast<uint16_t>(sf.rows));
     w.u8(static_cast<uint8_t>(sf.planes.size()));
-    w.u8(0);
+    w.u8(second ? 1 : 0);
     for (const FocalPlane& p : sf.planes) {
       for (int i = 0; i < 3; ++i) w.f64(p.n[i]);
       w.f64(p.d);
     }
     w.bytes(sf.plane_of.data(), sf.plane_of.size());
+    if (second) w.bytes(sf.second_of.data(), sf.second_of.size());
   }
   w.u32(crc(out.data(), out.size()));
   return out;
@@ -640,7 +643,7 @@ ViewRequest parse_request(const uint8_t* data, size_t size) {
     // The surface block: its size first, checked against what came and the
     // limit, then the CRC over all of it, before anything is allocated.
     const uint32_t block = r.u32();
-    if (block > kMaxSurfaceBytes || block < surface_bytes(1, 1))
+    if (block > kMaxSurfaceBytes || block < surface_bytes(1, 1, false))
       bad("focal surface block of " + std::to_string(block) + " bytes (1.." +
           std::to_string(kMaxSurfaceBytes) + ")");
     if (size != kRequestSize + block + 4)
@@ -653,11 +656,12 @@ ViewRequest parse_request(const uint8_t* data, size_t size) {
     sf.cols = r.u16();
     sf.rows = r.u16();
     const size_t planes = r.u8();
-    const uint8_t r3 = r.u8();
-    if (r3) bad("reserved bytes are not zero");
+    const uint8_t flags = r.u8();
+    if (flags > 1) bad("unknown focal surface flags " + std::to_string(flags));
+    const bool second = flags == 1;
     const size_t tiles = static_cast<size_t>(sf.cols) * sf.rows;
     if (planes < 1 || planes > static_cast<size_t>(FocalSurface::kMaxPlanes) ||
-        block != surface_bytes(planes, tiles))
+        block != surface_bytes(planes, tiles, second))
       bad("focal surface of " + std::to_string(planes) + " planes and " + std::to_string(sf.cols) +
           " x " + std::to_string(sf.rows) + " tiles does not fill its " + std::to_string(block) +
           " bytes");
@@ -668,6 +672,11 @@ ViewRequest parse_request(const uint8_t* data, size_t size) {
     }
     sf.plane_of.resize(tiles);
     for (uint8_t& t : sf.plane_of) t = r.u8();
+    if (second) {
+      sf.second_of.resize(tiles);
+      for (uint8_t& t : sf.second_of) t = r.u8();
+      if (!sf.two_planes()) bad("focal surface flags second planes but names none");
+    }
   } else {
     const uint32_t sum = r.u32();
     if (crc(data, kRequestSize - 4) != sum) bad("CRC mismatch (corrupt data)");

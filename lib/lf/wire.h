@@ -14,7 +14,8 @@
 //  32  out_width u16, 34 out_height u16 (the output frame, 1..16384)
 //  36  rect x, y, w, h  u16 x 4 (inside the output frame; all 0 when empty)
 //  44  encoding u8 (0 empty, 1 raw, 2 jpeg), 45 jpeg quality u8 (1..100 with
-//      jpeg, else 0), 46 reserved u16 (0)
+//      jpeg, else 0), 46 layer u8 (0, or 1: the second planes of a focal
+//      surface's two-plane tiles, fragment.h), 47 reserved u8 (0)
 //  48  payload_size u32 (<= 64 MiB), 52 crc32 u32 (bytes 0..51, then payload)
 // Payload: rect.h row spans (u16 begin, u16 end, relative to rect.x, begin <=
 // end <= w), then
@@ -46,10 +47,12 @@
 // FocalSurface; serialize_request writes version 2 when it has none). Bytes
 // 0..147 as version 2 (version = 3, size = 152: the fixed part), then
 // 148 surface_size S u32 (the bytes from 152 to the CRC), 152 tile u16,
-// 154 cols u16, 156 rows u16, 158 planes P u8 (1..64), 159 reserved u8 (0),
-// 160 P planes (n f64 x 3, d f64: 32 bytes each), then cols * rows plane
-// indices u8 (row-major), then crc32 u32 over everything before it.
-// S = 8 + 32 P + cols * rows, at most kMaxSurfaceBytes (the grid is checked
+// 154 cols u16, 156 rows u16, 158 planes P u8 (1..64), 159 flags u8 (0, or
+// 1: second planes follow), 160 P planes (n f64 x 3, d f64: 32 bytes
+// each), then cols * rows plane indices u8 (row-major), with flag 1 then
+// cols * rows second-plane indices u8 (255: none; view.h
+// FocalSurface::second_of), then crc32 u32 over everything before it.
+// S = 8 + 32 P + cols * rows (x 2 with flag 1), at most kMaxSurfaceBytes (the grid is checked
 // against the view before anything is allocated: a peer cannot make the
 // parser allocate more than it sent).
 #pragma once
@@ -130,6 +133,7 @@ struct FragmentHeader {
   uint32_t camera_id = 0;
   int64_t capture_time_ns = -1;
   Encoding encoding = Encoding::kEmpty;
+  uint8_t layer = 0;
   uint32_t payload_size = 0;
 };
 FragmentHeader peek_fragment_header(const uint8_t* data, size_t size);
@@ -140,8 +144,7 @@ FragmentHeader peek_fragment_header(const uint8_t* data, size_t size);
 uint16_t aperture_scale_q8(double scale);
 
 // Version 2, or 3 with a focal surface. Throws std::invalid_argument on a
-// request lf::validate() refuses, a surface over kMaxSurfaceBytes, or one
-// with second planes (FocalSurface::second_of: in-process only so far).
+// request lf::validate() refuses or a surface over kMaxSurfaceBytes.
 std::vector<uint8_t> serialize_request(const ViewRequest& r);
 // Parses and validates (including lf::validate()); versions 2 and 3.
 ViewRequest parse_request(const uint8_t* data, size_t size);
