@@ -210,13 +210,15 @@ TEST(Plan, OnePlaneSurfacePlansTheSinglePlanesFragment) {
   }
 }
 
-TEST(Plan, SecondPlanesAreTheirTilesThroughTheSecondPlane) {
-  // Layer 1 of a surface with second planes in some tiles: exactly the
-  // pixels and homographies that the same camera's fragment has in those
-  // tiles when they name their second plane as their first.
+TEST(Plan, TwoPlaneTilesSendTheNearerPlaneInLayerOne) {
+  // A surface with second planes in some tiles: layer 1 holds exactly the
+  // pixels and homographies that the camera's fragment has in those tiles
+  // through the nearer of their two planes, layer 0 those of every tile
+  // through its other plane.
   lf::Rig rig = lf::synthetic_grid_rig(4, 5, 0.5, 160, 120, 45, 2.0, 3);
   std::mt19937_64 rng(33);
   size_t pixels = 0;
+  int nearer_second = 0, nearer_first = 0;
   for (int v = 0; v < 8; ++v) {
     lf::ViewRequest req =
         with_random_surface(random_request(rig, rng, 100, 75, v % 3 == 0), rng, 3);
@@ -224,16 +226,36 @@ TEST(Plan, SecondPlanesAreTheirTilesThroughTheSecondPlane) {
     fs.second_of.assign(fs.plane_of.size(), lf::FocalSurface::kNone);
     for (size_t t = 0; t < fs.plane_of.size(); ++t)
       if (rng() % 3 == 0) fs.second_of[t] = static_cast<uint8_t>((fs.plane_of[t] + 1) % 3);
-    lf::ViewRequest swapped = req;
+    const lf::ViewGeometry g(rig, req);
+    // Each layer's planes as a one-plane-per-tile surface, the nearer found
+    // here independently: the smaller positive distance along the ray of
+    // the tile's centre pixel.
+    lf::ViewRequest near = req, far = req;
+    near.surface.second_of.clear(), far.surface.second_of.clear();
     std::vector<bool> two(fs.plane_of.size());
-    for (size_t t = 0; t < fs.plane_of.size(); ++t) {
-      two[t] = fs.second_of[t] != lf::FocalSurface::kNone;
-      if (two[t]) swapped.surface.plane_of[t] = fs.second_of[t];
-    }
-    swapped.surface.second_of.clear();
-    const lf::ViewGeometry g(rig, req), gs(rig, swapped);
+    for (int r = 0; r < fs.rows; ++r)
+      for (int c = 0; c < fs.cols; ++c) {
+        const int t = r * fs.cols + c;
+        two[t] = fs.second_of[t] != lf::FocalSurface::kNone;
+        if (!two[t]) continue;
+        const double x = (std::min(100, (c + 1) * fs.tile) + c * fs.tile - 1) * 0.5;
+        const double y = (std::min(75, (r + 1) * fs.tile) + r * fs.tile - 1) * 0.5;
+        const cv::Vec3d D = g.ray(x, y), E = req.view.position;
+        auto along = [&](int p) {
+          const lf::FocalPlane& q = fs.planes[p];
+          const double d = -(q.n.dot(E) + q.d) / q.n.dot(D);
+          return d > 0 ? d : INFINITY;
+        };
+        const bool second_near = along(fs.second_of[t]) < along(fs.plane_of[t]);
+        (second_near ? nearer_second : nearer_first)++;
+        near.surface.plane_of[t] = second_near ? fs.second_of[t] : fs.plane_of[t];
+        far.surface.plane_of[t] = second_near ? fs.plane_of[t] : fs.second_of[t];
+        EXPECT_EQ(g.layer_plane(1, t), near.surface.plane_of[t]);
+        EXPECT_EQ(g.layer_plane(0, t), far.surface.plane_of[t]);
+      }
+    const lf::ViewGeometry gn(rig, near), gf(rig, far);
     for (int i = 0; i < static_cast<int>(rig.cameras.size()); ++i) {
-      // (y, x) -> homography row of that pixel, per plan.
+      // (y, x) -> homography of that pixel, per plan.
       auto pixel_map = [&](const lf::FragmentPlan& p, bool only_two) {
         std::map<std::pair<int, int>, cv::Matx33d> m;
         for (const lf::Run& r : p.runs)
@@ -242,23 +264,27 @@ TEST(Plan, SecondPlanesAreTheirTilesThroughTheSecondPlane) {
               m[{r.y, x}] = p.pieces[r.piece].H;
         return m;
       };
-      const auto layer1 = pixel_map(lf::plan_fragment(g, i, 1), false);
-      const auto expect = pixel_map(lf::plan_fragment(gs, i, 0), true);
-      ASSERT_EQ(layer1.size(), expect.size()) << "view " << v << " camera " << i;
-      for (const auto& [at, H] : layer1) {
-        const auto it = expect.find(at);
-        ASSERT_TRUE(it != expect.end());
-        EXPECT_EQ(H, it->second);
+      const auto layers = lf::plan_fragment_layers(g, i);
+      EXPECT_EQ(layers[0].layer, 0);
+      EXPECT_EQ(layers[1].layer, 1);
+      for (int l = 0; l < 2; ++l) {
+        const auto got = pixel_map(layers[l], false);
+        const auto alone = pixel_map(lf::plan_fragment(g, i, l), false);
+        const auto expect = pixel_map(lf::plan_fragment(l ? gn : gf, i, 0), l == 1);
+        ASSERT_EQ(got.size(), expect.size()) << "view " << v << " camera " << i << " layer " << l;
+        EXPECT_EQ(got.size(), alone.size());
+        for (const auto& [at, H] : got) {
+          const auto it = expect.find(at);
+          ASSERT_TRUE(it != expect.end());
+          EXPECT_EQ(H, it->second);
+        }
+        if (l == 1) pixels += got.size();
       }
-      pixels += layer1.size();
-      // Layer 0 is the fragment without second planes.
-      lf::ViewRequest first = req;
-      first.surface.second_of.clear();
-      EXPECT_EQ(pixel_map(lf::plan_fragment(g, i, 0), false).size(),
-                pixel_map(lf::plan_fragment(lf::ViewGeometry(rig, first), i, 0), false).size());
     }
   }
   EXPECT_GT(pixels, 10000u);
+  EXPECT_GT(nearer_second, 20);  // both orders occur
+  EXPECT_GT(nearer_first, 20);
   // Without second planes, layer 1 is empty.
   const lf::ViewRequest plain =
       with_random_surface(random_request(rig, rng, 64, 48, false), rng, 2);

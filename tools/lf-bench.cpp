@@ -119,16 +119,14 @@ FrameResult render_frame(const lf::Rig& rig, const std::vector<cv::Mat>& images,
   // Layer 1: the second planes of a surface's two-plane tiles (lf/plan.h).
   const int layers = req.surface.two_planes() ? 2 : 1;
   lf::Compositor comp;  // one layer: the paper's compositor
-  lf::LayerCompositor comp2;
-  if (layers == 1)
-    comp.reset(req.view.width, req.view.height);
-  else
-    comp2.reset(req.view.width, req.view.height, req.surface, lf::nearer_layers(g));
-  auto add = [&](int layer, const lf::Fragment& frag) {
+  if (layers == 1) comp.reset(req.view.width, req.view.height);
+  std::vector<lf::Fragment> kept;  // two layers: composited at the end
+  kept.reserve(rig.cameras.size() * 2);
+  auto add = [&](lf::Fragment&& frag) {
     if (layers == 1)
       comp.add(frag);
     else
-      comp2.add(layer, frag);
+      kept.push_back(std::move(frag));
   };
   lf::Fragment f;
   for (size_t i = 0; i < rig.cameras.size(); ++i) {
@@ -143,16 +141,19 @@ FrameResult render_frame(const lf::Rig& rig, const std::vector<cv::Mat>& images,
       if (e.wire) {
         const auto bytes = lf::serialize_fragment(f, e.enc, e.quality);
         r.bytes += bytes.size();
-        add(layer, lf::parse_fragment(bytes.data(), bytes.size()));
+        add(lf::parse_fragment(bytes.data(), bytes.size()));
       } else {
-        add(layer, f);
+        add(lf::Fragment(f));
       }
     }
   }
-  if (layers == 1)
+  if (layers == 1) {
     comp.resolve(r.image);
-  else
-    comp2.resolve(r.image);
+  } else {
+    std::vector<lf::FragmentPixels> px;
+    for (const lf::Fragment& k : kept) px.push_back({&k, k.pixels.data()});
+    lf::LayerCompositor().composite(req.view.width, req.view.height, px, r.image);
+  }
   r.ms = ms_since(t0);
   return r;
 }

@@ -175,58 +175,89 @@ size_t Compositor::fill_from(cv::Mat& out, const cv::Mat& previous) {
   return n;
 }
 
-void LayerCompositor::reset(int width, int height, const FocalSurface& surface,
-                            std::vector<uint8_t> nearer) {
-  for (int l = 0; l < 2; ++l) comp_[l].reset(width, height);
-  tile_ = std::max(1, surface.tile);
-  cols_ = (width + tile_ - 1) / tile_;
-  rows_ = (height + tile_ - 1) / tile_;
-  const size_t tiles = static_cast<size_t>(cols_) * rows_;
-  kind_.assign(tiles, 0);
-  if (surface.two_planes()) {
-    if (surface.cols != cols_ || surface.rows != rows_ || surface.second_of.size() != tiles)
-      throw std::invalid_argument("compositor: the focal surface's tiles do not fit the frame");
-    if (!nearer.empty() && nearer.size() != tiles)
-      throw std::invalid_argument("compositor: " + std::to_string(nearer.size()) +
-                                  " nearer-layer entries for " + std::to_string(tiles) + " tiles");
-    for (size_t t = 0; t < tiles; ++t)
-      if (surface.second_of[t] != FocalSurface::kNone)
-        kind_[t] = !nearer.empty() && nearer[t] == 1 ? 2 : 1;
-  }
-  for (int l = 0; l < 2; ++l) sq_[l] = cv::Mat::zeros(height, width, CV_32FC1);
-}
-
-void LayerCompositor::add(int layer, const Fragment& f) {
-  if (f.pixels.size() !=
-      4 * Compositor::check(f, f.pixels.data(), comp_[0].width(), comp_[0].height()))
-    check_fragment(f);  // throws, naming the mismatch
-  add(layer, f, f.pixels.data());
-}
-
-void LayerCompositor::add(int layer, const Fragment& f, const uint8_t* pixels) {
-  if (layer != 0 && layer != 1)
-    throw std::invalid_argument("compositor: layer " + std::to_string(layer) + " is not 0 or 1");
-  comp_[layer].add(f, pixels);  // checks
-  // w |c|^2 with w = a / 255 and c = 255 p / a (premultiplied p): 255 |p|^2 / a,
-  // in the two-plane tiles only.
+namespace {
+// Adds 255 |p|^2 / a (w |c|^2 with w = a / 255 and c = 255 p / a, p
+// premultiplied) of a fragment's pixels where `where` has weight.
+void add_squares(const Fragment& f, const uint8_t* pixels, const Compositor& where, cv::Mat& sq) {
   const uint8_t* px = pixels;
   for (int r = 0; r < f.rect.height; ++r) {
     const int b = f.spans[r][0], e = f.spans[r][1], y = f.rect.y + r;
-    float* sq = sq_[layer].ptr<float>(y);
-    const uint8_t* kind = &kind_[static_cast<size_t>(y / tile_) * cols_];
-    for (int x = b; x < e;) {
-      const int end = std::min(e, (x / tile_ + 1) * tile_);  // the tile's last column + 1
-      if (kind[x / tile_] != 0)
-        for (int k = x; k < end; ++k) {
-          const uint8_t* q = px + 4 * (k - b);
-          if (q[3] == 0) continue;
-          const float p0 = q[0], p1 = q[1], p2 = q[2];
-          sq[k] += 255.0f * (p0 * p0 + p1 * p1 + p2 * p2) / q[3];
-        }
-      x = end;
+    float* row = sq.ptr<float>(y);
+    for (int x = b; x < e; ++x, px += 4) {
+      if (px[3] == 0 || where.weight_at(x, y) == 0) continue;
+      const float p0 = px[0], p1 = px[1], p2 = px[2];
+      row[x] += 255.0f * (p0 * p0 + p1 * p1 + p2 * p2) / px[3];
     }
-    px += 4 * (e - b);
   }
+}
+}  // namespace
+
+std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
+    int width, int height, const std::vector<FragmentPixels>& fragments, cv::Mat& out,
+    cv::Mat* choice) {
+  for (int l = 0; l < 2; ++l) comp_[l].reset(width, height);  // throws for a bad size
+  std::vector<std::pair<size_t, std::string>> refused;
+  std::vector<size_t> layer_of[2];
+  for (size_t i = 0; i < fragments.size(); ++i) {
+    const FragmentPixels& fp = fragments[i];
+    try {
+      if (!fp.fragment) throw std::invalid_argument("compositor: null fragment");
+      Compositor::check(*fp.fragment, fp.pixels, width, height);
+      if (fp.fragment->layer > 1)
+        throw std::invalid_argument("compositor: fragment from camera " +
+                                    std::to_string(fp.fragment->camera_id) + " is of layer " +
+                                    std::to_string(fp.fragment->layer));
+    } catch (const std::invalid_argument& e) {
+      refused.emplace_back(i, e.what());
+      continue;
+    }
+    layer_of[fp.fragment->layer].push_back(i);
+  }
+  if (choice) *choice = cv::Mat::zeros(height, width, CV_8UC1);
+  for (int l = 0; l < 2; ++l) sq_[l] = cv::Mat::zeros(height, width, CV_32FC1);
+  // Layer 1 first: where it has weight is where the choice is made.
+  cv::Rect two;  // its bounding box
+  for (size_t i : layer_of[1]) {
+    comp_[1].add(*fragments[i].fragment, fragments[i].pixels);
+    two |= fragments[i].fragment->rect;
+  }
+  for (size_t i : layer_of[1])
+    add_squares(*fragments[i].fragment, fragments[i].pixels, comp_[1], sq_[1]);
+  for (size_t i : layer_of[0]) {
+    comp_[0].add(*fragments[i].fragment, fragments[i].pixels);
+    if (!layer_of[1].empty())
+      add_squares(*fragments[i].fragment, fragments[i].pixels, comp_[1], sq_[0]);
+  }
+  comp_[0].resolve(out);
+  if (two.empty()) return refused;
+  // Window means, over layer 1's pixels, of both layers' variances.
+  const int R = kChoiceWindow / 2;
+  const cv::Rect roi = cv::Rect(two.x - R, two.y - R, two.width + 2 * R, two.height + 2 * R) &
+                       cv::Rect(0, 0, width, height);
+  cv::Mat v[2], n(roi.size(), CV_32FC1, cv::Scalar(0));
+  for (int l = 0; l < 2; ++l) v[l] = cv::Mat::zeros(roi.size(), CV_32FC1);
+  for (int y = roi.y; y < roi.y + roi.height; ++y)
+    for (int x = roi.x; x < roi.x + roi.width; ++x) {
+      if (comp_[1].weight_at(x, y) == 0) continue;
+      for (int l = 0; l < 2; ++l) v[l].at<float>(y - roi.y, x - roi.x) = variance_at(l, x, y);
+      n.at<float>(y - roi.y, x - roi.x) = 1;
+    }
+  for (int y = two.y; y < two.y + two.height; ++y)
+    for (int x = two.x; x < two.x + two.width; ++x) {
+      if (comp_[1].weight_at(x, y) == 0) continue;
+      float s0 = 0, s1 = 0, c = 0;
+      for (int yy = std::max(roi.y, y - R); yy <= std::min(roi.y + roi.height - 1, y + R); ++yy)
+        for (int xx = std::max(roi.x, x - R); xx <= std::min(roi.x + roi.width - 1, x + R); ++xx) {
+          s0 += v[0].at<float>(yy - roi.y, xx - roi.x);
+          s1 += v[1].at<float>(yy - roi.y, xx - roi.x);
+          c += n.at<float>(yy - roi.y, xx - roi.x);
+        }
+      // The nearer layer, unless the other agrees clearly better.
+      if (s0 / c + kChoiceMargin < s1 / c && comp_[0].weight_at(x, y) > 0) continue;
+      resolve1(comp_[1].sums_at(x, y), out.ptr<uint8_t>(y) + 4 * x);
+      if (choice) choice->at<uint8_t>(y, x) = 1;
+    }
+  return refused;
 }
 
 float LayerCompositor::variance_at(int layer, int x, int y) const {
@@ -243,55 +274,8 @@ cv::Mat LayerCompositor::variance(int layer) const {
   cv::Mat v(h, w, CV_32FC1, cv::Scalar(0));
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x)
-      if (two(x, y)) v.at<float>(y, x) = variance_at(layer, x, y);
+      if (comp_[1].weight_at(x, y) > 0) v.at<float>(y, x) = variance_at(layer, x, y);
   return v;
-}
-
-void LayerCompositor::resolve(cv::Mat& out, cv::Mat* choice) const {
-  comp_[0].resolve(out);
-  const int w = comp_[0].width(), h = comp_[0].height();
-  if (choice) *choice = cv::Mat::zeros(h, w, CV_8UC1);
-  const int R = kChoiceWindow / 2;
-  std::vector<float> v0, v1, n;  // per pixel of a tile grown by R
-  for (int tr = 0; tr < rows_; ++tr)
-    for (int tc = 0; tc < cols_; ++tc) {
-      const uint8_t kind = kind_[static_cast<size_t>(tr) * cols_ + tc];
-      if (kind == 0) continue;
-      const cv::Rect inner = cv::Rect(tc * tile_, tr * tile_, tile_, tile_) & cv::Rect(0, 0, w, h);
-      // The variances where layer 1 has weight, in the tile and R around it
-      // (within two-plane tiles).
-      const cv::Rect grown =
-          cv::Rect(inner.x - R, inner.y - R, inner.width + 2 * R, inner.height + 2 * R) &
-          cv::Rect(0, 0, w, h);
-      v0.assign(grown.area(), 0.f), v1.assign(grown.area(), 0.f), n.assign(grown.area(), 0.f);
-      for (int y = grown.y; y < grown.y + grown.height; ++y)
-        for (int x = grown.x; x < grown.x + grown.width; ++x) {
-          if (!two(x, y) || comp_[1].weight_at(x, y) == 0) continue;
-          const size_t i = static_cast<size_t>(y - grown.y) * grown.width + (x - grown.x);
-          v0[i] = variance_at(0, x, y), v1[i] = variance_at(1, x, y), n[i] = 1;
-        }
-      for (int y = inner.y; y < inner.y + inner.height; ++y)
-        for (int x = inner.x; x < inner.x + inner.width; ++x) {
-          if (comp_[1].weight_at(x, y) == 0) continue;
-          // Window means over layer 1's pixels.
-          float a = 0, b = 0, c = 0;
-          for (int yy = std::max(grown.y, y - R); yy <= std::min(grown.y + grown.height - 1, y + R);
-               ++yy)
-            for (int xx = std::max(grown.x, x - R);
-                 xx <= std::min(grown.x + grown.width - 1, x + R); ++xx) {
-              const size_t i = static_cast<size_t>(yy - grown.y) * grown.width + (xx - grown.x);
-              a += v0[i], b += v1[i], c += n[i];
-            }
-          a /= c, b /= c;
-          // The nearer layer, unless the other agrees clearly better.
-          const bool take1 = kind == 2 ? !(a + kChoiceMargin < b) : b + kChoiceMargin < a;
-          if (!take1 && comp_[0].weight_at(x, y) > 0) continue;
-          const uint32_t* s1 = comp_[1].sums_at(x, y);
-          uint8_t* px = out.ptr<uint8_t>(y) + 4 * x;
-          resolve1(s1, px);
-          if (choice) choice->at<uint8_t>(y, x) = 1;
-        }
-    }
 }
 
 }  // namespace lf

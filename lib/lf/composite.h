@@ -9,7 +9,6 @@
 #include <vector>
 
 #include "lf/fragment.h"
-#include "lf/view.h"
 
 namespace lf {
 
@@ -76,51 +75,39 @@ class Compositor {
 
 // Two planes per tile (lf/view.h FocalSurface::second_of: a tile that holds
 // two depths, e.g. a thin structure before a background), composited with
-// a choice per pixel. Layer 0 holds every camera's fragment through the
-// tiles' first planes, layer 1 their fragments through the second planes
-// of the tiles that have one (lf/plan.h plan_fragment's layer). Each layer
-// is added as by Compositor, and also accumulates its cameras' weighted
-// squared colours, so that at each pixel the weighted variance of the
-// cameras' colours (levels^2 summed over the three channels) is known: the
-// photo-consistency of lf/focus.h, measured on the fragments, which the
-// compositor receives separately. Where layer 1 has weight, the output
-// takes the nearer layer (along the view's ray) unless the other one's
-// variance, averaged over the kChoiceWindow x kChoiceWindow pixels around
-// it that layer 1 covers, is lower by more than kChoiceMargin: a thin
-// structure before a background is seen past by cameras on either side,
-// so both layers can agree there, and then the nearer one occludes. Every
-// other pixel is layer 0's, exactly as Compositor's.
+// a choice per pixel. Fragments of layer 1 (Fragment::layer) hold each
+// camera's pixels in those tiles through the nearer of their two planes,
+// layer 0 every tile through its other plane (lf/plan.h plan_fragment).
+// Each layer is added as by Compositor; where layer 1 has weight, each
+// layer also accumulates its cameras' weighted squared colours, so that
+// the weighted variance of the cameras' colours (levels^2 summed over the
+// three channels) is known there: the photo-consistency of lf/focus.h,
+// measured on the fragments, which the compositor receives separately.
+// There the output takes the nearer layer, 1, unless layer 0's variance,
+// averaged over the kChoiceWindow x kChoiceWindow pixels around it that
+// layer 1 covers, is lower by more than kChoiceMargin: a thin structure
+// before a background is seen past by cameras on either side, so both
+// layers can agree there, and then the nearer one occludes. Every other
+// pixel is layer 0's, exactly as Compositor's (and without layer-1
+// fragments the whole frame is Compositor::composite's, bit for bit).
 class LayerCompositor {
  public:
   static constexpr int kChoiceWindow = 3;
   static constexpr float kChoiceMargin = 64.0f;  // levels^2, 3 channels
-  // `surface`: the request's (lf/view.h), whose tiles with a second plane
-  // are where the choice is made (an empty one or one without second
-  // planes: layer 0 everywhere); `nearer`: per tile, which layer is nearer
-  // there (lf/plan.h nearer_layers; empty: layer 0). Throws
-  // std::invalid_argument for a size out of range, a surface whose grid
-  // does not fit it, or a `nearer` without one entry per tile.
-  void reset(int width, int height, const FocalSurface& surface = {},
-             std::vector<uint8_t> nearer = {});
-  // Adds a fragment to layer 0 or 1; the same checks and exceptions as
-  // Compositor::add (and std::invalid_argument for another layer).
-  void add(int layer, const Fragment& f);
-  void add(int layer, const Fragment& f, const uint8_t* pixels);
-  // The chosen frame (CV_8UC4, as Compositor::resolve); `choice`, when
-  // given: CV_8UC1, 1 where layer 1 was taken, else 0.
-  void resolve(cv::Mat& out, cv::Mat* choice = nullptr) const;
-  // A layer's colour variance at each pixel (CV_32FC1, levels^2 summed
-  // over 3 channels; 0 where the layer has no weight).
+  // As Compositor::composite (the same checks, refusals and exceptions,
+  // and a refusal of a layer other than 0 and 1); `choice`, when given:
+  // CV_8UC1, 1 where layer 1 was taken, else 0.
+  std::vector<std::pair<size_t, std::string>> composite(
+      int width, int height, const std::vector<FragmentPixels>& fragments, cv::Mat& out,
+      cv::Mat* choice = nullptr);
+  // The last composite's colour variance of a layer (CV_32FC1, levels^2
+  // summed over 3 channels) where layer 1 has weight; 0 elsewhere.
   cv::Mat variance(int layer) const;
 
  private:
-  // Whether pixel (x, y) is in a two-plane tile.
-  bool two(int x, int y) const { return kind_[(y / tile_) * cols_ + x / tile_] != 0; }
   float variance_at(int layer, int x, int y) const;
   Compositor comp_[2];
-  cv::Mat sq_[2];  // CV_32FC1: sum over cameras of w * |c|^2 (in two-plane tiles)
-  int tile_ = 0, cols_ = 0, rows_ = 0;
-  std::vector<uint8_t> kind_;  // per tile: 0 one plane, 1 two (layer 0 nearer), 2 two (layer 1)
+  cv::Mat sq_[2];  // CV_32FC1: sum over cameras of w * |c|^2, where layer 1 has weight
 };
 
 }  // namespace lf

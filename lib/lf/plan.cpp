@@ -60,6 +60,36 @@ ViewGeometry::ViewGeometry(const Rig& rig, const ViewRequest& request, int only_
     }
   }
   if (req_.aperture == Aperture::kUlr) compute_ulr();
+  // Two-plane tiles: whether the second plane is the nearer, along the ray
+  // of the tile's centre pixel (a plane behind the eye, parallel to the ray
+  // or at infinity is infinitely far).
+  const FocalSurface& fs = req_.surface;
+  if (fs.two_planes()) {
+    auto along = [&](const FocalPlane& p, const cv::Vec3d& D) {
+      const double t = -(p.n.dot(E) + p.d) / p.n.dot(D);
+      return p.at_infinity() || !(t > 0) || !std::isfinite(t) ? INFINITY : t;
+    };
+    second_nearer_.assign(fs.plane_of.size(), 0);
+    for (int r = 0; r < fs.rows; ++r)
+      for (int c = 0; c < fs.cols; ++c) {
+        const int t = r * fs.cols + c;
+        if (fs.second_of[t] == FocalSurface::kNone) continue;
+        const double x = (std::min(v.width, (c + 1) * fs.tile) + c * fs.tile - 1) * 0.5;
+        const double y = (std::min(v.height, (r + 1) * fs.tile) + r * fs.tile - 1) * 0.5;
+        const cv::Vec3d D = ray(x, y);
+        second_nearer_[t] =
+            along(fs.planes[fs.second_of[t]], D) < along(fs.planes[fs.plane_of[t]], D) ? 1 : 0;
+      }
+  }
+}
+
+int ViewGeometry::layer_plane(int layer, int tile) const {
+  const FocalSurface& fs = req_.surface;
+  if (fs.empty()) return layer == 0 ? 0 : -1;
+  const int a = fs.plane_of[tile];
+  const int b = fs.second_of.empty() ? FocalSurface::kNone : fs.second_of[tile];
+  if (b == FocalSurface::kNone) return layer == 0 ? a : -1;
+  return (layer == 1) == (second_nearer_[tile] != 0) ? b : a;
 }
 
 // The blending field of a kUlr request (lf/view.h Aperture).
@@ -394,23 +424,21 @@ struct Region {
 };
 
 // Regions of one plane each: the whole frame, or per tile row the maximal
-// horizontal stretches of tiles that share a plane. Layer 1: the tiles with
-// a second plane, through it.
+// horizontal stretches of tiles that share a plane (ViewGeometry::
+// layer_plane: layer 1 just the two-plane tiles).
 std::vector<Region> focal_regions(const ViewGeometry& g, int layer) {
   const int W = g.width(), H = g.height();
   const FocalSurface& fs = g.request().surface;
   if (layer == 1 && !fs.two_planes()) return {};
   if (fs.empty()) return {{0, 0, W, H, 0}};
-  const std::vector<uint8_t>& of = layer == 0 ? fs.plane_of : fs.second_of;
   std::vector<Region> out;
   for (int r = 0; r < fs.rows; ++r) {
     const int y0 = r * fs.tile, y1 = std::min(H, y0 + fs.tile);
     for (int c = 0; c < fs.cols;) {
-      const int p = of[r * fs.cols + c];
+      const int p = g.layer_plane(layer, r * fs.cols + c);
       int e = c + 1;
-      while (e < fs.cols && of[r * fs.cols + e] == p) ++e;
-      if (p != FocalSurface::kNone)
-        out.push_back({c * fs.tile, y0, std::min(W, e * fs.tile), y1, p});
+      while (e < fs.cols && g.layer_plane(layer, r * fs.cols + e) == p) ++e;
+      if (p >= 0) out.push_back({c * fs.tile, y0, std::min(W, e * fs.tile), y1, p});
       c = e;
     }
   }
@@ -680,28 +708,6 @@ std::array<FragmentPlan, 2> plan_fragment_layers(const ViewGeometry& g, int inde
   const std::vector<Part> parts = camera_parts(g, index);
   return {plan_regions(g, index, parts, focal_regions(g, 0), 0),
           plan_regions(g, index, parts, focal_regions(g, 1), 1)};
-}
-
-std::vector<uint8_t> nearer_layers(const ViewGeometry& g) {
-  const FocalSurface& fs = g.request().surface;
-  if (!fs.two_planes()) return {};
-  const cv::Vec3d E = g.request().view.position;
-  // Distance along the ray (in units of its direction) to a plane.
-  auto along = [&](const FocalPlane& p, const cv::Vec3d& D) {
-    const double nd = p.n.dot(D), t = -(p.n.dot(E) + p.d) / nd;
-    return p.at_infinity() || !(t > 0) || !std::isfinite(t) ? INFINITY : t;
-  };
-  std::vector<uint8_t> out(fs.plane_of.size(), 0);
-  for (int r = 0; r < fs.rows; ++r)
-    for (int c = 0; c < fs.cols; ++c) {
-      const int t = r * fs.cols + c;
-      if (fs.second_of[t] == FocalSurface::kNone) continue;
-      const double x = (std::min(g.width(), (c + 1) * fs.tile) + c * fs.tile - 1) * 0.5;
-      const double y = (std::min(g.height(), (r + 1) * fs.tile) + r * fs.tile - 1) * 0.5;
-      const cv::Vec3d D = g.ray(x, y);
-      out[t] = along(fs.planes[fs.second_of[t]], D) < along(fs.planes[fs.plane_of[t]], D) ? 1 : 0;
-    }
-  return out;
 }
 
 }  // namespace lf

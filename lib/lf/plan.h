@@ -105,6 +105,15 @@ class ViewGeometry {
   int focal_sign(int x, int y) const { return focal_sign(x, y, plane_at(x, y)); }
   int focal_sign(double x, double y, int p) const;
   bool focal_at_infinity(int p = 0) const { return planes_[p].at_infinity(); }
+  // The plane of surface tile `tile` (row-major) in fragment layer `layer`
+  // (plan_fragment), or -1 for none: in a tile with a second plane
+  // (FocalSurface::second_of), layer 1 is the nearer of its two planes and
+  // layer 0 the farther (along the ray of the tile's centre pixel; a plane
+  // behind the eye, parallel to the ray or at infinity is infinitely far),
+  // so that a compositor knows which occludes without the request; in
+  // other tiles layer 0 is the tile's plane and layer 1 none. Without a
+  // surface: plane 0 in layer 0.
+  int layer_plane(int layer, int tile) const;
 
   // Exact membership of a pixel's line in simplex `s`; fills barycentric
   // weights (per simplex vertex) when inside.
@@ -166,7 +175,8 @@ class ViewGeometry {
   std::vector<FocalPlane> planes_;
   std::vector<PixelForm> fw_;  // per plane
   int ncam_ = 0;
-  std::vector<cv::Matx33d> H_;  // plane-major: H_[p * ncam_ + camera]
+  std::vector<cv::Matx33d> H_;          // plane-major: H_[p * ncam_ + camera]
+  std::vector<uint8_t> second_nearer_;  // per tile, with second planes
   void compute_ulr();
   int ulr_cols_ = 0, ulr_rows_ = 0;
   std::vector<double> ulr_w_;  // per vertex (row-major), per camera
@@ -207,22 +217,17 @@ struct FragmentPlan {
 // focal surface, each tile is planned through its own plane (the pixel sets
 // are those of the same predicates with that plane) and runs are cut at tile
 // edges where the plane changes: one piece per (simplex, orientation, plane).
-// Layer 1 (a surface with two planes in some tiles, lf/view.h
-// FocalSurface::second_of): the same camera's pixels in just those tiles,
-// through their second planes (empty when no tile has one); layer 0 is the
-// fragment through the tiles' first planes, as without second planes.
+// Layers (a surface with two planes in some tiles, lf/view.h
+// FocalSurface::second_of): layer 1 holds the camera's pixels in just those
+// tiles, through the nearer of their two planes (empty when no tile has
+// two); layer 0 holds every tile through its other plane
+// (ViewGeometry::layer_plane). Without second planes layer 0 is the
+// fragment above.
 FragmentPlan plan_fragment(const ViewGeometry& geometry, int index, int layer = 0);
 // Both layers of camera `index` at once (what the camera plans with when
 // the request has second planes): {plan_fragment(g, index, 0),
 // plan_fragment(g, index, 1)}, sharing the work that does not depend on
 // the focal plane.
 std::array<FragmentPlan, 2> plan_fragment_layers(const ViewGeometry& geometry, int index);
-
-// Per tile of the request's surface (row-major): 1 where the tile's second
-// plane is nearer to the eye than its first along the ray of the tile's
-// centre pixel (a plane behind the eye, parallel to the ray or at infinity
-// counts as infinitely far), else 0 (also for tiles with one plane). Empty
-// without second planes. For lf/composite.h LayerCompositor.
-std::vector<uint8_t> nearer_layers(const ViewGeometry& geometry);
 
 }  // namespace lf

@@ -77,10 +77,11 @@ cv::Mat render_view(const Rig& rig, const std::vector<cv::Mat>& images, const Vi
     for (const Fragment& f : frags) comp.add(f);
     comp.resolve(out);
   } else {
+    std::vector<FragmentPixels> all_pixels;
+    for (const Fragment& f : frags) all_pixels.push_back({&f, f.pixels.data()});
     LayerCompositor comp;
-    comp.reset(req.view.width, req.view.height, req.surface, nearer_layers(g));
-    for (int k = 0; k < n * layers; ++k) comp.add(k / n, frags[k]);
-    comp.resolve(out);
+    const auto refused = comp.composite(req.view.width, req.view.height, all_pixels, out);
+    if (!refused.empty()) throw std::invalid_argument(refused.front().second);
   }
   const double t3 = now_ms();
   s.plan_ms = t1 - t0;
