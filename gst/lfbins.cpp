@@ -103,11 +103,10 @@ const Forward kCameraHostForwards[] = {
     {lf_fragment_get_type, "max-pixels"},    {lf_fragment_get_type, "max-rate"},
     {lf_fragment_get_type, "frame-timeout"}, {lf_fragment_get_type, "frame-select"},
     {lf_fragment_get_type, "backend"}};
-const Forward kArrayForwards[] = {{lf_compositor_get_type, "viewer-id"},
-                                  {lf_compositor_get_type, "latency"},
-                                  {lf_compositor_get_type, "stereo"},
-                                  {lf_compositor_get_type, "width"},
-                                  {lf_compositor_get_type, "height"}};
+const Forward kArrayForwards[] = {
+    {lf_compositor_get_type, "viewer-id"}, {lf_compositor_get_type, "latency"},
+    {lf_compositor_get_type, "stereo"},    {lf_compositor_get_type, "second-planes"},
+    {lf_compositor_get_type, "width"},     {lf_compositor_get_type, "height"}};
 
 // The forwarded properties of a class: the camera host's, then lfarray's.
 std::vector<Forward> forwards(bool composite) {

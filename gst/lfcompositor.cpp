@@ -98,6 +98,7 @@ struct Settings {
   gint width = DEFAULT_WIDTH, height = DEFAULT_HEIGHT;
   lfgst::Fraction framerate{DEFAULT_FPS_N, DEFAULT_FPS_D};
   bool stereo = DEFAULT_STEREO;
+  bool second_planes = false;  // surface probes: second planes at depth edges
   lf::Backend backend = lf::Backend::kAuto;
   // Read-only statistics, written by the aggregate thread under the lock.
   guint64 frames = 0;      // frames composited since start
@@ -106,11 +107,13 @@ struct Settings {
 // A fragment waiting for its frame. Raw fragments are parsed in place: their
 // pixels stay in the received buffer, which stays mapped (and referenced)
 // until the frame is composited; JPEG ones are decoded into `f.pixels`.
+// A buffer holding a camera's two layers (lib/lf/wire.h) gives two pieces;
+// the first keeps the mapping, the second's raw pixels point into it.
 struct Piece {
   lf::Fragment f;
   std::optional<lfgst::MappedBuffer> buffer;
-  const uint8_t* raw_pixels = nullptr;  // inside `buffer`
-  const uint8_t* pixels() const { return buffer ? raw_pixels : f.pixels.data(); }
+  const uint8_t* raw_pixels = nullptr;  // inside a mapped buffer (this piece's or the one before)
+  const uint8_t* pixels() const { return raw_pixels ? raw_pixels : f.pixels.data(); }
 };
 struct Group {
   std::vector<Piece> fragments;
@@ -187,6 +190,7 @@ struct State {
   gint64 stale_since_us = -1;  // first out-of-window fragment since the last frame
   int64_t viewer = -1;         // the viewer composited (viewer-id, or the first seen)
   lf::Compositor comp, comp_right;
+  lf::LayerCompositor layers[2];       // per eye, for frames with second-plane fragments
   std::unique_ptr<lf::GlRenderer> gl;  // backend gl (or auto on a hardware GPU)
   cv::Mat last_frame;  // RGBA of the last frame emitted (missing pixels come from it)
   cv::Mat frames[2];   // the RGBA frames resolved into, in turn (one is last_frame)
@@ -462,8 +466,15 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
     if (!lfgst::guard(
             [&] {
               cv::Mat& into = e ? right : rgba;
-              refused = st->gl ? st->gl->composite(w, H, eye[e], into)
-                               : (e ? st->comp_right : st->comp).composite(w, H, eye[e], into);
+              const bool layered =
+                  std::any_of(eye[e].begin(), eye[e].end(),
+                              [](const lf::FragmentPixels& fp) { return fp.fragment->layer != 0; });
+              if (layered)  // two planes per tile: chosen per pixel (CPU)
+                refused = st->layers[e].composite(w, H, eye[e], into);
+              else if (st->gl)
+                refused = st->gl->composite(w, H, eye[e], into);
+              else
+                refused = (e ? st->comp_right : st->comp).composite(w, H, eye[e], into);
             },
             &err)) {
       GST_ELEMENT_ERROR(self, STREAM, FAILED, ("Cannot composite the frame"), ("%s", err->message));
@@ -705,10 +716,14 @@ static void absorb_surface_probe(LfCompositor* self, State* st, const guint8* da
             if (it == st->surface_probes.open.end()) {
               if (st->surface_probes.open.size() >= kMaxSurfaceProbes)
                 finish_surface_probe(self, st, st->surface_probes.oldest());
+              lf::SurfaceOptions opt;
+              opt.second_planes = lfgst::read_setting(GST_OBJECT(self), self->priv->settings,
+                                                      &Settings::second_planes);
               it = st->surface_probes.open
-                       .emplace(id, Probe<lf::SurfaceProbeAnswers>{id, head.viewer_id,
-                                                                   g_get_monotonic_time(),
-                                                                   lf::SurfaceProbeAnswers(w, h)})
+                       .emplace(id,
+                                Probe<lf::SurfaceProbeAnswers>{id, head.viewer_id,
+                                                               g_get_monotonic_time(),
+                                                               lf::SurfaceProbeAnswers(w, h, opt)})
                        .first;
             }
             const lf::SurfaceProbeAnswers& a = it->second.answers;
@@ -748,6 +763,9 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
   lf::Fragment f;
   lf::Encoding enc = lf::Encoding::kEmpty;
   const uint8_t* pixels = nullptr;
+  std::optional<lf::Fragment> second;  // layer 1, after layer 0 in the same buffer
+  lf::Encoding second_enc = lf::Encoding::kEmpty;
+  const uint8_t* second_pixels = nullptr;
   int w = 0, h = 0;
   const gint64 t0 = g_get_monotonic_time();
   if (!lfgst::guard([&] { head = lf::peek_fragment_header(data, size); }, &err)) {
@@ -777,15 +795,31 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
                    head.sequence);
   } else if (!lfgst::guard(
                  [&] {
-                   f = lf::parse_fragment_in_place(data, size, &pixels, &enc,
-                                                   static_cast<size_t>(w) * static_cast<size_t>(h),
-                                                   !lfgst::has_sealed_meta(buf));
+                   // One fragment, or a camera's layer 0 then its layer 1
+                   // (a surface with second planes): the first's header
+                   // says where it ends.
+                   const size_t pixel_limit = static_cast<size_t>(w) * static_cast<size_t>(h);
+                   const bool sealed = lfgst::has_sealed_meta(buf);
+                   const size_t first = lf::kFragmentHeaderSize + head.payload_size;
+                   f = lf::parse_fragment_in_place(data, std::min(first, size), &pixels, &enc,
+                                                   pixel_limit, !sealed);
+                   if (first < size) {
+                     second.emplace(lf::parse_fragment_in_place(data + first, size - first,
+                                                                &second_pixels, &second_enc,
+                                                                pixel_limit, !sealed));
+                     if (f.layer != 0 || second->layer != 1 || second->viewer_id != f.viewer_id ||
+                         second->sequence != f.sequence || second->camera_id != f.camera_id)
+                       throw lf::WireError(
+                           "fragment: a buffer's second fragment must be the same camera's layer "
+                           "1 of the same request, after its layer 0");
+                   }
                  },
                  &err)) {
     LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE, ("Dropping a malformed fragment"),
                                "%s", err->message);
     g_error_free(err);
-  } else if (f.out_width != w || f.out_height != h) {
+  } else if (f.out_width != w || f.out_height != h ||
+             (second && (second->out_width != w || second->out_height != h))) {
     LF_ELEMENT_WARNING_LIMITED(self, st->wrong_size, STREAM, DECODE,
                                ("Dropping a fragment for another output size"),
                                "camera %u: fragment for %dx%d, the output is %dx%d", f.camera_id,
@@ -807,12 +841,13 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
         if (GST_CLOCK_TIME_IS_VALID(g.pts))
           g.running_time = gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, g.pts);
       }
-      Piece piece{std::move(f), std::nullopt, nullptr};
-      if (enc == lf::Encoding::kRaw) {
-        piece.buffer.emplace(std::move(*mapped));
-        piece.raw_pixels = pixels;
-      }
+      const bool raw = enc == lf::Encoding::kRaw;
+      const bool raw2 = second && second_enc == lf::Encoding::kRaw;
+      Piece piece{std::move(f), std::nullopt, raw ? pixels : nullptr};
+      if (raw || raw2) piece.buffer.emplace(std::move(*mapped));
       g.fragments.push_back(std::move(piece));
+      if (second)
+        g.fragments.push_back({std::move(*second), std::nullopt, raw2 ? second_pixels : nullptr});
     }
   }
 }
@@ -1075,6 +1110,15 @@ static void lf_compositor_class_init(LfCompositorClass* klass) {
                                  "twice as wide; changeable while playing (the output is then "
                                  "renegotiated)",
                                  DEFAULT_STEREO, lfgst::kReadWritePlaying));
+  props.add(oc, &Settings::second_planes,
+            g_param_spec_boolean(
+                "second-planes", "Second planes",
+                "Surface probes (lfviewrequest focal-surface): tiles next to a depth edge get the "
+                "neighbouring depth as a second plane; the cameras then send those tiles twice "
+                "(layer 1: the nearer plane) and this element takes per pixel the layer whose "
+                "cameras agree (lib/lf/composite.h LayerCompositor, on the CPU); more bytes where "
+                "the scene has depth edges, none elsewhere",
+                FALSE, lfgst::kReadWritePlaying));
   props.add(oc, &Settings::backend,
             g_param_spec_enum("backend", "Backend",
                               "Which renderer adds the fragments and resolves the frame "

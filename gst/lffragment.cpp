@@ -531,40 +531,64 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
         f.viewer_id = req.viewer_id;
         f.sequence = req.sequence;
         f.capture_time_ns = capture_time_of(self, frame, cam.id);
-        const lf::FragmentPlan plan = lf::plan_fragment(g, st->index);
+        // A surface with second planes: this camera's layer-0 and layer-1
+        // fragments, back to back in one buffer (lib/lf/wire.h).
+        std::vector<lf::FragmentPlan> plans;
+        if (req.surface.two_planes()) {
+          auto both = lf::plan_fragment_layers(g, st->index);
+          plans.push_back(std::move(both[0]));
+          if (!both[1].empty()) plans.push_back(std::move(both[1]));  // else nothing to add
+        } else {
+          plans.push_back(lf::plan_fragment(g, st->index));
+        }
         if (st->gl && (st->uploaded_of != frame || st->uploaded_pts != GST_BUFFER_PTS(frame))) {
           st->gl->set_image(0, rgba);
           st->uploaded_of = frame;
           st->uploaded_pts = GST_BUFFER_PTS(frame);
         }
-        auto draw = [&](uint8_t* px) {
+        auto draw = [&](const lf::FragmentPlan& plan, uint8_t* px) {
           if (st->gl)
             st->gl->render_pixels(plan, cam, 0, px);
           else
             lf::render_pixels(plan, cam, rgba, px);
         };
+        size_t warped = 0;
         if (st->s.encoding == Encoding::kJpeg) {
-          lf::describe_fragment(plan, f);
-          f.camera_id = static_cast<uint32_t>(cam.id);
-          f.pixels.resize(4 * plan.pixel_count());
-          draw(f.pixels.data());
+          for (const lf::FragmentPlan& plan : plans) {
+            lf::describe_fragment(plan, f);
+            f.camera_id = static_cast<uint32_t>(cam.id);
+            f.pixels.resize(4 * plan.pixel_count());
+            draw(plan, f.pixels.data());
+            warped += f.pixel_count();
+            const std::vector<uint8_t> one =
+                lf::serialize_fragment(f, lf::Encoding::kJpeg, quality);
+            bytes.insert(bytes.end(), one.begin(), one.end());
+          }
           lfgst::trace(GST_ELEMENT(self), "warped", req.viewer_id, req.sequence, cam.id,
-                       static_cast<gint64>(f.pixel_count()));
-          bytes = lf::serialize_fragment(f, lf::Encoding::kJpeg, quality);
+                       static_cast<gint64>(warped));
           out = gst_buffer_new_memdup(bytes.data(), bytes.size());
         } else {
           // Raw: rendered straight into the output buffer, in its wire
           // format (no copy of the pixels).
-          lf::describe_fragment(plan, f);
-          const size_t size = lf::raw_fragment_size(f);
+          std::vector<lf::Fragment> heads(plans.size(), f);
+          size_t size = 0;
+          for (size_t k = 0; k < plans.size(); ++k) {
+            lf::describe_fragment(plans[k], heads[k]);
+            size += lf::raw_fragment_size(heads[k]);
+          }
           out = gst_buffer_new_allocate(nullptr, size, nullptr);
           lfgst::add_sealed_meta(out);  // while it is writable (sealed below)
           lfgst::MappedBuffer map(out, GST_MAP_WRITE);
-          uint8_t* px = lf::write_raw_fragment(f, map.data(), size);
-          draw(px);
-          lf::seal_fragment(map.data(), size);
+          uint8_t* at = map.data();
+          for (size_t k = 0; k < plans.size(); ++k) {
+            const size_t one = lf::raw_fragment_size(heads[k]);
+            draw(plans[k], lf::write_raw_fragment(heads[k], at, one));
+            lf::seal_fragment(at, one);
+            at += one;
+            warped += plans[k].pixel_count();
+          }
           lfgst::trace(GST_ELEMENT(self), "warped", req.viewer_id, req.sequence, cam.id,
-                       static_cast<gint64>(plan.pixel_count()));
+                       static_cast<gint64>(warped));
         }
         lfgst::trace(GST_ELEMENT(self), "encoded", req.viewer_id, req.sequence, cam.id,
                      static_cast<gint64>(gst_buffer_get_size(out)));

@@ -5,7 +5,9 @@
 //   time of the frames measured, -1 unknown), tile, cols, rows (int: the
 //   lf::FocalSurface grid), planes (GBytes: 4 doubles per plane, n.x, n.y,
 //   n.z, d, world frame, n.X + d = 0; plane 0 the single plane), plane-of
-//   (GBytes: one plane index per tile, row-major), planes-used (int).
+//   (GBytes: one plane index per tile, row-major), planes-used (int), and
+//   with second planes second-of (GBytes: one plane index per tile, 255 for
+//   none; lf::FocalSurface::second_of).
 // One place writes and reads the layout: the compositor, the view request
 // and the tests.
 #pragma once
@@ -34,12 +36,18 @@ inline GstStructure* surface_structure(guint viewer, guint probe, gint64 capture
       ob, "planes-used", G_TYPE_INT, planes_used, nullptr);
   g_bytes_unref(pb);
   g_bytes_unref(ob);
+  if (fs.two_planes()) {
+    GBytes* sb = g_bytes_new(fs.second_of.data(), fs.second_of.size());
+    gst_structure_set(s, "second-of", G_TYPE_BYTES, sb, nullptr);
+    g_bytes_unref(sb);
+  }
   return s;
 }
 
 // Reads an lf-surface structure's probe id and surface; false when a field
 // is missing, of another type or out of its bounds (tile 4..1024, cols and
-// rows 1..16384, 1..64 planes, one plane index per tile). Only sizes are
+// rows 1..16384, 1..64 planes, one plane index per tile, and per tile a
+// second-plane index when second-of is there). Only sizes are
 // checked: whoever uses the surface checks it against its view
 // (lf::validate).
 inline bool read_surface_structure(const GstStructure* s, guint* probe, lf::FocalSurface* fs) {
@@ -71,6 +79,15 @@ inline bool read_surface_structure(const GstStructure* s, guint* probe, lf::Foca
     fs->planes.push_back(pl);
   }
   fs->plane_of.assign(o, o + no);
+  fs->second_of.clear();
+  if (const GValue* sv = gst_structure_get_value(s, "second-of")) {
+    if (!G_VALUE_HOLDS(sv, G_TYPE_BYTES)) return false;
+    gsize ns = 0;
+    const auto* so = static_cast<const uint8_t*>(
+        g_bytes_get_data(static_cast<GBytes*>(g_value_get_boxed(sv)), &ns));
+    if (ns != no) return false;
+    fs->second_of.assign(so, so + ns);
+  }
   return true;
 }
 

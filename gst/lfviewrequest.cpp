@@ -82,7 +82,11 @@
  * one plane index per tile, row-major; `planes-used`). From then on the
  * requests carry the surface (view request version 3, lib/lf/wire.h) in
  * place of `focal-plane` and `focal-depth`, and `surface-planes` says how
- * many planes it has; a newer probe's answer replaces it. Between probes a
+ * many planes it has; a newer probe's answer replaces it. With
+ * `lfcompositor second-planes=true` tiles next to a depth edge get a second
+ * plane (`second-of`: #GBytes of one plane index per tile, 255 for none;
+ * `surface-two-plane-tiles` says how many): each camera then sends those
+ * tiles twice and the compositor chooses per pixel. Between probes a
  * moving view keeps the last surface, so it suits a steady or slowly moving
  * view. An eye on a camera sees that camera's image, for which the
  * estimate keeps one plane. A live source goes on while the answer is on
@@ -195,7 +199,8 @@ struct Settings {
   bool continuous_focus = false;
   bool focal_surface = false;
   guint surface_interval = DEFAULT_SURFACE_INTERVAL;
-  guint surface_planes = 0;  // read-only: planes of the surface in use (object lock)
+  guint surface_planes = 0;           // read-only: planes of the surface in use (object lock)
+  guint surface_two_plane_tiles = 0;  // read-only: its tiles with a second plane
 };
 
 // The views and focal plane that the view settings describe.
@@ -895,7 +900,7 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   }
   const lf::FocalSurface surface = st->surface;
   g_mutex_unlock(&p->lock);
-  guint surface_planes = 0;
+  guint surface_planes = 0, two_plane_tiles = 0;
   if (!surface.empty()) {
     lf::ViewRequest with = req;
     with.focal_plane = surface.planes[0];
@@ -904,6 +909,7 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
     if (lfgst::guard([&] { lf::validate(with); }, &serr)) {
       req = with;
       surface_planes = static_cast<guint>(surface.planes_used());
+      two_plane_tiles = static_cast<guint>(req.surface.two_plane_tiles());
     } else {
       LF_ELEMENT_WARNING_LIMITED(self, p->bad_view, LIBRARY, SETTINGS,
                                  ("Ignoring a focal surface that does not fit the view"), "%s",
@@ -916,6 +922,7 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   }
   GST_OBJECT_LOCK(self);
   p->settings.surface_planes = surface_planes;
+  p->settings.surface_two_plane_tiles = two_plane_tiles;
   GST_OBJECT_UNLOCK(self);
   std::vector<lf::ViewRequest> tick{req};
   if (s.stereo_baseline > 0) {
@@ -1048,6 +1055,12 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
                               "Distinct planes of the focal surface in the last request (0: "
                               "none, the focal plane)",
                               0, lf::FocalSurface::kMaxPlanes, 0,
+                              static_cast<GParamFlags>(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
+  props.add(oc, &Settings::surface_two_plane_tiles,
+            g_param_spec_uint("surface-two-plane-tiles", "Two-plane tiles",
+                              "Tiles of the focal surface in the last request that have a second "
+                              "plane (lfcompositor second-planes: their cameras send them twice)",
+                              0, G_MAXUINT, 0,
                               static_cast<GParamFlags>(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
   spec_focal_depth = g_param_spec_double(
       "focal-depth", "Focal depth",

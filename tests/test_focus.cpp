@@ -19,6 +19,7 @@
 #include "lf/focus_probe.h"
 #include "lf/plan.h"
 #include "lf/render.h"
+#include "lf/render_view.h"
 #include "lf/rig_file.h"
 #include "lf/surface_probe.h"
 #include "lf/synthetic.h"
@@ -613,6 +614,84 @@ TEST_F(LiveSurface, ANonLiveSourceWaitsForTheAnswer) {
     EXPECT_FALSE(seen.requests[k].surface.empty()) << "request " << k;
     EXPECT_GE(seen.requests[k].surface.planes_used(), 2) << "request " << k;
   }
+}
+
+// Second planes through the elements (lfcompositor second-planes): the
+// compositor's surface gives the disc's rim two planes, the requests carry
+// them, every camera sends its two layers in one buffer, and the frames are
+// lf::render_view's of the same requests, bit for bit (non-live, stills).
+TEST_F(LiveSurface, SecondPlanesReachTheCamerasAndTheFrameIsTheOfflineOne) {
+  const std::string desc = "lfviewrequest name=req rig=" + rig_path +
+                           " width=" + std::to_string(kW) + " height=" + std::to_string(kH) +
+                           " vfov=20 eye-s=0.012 eye-t=-0.02 focal-surface=true num-buffers=4 "
+                           "! lfarray rig=" +
+                           rig_path +
+                           " mode=synthetic num-buffers=1 second-planes=true ! "
+                           "video/x-raw,format=RGBA ! appsink name=out sync=false";
+  GstElement* p = gst_parse_launch(desc.c_str(), nullptr);
+  ASSERT_NE(p, nullptr);
+  GstElement* req = gst_bin_get_by_name(GST_BIN(p), "req");
+  GstElement* out = gst_bin_get_by_name(GST_BIN(p), "out");
+  struct Seen {
+    std::mutex m;
+    std::vector<lf::ViewRequest> requests;  // frame requests, in order
+  } seen;
+  GstPad* req_src = gst_element_get_static_pad(req, "src");
+  gst_pad_add_probe(
+      req_src, GST_PAD_PROBE_TYPE_BUFFER,
+      [](GstPad*, GstPadProbeInfo* info, gpointer data) {
+        GstMapInfo map;
+        GstBuffer* b = GST_PAD_PROBE_INFO_BUFFER(info);
+        if (gst_buffer_map(b, &map, GST_MAP_READ)) {
+          const lf::ViewRequest r = lf::parse_request(map.data, map.size);
+          gst_buffer_unmap(b, &map);
+          auto* all = static_cast<Seen*>(data);
+          std::lock_guard<std::mutex> l(all->m);
+          if (!lf::is_surface_probe(r.sequence)) all->requests.push_back(r);
+        }
+        return GST_PAD_PROBE_OK;
+      },
+      &seen, nullptr);
+  gst_object_unref(req_src);
+  gst_element_set_state(p, GST_STATE_PLAYING);
+  std::vector<cv::Mat> frames;
+  while (GstSample* sample =
+             gst_app_sink_try_pull_sample(GST_APP_SINK(out), 60 * kSlow * GST_SECOND)) {
+    GstBuffer* b = gst_sample_get_buffer(sample);
+    GstMapInfo map;
+    if (gst_buffer_map(b, &map, GST_MAP_READ)) {
+      frames.push_back(cv::Mat(kH, kW, CV_8UC4, map.data).clone());
+      gst_buffer_unmap(b, &map);
+    }
+    gst_sample_unref(sample);
+  }
+  guint two_plane_tiles = 0;
+  g_object_get(req, "surface-two-plane-tiles", &two_plane_tiles, nullptr);
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(req);
+  gst_object_unref(out);
+  gst_object_unref(p);
+  std::lock_guard<std::mutex> l(seen.m);
+  ASSERT_EQ(seen.requests.size(), 4u);
+  ASSERT_EQ(frames.size(), 4u);
+  EXPECT_GT(two_plane_tiles, 0u);
+  // The cameras' stills: the scene at t = 0, RGBA as the elements see it.
+  std::vector<cv::Mat> images;
+  for (const lf::Camera& c : rig.cameras) images.push_back(scene.render(c, 0.0, true));
+  for (size_t k = 1; k < frames.size(); ++k) {
+    const lf::ViewRequest& r = seen.requests[k];
+    EXPECT_TRUE(r.surface.two_planes()) << "request " << k;
+    EXPECT_EQ(r.surface.two_plane_tiles(), static_cast<int>(two_plane_tiles)) << "request " << k;
+    const cv::Mat ref = lf::render_view(rig, images, r);
+    EXPECT_EQ(cv::norm(frames[k], ref, cv::NORM_INF), 0) << "request " << k;
+    // Against the same surface without its second planes: the frames differ
+    // (the rim is chosen per pixel).
+    lf::ViewRequest one = r;
+    one.surface.second_of.clear();
+    EXPECT_GT(cv::norm(frames[k], lf::render_view(rig, images, one), cv::NORM_L1), 0);
+  }
+  std::printf("second planes through the elements: %u two-plane tiles of %d\n", two_plane_tiles,
+              seen.requests.back().surface.cols * seen.requests.back().surface.rows);
 }
 
 }  // namespace

@@ -372,6 +372,42 @@ TEST_F(Hostile, MissingFragmentsShowTheLastPictureNotBlack) {
   EXPECT_GT(cv::countNonZero(cb[3]), 0);
 }
 
+// A camera's two layers in one buffer (lib/lf/wire.h): a second fragment
+// that is not the same camera's layer 1 of the same request, or bytes that
+// are not a whole fragment, drop the buffer with a warning; it does not
+// count as the camera's answer, and a good pair composites.
+TEST_F(Hostile, MalformedLayerPairsAreDroppedNotCounted) {
+  Compositor c(rig2_path_, "viewer-id=0");
+  const lf::ViewRequest r = request(rig2_, 1);
+  const lf::Fragment f0 = fragment(rig2_, r, 0), f1 = fragment(rig2_, r, 1);
+  auto bytes = [](const lf::Fragment& f, int layer) {
+    lf::Fragment g = f;
+    g.layer = static_cast<uint8_t>(layer);
+    return lf::serialize_fragment(g, lf::Encoding::kRaw);
+  };
+  auto pair = [](std::vector<uint8_t> a, const std::vector<uint8_t>& b) {
+    a.insert(a.end(), b.begin(), b.end());
+    return a;
+  };
+  push(c.src, pair(bytes(f0, 0), bytes(f1, 1)));     // another camera's layer 1
+  push(c.src, pair(bytes(f0, 0), bytes(f0, 0)));     // layer 0 twice
+  push(c.src, pair(bytes(f0, 1), bytes(f0, 0)));     // layers in the wrong order
+  push(c.src, pair(bytes(f0, 0), {'L', 'F', 'F'}));  // a truncated second fragment
+  lf::Fragment other = f0;
+  other.sequence = 2;
+  push(c.src, pair(bytes(f0, 0), bytes(other, 1)));  // another request's layer 1
+  push(c.src, bytes(f1, 0));
+  // Camera 0 has not answered: request 1 is not complete.
+  EXPECT_EQ(pull(c.sink, nullptr, 0.5), -1);
+  cv::Mat frame;
+  push(c.src, pair(bytes(f0, 0), bytes(f0, 1)));
+  ASSERT_EQ(pull(c.sink, &frame), 1);
+  EXPECT_FALSE(c.error());
+  std::vector<cv::Mat> ch;
+  cv::split(frame, ch);
+  EXPECT_GT(cv::countNonZero(ch[3]), 0);
+}
+
 // 10. Local files: counts in a BAL header do not allocate before data is
 // read; out-of-range and wrongly typed rig fields give the documented
 // std::runtime_error.
