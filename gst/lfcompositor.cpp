@@ -33,6 +33,15 @@
  * image leaves its host, and the probes are ordinary requests and
  * fragments, so RTP carries them unchanged.
  *
+ * With `second-planes`, the surface gives tiles next to a depth edge a
+ * second plane. A camera then answers with two fragments in one buffer,
+ * its layer 0 and its layer 1 (the nearer plane of each two-plane tile),
+ * and such a frame is composited with a per-pixel choice between the
+ * layers (lib/lf/composite.h LayerCompositor, on the CPU whatever the
+ * backend): the nearer layer unless the other one's cameras agree clearly
+ * better. A buffer whose second fragment is not the same camera's layer 1
+ * of the same request is dropped with a warning.
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 lfviewrequest rig=rig.json num-buffers=30 ! tee name=t \

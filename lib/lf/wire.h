@@ -6,6 +6,13 @@
 // message ends with (fragment: its header ends with) a CRC-32 (zlib) over the
 // header and the payload, so corruption is detected, not rendered.
 //
+// A camera's answer to a request whose focal surface has second planes is
+// its layer-0 fragment followed by its layer-1 fragment (byte 46 below) in
+// one buffer: the first's header gives its size (56 + payload_size), the
+// second starts there and must be the same viewer, request and camera
+// (gst/lfcompositor.cpp checks this). Everything else is one fragment a
+// buffer.
+//
 // Fragment, version 1: 56-byte header
 //   0  "LFFR"            4 bytes magic
 //   4  version  u16      = 1
