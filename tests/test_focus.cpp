@@ -561,6 +561,32 @@ TEST_F(LiveSurface, TheCompositorsSurfaceReachesTheRequests) {
   EXPECT_GE(far_ok, 0.8 * far_n);
 }
 
+// The frame requests (not surface probes) that an lfviewrequest sends, in
+// order, recorded by a pad probe on its src pad.
+struct SentRequests {
+  std::mutex m;
+  std::vector<lf::ViewRequest> requests;
+};
+void record_requests(GstElement* req, SentRequests* seen) {
+  GstPad* src = gst_element_get_static_pad(req, "src");
+  gst_pad_add_probe(
+      src, GST_PAD_PROBE_TYPE_BUFFER,
+      [](GstPad*, GstPadProbeInfo* info, gpointer data) {
+        GstMapInfo map;
+        GstBuffer* b = GST_PAD_PROBE_INFO_BUFFER(info);
+        if (gst_buffer_map(b, &map, GST_MAP_READ)) {
+          const lf::ViewRequest r = lf::parse_request(map.data, map.size);
+          gst_buffer_unmap(b, &map);
+          auto* all = static_cast<SentRequests*>(data);
+          std::lock_guard<std::mutex> l(all->m);
+          if (!lf::is_surface_probe(r.sequence)) all->requests.push_back(r);
+        }
+        return GST_PAD_PROBE_OK;
+      },
+      seen, nullptr);
+  gst_object_unref(src);
+}
+
 // Non-live (an offline render): every request after the first probe
 // carries its answer, since the source waits for it instead of running
 // ahead of the pipeline (synthetic stills: a camera's last frame stands for
@@ -574,27 +600,8 @@ TEST_F(LiveSurface, ANonLiveSourceWaitsForTheAnswer) {
   GstElement* p = gst_parse_launch(desc.c_str(), nullptr);
   ASSERT_NE(p, nullptr);
   GstElement* req = gst_bin_get_by_name(GST_BIN(p), "req");
-  struct Seen {
-    std::mutex m;
-    std::vector<lf::ViewRequest> requests;  // frame requests, in order
-  } seen;
-  GstPad* req_src = gst_element_get_static_pad(req, "src");
-  gst_pad_add_probe(
-      req_src, GST_PAD_PROBE_TYPE_BUFFER,
-      [](GstPad*, GstPadProbeInfo* info, gpointer data) {
-        GstMapInfo map;
-        GstBuffer* b = GST_PAD_PROBE_INFO_BUFFER(info);
-        if (gst_buffer_map(b, &map, GST_MAP_READ)) {
-          const lf::ViewRequest r = lf::parse_request(map.data, map.size);
-          gst_buffer_unmap(b, &map);
-          auto* all = static_cast<Seen*>(data);
-          std::lock_guard<std::mutex> l(all->m);
-          if (!lf::is_surface_probe(r.sequence)) all->requests.push_back(r);
-        }
-        return GST_PAD_PROBE_OK;
-      },
-      &seen, nullptr);
-  gst_object_unref(req_src);
+  SentRequests seen;
+  record_requests(req, &seen);
   gst_element_set_state(p, GST_STATE_PLAYING);
   GstBus* bus = gst_element_get_bus(p);
   GstMessage* msg =
@@ -632,27 +639,8 @@ TEST_F(LiveSurface, SecondPlanesReachTheCamerasAndTheFrameIsTheOfflineOne) {
   ASSERT_NE(p, nullptr);
   GstElement* req = gst_bin_get_by_name(GST_BIN(p), "req");
   GstElement* out = gst_bin_get_by_name(GST_BIN(p), "out");
-  struct Seen {
-    std::mutex m;
-    std::vector<lf::ViewRequest> requests;  // frame requests, in order
-  } seen;
-  GstPad* req_src = gst_element_get_static_pad(req, "src");
-  gst_pad_add_probe(
-      req_src, GST_PAD_PROBE_TYPE_BUFFER,
-      [](GstPad*, GstPadProbeInfo* info, gpointer data) {
-        GstMapInfo map;
-        GstBuffer* b = GST_PAD_PROBE_INFO_BUFFER(info);
-        if (gst_buffer_map(b, &map, GST_MAP_READ)) {
-          const lf::ViewRequest r = lf::parse_request(map.data, map.size);
-          gst_buffer_unmap(b, &map);
-          auto* all = static_cast<Seen*>(data);
-          std::lock_guard<std::mutex> l(all->m);
-          if (!lf::is_surface_probe(r.sequence)) all->requests.push_back(r);
-        }
-        return GST_PAD_PROBE_OK;
-      },
-      &seen, nullptr);
-  gst_object_unref(req_src);
+  SentRequests seen;
+  record_requests(req, &seen);
   gst_element_set_state(p, GST_STATE_PLAYING);
   std::vector<cv::Mat> frames;
   while (GstSample* sample =

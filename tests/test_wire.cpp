@@ -345,6 +345,22 @@ void resign_request3(std::vector<uint8_t>& v) {
   for (int i = 0; i < 4; ++i) v[v.size() - 4 + i] = static_cast<uint8_t>(c >> (24 - 8 * i));
 }
 
+// Expects parse() to throw a WireError whose message holds `word`.
+template <class Parse>
+void expect_wire_error(Parse parse, const std::string& word) {
+  try {
+    parse();
+    ADD_FAILURE() << "accepted (" << word << ")";
+  } catch (const lf::WireError& e) {
+    EXPECT_NE(std::string(e.what()).find(word), std::string::npos) << e.what();
+  }
+}
+// A version 3 request, re-signed, refused with `word`.
+void expect_request_error(std::vector<uint8_t> v, const std::string& word) {
+  resign_request3(v);
+  expect_wire_error([&] { lf::parse_request(v.data(), v.size()); }, word);
+}
+
 // Version 3 carries the focal surface exactly; a request without one is
 // still version 2, byte for byte.
 TEST(Wire, FocalSurfaceRoundTrip) {
@@ -395,15 +411,7 @@ TEST(Wire, SecondPlanesRoundTrip) {
   EXPECT_EQ(s.surface.plane_of, r.surface.plane_of);
   EXPECT_EQ(s.surface.second_of, r.surface.second_of);
   EXPECT_EQ(s.surface.two_plane_tiles(), 240);
-  auto refused = [](std::vector<uint8_t> v, const std::string& word) {
-    resign_request3(v);
-    try {
-      lf::parse_request(v.data(), v.size());
-      ADD_FAILURE() << "accepted (" << word << ")";
-    } catch (const lf::WireError& e) {
-      EXPECT_NE(std::string(e.what()).find(word), std::string::npos) << e.what();
-    }
-  };
+  const auto refused = expect_request_error;
   auto v = b;
   v[159] = 2;
   refused(v, "flags");
@@ -438,15 +446,7 @@ TEST(Wire, BadFocalSurfacesAreRejected) {
     b[i] ^= 0x5a;
     EXPECT_THROW(lf::parse_request(b.data(), b.size()), lf::WireError) << "byte " << i;
   }
-  auto expect_error = [](std::vector<uint8_t> v, const std::string& word) {
-    resign_request3(v);
-    try {
-      lf::parse_request(v.data(), v.size());
-      ADD_FAILURE() << "accepted (" << word << ")";
-    } catch (const lf::WireError& e) {
-      EXPECT_NE(std::string(e.what()).find(word), std::string::npos) << e.what();
-    }
-  };
+  const auto expect_error = expect_request_error;
   auto put32 = [](std::vector<uint8_t>& v, size_t at, uint32_t x) {
     for (int i = 0; i < 4; ++i) v[at + i] = static_cast<uint8_t>(x >> (24 - 8 * i));
   };
@@ -531,12 +531,7 @@ TEST(Wire, InconsistentFragmentsAreRejected) {
   const auto good = lf::serialize_fragment(f, lf::Encoding::kRaw);
   auto expect_error = [](std::vector<uint8_t> b, const std::string& word) {
     resign_fragment(b);
-    try {
-      lf::parse_fragment(b.data(), b.size());
-      ADD_FAILURE() << "accepted (" << word << ")";
-    } catch (const lf::WireError& e) {
-      EXPECT_NE(std::string(e.what()).find(word), std::string::npos) << e.what();
-    }
+    expect_wire_error([&] { lf::parse_fragment(b.data(), b.size()); }, word);
   };
   auto b = good;
   put16(b, 36, static_cast<uint16_t>(f.out_width - f.rect.width + 1));  // rect beyond frame
