@@ -618,11 +618,14 @@ static gboolean push_upstream(GstAggregator* agg, GstEvent* event) {
 static void finish_probe(LfCompositor* self, State* st, Probes<lf::FocusProbeAnswers>::Iter it) {
   const auto probe = st->probes.take(it);
   double q = 0;
-  if (!st->rig || !probe.answers.best(*st->rig, &q)) {
-    LF_ELEMENT_WARNING_LIMITED(self, st->no_focus, STREAM, FAILED,
-                               ("Cannot focus at the clicked point"),
-                               "probe %u: too few pixels seen by two cameras (%zu fragments)",
-                               probe.id, probe.answers.fragments());
+  bool ok = false;
+  GError* err = nullptr;
+  if (!st->rig || !lfgst::guard([&] { ok = probe.answers.best(*st->rig, &q); }, &err) || !ok) {
+    LF_ELEMENT_WARNING_LIMITED(
+        self, st->no_focus, STREAM, FAILED, ("Cannot focus at the clicked point"),
+        "probe %u: %s (%zu fragments)", probe.id,
+        err ? err->message : "too few pixels seen by two cameras", probe.answers.fragments());
+    if (err) g_error_free(err);
     return;
   }
   lfgst::trace(GST_ELEMENT(self), "focused", probe.viewer, probe.id, -1,

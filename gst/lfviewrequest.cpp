@@ -51,9 +51,11 @@
  * 33 x 33 pixel window around the pixel (radius 16), one per candidate plane
  * parallel to the camera plane (0 to 24 px of neighbour parallax), seen from
  * the centre of the aperture triangle under that pixel. The cameras answer
- * with ordinary fragments; `lfcompositor` scores each plane by the weighted
- * colour variance among the cameras (photo-consistency) and sends an
- * upstream `lf-focus` event (`viewer-id`, `probe-id`, `inverse-depth`, rig
+ * with ordinary fragments; `lfcompositor` measures the weighted colour
+ * variance among the cameras (photo-consistency), runs the focal surface
+ * estimator on the window and takes the plane of the clicked pixel's tile
+ * (so a thin object under the pointer wins over the background around it),
+ * and sends an upstream `lf-focus` event (`viewer-id`, `probe-id`, `inverse-depth`, rig
  * units^-1, and `capture-time`, the instant measured, ns of running time,
  * -1 unknown), which sets `focal-depth` here. `continuous-focus=true` keeps
  * focusing at the last clicked point (the view centre before any click): a

@@ -100,6 +100,48 @@ TEST(FocusProbe, FindsTheDepthUnderTheClickedPixel) {
   EXPECT_EQ(lf::focus_probe_step(lf::focus_probe_sequence(0xffffffffu, 31)), 31);
 }
 
+// A thin object under the cursor: a bar about 7 pixels wide before the
+// background fills a fifth of the probe's window. The window's mean cost is
+// least at the background's depth; the estimator on the window focuses on
+// the bar.
+TEST(FocusProbe, AThinObjectUnderTheCursorWinsOverTheWindow) {
+  const lf::Rig rig = lf::synthetic_grid_rig(4, 4, 0.05, 320, 240);
+  lf::SyntheticScene scene = lf::SyntheticScene::for_rig(rig);
+  const double px_near = scene.near_depth / rig.cameras[0].intrinsics.fy;  // rig units per pixel
+  scene.bar_width = 5 * px_near, scene.bar_pitch = 200 * px_near;          // one bar on the disc
+  const double t = 0.3;
+  std::vector<cv::Mat> images;
+  for (const lf::Camera& c : rig.cameras) images.push_back(scene.render(c, t));
+  lf::ViewSettings vs;
+  vs.width = 320, vs.height = 240;
+  lf::ViewRequest view;
+  view.view = lf::build_views(rig, vs).at(0, rig, lf::camera_plane_offset(rig, 0.012, -0.02, 0));
+  view.focal_plane = lf::FocalPlane::infinity();
+  const double px = 1.0 / (rig.cameras[0].intrinsics.fx * rig.typical_spacing());
+  // The bar runs through the disc's centre (across u).
+  const cv::Point2d click = project(view.view, scene.disc_centre(t));
+  lf::FocusProbeScore score;
+  for (const lf::ViewRequest& r : lf::focus_probe_requests(rig, view, click.x, click.y, 9)) {
+    const lf::ViewGeometry g(rig, r);
+    for (size_t i = 0; i < rig.cameras.size(); ++i) {
+      lf::Fragment f;
+      lf::render_fragment(lf::plan_fragment(g, static_cast<int>(i)), rig.cameras[i], images[i], f);
+      score.add(lf::focus_probe_step(r.sequence), f);
+    }
+  }
+  double q = -1;
+  ASSERT_TRUE(score.best(rig, &q));
+  const std::vector<double> window = score.costs();
+  int b = 0;
+  for (int k = 0; k < lf::kFocusProbeSteps; ++k)
+    if (window[k] >= 0 && (window[b] < 0 || window[k] < window[b])) b = k;
+  const double q_window = lf::focus_probe_inverse_depth(rig, b);
+  std::printf("thin bar: estimator q %.4f, window mean q %.4f (bar %.4f, background %.4f)\n", q,
+              q_window, 1 / scene.near_depth, 1 / scene.far_depth);
+  EXPECT_NEAR(q_window, 1 / scene.far_depth, 1.0 * px) << "the window is mostly background";
+  EXPECT_NEAR(q, 1 / scene.near_depth, 0.5 * px);
+}
+
 // A probe whose answers are incomplete (a camera late or gone for some
 // steps) is scored from the cameras that answered every step: the same
 // answer as the probe without that camera, still on the disc.
@@ -628,11 +670,18 @@ TEST_F(LiveSurface, ANonLiveSourceWaitsForTheAnswer) {
 // them, every camera sends its two layers in one buffer, and the frames are
 // lf::render_view's of the same requests, bit for bit (non-live, stills).
 TEST_F(LiveSurface, SecondPlanesReachTheCamerasAndTheFrameIsTheOfflineOne) {
-  const std::string desc = "lfviewrequest name=req rig=" + rig_path +
-                           " width=" + std::to_string(kW) + " height=" + std::to_string(kH) +
+  // 320x240 cameras and view in every build (at 160x120 the disc's rim is
+  // less than 4 planes of the probe's sweep deep: no second planes).
+  constexpr int W = 320, H = 240;
+  const std::string path = rig_path + ".320.json";
+  lf::save_rig(lf::synthetic_grid_rig(3, 3, 0.05, W, H), path);
+  const lf::Rig rig = lf::load_rig(path);
+  const lf::SyntheticScene scene = lf::SyntheticScene::for_rig(rig);
+  const std::string desc = "lfviewrequest name=req rig=" + path + " width=" + std::to_string(W) +
+                           " height=" + std::to_string(H) +
                            " vfov=20 eye-s=0.012 eye-t=-0.02 focal-surface=true num-buffers=4 "
                            "! lfarray rig=" +
-                           rig_path +
+                           path +
                            " mode=synthetic num-buffers=1 second-planes=true ! "
                            "video/x-raw,format=RGBA ! appsink name=out sync=false";
   GstElement* p = gst_parse_launch(desc.c_str(), nullptr);
@@ -648,7 +697,7 @@ TEST_F(LiveSurface, SecondPlanesReachTheCamerasAndTheFrameIsTheOfflineOne) {
     GstBuffer* b = gst_sample_get_buffer(sample);
     GstMapInfo map;
     if (gst_buffer_map(b, &map, GST_MAP_READ)) {
-      frames.push_back(cv::Mat(kH, kW, CV_8UC4, map.data).clone());
+      frames.push_back(cv::Mat(H, W, CV_8UC4, map.data).clone());
       gst_buffer_unmap(b, &map);
     }
     gst_sample_unref(sample);
@@ -659,6 +708,7 @@ TEST_F(LiveSurface, SecondPlanesReachTheCamerasAndTheFrameIsTheOfflineOne) {
   gst_object_unref(req);
   gst_object_unref(out);
   gst_object_unref(p);
+  std::filesystem::remove(path);
   std::lock_guard<std::mutex> l(seen.m);
   ASSERT_EQ(seen.requests.size(), 4u);
   ASSERT_EQ(frames.size(), 4u);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "lf/focal_surface.h"
 #include "lf/focus.h"
 #include "lf/view_builder.h"
 
@@ -134,22 +135,68 @@ std::vector<double> FocusProbeScore::costs() const {
 }
 
 bool FocusProbeScore::best(const Rig& rig, double* inverse_depth) const {
-  const std::vector<double> c = costs();
-  int scored = 0, b = -1;
+  // The focal surface estimator on the window (lf/focal_surface.h): per
+  // step, the cost of each tile of kFocusProbeTile pixels (the cameras'
+  // colour variance per channel, levels^2, truncated as the estimator's
+  // grey-level variance is), labelled by surface_from_costs.
+  constexpr int T = kFocusProbeTile, cols = (kSide + T - 1) / T, tiles = cols * cols;
+  constexpr double kCap = 25.0 * 25.0;
+  SweepCosts c;
+  std::vector<double> sum(tiles), count(tiles);
   for (int s = 0; s < kFocusProbeSteps; ++s) {
-    if (c[s] < 0) continue;
-    ++scored;
-    if (b < 0 || c[s] < c[b]) b = s;
+    std::fill(sum.begin(), sum.end(), 0.0);
+    std::fill(count.begin(), count.end(), 0.0);
+    for (int p = 0; p < kSide * kSide; ++p) {
+      const size_t i = static_cast<size_t>(s) * kSide * kSide + p;
+      if (cameras_[i] < 2) continue;
+      const double* v = &sums_[i * 7];
+      double var = 0;
+      for (int ch = 0; ch < 3; ++ch) {
+        const double mean = v[1 + ch] / v[0];
+        var += std::max(0.0, v[4 + ch] / v[0] - mean * mean);
+      }
+      const int t = (p / kSide / T) * cols + (p % kSide) / T;
+      sum[t] += std::min(kCap, var / 3);
+      count[t] += 1;
+    }
+    if (std::all_of(count.begin(), count.end(), [](double n) { return n == 0; }))
+      continue;  // a step no pixel of which two cameras saw
+    c.qs.push_back(focus_probe_inverse_depth(rig, s));
+    c.sum.insert(c.sum.end(), sum.begin(), sum.end());
+    c.count.insert(c.count.end(), count.begin(), count.end());
   }
-  if (scored < kFocusProbeSteps / 2 || b < 0) return false;
-  double step = b;
-  // Parabola through the neighbours (where both were scored).
-  if (b > 0 && b + 1 < kFocusProbeSteps && c[b - 1] >= 0 && c[b + 1] >= 0) {
-    const double den = c[b - 1] - 2 * c[b] + c[b + 1];
-    if (den > 1e-12) step = b + 0.5 * (c[b - 1] - c[b + 1]) / den;
+  const int planes = static_cast<int>(c.qs.size());
+  if (planes < kFocusProbeSteps / 2) return false;
+  SurfaceOptions opt;
+  opt.tile = T;
+  const SurfaceEstimate e =
+      surface_from_costs(rig, c, cols, cols, NAN, 0.5 * T * T, opt);  // half a tile's pixels
+  // The clicked pixel's tile: its label's plane when that is one of the
+  // sweep's (the single plane is refined already), then the least cost of
+  // the tile's own pixels (not aggregated with its neighbours, which may
+  // lie at another depth) within a plane of it, refined by a parabola.
+  const int centre = (kFocusProbeRadius / T) * cols + kFocusProbeRadius / T;
+  double q = e.tile_q[centre];
+  int k = static_cast<int>(std::find(c.qs.begin(), c.qs.end(), q) - c.qs.begin());
+  if (k < planes && c.count[static_cast<size_t>(k) * tiles + centre] > 0) {
+    auto own = [&](int j) {
+      const size_t at = static_cast<size_t>(j) * tiles + centre;
+      return c.count[at] > 0 ? c.sum[at] / c.count[at] : kCap;
+    };
+    if (k > 0 && own(k - 1) < own(k))
+      --k;
+    else if (k + 1 < planes && own(k + 1) < own(k))
+      ++k;
+    q = c.qs[k];
+    if (k > 0 && k + 1 < planes) {
+      const double a = own(k - 1), b = own(k), d = own(k + 1), den = a - 2 * b + d;
+      if (den > 1e-12) {
+        const double x = std::clamp(0.5 * (a - d) / den, -0.5, 0.5);
+        q += x * (x < 0 ? q - c.qs[k - 1] : c.qs[k + 1] - q);
+      }
+    }
   }
-  const double q_max = focus_probe_inverse_depth(rig, kFocusProbeSteps - 1);
-  *inverse_depth = q_max * step / (kFocusProbeSteps - 1);
+  *inverse_depth = q;
   return true;
 }
 

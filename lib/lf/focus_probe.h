@@ -4,10 +4,16 @@
 // camera plane (a plane sweep). Each camera answers with its fragment, as for
 // any request: only the pixels its aperture weight covers, already warped
 // through the candidate plane. Where the plane passes through the scene at
-// that pixel the contributing cameras agree; the compositor scores each
-// plane by the aperture-weighted colour variance among the cameras' fragments
+// that pixel the contributing cameras agree; the compositor measures the
+// aperture-weighted colour variance among the cameras' fragments
 // (photo-consistency, as lf::AutofocusContext does from whole images) and
-// picks the plane of least variance, refined by a parabola. No camera image
+// runs the focal surface estimator on the window (lf/focal_surface.h
+// surface_from_costs: kFocusProbeTile-pixel tiles, costs aggregated over
+// 3 x 3 tiles, semi-global matching, textureless tiles keeping the window's
+// best single plane); the answer is the plane of the clicked pixel's tile,
+// refined by a parabola. So what is under the cursor wins even where it
+// fills a small part of the window (a thin object before a background,
+// whose mean over the window would pick the background). No camera image
 // leaves its host, and nothing but the wire format's requests and fragments
 // is needed, so it works the same over RTP.
 //
@@ -41,6 +47,7 @@ constexpr uint64_t kFocusProbeBit = uint64_t{1} << 62;
 constexpr int kFocusProbeSteps = 32;
 constexpr int kFocusProbeRadius = 16;  // output pixels: a 33 x 33 window
 constexpr int kFocusProbeSide = 2 * kFocusProbeRadius + 1;
+constexpr int kFocusProbeTile = 4;  // estimator tiles over the window: 9 x 9 (the last 1 px)
 constexpr double kFocusProbeMaxParallaxPx = 24.0;
 
 // Exactly the probe pattern: bits 48..63 = 0x4000 and a step below
@@ -84,8 +91,9 @@ class FocusProbeScore {
   // colour standard deviation among the cameras (8-bit levels, truncated at
   // 25 for occlusions), per step; -1 where no pixel had two cameras.
   std::vector<double> costs() const;
-  // The inverse depth of least cost, refined by a parabola through its
-  // neighbours; false when fewer than half the steps could be scored.
+  // The inverse depth at the clicked pixel (the window's centre) by the
+  // focal surface estimator on the window (see the top of this file);
+  // false when fewer than half the steps could be scored.
   bool best(const Rig& rig, double* inverse_depth) const;
 
  private:
