@@ -281,9 +281,11 @@ SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols
   if (opt.second_planes) {
     // A tile next to a depth edge holds both depths: its second plane is
     // the label among its 8 neighbours furthest from its own, when that is
-    // at least second_gap planes away.
+    // at least second_gap planes of the first pass away (in inverse depth:
+    // the costs may be a finer sweep's).
     fs.second_of.assign(tiles, FocalSurface::kNone);
-    auto pos = [&](int l) { return l == M ? gpos : static_cast<double>(l); };
+    const double min_dq = opt.second_gap * sweep_q_max(rig, opt) / (opt.planes - 1);
+    auto q_of = [&](int l) { return l == M ? single_q : c.qs[l]; };
     for (int r = 0; r < rows; ++r)
       for (int q = 0; q < cols; ++q) {
         const int t = r * cols + q, l = label[t];
@@ -294,8 +296,8 @@ SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols
             const int rr = r + dr, qq = q + dq;
             if (rr < 0 || qq < 0 || rr >= rows || qq >= cols) continue;
             const int n = label[rr * cols + qq];
-            if (n < 0 || std::abs(pos(n) - pos(l)) < opt.second_gap) continue;
-            if (far < 0 || std::abs(pos(n) - pos(l)) > std::abs(pos(far) - pos(l))) far = n;
+            if (n < 0 || std::abs(q_of(n) - q_of(l)) < min_dq) continue;
+            if (far < 0 || std::abs(q_of(n) - q_of(l)) > std::abs(q_of(far) - q_of(l))) far = n;
           }
         if (far >= 0) fs.second_of[t] = static_cast<uint8_t>(plane_of_label[far]);
       }

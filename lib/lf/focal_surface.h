@@ -54,7 +54,7 @@ struct SurfaceOptions {
   // and reuses the other planes' costs from earlier calls.
   int stride = 1;
   // Two planes per tile: a textured tile next to a depth edge (a neighbour
-  // labelled second_gap planes or more of the last pass from its own) gets
+  // labelled second_gap planes of the first pass or more from its own) gets
   // the furthest such neighbour's plane as its second
   // (FocalSurface::second_of; each camera then sends those tiles twice and
   // the compositor chooses per pixel, lf/composite.h LayerCompositor).
