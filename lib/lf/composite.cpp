@@ -178,16 +178,34 @@ size_t Compositor::fill_from(cv::Mat& out, const cv::Mat& previous) {
 namespace {
 // Adds 255 |p|^2 / a (w |c|^2 with w = a / 255 and c = 255 p / a, p
 // premultiplied) of a fragment's pixels where `where` has weight.
-void add_squares(const Fragment& f, const uint8_t* pixels, const Compositor& where, cv::Mat& sq) {
+// Blocks of kBlock x kBlock pixels that layer 1 reaches, so that the rest
+// of the frame is skipped (two-plane tiles are few where the scene needs
+// few).
+constexpr int kBlock = 8;
+struct Blocks {
+  int cols = 0;
+  std::vector<uint8_t> on;
+  bool at(int x, int y) const { return on[(y / kBlock) * cols + x / kBlock] != 0; }
+};
+
+void add_squares(const Fragment& f, const uint8_t* pixels, const Compositor& where,
+                 const Blocks& blocks, cv::Mat& sq) {
   const uint8_t* px = pixels;
   for (int r = 0; r < f.rect.height; ++r) {
     const int b = f.spans[r][0], e = f.spans[r][1], y = f.rect.y + r;
     float* row = sq.ptr<float>(y);
-    for (int x = b; x < e; ++x, px += 4) {
-      if (px[3] == 0 || where.weight_at(x, y) == 0) continue;
-      const float p0 = px[0], p1 = px[1], p2 = px[2];
-      row[x] += 255.0f * (p0 * p0 + p1 * p1 + p2 * p2) / px[3];
+    for (int x = b; x < e;) {
+      const int end = std::min(e, (x / kBlock + 1) * kBlock);
+      if (blocks.at(x, y))
+        for (int k = x; k < end; ++k) {
+          const uint8_t* q = px + 4 * (k - b);
+          if (q[3] == 0 || where.weight_at(k, y) == 0) continue;
+          const float p0 = q[0], p1 = q[1], p2 = q[2];
+          row[k] += 255.0f * (p0 * p0 + p1 * p1 + p2 * p2) / q[3];
+        }
+      x = end;
     }
+    px += 4 * (e - b);
   }
 }
 }  // namespace
@@ -216,47 +234,56 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
   if (choice) *choice = cv::Mat::zeros(height, width, CV_8UC1);
   for (int l = 0; l < 2; ++l) sq_[l] = cv::Mat::zeros(height, width, CV_32FC1);
   // Layer 1 first: where it has weight is where the choice is made.
-  cv::Rect two;  // its bounding box
+  Blocks blocks;
+  blocks.cols = (width + kBlock - 1) / kBlock;
+  blocks.on.assign(static_cast<size_t>(blocks.cols) * ((height + kBlock - 1) / kBlock), 0);
   for (size_t i : layer_of[1]) {
-    comp_[1].add(*fragments[i].fragment, fragments[i].pixels);
-    two |= fragments[i].fragment->rect;
+    const Fragment& f = *fragments[i].fragment;
+    comp_[1].add(f, fragments[i].pixels);
+    for (int r = 0; r < f.rect.height; ++r)
+      for (int x = f.spans[r][0]; x < f.spans[r][1]; x = (x / kBlock + 1) * kBlock)
+        blocks.on[((f.rect.y + r) / kBlock) * blocks.cols + x / kBlock] = 1;
   }
   for (size_t i : layer_of[1])
-    add_squares(*fragments[i].fragment, fragments[i].pixels, comp_[1], sq_[1]);
+    add_squares(*fragments[i].fragment, fragments[i].pixels, comp_[1], blocks, sq_[1]);
   for (size_t i : layer_of[0]) {
     comp_[0].add(*fragments[i].fragment, fragments[i].pixels);
     if (!layer_of[1].empty())
-      add_squares(*fragments[i].fragment, fragments[i].pixels, comp_[1], sq_[0]);
+      add_squares(*fragments[i].fragment, fragments[i].pixels, comp_[1], blocks, sq_[0]);
   }
   comp_[0].resolve(out);
-  if (two.empty()) return refused;
-  // Window means, over layer 1's pixels, of both layers' variances.
+  if (layer_of[1].empty()) return refused;
+  // Per pixel where layer 1 has weight: both layers' variances; then their
+  // window means over those pixels, block by block.
   const int R = kChoiceWindow / 2;
-  const cv::Rect roi = cv::Rect(two.x - R, two.y - R, two.width + 2 * R, two.height + 2 * R) &
-                       cv::Rect(0, 0, width, height);
-  cv::Mat v[2], n(roi.size(), CV_32FC1, cv::Scalar(0));
-  for (int l = 0; l < 2; ++l) v[l] = cv::Mat::zeros(roi.size(), CV_32FC1);
-  for (int y = roi.y; y < roi.y + roi.height; ++y)
-    for (int x = roi.x; x < roi.x + roi.width; ++x) {
-      if (comp_[1].weight_at(x, y) == 0) continue;
-      for (int l = 0; l < 2; ++l) v[l].at<float>(y - roi.y, x - roi.x) = variance_at(l, x, y);
-      n.at<float>(y - roi.y, x - roi.x) = 1;
-    }
-  for (int y = two.y; y < two.y + two.height; ++y)
-    for (int x = two.x; x < two.x + two.width; ++x) {
-      if (comp_[1].weight_at(x, y) == 0) continue;
-      float s0 = 0, s1 = 0, c = 0;
-      for (int yy = std::max(roi.y, y - R); yy <= std::min(roi.y + roi.height - 1, y + R); ++yy)
-        for (int xx = std::max(roi.x, x - R); xx <= std::min(roi.x + roi.width - 1, x + R); ++xx) {
-          s0 += v[0].at<float>(yy - roi.y, xx - roi.x);
-          s1 += v[1].at<float>(yy - roi.y, xx - roi.x);
-          c += n.at<float>(yy - roi.y, xx - roi.x);
-        }
-      // The nearer layer, unless the other agrees clearly better.
-      if (s0 / c + kChoiceMargin < s1 / c && comp_[0].weight_at(x, y) > 0) continue;
-      resolve1(comp_[1].sums_at(x, y), out.ptr<uint8_t>(y) + 4 * x);
-      if (choice) choice->at<uint8_t>(y, x) = 1;
-    }
+  cv::Mat v[2] = {cv::Mat::zeros(height, width, CV_32FC1), cv::Mat::zeros(height, width, CV_32FC1)};
+  cv::Mat n = cv::Mat::zeros(height, width, CV_32FC1);
+  auto each_block_pixel = [&](auto fn) {
+    for (int by = 0; by * kBlock < height; ++by)
+      for (int bx = 0; bx < blocks.cols; ++bx) {
+        if (!blocks.on[by * blocks.cols + bx]) continue;
+        for (int y = by * kBlock; y < std::min(height, (by + 1) * kBlock); ++y)
+          for (int x = bx * kBlock; x < std::min(width, (bx + 1) * kBlock); ++x)
+            if (comp_[1].weight_at(x, y) > 0) fn(x, y);
+      }
+  };
+  each_block_pixel([&](int x, int y) {
+    for (int l = 0; l < 2; ++l) v[l].at<float>(y, x) = variance_at(l, x, y);
+    n.at<float>(y, x) = 1;
+  });
+  each_block_pixel([&](int x, int y) {
+    float s0 = 0, s1 = 0, c = 0;
+    for (int yy = std::max(0, y - R); yy <= std::min(height - 1, y + R); ++yy)
+      for (int xx = std::max(0, x - R); xx <= std::min(width - 1, x + R); ++xx) {
+        s0 += v[0].at<float>(yy, xx);
+        s1 += v[1].at<float>(yy, xx);
+        c += n.at<float>(yy, xx);
+      }
+    // The nearer layer, unless the other agrees clearly better.
+    if (s0 / c + kChoiceMargin < s1 / c && comp_[0].weight_at(x, y) > 0) return;
+    resolve1(comp_[1].sums_at(x, y), out.ptr<uint8_t>(y) + 4 * x);
+    if (choice) choice->at<uint8_t>(y, x) = 1;
+  });
   return refused;
 }
 
