@@ -52,6 +52,9 @@ rendering
                         or surface: a focal surface from the images, one plane
                         per 16-pixel tile (lib/lf/focal_surface.h; a flat scene
                         keeps one plane)
+  --second-planes       with --focal surface: tiles next to a depth edge get a
+                        second plane, chosen per pixel (lib/lf/composite.h
+                        LayerCompositor; CPU backend)
   --refocus-every N     on a path: re-run auto-focus every N frames (default 15),
                         or estimate the focal surface every N frames (default 1)
   --aperture D          synthetic aperture diameter on the camera plane, rig units
@@ -87,7 +90,7 @@ int main(int argc, char** argv) {
          "--look-at",  "--vfov",    "--path",          "--orbit",    "--dolly",    "--frames",
          "--size",     "--focal",   "--refocus-every", "--aperture", "--f-number", "--ulr",
          "--sampling", "--threads", "--backend",       "--out",      "--fps"},
-        {"--quiet"});
+        {"--quiet", "--second-planes"});
     if (!args.has("--input")) throw std::invalid_argument("--input is required (see --help)");
     if (!args.has("--out")) throw std::invalid_argument("--out is required (see --help)");
     const bool quiet = args.has("--quiet");
@@ -148,8 +151,13 @@ int main(int argc, char** argv) {
     std::unique_ptr<lf::FocalSurfaceEstimator> surface;
     if (focal.kind == cli::FocalSpec::kAuto)
       af = std::make_unique<lf::AutofocusContext>(rig, images);
-    if (focal.kind == cli::FocalSpec::kSurface)
-      surface = std::make_unique<lf::FocalSurfaceEstimator>(rig, images);
+    if (focal.kind == cli::FocalSpec::kSurface) {
+      lf::SurfaceOptions opt;
+      opt.second_planes = args.has("--second-planes");
+      surface = std::make_unique<lf::FocalSurfaceEstimator>(rig, images, opt);
+    } else if (args.has("--second-planes")) {
+      throw std::invalid_argument("--second-planes needs --focal surface");
+    }
     const int refocus = std::max(1, args.integer("--refocus-every", surface ? 1 : 15));
 
     const std::string out = args.get("--out");
@@ -166,7 +174,7 @@ int main(int argc, char** argv) {
 
     lf::FocalPlane plane = focal.plane;
     lf::SurfaceEstimate estimate;
-    double total_ms = 0, estimate_ms = 0, planes = 0;
+    double total_ms = 0, estimate_ms = 0, planes = 0, two_plane_tiles = 0;
     int estimates = 0;
     size_t frag_px = 0;
     for (size_t f = 0; f < views.size(); ++f) {
@@ -223,6 +231,7 @@ int main(int argc, char** argv) {
               std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - e0)
                   .count();
           planes += estimate.planes_used;
+          two_plane_tiles += estimate.two_plane_tiles;
           ++estimates;
         }
         lf::apply(estimate, req);
@@ -253,11 +262,12 @@ int main(int argc, char** argv) {
     }
     if (!quiet && estimates > 0)
       std::fprintf(stderr,
-                   "focal surface: %.1f distinct planes per estimate over %dx%d tiles of %d px, "
-                   "%.0f ms per estimate (%d)\n",
+                   "focal surface: %.1f distinct planes per estimate over %dx%d tiles of %d px "
+                   "(%.1f with a second plane), %.0f ms per estimate (%d)\n",
                    planes / estimates, (W + surface->options().tile - 1) / surface->options().tile,
                    (H + surface->options().tile - 1) / surface->options().tile,
-                   surface->options().tile, estimate_ms / estimates, estimates);
+                   surface->options().tile, two_plane_tiles / estimates, estimate_ms / estimates,
+                   estimates);
     if (!quiet)
       std::fprintf(stderr,
                    "%zu frame(s) %dx%d from %zu cameras: %.1f ms/frame render, fragment pixels "
