@@ -41,12 +41,14 @@ struct FocalSurface {
   int cols = 0, rows = 0;          // ceil(width / tile), ceil(height / tile)
   std::vector<FocalPlane> planes;  // distinct planes, 1..kMaxPlanes
   std::vector<uint8_t> plane_of;   // rows * cols, row-major: index into planes
-  // Thin structures (a tile that holds two depths): optionally a second
-  // plane per tile, rows * cols indices into planes, kNone where the tile
-  // has one plane; empty when no tile has two. Each camera then sends a
-  // second fragment holding just those tiles through their second planes
-  // (plan_fragment's layer 1), and the compositor picks per pixel the layer
-  // whose cameras agree best (lf/composite.h LayerCompositor).
+  // Two depths in a tile (a foreground object's rim, a thin structure
+  // before a background): optionally a second plane per tile, rows * cols
+  // indices into planes, kNone where the tile has one plane; empty when no
+  // tile has two. Each camera then also sends a fragment of just those
+  // tiles through the nearer of their two planes (lf/plan.h
+  // plan_fragment's layer 1; layer 0 takes the other), and the compositor
+  // chooses per pixel: the nearer layer unless the other's cameras agree
+  // clearly better (lf/composite.h LayerCompositor). On the wire: lf/wire.h.
   std::vector<uint8_t> second_of;
   static constexpr uint8_t kNone = 0xFF;
   static constexpr int kMinTile = 4, kMaxTile = 1024, kMaxPlanes = 64;
