@@ -41,7 +41,10 @@
 #include <gst/video/video.h>
 
 #include <deque>
+#include <future>
 #include <memory>
+#include <mutex>
+#include <string>
 
 #include "lf/colour.h"
 #include "lf/focus_probe.h"
@@ -417,12 +420,67 @@ static bool admit(LfFragment* self, State* st, const lf::ViewRequest& req) {
   return true;
 }
 
+// ULR blending fields shared by the cameras of one process. A kUlr
+// request's field depends on the whole rig, not on one camera (every
+// camera's penalty at every vertex of its grid), so each of 64 cameras
+// computing it cost 64 fields per frame. The first camera to plan a
+// request computes it and the others wait for it and take it. Keyed by the
+// rig and the request's bytes (requests up to kMaxSharedKey bytes; larger
+// ones, with big focal surfaces, are planned alone); the last
+// kSharedFields requests are kept.
+constexpr size_t kMaxSharedKey = 16384, kSharedFields = 16;
+struct SharedUlr {
+  struct Entry {
+    std::shared_ptr<const lf::Rig> rig;
+    std::string key;
+    std::shared_future<std::shared_ptr<const lf::UlrField>> field;
+  };
+  std::mutex m;
+  std::deque<Entry> entries;
+};
+
+static std::unique_ptr<lf::ViewGeometry> geometry_for(const std::shared_ptr<const lf::Rig>& rig,
+                                                      const lf::ViewRequest& req, int index,
+                                                      const std::string& ulr_key) {
+  if (ulr_key.empty()) return std::make_unique<lf::ViewGeometry>(*rig, req, index);
+  static SharedUlr shared;
+  std::shared_future<std::shared_ptr<const lf::UlrField>> field;
+  std::promise<std::shared_ptr<const lf::UlrField>> mine;
+  bool compute = false;
+  {
+    std::lock_guard<std::mutex> lock(shared.m);
+    for (const SharedUlr::Entry& e : shared.entries)
+      if (e.rig == rig && e.key == ulr_key) field = e.field;
+    if (!field.valid()) {
+      field = mine.get_future().share();
+      shared.entries.push_back({rig, ulr_key, field});
+      if (shared.entries.size() > kSharedFields) shared.entries.pop_front();
+      compute = true;
+    }
+  }
+  if (!compute) {
+    // Another camera computes it (a null field: it failed; then this one
+    // computes its own, and fails alike with the reason).
+    return std::make_unique<lf::ViewGeometry>(*rig, req, index, field.get());
+  }
+  std::unique_ptr<lf::ViewGeometry> g;
+  try {
+    g = std::make_unique<lf::ViewGeometry>(*rig, req, index);
+  } catch (...) {
+    mine.set_value(nullptr);
+    throw;
+  }
+  mine.set_value(g->ulr_field());
+  return g;
+}
+
 static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBuffer* buf) {
   LfFragment* self = LF_FRAGMENT(parent);
   Priv* p = self->priv;
   State* st = p->state.get();
   lf::ViewRequest req;
   GError* err = nullptr;
+  std::string ulr_key;  // a ULR request's bytes, to share its blending field
   {
     GstMapInfo map;
     if (!gst_buffer_map(buf, &map, GST_MAP_READ)) {
@@ -430,6 +488,8 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
       return GST_FLOW_OK;
     }
     const gboolean ok = lfgst::guard([&] { req = lf::parse_request(map.data, map.size); }, &err);
+    if (ok && req.aperture == lf::Aperture::kUlr && map.size <= kMaxSharedKey)
+      ulr_key.assign(reinterpret_cast<const char*>(map.data), map.size);
     gst_buffer_unmap(buf, &map);
     if (!ok) {
       LF_ELEMENT_WARNING_LIMITED(self, st->bad_request, STREAM, DECODE,
@@ -526,7 +586,11 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
                             GST_VIDEO_FRAME_PLANE_STRIDE(&vf, 0));
         const cv::Mat rgba = camera_image(p, st, frame, image,
                                           GST_VIDEO_INFO_FORMAT(&info) == GST_VIDEO_FORMAT_RGBx);
-        const lf::ViewGeometry g(rig, req, st->index);  // only this camera's homography
+        // Only this camera's homographies; a ULR field shared with the
+        // process's other cameras.
+        const std::unique_ptr<lf::ViewGeometry> geometry =
+            geometry_for(st->rig, req, st->index, ulr_key);
+        const lf::ViewGeometry& g = *geometry;
         lf::Fragment f;
         f.viewer_id = req.viewer_id;
         f.sequence = req.sequence;

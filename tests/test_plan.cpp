@@ -469,6 +469,21 @@ TEST(Plan, UlrWeightsSumToOneAndCoverALostCamera) {
     req.ulr_cameras = k;
     const lf::ViewGeometry g(rig, req);
     ASSERT_EQ(g.ulr_cols(), 3);
+    // A camera given the field of another camera's geometry (as cameras in
+    // one process share it) plans the same fragment; a field of another
+    // size is not taken.
+    const lf::ViewGeometry shared(rig, req, 7, g.ulr_field());
+    EXPECT_EQ(shared.ulr_field(), g.ulr_field());
+    const lf::FragmentPlan a = lf::plan_fragment(g, 7), b = lf::plan_fragment(shared, 7);
+    ASSERT_EQ(a.runs.size(), b.runs.size());
+    for (size_t r = 0; r < a.runs.size(); ++r)
+      EXPECT_TRUE(a.runs[r].y == b.runs[r].y && a.runs[r].x0 == b.runs[r].x0 &&
+                  a.runs[r].x1 == b.runs[r].x1);
+    auto odd = std::make_shared<lf::UlrField>(*g.ulr_field());
+    odd->cols += 1;
+    const lf::ViewGeometry own(rig, req, 7, odd);
+    EXPECT_NE(own.ulr_field(), odd);
+    EXPECT_EQ(own.ulr_field()->w, g.ulr_field()->w);
     std::vector<double> sum(static_cast<size_t>(W) * H, 0.0);
     std::vector<int> count(sum.size(), 0);
     size_t pixels = 0;

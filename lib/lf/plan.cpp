@@ -12,7 +12,8 @@ PixelForm form_from(const cv::Vec3d& coeffs) {
 }
 }  // namespace
 
-ViewGeometry::ViewGeometry(const Rig& rig, const ViewRequest& request, int only_camera)
+ViewGeometry::ViewGeometry(const Rig& rig, const ViewRequest& request, int only_camera,
+                           std::shared_ptr<const UlrField> ulr)
     : rig_(&rig), req_(request) {
   validate(req_);
   const VirtualView& v = req_.view;
@@ -59,7 +60,15 @@ ViewGeometry::ViewGeometry(const Rig& rig, const ViewRequest& request, int only_
       H_[p * ncam_ + i] = c.intrinsics.K() * A * M_;
     }
   }
-  if (req_.aperture == Aperture::kUlr) compute_ulr();
+  if (req_.aperture == Aperture::kUlr) {
+    const int G = kUlrGrid;
+    if (ulr && ulr->cols == (v.width + G - 1) / G && ulr->rows == (v.height + G - 1) / G &&
+        ulr->cameras == ncam_ &&
+        ulr->w.size() == static_cast<size_t>(ulr->cols + 1) * (ulr->rows + 1) * ncam_)
+      ulr_ = std::move(ulr);
+    else
+      ulr_ = compute_ulr();
+  }
   // Two-plane tiles: whether the second plane is the nearer, along the ray
   // of the tile's centre pixel (a plane behind the eye, parallel to the ray
   // or at infinity is infinitely far).
@@ -93,18 +102,20 @@ int ViewGeometry::layer_plane(int layer, int tile) const {
 }
 
 // The blending field of a kUlr request (lf/view.h Aperture).
-void ViewGeometry::compute_ulr() {
+std::shared_ptr<const UlrField> ViewGeometry::compute_ulr() const {
   const Rig& rig = *rig_;
   const int W = req_.view.width, H = req_.view.height, G = kUlrGrid;
-  ulr_cols_ = (W + G - 1) / G;
-  ulr_rows_ = (H + G - 1) / G;
-  ulr_w_.assign(static_cast<size_t>(ulr_cols_ + 1) * (ulr_rows_ + 1) * ncam_, 0.0);
+  auto field = std::make_shared<UlrField>();
+  field->cols = (W + G - 1) / G;
+  field->rows = (H + G - 1) / G;
+  field->cameras = ncam_;
+  field->w.assign(static_cast<size_t>(field->cols + 1) * (field->rows + 1) * ncam_, 0.0);
   const cv::Vec3d E = req_.view.position;
   const int k = req_.ulr_cameras;
   const double far = 1e4 * std::max(rig.typical_spacing(), cv::norm(E - rig.plane().origin));
   std::vector<std::pair<double, int>> ranked;
-  for (int vy = 0; vy <= ulr_rows_; ++vy)
-    for (int vx = 0; vx <= ulr_cols_; ++vx) {
+  for (int vy = 0; vy <= field->rows; ++vy)
+    for (int vx = 0; vx <= field->cols; ++vx) {
       const double x = vx * G, y = vy * G;
       const cv::Vec3d D = ray(x, y);
       // The focal point: through the plane of the vertex's tile (the
@@ -142,7 +153,7 @@ void ViewGeometry::compute_ulr() {
         while (m < n && ranked[m].first <= ranked[1].first) ++m;
         thresh = m < n ? ranked[m].first : 1.001 * ranked[1].first;
       }
-      double* w = &ulr_w_[(static_cast<size_t>(vy) * (ulr_cols_ + 1) + vx) * ncam_];
+      double* w = &field->w[(static_cast<size_t>(vy) * (field->cols + 1) + vx) * ncam_];
       double sum = 0;
       for (int j = 0; j < m; ++j) {
         // Penalties all 0 (a threshold of 0): equal weights.
@@ -153,6 +164,7 @@ void ViewGeometry::compute_ulr() {
       if (sum > 0)
         for (int j = 0; j < m; ++j) w[ranked[j].second] /= sum;
     }
+  return field;
 }
 
 PixelForm ViewGeometry::ulr_form(int index, int cx, int cy, int half) const {

@@ -45,6 +45,7 @@
 #pragma once
 
 #include <array>
+#include <memory>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -69,6 +70,15 @@ struct ApertureSample {
   std::array<double, 3> weight{0, 0, 0};  // in [0, 1], summing to 1
 };
 
+// A request's ULR blending field (lf/view.h Aperture kUlr): the weight of
+// every camera at every vertex of its kUlrGrid-pixel grid. It depends on
+// the whole rig, not on one camera, so cameras in one process can share it
+// (ViewGeometry's `ulr` argument, gst/lffragment.cpp).
+struct UlrField {
+  int cols = 0, rows = 0, cameras = 0;  // cells across and down; rig cameras
+  std::vector<double> w;                // per vertex (row-major), per camera
+};
+
 // Everything about one request that all cameras share.
 class ViewGeometry {
  public:
@@ -76,7 +86,11 @@ class ViewGeometry {
   // With `only_camera` >= 0, only that camera's homographies are computed (a
   // random access camera needs just its own); homography(i) of any other
   // camera is then the zero matrix.
-  ViewGeometry(const Rig& rig, const ViewRequest& request, int only_camera = -1);
+  // With `ulr` (a kUlr request's field, computed for the same rig and
+  // request, e.g. by another camera's ViewGeometry: ulr_field()), the field
+  // is taken instead of computed; one of another size is ignored.
+  ViewGeometry(const Rig& rig, const ViewRequest& request, int only_camera = -1,
+               std::shared_ptr<const UlrField> ulr = nullptr);
 
   const Rig& rig() const { return *rig_; }
   const ViewRequest& request() const { return req_; }
@@ -137,11 +151,13 @@ class ViewGeometry {
   // `index`'s weight at vertex (vx, vy), pixel (vx G, vy G); ulr_form():
   // its weight over a half, linear in the pixel (interpolated from the
   // half's three vertices). Empty (0 cells) for other apertures.
-  int ulr_cols() const { return ulr_cols_; }
-  int ulr_rows() const { return ulr_rows_; }
+  int ulr_cols() const { return ulr_ ? ulr_->cols : 0; }
+  int ulr_rows() const { return ulr_ ? ulr_->rows : 0; }
   double ulr_weight(int index, int vx, int vy) const {
-    return ulr_w_[(static_cast<size_t>(vy) * (ulr_cols_ + 1) + vx) * ncam_ + index];
+    return ulr_->w[(static_cast<size_t>(vy) * (ulr_->cols + 1) + vx) * ncam_ + index];
   }
+  // The blending field (null for other apertures), to share.
+  const std::shared_ptr<const UlrField>& ulr_field() const { return ulr_; }
   PixelForm ulr_form(int index, int cx, int cy, int half) const;
   static bool in_ulr_half(int x, int y, int cx, int cy, int half) {
     const int u = x - cx * kUlrGrid, v = y - cy * kUlrGrid;
@@ -177,9 +193,8 @@ class ViewGeometry {
   int ncam_ = 0;
   std::vector<cv::Matx33d> H_;          // plane-major: H_[p * ncam_ + camera]
   std::vector<uint8_t> second_nearer_;  // per tile, with second planes
-  void compute_ulr();
-  int ulr_cols_ = 0, ulr_rows_ = 0;
-  std::vector<double> ulr_w_;  // per vertex (row-major), per camera
+  std::shared_ptr<const UlrField> compute_ulr() const;
+  std::shared_ptr<const UlrField> ulr_;
 };
 
 // A run of output pixels [x0, x1) on row y rendered with one piece.
