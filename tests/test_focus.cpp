@@ -48,9 +48,10 @@ cv::Point2d project(const lf::VirtualView& v, const cv::Vec3d& X) {
 }
 
 // Scores a probe at view pixel p from the cameras' fragments (what
-// lffragment would send) of the scene at time t.
+// lffragment would send) of the scene at time t; with `window`, also the
+// plane of least mean cost over the whole window (FocusProbeScore::costs).
 double probe(const lf::Rig& rig, const std::vector<cv::Mat>& images, const lf::ViewRequest& view,
-             cv::Point2d p) {
+             cv::Point2d p, double* window = nullptr) {
   lf::FocusProbeScore score;
   for (const lf::ViewRequest& r : lf::focus_probe_requests(rig, view, p.x, p.y, 7)) {
     EXPECT_TRUE(lf::is_focus_probe(r.sequence));
@@ -66,7 +67,24 @@ double probe(const lf::Rig& rig, const std::vector<cv::Mat>& images, const lf::V
   }
   double q = -1;
   EXPECT_TRUE(score.best(rig, &q));
+  if (window) {
+    const std::vector<double> c = score.costs();
+    int b = 0;
+    for (int k = 0; k < lf::kFocusProbeSteps; ++k)
+      if (c[k] >= 0 && (c[b] < 0 || c[k] < c[b])) b = k;
+    *window = lf::focus_probe_inverse_depth(rig, b);
+  }
   return q;
+}
+
+// The view of the probe tests: 320x240 from beside the array's centre.
+lf::ViewRequest probe_view(const lf::Rig& rig) {
+  lf::ViewSettings vs;
+  vs.width = 320, vs.height = 240;
+  lf::ViewRequest view;
+  view.view = lf::build_views(rig, vs).at(0, rig, lf::camera_plane_offset(rig, 0.012, -0.02, 0));
+  view.focal_plane = lf::FocalPlane::infinity();
+  return view;
 }
 
 TEST(FocusProbe, FindsTheDepthUnderTheClickedPixel) {
@@ -75,11 +93,7 @@ TEST(FocusProbe, FindsTheDepthUnderTheClickedPixel) {
   const double t = 0.3;
   std::vector<cv::Mat> images;
   for (const lf::Camera& c : rig.cameras) images.push_back(scene.render(c, t));
-  lf::ViewSettings vs;
-  vs.width = 320, vs.height = 240;
-  lf::ViewRequest view;
-  view.view = lf::build_views(rig, vs).at(0, rig, lf::camera_plane_offset(rig, 0.012, -0.02, 0));
-  view.focal_plane = lf::FocalPlane::infinity();
+  const lf::ViewRequest view = probe_view(rig);
   // One pixel of parallax between neighbouring cameras, in inverse depth.
   const double px = 1.0 / (rig.cameras[0].intrinsics.fx * rig.typical_spacing());
   const cv::Point2d disc = project(view.view, scene.disc_centre(t));
@@ -112,30 +126,11 @@ TEST(FocusProbe, AThinObjectUnderTheCursorWinsOverTheWindow) {
   const double t = 0.3;
   std::vector<cv::Mat> images;
   for (const lf::Camera& c : rig.cameras) images.push_back(scene.render(c, t));
-  lf::ViewSettings vs;
-  vs.width = 320, vs.height = 240;
-  lf::ViewRequest view;
-  view.view = lf::build_views(rig, vs).at(0, rig, lf::camera_plane_offset(rig, 0.012, -0.02, 0));
-  view.focal_plane = lf::FocalPlane::infinity();
+  const lf::ViewRequest view = probe_view(rig);
   const double px = 1.0 / (rig.cameras[0].intrinsics.fx * rig.typical_spacing());
   // The bar runs through the disc's centre (across u).
-  const cv::Point2d click = project(view.view, scene.disc_centre(t));
-  lf::FocusProbeScore score;
-  for (const lf::ViewRequest& r : lf::focus_probe_requests(rig, view, click.x, click.y, 9)) {
-    const lf::ViewGeometry g(rig, r);
-    for (size_t i = 0; i < rig.cameras.size(); ++i) {
-      lf::Fragment f;
-      lf::render_fragment(lf::plan_fragment(g, static_cast<int>(i)), rig.cameras[i], images[i], f);
-      score.add(lf::focus_probe_step(r.sequence), f);
-    }
-  }
-  double q = -1;
-  ASSERT_TRUE(score.best(rig, &q));
-  const std::vector<double> window = score.costs();
-  int b = 0;
-  for (int k = 0; k < lf::kFocusProbeSteps; ++k)
-    if (window[k] >= 0 && (window[b] < 0 || window[k] < window[b])) b = k;
-  const double q_window = lf::focus_probe_inverse_depth(rig, b);
+  double q_window = -1;
+  const double q = probe(rig, images, view, project(view.view, scene.disc_centre(t)), &q_window);
   std::printf("thin bar: estimator q %.4f, window mean q %.4f (bar %.4f, background %.4f)\n", q,
               q_window, 1 / scene.near_depth, 1 / scene.far_depth);
   EXPECT_NEAR(q_window, 1 / scene.far_depth, 1.0 * px) << "the window is mostly background";

@@ -112,21 +112,27 @@ void FocusProbeScore::add(int step, const Fragment& f) {
   }
 }
 
+double FocusProbeScore::variance(int step, int p) const {
+  const size_t i = static_cast<size_t>(step) * kSide * kSide + p;
+  if (cameras_[i] < 2) return -1;
+  const double* v = &sums_[i * 7];
+  double var = 0;
+  for (int c = 0; c < 3; ++c) {
+    const double mean = v[1 + c] / v[0];
+    var += std::max(0.0, v[4 + c] / v[0] - mean * mean);
+  }
+  return var / 3;
+}
+
 std::vector<double> FocusProbeScore::costs() const {
   std::vector<double> out(kFocusProbeSteps, -1.0);
   for (int s = 0; s < kFocusProbeSteps; ++s) {
     double total = 0;
     int n = 0;
     for (int p = 0; p < kSide * kSide; ++p) {
-      const size_t i = static_cast<size_t>(s) * kSide * kSide + p;
-      if (cameras_[i] < 2) continue;
-      const double* v = &sums_[i * 7];
-      double var = 0;
-      for (int c = 0; c < 3; ++c) {
-        const double mean = v[1 + c] / v[0];
-        var += std::max(0.0, v[4 + c] / v[0] - mean * mean);
-      }
-      total += std::min(25.0, std::sqrt(var / 3));
+      const double var = variance(s, p);
+      if (var < 0) continue;
+      total += std::min(25.0, std::sqrt(var));
       ++n;
     }
     if (n > 0) out[s] = total / n;
@@ -147,16 +153,10 @@ bool FocusProbeScore::best(const Rig& rig, double* inverse_depth) const {
     std::fill(sum.begin(), sum.end(), 0.0);
     std::fill(count.begin(), count.end(), 0.0);
     for (int p = 0; p < kSide * kSide; ++p) {
-      const size_t i = static_cast<size_t>(s) * kSide * kSide + p;
-      if (cameras_[i] < 2) continue;
-      const double* v = &sums_[i * 7];
-      double var = 0;
-      for (int ch = 0; ch < 3; ++ch) {
-        const double mean = v[1 + ch] / v[0];
-        var += std::max(0.0, v[4 + ch] / v[0] - mean * mean);
-      }
+      const double var = variance(s, p);
+      if (var < 0) continue;
       const int t = (p / kSide / T) * cols + (p % kSide) / T;
-      sum[t] += std::min(kCap, var / 3);
+      sum[t] += std::min(kCap, var);
       count[t] += 1;
     }
     if (std::all_of(count.begin(), count.end(), [](double n) { return n == 0; }))

@@ -98,6 +98,9 @@ class FocusProbeScore {
 
  private:
   static constexpr int kSide = kFocusProbeSide;
+  // The cameras' weighted colour variance at window pixel p of a step,
+  // per channel (levels^2), or -1 where fewer than two cameras saw it.
+  double variance(int step, int p) const;
   // Per step and window pixel: sum w, sum w c (3), sum w c^2 (3), cameras.
   std::vector<double> sums_;
   std::vector<int> cameras_;
