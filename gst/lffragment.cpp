@@ -635,20 +635,20 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
           // Raw: rendered straight into the output buffer, in its wire
           // format (no copy of the pixels).
           std::vector<lf::Fragment> heads(plans.size(), f);
+          std::vector<size_t> sizes(plans.size());
           size_t size = 0;
           for (size_t k = 0; k < plans.size(); ++k) {
             lf::describe_fragment(plans[k], heads[k]);
-            size += lf::raw_fragment_size(heads[k]);
+            size += sizes[k] = lf::raw_fragment_size(heads[k]);
           }
           out = gst_buffer_new_allocate(nullptr, size, nullptr);
           lfgst::add_sealed_meta(out);  // while it is writable (sealed below)
           lfgst::MappedBuffer map(out, GST_MAP_WRITE);
           uint8_t* at = map.data();
           for (size_t k = 0; k < plans.size(); ++k) {
-            const size_t one = lf::raw_fragment_size(heads[k]);
-            draw(plans[k], lf::write_raw_fragment(heads[k], at, one));
-            lf::seal_fragment(at, one);
-            at += one;
+            draw(plans[k], lf::write_raw_fragment(heads[k], at, sizes[k]));
+            lf::seal_fragment(at, sizes[k]);
+            at += sizes[k];
             warped += plans[k].pixel_count();
           }
           lfgst::trace(GST_ELEMENT(self), "warped", req.viewer_id, req.sequence, cam.id,

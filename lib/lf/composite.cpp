@@ -176,8 +176,6 @@ size_t Compositor::fill_from(cv::Mat& out, const cv::Mat& previous) {
 }
 
 namespace {
-// Adds 255 |p|^2 / a (w |c|^2 with w = a / 255 and c = 255 p / a, p
-// premultiplied) of a fragment's pixels where `where` has weight.
 // Blocks of kBlock x kBlock pixels that layer 1 reaches, so that the rest
 // of the frame is skipped (two-plane tiles are few where the scene needs
 // few).
@@ -188,6 +186,8 @@ struct Blocks {
   bool at(int x, int y) const { return on[(y / kBlock) * cols + x / kBlock] != 0; }
 };
 
+// Adds 255 |p|^2 / a (w |c|^2 with w = a / 255 and c = 255 p / a, p
+// premultiplied) of a fragment's pixels in `blocks` where `where` has weight.
 void add_squares(const Fragment& f, const uint8_t* pixels, const Compositor& where,
                  const Blocks& blocks, cv::Mat& sq) {
   const uint8_t* px = pixels;
@@ -257,7 +257,6 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
   // window means over those pixels, block by block.
   const int R = kChoiceWindow / 2;
   cv::Mat v[2] = {cv::Mat::zeros(height, width, CV_32FC1), cv::Mat::zeros(height, width, CV_32FC1)};
-  cv::Mat n = cv::Mat::zeros(height, width, CV_32FC1);
   auto each_block_pixel = [&](auto fn) {
     for (int by = 0; by * kBlock < height; ++by)
       for (int bx = 0; bx < blocks.cols; ++bx) {
@@ -269,15 +268,15 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
   };
   each_block_pixel([&](int x, int y) {
     for (int l = 0; l < 2; ++l) v[l].at<float>(y, x) = variance_at(l, x, y);
-    n.at<float>(y, x) = 1;
   });
   each_block_pixel([&](int x, int y) {
     float s0 = 0, s1 = 0, c = 0;
     for (int yy = std::max(0, y - R); yy <= std::min(height - 1, y + R); ++yy)
       for (int xx = std::max(0, x - R); xx <= std::min(width - 1, x + R); ++xx) {
+        if (comp_[1].weight_at(xx, yy) == 0) continue;  // not layer 1's: no variances
         s0 += v[0].at<float>(yy, xx);
         s1 += v[1].at<float>(yy, xx);
-        c += n.at<float>(yy, xx);
+        c += 1;
       }
     // The nearer layer, unless the other agrees clearly better.
     if (s0 / c + kChoiceMargin < s1 / c && comp_[0].weight_at(x, y) > 0) return;

@@ -132,7 +132,7 @@ void validate(const ViewRequest& req) {
 }
 
 bool FocalSurface::two_planes() const {
-  return two_plane_tiles() > 0;
+  return std::any_of(second_of.begin(), second_of.end(), [](uint8_t k) { return k != kNone; });
 }
 
 int FocalSurface::two_plane_tiles() const {
