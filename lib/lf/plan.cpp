@@ -39,12 +39,13 @@ ViewGeometry::ViewGeometry(const Rig& rig, const ViewRequest& request, int only_
   else
     planes_ = req_.surface.planes;
   ncam_ = static_cast<int>(rig.cameras.size());
-  H_.assign(planes_.size() * rig.cameras.size(), cv::Matx33d::zeros());
+  only_ = only_camera >= 0 && only_camera < ncam_ ? only_camera : -1;
+  H_.resize(planes_.size() * (only_ >= 0 ? 1 : rig.cameras.size()));
   for (size_t p = 0; p < planes_.size(); ++p) {
     const FocalPlane& fp = planes_[p];
     fw_.push_back(form_from(Mt * fp.n));
-    for (size_t i = 0; i < rig.cameras.size(); ++i) {
-      if (only_camera >= 0 && static_cast<int>(i) != only_camera) continue;
+    const size_t first = only_ >= 0 ? only_ : 0, last = only_ >= 0 ? only_ + 1 : ncam_;
+    for (size_t i = first; i < last; ++i) {
       const Camera& c = rig.cameras[i];
       const cv::Matx33d& R = c.extrinsics.R;
       cv::Matx33d A;
@@ -57,7 +58,7 @@ ViewGeometry::ViewGeometry(const Rig& rig, const ViewRequest& request, int only_
                         q[2] * fp.n[2]) -
             R * (fp.n.dot(E) + fp.d);
       }
-      H_[p * ncam_ + i] = c.intrinsics.K() * A * M_;
+      H_[only_ >= 0 ? p : p * ncam_ + i] = c.intrinsics.K() * A * M_;
     }
   }
   if (req_.aperture == Aperture::kUlr) {
@@ -441,15 +442,19 @@ struct Region {
 std::vector<Region> focal_regions(const ViewGeometry& g, int layer) {
   const int W = g.width(), H = g.height();
   const FocalSurface& fs = g.request().surface;
-  if (layer == 1 && !fs.two_planes()) return {};
+  const bool two = fs.two_planes();
+  if (layer == 1 && !two) return {};
   if (fs.empty()) return {{0, 0, W, H, 0}};
   std::vector<Region> out;
+  std::vector<int> row(fs.cols);
   for (int r = 0; r < fs.rows; ++r) {
     const int y0 = r * fs.tile, y1 = std::min(H, y0 + fs.tile);
+    for (int c = 0; c < fs.cols; ++c)
+      row[c] = two ? g.layer_plane(layer, r * fs.cols + c) : fs.plane_of[r * fs.cols + c];
     for (int c = 0; c < fs.cols;) {
-      const int p = g.layer_plane(layer, r * fs.cols + c);
+      const int p = row[c];
       int e = c + 1;
-      while (e < fs.cols && g.layer_plane(layer, r * fs.cols + e) == p) ++e;
+      while (e < fs.cols && row[e] == p) ++e;
       if (p >= 0) out.push_back({c * fs.tile, y0, std::min(W, e * fs.tile), y1, p});
       c = e;
     }

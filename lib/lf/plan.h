@@ -109,7 +109,10 @@ class ViewGeometry {
   // Output pixel -> undistorted pixel of camera `index` through focal plane
   // `p` (homogeneous; the sign is that of the true projective point, see
   // focal_sign()).
-  const cv::Matx33d& homography(int index, int p = 0) const { return H_[p * ncam_ + index]; }
+  const cv::Matx33d& homography(int index, int p = 0) const {
+    if (only_ < 0) return H_[p * ncam_ + index];
+    return index == only_ ? H_[p] : kZero;
+  }
   const cv::Matx33d& homography_at(int index, int x, int y) const {
     return homography(index, plane_at(x, y));
   }
@@ -191,7 +194,9 @@ class ViewGeometry {
   std::vector<FocalPlane> planes_;
   std::vector<PixelForm> fw_;  // per plane
   int ncam_ = 0;
-  std::vector<cv::Matx33d> H_;          // plane-major: H_[p * ncam_ + camera]
+  int only_ = -1;               // only_camera
+  std::vector<cv::Matx33d> H_;  // H_[p * ncam_ + camera]; H_[p] with only_camera
+  inline static const cv::Matx33d kZero = cv::Matx33d::zeros();
   std::vector<uint8_t> second_nearer_;  // per tile, with second planes
   std::shared_ptr<const UlrField> compute_ulr() const;
   std::shared_ptr<const UlrField> ulr_;

@@ -61,6 +61,11 @@ class Reader {
     std::memcpy(&d, &v, 8);
     return d;
   }
+  void bytes(uint8_t* to, size_t k) {
+    need(k);
+    std::memcpy(to, p_ + pos_, k);
+    pos_ += k;
+  }
   size_t pos() const { return pos_; }
 
  private:
@@ -671,10 +676,10 @@ ViewRequest parse_request(const uint8_t* data, size_t size) {
       p.d = r.f64();
     }
     sf.plane_of.resize(tiles);
-    for (uint8_t& t : sf.plane_of) t = r.u8();
+    r.bytes(sf.plane_of.data(), tiles);
     if (second) {
       sf.second_of.resize(tiles);
-      for (uint8_t& t : sf.second_of) t = r.u8();
+      r.bytes(sf.second_of.data(), tiles);
       if (!sf.two_planes()) bad("focal surface flags second planes but names none");
     }
   } else {
