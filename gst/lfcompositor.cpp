@@ -68,6 +68,7 @@
 #include "lf/composite.h"
 #include "lf/focus_probe.h"
 #include "lf/fragment.h"
+#include "lf/probe_bundle.h"
 #include "lf/surface_probe.h"
 #include "lf/wire.h"
 #include "lfbackend.h"
@@ -755,6 +756,28 @@ static void absorb_surface_probe(LfCompositor* self, State* st, const guint8* da
     finish_surface_probe(self, st, it);
 }
 
+// A probe's answer from one camera (header already checked: our viewer, a
+// known camera): one step's fragment, or a bundle of its steps
+// (lib/lf/probe_bundle.h), each scored as it comes. A bundle with a
+// fragment of another probe, viewer or camera is dropped whole.
+static void absorb_probe_answer(LfCompositor* self, State* st, const guint8* data, gsize size,
+                                int w, int h) {
+  std::vector<lf::FragmentSpan> spans;
+  GError* err = nullptr;
+  if (!lfgst::guard([&] { spans = lf::split_probe_answer(data, size); }, &err)) {
+    LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE, ("Dropping a malformed fragment"),
+                               "%s", err->message);
+    g_error_free(err);
+    return;
+  }
+  for (const lf::FragmentSpan& s : spans) {
+    if (lf::is_focus_probe(s.head.sequence))
+      absorb_probe(self, st, data + s.offset, s.size, s.head);
+    else
+      absorb_surface_probe(self, st, data + s.offset, s.size, s.head, w, h);
+  }
+}
+
 // Parses one fragment buffer and files it under its request. What a peer
 // sends is checked from the header before anything is decoded: the viewer,
 // the camera, the sequence window and the output size; then the payload is
@@ -792,10 +815,9 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
     LF_ELEMENT_WARNING_LIMITED(self, st->unknown_camera, STREAM, DECODE,
                                ("Dropping a fragment of an unknown camera"),
                                "camera %u is not in the rig", head.camera_id);
-  } else if (lf::is_focus_probe(head.sequence)) {
-    absorb_probe(self, st, data, size, head);
-  } else if (lf::is_surface_probe(head.sequence) && st->view_size(&w, &h)) {
-    absorb_surface_probe(self, st, data, size, head, w, h);
+  } else if (lf::is_focus_probe(head.sequence) ||
+             (lf::is_surface_probe(head.sequence) && st->view_size(&w, &h))) {
+    absorb_probe_answer(self, st, data, size, w, h);
   } else if (!st->view_size(&w, &h)) {
     LF_ELEMENT_WARNING_LIMITED(self, st->no_size, STREAM, FORMAT,
                                ("No output size: dropping fragments"),

@@ -16,9 +16,11 @@
  * one capture instant for a request, and a live run and the playback of its
  * recording pair the same frames with the same requests (lfcamerahost
  * `record`/`playback`). Focus probes (lib/lf/focus_probe.h) and surface
- * probes (lib/lf/surface_probe.h) always pick by capture time, one frame for all steps of a probe;
- * a camera that no longer holds the frame of the probe's instant (its frame period), or skipped it,
- * sits the probe out. Camera frames may come from any upstream element (e.g.
+ * probes (lib/lf/surface_probe.h) come as one buffer of all their steps
+ * (lib/lf/probe_bundle.h), answered with one buffer of this camera's
+ * fragment of each step; they always pick by capture time, one frame for
+ * all steps of a probe; a camera that no longer holds the frame of the
+ * probe's instant (its frame period), or skipped it, sits the probe out. Camera frames may come from any upstream element (e.g.
  * `uridecodebin ! videoconvert ! videoscale ! video/x-raw,format=RGBA,
  * width=W,height=H ! lffragment`); their PTS is then the capture time.
  * Cameras that do not contribute send an explicitly empty fragment, so the
@@ -49,6 +51,7 @@
 #include "lf/colour.h"
 #include "lf/focus_probe.h"
 #include "lf/plan.h"
+#include "lf/probe_bundle.h"
 #include "lf/render.h"
 #include "lf/surface_probe.h"
 #include "lf/wire.h"
@@ -474,35 +477,16 @@ static std::unique_ptr<lf::ViewGeometry> geometry_for(const std::shared_ptr<cons
   return g;
 }
 
-static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBuffer* buf) {
-  LfFragment* self = LF_FRAGMENT(parent);
+// Answers one request (a frame request, or one step of a probe) that came
+// in `buf` (timestamps): *answer gets its fragment buffer, or stays null
+// where the request is dropped (with a warning where due).
+static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req,
+                                    const std::string& ulr_key, GstBuffer* buf,
+                                    GstBuffer** answer) {
   Priv* p = self->priv;
   State* st = p->state.get();
-  lf::ViewRequest req;
   GError* err = nullptr;
-  std::string ulr_key;  // a ULR request's bytes, to share its blending field
-  {
-    GstMapInfo map;
-    if (!gst_buffer_map(buf, &map, GST_MAP_READ)) {
-      gst_buffer_unref(buf);
-      return GST_FLOW_OK;
-    }
-    const gboolean ok = lfgst::guard([&] { req = lf::parse_request(map.data, map.size); }, &err);
-    if (ok && req.aperture == lf::Aperture::kUlr && map.size <= kMaxSharedKey)
-      ulr_key.assign(reinterpret_cast<const char*>(map.data), map.size);
-    gst_buffer_unmap(buf, &map);
-    if (!ok) {
-      LF_ELEMENT_WARNING_LIMITED(self, st->bad_request, STREAM, DECODE,
-                                 ("Dropping a malformed view request"), "%s", err->message);
-      g_error_free(err);
-      gst_buffer_unref(buf);
-      return GST_FLOW_OK;
-    }
-  }
-  if (!admit(self, st, req)) {
-    gst_buffer_unref(buf);
-    return GST_FLOW_OK;
-  }
+  if (!admit(self, st, req)) return GST_FLOW_OK;
   const lf::Rig& rig = *st->rig;
   const lf::Camera& cam = rig.cameras[st->index];
   lfgst::trace(GST_ELEMENT(self), "request-in", req.viewer_id, req.sequence, cam.id);
@@ -516,7 +500,6 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
     if (!g_cond_wait_until(&p->cond, &p->lock, deadline)) break;
   if (p->flushing) {
     g_mutex_unlock(&p->lock);
-    gst_buffer_unref(buf);
     return GST_FLOW_FLUSHING;
   }
   GstBuffer* frame = nullptr;
@@ -563,8 +546,8 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
     GstBuffer* out = gst_buffer_new_memdup(bytes.data(), bytes.size());
     gst_buffer_copy_into(out, buf, GST_BUFFER_COPY_TIMESTAMPS, 0, -1);
     GST_BUFFER_OFFSET(out) = req.sequence;
-    gst_buffer_unref(buf);
-    return gst_pad_push(self->srcpad, out);
+    *answer = out;
+    return GST_FLOW_OK;
   }
   GstVideoFrame vf;
   if (!frame || !have_info || !gst_video_frame_map(&vf, &info, frame, GST_MAP_READ)) {
@@ -573,7 +556,6 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
         "camera %d delivered no frame within %" GST_TIME_FORMAT " (request %" G_GUINT64_FORMAT ")",
         cam.id, GST_TIME_ARGS(st->s.frame_timeout), req.sequence);
     if (frame) gst_buffer_unref(frame);
-    gst_buffer_unref(buf);
     return GST_FLOW_OK;
   }
   const gint quality = lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::quality);
@@ -669,13 +651,60 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
                                req.viewer_id, err->message);
     g_error_free(err);
     if (out) gst_buffer_unref(out);
-    gst_buffer_unref(buf);
     return GST_FLOW_OK;
   }
   gst_buffer_copy_into(out, buf, GST_BUFFER_COPY_TIMESTAMPS, 0, -1);
   GST_BUFFER_OFFSET(out) = req.sequence;
+  *answer = out;
+  return GST_FLOW_OK;
+}
+
+// A request buffer: one request, answered in one buffer (a layer pair where
+// the surface has second planes), or a probe bundle (lib/lf/probe_bundle.h),
+// whose steps are answered one by one and sent back in one buffer.
+static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBuffer* buf) {
+  LfFragment* self = LF_FRAGMENT(parent);
+  State* st = self->priv->state.get();
+  std::vector<lf::ViewRequest> reqs;
+  std::vector<std::string> ulr_keys;  // a ULR request's bytes, to share its blending field
+  GError* err = nullptr;
+  {
+    GstMapInfo map;
+    if (!gst_buffer_map(buf, &map, GST_MAP_READ)) {
+      gst_buffer_unref(buf);
+      return GST_FLOW_OK;
+    }
+    std::vector<size_t> sizes;
+    const gboolean ok =
+        lfgst::guard([&] { reqs = lf::parse_requests(map.data, map.size, &sizes); }, &err);
+    size_t at = 0;
+    for (size_t k = 0; ok && k < reqs.size(); at += sizes[k++]) {
+      ulr_keys.emplace_back();
+      if (reqs[k].aperture == lf::Aperture::kUlr && sizes[k] <= kMaxSharedKey)
+        ulr_keys.back().assign(reinterpret_cast<const char*>(map.data + at), sizes[k]);
+    }
+    gst_buffer_unmap(buf, &map);
+    if (!ok) {
+      LF_ELEMENT_WARNING_LIMITED(self, st->bad_request, STREAM, DECODE,
+                                 ("Dropping a malformed view request"), "%s", err->message);
+      g_error_free(err);
+      gst_buffer_unref(buf);
+      return GST_FLOW_OK;
+    }
+  }
+  GstBuffer* bundle = nullptr;
+  for (size_t k = 0; k < reqs.size(); ++k) {
+    GstBuffer* out = nullptr;
+    const GstFlowReturn ret = answer_request(self, reqs[k], ulr_keys[k], buf, &out);
+    if (ret != GST_FLOW_OK) {
+      if (bundle) gst_buffer_unref(bundle);
+      gst_buffer_unref(buf);
+      return ret;
+    }
+    if (out) bundle = bundle ? gst_buffer_append(bundle, out) : out;
+  }
   gst_buffer_unref(buf);
-  return gst_pad_push(self->srcpad, out);
+  return bundle ? gst_pad_push(self->srcpad, bundle) : GST_FLOW_OK;
 }
 
 static gboolean lf_fragment_start(LfFragment* self) {

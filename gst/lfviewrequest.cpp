@@ -50,8 +50,9 @@
  * goes out with a focus probe (lib/lf/focus_probe.h): 32 requests for a
  * 33 x 33 pixel window around the pixel (radius 16), one per candidate plane
  * parallel to the camera plane (0 to 24 px of neighbour parallax), seen from
- * the centre of the aperture triangle under that pixel. The cameras answer
- * with ordinary fragments; `lfcompositor` measures the weighted colour
+ * the centre of the aperture triangle under that pixel, in one buffer (a
+ * probe bundle, lib/lf/probe_bundle.h). Each camera answers with its
+ * fragment of each step, in one buffer; `lfcompositor` measures the weighted colour
  * variance among the cameras (photo-consistency), runs the focal surface
  * estimator on the window and takes the plane of the clicked pixel's tile
  * (so a thin object under the pointer wins over the background around it),
@@ -75,7 +76,8 @@
  * every `surface-interval` requests, a surface probe goes out with the
  * tick's request: 32 requests for the view at 160 pixels wide, one per
  * candidate plane parallel to the camera plane (0 to 24 px of neighbour
- * parallax). The cameras answer with ordinary fragments; `lfcompositor`
+ * parallax), in one buffer (a probe bundle). Each camera answers with its
+ * fragment of each step, in one buffer; `lfcompositor`
  * measures their photo-consistency per tile, labels the tiles (one plane
  * where the scene is flat, more only where it has depth) and sends an
  * upstream `lf-surface` event (`viewer-id`, `probe-id`, `capture-time`,
@@ -142,6 +144,7 @@
 #include "lf/focus.h"
 #include "lf/focus_probe.h"
 #include "lf/parse.h"
+#include "lf/probe_bundle.h"
 #include "lf/surface_probe.h"
 #include "lf/view_builder.h"
 #include "lf/wire.h"
@@ -727,18 +730,24 @@ static gboolean lf_view_request_event(GstBaseSrc* src, GstEvent* event) {
   return GST_BASE_SRC_CLASS(lf_view_request_parent_class)->event(src, event);
 }
 
-static GstBuffer* request_buffer(GstBaseSrc* src, const lf::ViewRequest& req, GstClockTime pts,
-                                 GstClockTime period) {
-  lfgst::trace(GST_ELEMENT(src), "issue", req.viewer_id, req.sequence, -1,
-               static_cast<gint64>(pts));
-  lf::ViewRequest timed = req;  // the request is for its PTS (cameras: frame-select)
-  timed.time_ns = GST_CLOCK_TIME_IS_VALID(pts) ? static_cast<int64_t>(pts) : -1;
-  const std::vector<uint8_t> bytes = lf::serialize_request(timed);
+// A buffer of request reqs[which], or with which == reqs.size() of all of
+// them as a probe bundle (lib/lf/probe_bundle.h), for time `pts`.
+static GstBuffer* request_buffer(GstBaseSrc* src, const std::vector<lf::ViewRequest>& reqs,
+                                 size_t which, GstClockTime pts, GstClockTime period) {
+  std::vector<lf::ViewRequest> timed(reqs.begin() + (which < reqs.size() ? which : 0),
+                                     which < reqs.size() ? reqs.begin() + which + 1 : reqs.end());
+  for (lf::ViewRequest& r : timed) {
+    lfgst::trace(GST_ELEMENT(src), "issue", r.viewer_id, r.sequence, -1, static_cast<gint64>(pts));
+    // The request is for its PTS (cameras: frame-select).
+    r.time_ns = GST_CLOCK_TIME_IS_VALID(pts) ? static_cast<int64_t>(pts) : -1;
+  }
+  const std::vector<uint8_t> bytes =
+      which < reqs.size() ? lf::serialize_request(timed[0]) : lf::serialize_probe_bundle(timed);
   GstBuffer* buf = gst_buffer_new_memdup(bytes.data(), bytes.size());
   GST_BUFFER_PTS(buf) = pts;
   GST_BUFFER_DTS(buf) = pts;
   GST_BUFFER_DURATION(buf) = period;
-  GST_BUFFER_OFFSET(buf) = req.sequence;
+  GST_BUFFER_OFFSET(buf) = timed[0].sequence;
   return buf;
 }
 
@@ -846,8 +855,9 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   }
   req.sampling = s.sampling;
   // Click to focus: the probe's requests go with this tick's request (a
-  // click's, else every kContinuousFocusEvery ticks a continuous one).
-  std::vector<lf::ViewRequest> probes;
+  // click's, else every kContinuousFocusEvery ticks a continuous one), as
+  // are a surface probe's; each probe in one buffer (lib/lf/probe_bundle.h).
+  std::vector<std::vector<lf::ViewRequest>> probes;
   const bool continuous =
       lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::continuous_focus);
   const bool want_surface =
@@ -875,7 +885,8 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
     const double x = st->focus_x >= 0 ? st->focus_x : 0.5 * (req.view.width - 1);
     const double y = st->focus_y >= 0 ? st->focus_y : 0.5 * (req.view.height - 1);
     GError* perr = nullptr;
-    if (!lfgst::guard([&] { probes = lf::focus_probe_requests(rig, req, x, y, id); }, &perr)) {
+    if (!lfgst::guard([&] { probes.push_back(lf::focus_probe_requests(rig, req, x, y, id)); },
+                      &perr)) {
       GST_WARNING_OBJECT(self, "no focus probe: %s", perr->message);
       g_error_free(perr);
     }
@@ -892,7 +903,7 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
     std::vector<lf::ViewRequest> sp;
     GError* perr = nullptr;
     if (lfgst::guard([&] { sp = lf::surface_probe_requests(rig, req, id); }, &perr)) {
-      probes.insert(probes.end(), sp.begin(), sp.end());
+      probes.push_back(std::move(sp));
       GST_DEBUG_OBJECT(self, "surface probe %u, request time %" GST_TIME_FORMAT, id,
                        GST_TIME_ARGS(pts));
     } else {
@@ -936,15 +947,20 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
     tick[0].view.position -= x * (0.5 * s.stereo_baseline);
     tick.push_back(right);
   }
-  tick.insert(tick.end(), probes.begin(), probes.end());
+  probes.erase(std::remove_if(probes.begin(), probes.end(),
+                              [](const std::vector<lf::ViewRequest>& v) { return v.empty(); }),
+               probes.end());
   // The tick's first request now, the others from the next calls, at once
   // (num-buffers counts ticks: the base class counts each call).
-  *out = request_buffer(src, tick[0], pts, period);
+  *out = request_buffer(src, tick, 0, pts, period);
   for (size_t i = 1; i < tick.size(); ++i)
-    st->rest_of_tick.push_back(request_buffer(src, tick[i], pts, period));
-  if (tick.size() > 1) {
+    st->rest_of_tick.push_back(request_buffer(src, tick, i, pts, period));
+  for (const std::vector<lf::ViewRequest>& probe : probes)
+    st->rest_of_tick.push_back(request_buffer(src, probe, probe.size(), pts, period));
+  if (tick.size() + probes.size() > 1) {
     g_mutex_lock(&src->live_lock);  // the base class reads it under this lock
-    if (src->num_buffers_left >= 0) src->num_buffers_left += static_cast<gint>(tick.size() - 1);
+    if (src->num_buffers_left >= 0)
+      src->num_buffers_left += static_cast<gint>(tick.size() + probes.size() - 1);
     g_mutex_unlock(&src->live_lock);
   }
   st->sequence++;
@@ -1042,7 +1058,8 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
                 "Focus each 16-pixel tile of the view on its own plane, estimated from the "
                 "cameras' fragments (lib/lf/surface_probe.h): every surface-interval requests a "
                 "surface probe (32 requests for the view at 160 pixels wide, one per candidate "
-                "plane) goes out with the request, lfcompositor estimates the surface from the "
+                "plane, in one buffer) goes out with the request, lfcompositor estimates the "
+                "surface from the "
                 "answers and sends it back (an lf-surface event), and the requests carry it "
                 "from then on (view request version 3) in place of focal-plane and focal-depth",
                 FALSE, play));

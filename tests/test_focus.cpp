@@ -18,6 +18,7 @@
 #include "lf/focus.h"
 #include "lf/focus_probe.h"
 #include "lf/plan.h"
+#include "lf/probe_bundle.h"
 #include "lf/render.h"
 #include "lf/render_view.h"
 #include "lf/rig_file.h"
@@ -515,11 +516,11 @@ TEST_F(LiveSurface, TheCompositorsSurfaceReachesTheRequests) {
           GstMapInfo map;
           GstBuffer* b = GST_PAD_PROBE_INFO_BUFFER(info);
           if (gst_buffer_map(b, &map, GST_MAP_READ)) {
-            const lf::ViewRequest r = lf::parse_request(map.data, map.size);
+            const std::vector<lf::ViewRequest> rs = lf::parse_requests(map.data, map.size);
             gst_buffer_unmap(b, &map);
             std::lock_guard<std::mutex> l(all->m);
-            if (!lf::is_surface_probe(r.sequence) && !lf::is_focus_probe(r.sequence))
-              all->requests.push_back(r);
+            for (const lf::ViewRequest& r : rs)
+              if (!lf::is_probe_step(r.sequence)) all->requests.push_back(r);
           }
           return GST_PAD_PROBE_OK;
         }
@@ -612,11 +613,12 @@ void record_requests(GstElement* req, SentRequests* seen) {
         GstMapInfo map;
         GstBuffer* b = GST_PAD_PROBE_INFO_BUFFER(info);
         if (gst_buffer_map(b, &map, GST_MAP_READ)) {
-          const lf::ViewRequest r = lf::parse_request(map.data, map.size);
+          const std::vector<lf::ViewRequest> rs = lf::parse_requests(map.data, map.size);
           gst_buffer_unmap(b, &map);
           auto* all = static_cast<SentRequests*>(data);
           std::lock_guard<std::mutex> l(all->m);
-          if (!lf::is_surface_probe(r.sequence)) all->requests.push_back(r);
+          for (const lf::ViewRequest& r : rs)
+            if (!lf::is_surface_probe(r.sequence)) all->requests.push_back(r);
         }
         return GST_PAD_PROBE_OK;
       },

@@ -19,6 +19,7 @@
 #include "lf/focus.h"
 #include "lf/gl_render.h"
 #include "lf/parse.h"
+#include "lf/probe_bundle.h"
 #include "lf/quality.h"
 #include "lf/render.h"
 #include "lf/render_view.h"
@@ -291,7 +292,7 @@ TEST_F(Gst, NavigationEventsSteerTheViewOnce) {
         GstBuffer* b = GST_PAD_PROBE_INFO_BUFFER(info);
         gst_buffer_map(b, &m, GST_MAP_READ);
         std::lock_guard<std::mutex> l(s->m);
-        s->reqs.push_back(lf::parse_request(m.data, m.size));
+        for (const lf::ViewRequest& r : lf::parse_requests(m.data, m.size)) s->reqs.push_back(r);
         gst_buffer_unmap(b, &m);
         return GST_PAD_PROBE_OK;
       },

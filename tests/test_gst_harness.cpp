@@ -14,6 +14,7 @@
 #include "lf/fragment.h"
 #include "lf/gl_render.h"
 #include "lf/parse.h"
+#include "lf/probe_bundle.h"
 #include "lf/quality.h"
 #include "lf/render.h"
 #include "lf/render_view.h"
@@ -47,6 +48,11 @@ class Harness : public ::testing::Test {
     return out;
   }
   static lf::ViewRequest parsed_request(GstBuffer* b) { return parsed(b, lf::parse_request); }
+  // A request buffer's requests: one, or a probe's steps (lf/probe_bundle.h).
+  static std::vector<lf::ViewRequest> parsed_requests(GstBuffer* b) {
+    return parsed<std::vector<lf::ViewRequest>>(
+        b, [](const uint8_t* d, size_t n) { return lf::parse_requests(d, n); });
+  }
   static lf::Fragment parsed_fragment(GstBuffer* b) {
     return parsed<lf::Fragment>(
         b, [](const uint8_t* d, size_t n) { return lf::parse_fragment(d, n); });
@@ -245,21 +251,28 @@ TEST_F(Harness, ViewRequestCarriesTheSurfaceTheCompositorSent) {
   gst_harness_use_systemclock(h);  // live: requests on the clock
   gst_harness_play(h);
   const int planes_per_probe = lf::SurfaceOptions{}.planes;
-  // Pulls requests until `done` says so of one (at most `limit`); false if
-  // none did.
+  // Pulls request buffers until `done` says so of a request (at most
+  // `limit` buffers); false if none did. A probe's steps come in one buffer.
   auto pull_until = [&](int limit, auto done) {
     for (int k = 0; k < limit; ++k) {
       GstBuffer* b = gst_harness_pull(h);
       if (!b) return false;
-      const lf::ViewRequest r = parsed_request(b);
+      const std::vector<lf::ViewRequest> reqs = parsed_requests(b);
       gst_buffer_unref(b);
-      if (lf::is_surface_probe(r.sequence)) {
-        EXPECT_EQ(r.view.width, 64);  // below the probe's 160 pixels: the view's own
+      if (reqs.size() > 1 || lf::is_surface_probe(reqs[0].sequence)) {
+        EXPECT_EQ(reqs.size(), static_cast<size_t>(planes_per_probe)) << "a whole probe";
       }
-      if (done(r)) return true;
+      for (const lf::ViewRequest& r : reqs) {
+        if (lf::is_surface_probe(r.sequence)) {
+          EXPECT_EQ(r.view.width, 64);  // below the probe's 160 pixels: the view's own
+        }
+        if (done(r)) return true;
+      }
     }
     return false;
   };
+  // Buffers per probe interval: the probe's and 4 requests.
+  const int interval = 5;
   auto probe_end = [&](uint32_t* id) {
     return [=](const lf::ViewRequest& r) {
       if (!lf::is_surface_probe(r.sequence) ||
@@ -292,8 +305,7 @@ TEST_F(Harness, ViewRequestCarriesTheSurfaceTheCompositorSent) {
   };
   uint32_t first = 0, second = 0;
   lf::ViewRequest r;
-  ASSERT_TRUE(pull_until(planes_per_probe + 1, probe_end(&first)))
-      << "a probe with the first request";
+  ASSERT_TRUE(pull_until(2, probe_end(&first))) << "a probe with the first request";
   // 64x48 in 16-pixel tiles: 4 x 3. Two planes (z = 2 and z = 5, n = +z).
   const std::vector<double> planes = {0, 0, 1, -2, 0, 0, 1, -5};
   std::vector<uint8_t> plane_of(12, 0);
@@ -301,25 +313,25 @@ TEST_F(Harness, ViewRequestCarriesTheSurfaceTheCompositorSent) {
   answer(first + 7, 16, 4, 3, planes, plane_of);  // a probe it did not send
   answer(first, 16, 4, 3, {0, 0, 1}, plane_of);   // planes: not 4 doubles each
   answer(first, 16, 4, 3, planes, {0, 1});        // plane-of: not one per tile
-  EXPECT_FALSE(pull_until(3 * (planes_per_probe + 4), frame(true, &r))) << "no valid answer yet";
+  EXPECT_FALSE(pull_until(3 * interval, frame(true, &r))) << "no valid answer yet";
   answer(first, 16, 4, 3, planes, plane_of);
-  ASSERT_TRUE(pull_until(2 * (planes_per_probe + 4), frame(true, &r)));
+  ASSERT_TRUE(pull_until(2 * interval, frame(true, &r)));
   EXPECT_EQ(r.surface.plane_of, plane_of);
   EXPECT_NEAR(r.focal_plane.d, -2, 1e-12);  // plane 0, the single plane
   guint used = 0;
   g_object_get(h->element, "surface-planes", &used, nullptr);
   EXPECT_EQ(used, 2u);
-  ASSERT_TRUE(pull_until(2 * (planes_per_probe + 4), probe_end(&second)));
+  ASSERT_TRUE(pull_until(2 * interval, probe_end(&second)));
   EXPECT_GT(second, first);
   ASSERT_TRUE(pull_until(2, frame(true, &r))) << "the surface stays until a newer one comes";
   // An answer for another grid (8-pixel tiles): refused when a request
   // takes it (lf::validate); the requests go back to the focal plane.
   answer(second, 8, 8, 6, planes, std::vector<uint8_t>(48, 1));
-  EXPECT_TRUE(pull_until(2 * (planes_per_probe + 4), frame(false, &r)));
+  EXPECT_TRUE(pull_until(2 * interval, frame(false, &r)));
   // focal-surface off: after the tick under way, no probes and no surface.
   g_object_set(h->element, "focal-surface", FALSE, nullptr);
   uint32_t none = 0;
-  pull_until(planes_per_probe + 2, frame(false, &r));
+  pull_until(2, frame(false, &r));
   EXPECT_FALSE(pull_until(12, probe_end(&none)));
   gst_harness_teardown(h);
 }
@@ -333,13 +345,16 @@ TEST_F(Harness, AnUnansweredClickIsProbedAgainTwice) {
     while (tick < until) {
       GstBuffer* b = gst_harness_pull(h);
       ASSERT_NE(b, nullptr);
-      const lf::ViewRequest r = parsed_request(b);
+      const std::vector<lf::ViewRequest> reqs = parsed_requests(b);
       gst_buffer_unref(b);
-      if (!lf::is_focus_probe(r.sequence)) {
-        tick = r.sequence;  // a tick's view request, then its probe's requests
-      } else if (lf::focus_probe_step(r.sequence) == 0) {
-        at->push_back(tick);
-        *id = lf::focus_probe_id(r.sequence);
+      for (const lf::ViewRequest& r : reqs) {
+        if (!lf::is_focus_probe(r.sequence)) {
+          tick = r.sequence;  // a tick's view request, then its probe's requests
+        } else if (lf::focus_probe_step(r.sequence) == 0) {
+          ASSERT_EQ(reqs.size(), static_cast<size_t>(lf::kFocusProbeSteps)) << "a whole probe";
+          at->push_back(tick);
+          *id = lf::focus_probe_id(r.sequence);
+        }
       }
     }
   };
@@ -532,6 +547,71 @@ TEST_F(Harness, AProbeTakesOnlyTheFrameOfItsInstant) {
   EXPECT_EQ(answers(lf::focus_probe_sequence(2, 0), 123 + 10), "pixels") << "its frame is there";
   EXPECT_EQ(answers(lf::surface_probe_sequence(2, 0), 123 + 10), "pixels") << "its frame is there";
   EXPECT_EQ(answers(7, skipped), "pixels") << "a frame request takes the frame before";
+  gst_harness_teardown(video);
+  gst_harness_teardown(h);
+}
+
+// A probe bundle (lib/lf/probe_bundle.h): one request buffer with all the
+// steps, one answer buffer with the camera's fragment of each step in
+// order, each the one that step alone gets; a bundle that is not one
+// probe's steps is dropped with no answer.
+TEST_F(Harness, AProbeBundleIsAnsweredInOneBuffer) {
+  GstHarness* video = nullptr;
+  cv::Mat frame;
+  GstHarness* h = camera1_fragment(&video, &frame);  // a frame at 123 ns
+  lf::ViewRequest view = request(9);
+  view.time_ns = 123 + 10;
+  for (bool focus : {false, true}) {
+    // The same probe twice: its steps one by one (id 5), then bundled (id 6).
+    std::vector<lf::ViewRequest> alone, bundled;
+    if (focus) {
+      alone = lf::focus_probe_requests(rig_, view, 40, 30, 5);
+      bundled = lf::focus_probe_requests(rig_, view, 40, 30, 6);
+    } else {
+      alone = lf::surface_probe_requests(rig_, view, 5);
+      bundled = lf::surface_probe_requests(rig_, view, 6);
+    }
+    std::vector<lf::Fragment> one_by_one;
+    for (const lf::ViewRequest& r : alone) {
+      ASSERT_EQ(gst_harness_push(h, bytes(lf::serialize_request(r), GST_SECOND)), GST_FLOW_OK);
+      ASSERT_EQ(gst_harness_buffers_in_queue(h), 1u);
+      GstBuffer* out = gst_harness_pull(h);
+      one_by_one.push_back(parsed_fragment(out));
+      gst_buffer_unref(out);
+    }
+    ASSERT_EQ(gst_harness_push(h, bytes(lf::serialize_probe_bundle(bundled), GST_SECOND)),
+              GST_FLOW_OK);
+    ASSERT_EQ(gst_harness_buffers_in_queue(h), 1u) << "one answer for the whole probe";
+    GstBuffer* out = gst_harness_pull(h);
+    EXPECT_EQ(GST_BUFFER_PTS(out), GST_SECOND);
+    GstMapInfo map;
+    ASSERT_TRUE(gst_buffer_map(out, &map, GST_MAP_READ));
+    const std::vector<lf::FragmentSpan> spans = lf::split_probe_answer(map.data, map.size);
+    ASSERT_EQ(spans.size(), bundled.size());
+    int with_pixels = 0;
+    for (size_t k = 0; k < spans.size(); ++k) {
+      const lf::Fragment f = lf::parse_fragment(map.data + spans[k].offset, spans[k].size);
+      EXPECT_EQ(f.sequence, bundled[k].sequence);
+      EXPECT_EQ(f.camera_id, static_cast<uint32_t>(rig_.cameras[1].id));
+      EXPECT_EQ(f.pixels, one_by_one[k].pixels) << "step " << k;
+      EXPECT_EQ(f.rect, one_by_one[k].rect) << "step " << k;
+      with_pixels += !f.empty();
+    }
+    EXPECT_GT(with_pixels, 0);
+    gst_buffer_unmap(out, &map);
+    gst_buffer_unref(out);
+  }
+  // Not one probe's steps: a frame request with a step, a step twice.
+  std::vector<lf::ViewRequest> steps = lf::surface_probe_requests(rig_, view, 7);
+  std::vector<uint8_t> mixed = lf::serialize_request(request(10));
+  const std::vector<uint8_t> step = lf::serialize_request(steps[0]);
+  mixed.insert(mixed.end(), step.begin(), step.end());
+  std::vector<uint8_t> twice = step;
+  twice.insert(twice.end(), step.begin(), step.end());
+  for (const auto& bad : {mixed, twice}) {
+    ASSERT_EQ(gst_harness_push(h, bytes(bad, GST_SECOND)), GST_FLOW_OK);
+    EXPECT_EQ(gst_harness_buffers_in_queue(h), 0u);
+  }
   gst_harness_teardown(video);
   gst_harness_teardown(h);
 }

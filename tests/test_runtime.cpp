@@ -19,6 +19,7 @@
 #include "lf/datasets.h"
 #include "lf/focus.h"
 #include "lf/parse.h"
+#include "lf/probe_bundle.h"
 #include "lf/render_view.h"
 #include "lf/rig_file.h"
 #include "lf/rig_ops.h"
@@ -39,11 +40,13 @@ struct Seen {
     auto add = [s](GstBuffer* b) {
       GstMapInfo m;
       gst_buffer_map(b, &m, GST_MAP_READ);
-      const lf::ViewRequest r = lf::parse_request(m.data, m.size);
+      const std::vector<lf::ViewRequest> rs = lf::parse_requests(m.data, m.size);
       gst_buffer_unmap(b, &m);
       std::lock_guard<std::mutex> l(s->m);
-      s->reqs[{r.viewer_id, r.sequence}] = r;
-      s->last = std::max(s->last, r.sequence);
+      for (const lf::ViewRequest& r : rs) {
+        s->reqs[{r.viewer_id, r.sequence}] = r;
+        s->last = std::max(s->last, r.sequence);
+      }
     };
     if (info->type & GST_PAD_PROBE_TYPE_BUFFER) add(GST_PAD_PROBE_INFO_BUFFER(info));
     if (info->type & GST_PAD_PROBE_TYPE_BUFFER_LIST) {

@@ -11,9 +11,11 @@
 #include "lf/focus.h"
 #include "lf/parse.h"
 #include "lf/plan.h"
+#include "lf/probe_bundle.h"
 #include "lf/quality.h"
 #include "lf/render.h"
 #include "lf/render_view.h"
+#include "lf/surface_probe.h"
 #include "lf/synthetic.h"
 #include "lf/view_builder.h"
 #include "lf/wire.h"
@@ -573,6 +575,151 @@ TEST(Wire, InconsistentFragmentsAreRejected) {
   auto gb = lf::serialize_fragment(f, lf::Encoding::kJpeg);
   for (size_t i = 56 + 4 * f.rect.height; i < gb.size(); ++i) gb[i] = 0x11;
   expect_error(gb, "JPEG");
+}
+
+// A probe's steps in one buffer each way (lib/lf/probe_bundle.h): the
+// requests come back as they went; anything but distinct steps of one probe
+// and viewer is refused, and so is a size that is not whole requests.
+TEST(Wire, ProbeBundlesRoundTripAndRefuseStrangers) {
+  const lf::Rig rig = lf::synthetic_grid_rig(3, 3, 0.5, 160, 120, 50);
+  lf::ViewRequest view = sample_request();
+  const std::vector<lf::ViewRequest> steps = lf::surface_probe_requests(rig, view, 77);
+  ASSERT_EQ(steps.size(), 32u);
+  const std::vector<uint8_t> b = lf::serialize_probe_bundle(steps);
+  ASSERT_EQ(b.size(), 32 * lf::kRequestSize);
+  std::vector<size_t> sizes;
+  const std::vector<lf::ViewRequest> back = lf::parse_requests(b.data(), b.size(), &sizes);
+  ASSERT_EQ(back.size(), 32u);
+  EXPECT_EQ(sizes, std::vector<size_t>(32, lf::kRequestSize));
+  for (size_t k = 0; k < 32; ++k) {
+    EXPECT_EQ(lf::serialize_request(back[k]), lf::serialize_request(steps[k])) << k;
+  }
+  // One request, of either version, is one request.
+  for (const lf::ViewRequest& one : {view, sample_surface_request(), steps[3]}) {
+    const std::vector<uint8_t> v = lf::serialize_request(one);
+    const auto got = lf::parse_requests(v.data(), v.size(), &sizes);
+    ASSERT_EQ(got.size(), 1u);
+    EXPECT_EQ(lf::serialize_request(got[0]), v);
+    EXPECT_EQ(sizes, std::vector<size_t>{v.size()});
+  }
+  // A version-3 request whose size is a multiple of a version-2 one's is
+  // still one request (its version says so).
+  bool found = false;
+  for (int tile = 8; tile <= 64 && !found; tile += 4)
+    for (int planes = 1; planes <= 8 && !found; ++planes) {
+      lf::ViewRequest r = sample_request();
+      lf::FocalSurface& sf = r.surface;
+      sf.tile = tile, sf.cols = (640 + tile - 1) / tile, sf.rows = (480 + tile - 1) / tile;
+      for (int p = 0; p < planes; ++p)
+        sf.planes.push_back(lf::FocalPlane::through({0, 0, 2.0 + p}, {0, 0, 1}));
+      sf.plane_of.assign(static_cast<size_t>(sf.cols) * sf.rows, 0);
+      for (size_t t = 0; t < sf.plane_of.size(); ++t) sf.plane_of[t] = t % planes;
+      const std::vector<uint8_t> v = lf::serialize_request(r);
+      if (v.size() % lf::kRequestSize != 0) continue;
+      found = true;
+      const auto got = lf::parse_requests(v.data(), v.size());
+      ASSERT_EQ(got.size(), 1u);
+      EXPECT_EQ(got[0].surface.plane_of, sf.plane_of);
+    }
+  EXPECT_TRUE(found) << "no version-3 request of a multiple of 152 bytes to try";
+
+  auto refused = [](std::vector<lf::ViewRequest> rs, const std::string& word) {
+    std::vector<uint8_t> v;
+    for (const lf::ViewRequest& r : rs) {
+      const std::vector<uint8_t> one = lf::serialize_request(r);
+      v.insert(v.end(), one.begin(), one.end());
+    }
+    expect_wire_error([&] { lf::parse_requests(v.data(), v.size()); }, word);
+    EXPECT_THROW(lf::serialize_probe_bundle(rs), std::invalid_argument);
+  };
+  std::vector<lf::ViewRequest> two(steps.begin(), steps.begin() + 2);
+  auto edited = [&](auto edit) {
+    std::vector<lf::ViewRequest> rs = two;
+    edit(rs[1]);
+    return rs;
+  };
+  refused(edited([](lf::ViewRequest& r) { r.viewer_id++; }), "probe and viewer");
+  refused(edited([](lf::ViewRequest& r) { r.sequence = lf::surface_probe_sequence(78, 1); }),
+          "probe and viewer");
+  refused(edited([](lf::ViewRequest& r) { r.sequence = lf::focus_probe_sequence(77, 1); }),
+          "probe and viewer");
+  refused(edited([](lf::ViewRequest& r) { r.sequence = 5; }), "probe and viewer");
+  refused({view, view}, "probe and viewer");  // frame requests are never bundled
+  refused(edited([&](lf::ViewRequest& r) { r.sequence = two[0].sequence; }), "twice");
+  // Beyond kMaxBundleSteps, or not whole requests.
+  std::vector<uint8_t> many;
+  for (size_t k = 0; k <= lf::kMaxBundleSteps; ++k) {
+    lf::ViewRequest r = steps[0];
+    r.sequence = lf::surface_probe_sequence(77, static_cast<int>(k));  // the last: step 64
+    const std::vector<uint8_t> one = lf::serialize_request(r);
+    many.insert(many.end(), one.begin(), one.end());
+  }
+  EXPECT_THROW(lf::parse_requests(many.data(), many.size()), lf::WireError);
+  for (size_t cut : {size_t{1}, lf::kRequestSize / 2, lf::kRequestSize + 1}) {
+    EXPECT_THROW(lf::parse_requests(b.data(), b.size() - cut), lf::WireError) << cut;
+  }
+  EXPECT_THROW(lf::serialize_probe_bundle({}), std::invalid_argument);
+}
+
+// A probe's answer: one camera's fragments of distinct steps of one probe,
+// back to back; the spans follow the headers exactly.
+TEST(Wire, ProbeAnswersSplitIntoTheirSteps) {
+  lf::Fragment f = sample_fragment();
+  std::vector<uint8_t> b;
+  std::vector<size_t> sizes;
+  for (int k = 0; k < 5; ++k) {
+    f.sequence = lf::focus_probe_sequence(9, k);
+    const std::vector<uint8_t> one =
+        lf::serialize_fragment(f, k % 2 ? lf::Encoding::kJpeg : lf::Encoding::kRaw);
+    sizes.push_back(one.size());
+    b.insert(b.end(), one.begin(), one.end());
+  }
+  const std::vector<lf::FragmentSpan> spans = lf::split_probe_answer(b.data(), b.size());
+  ASSERT_EQ(spans.size(), 5u);
+  size_t at = 0;
+  for (int k = 0; k < 5; ++k) {
+    EXPECT_EQ(spans[k].offset, at);
+    EXPECT_EQ(spans[k].size, sizes[k]);
+    EXPECT_EQ(spans[k].head.sequence, lf::focus_probe_sequence(9, k));
+    const lf::Fragment g = lf::parse_fragment(b.data() + spans[k].offset, spans[k].size);
+    EXPECT_EQ(g.sequence, spans[k].head.sequence);
+    at += sizes[k];
+  }
+  // One more fragment of another kind each time: refused whole.
+  auto with = [&](auto edit, const std::string& word) {
+    lf::Fragment o = sample_fragment();
+    o.sequence = lf::focus_probe_sequence(9, 7);
+    edit(o);
+    std::vector<uint8_t> v = b;
+    const std::vector<uint8_t> one = lf::serialize_fragment(o, lf::Encoding::kRaw);
+    v.insert(v.end(), one.begin(), one.end());
+    expect_wire_error([&] { lf::split_probe_answer(v.data(), v.size()); }, word);
+  };
+  {  // control: another step of the probe is welcome
+    lf::Fragment o = sample_fragment();
+    o.sequence = lf::focus_probe_sequence(9, 7);
+    std::vector<uint8_t> v = b;
+    const std::vector<uint8_t> one = lf::serialize_fragment(o, lf::Encoding::kRaw);
+    v.insert(v.end(), one.begin(), one.end());
+    EXPECT_EQ(lf::split_probe_answer(v.data(), v.size()).size(), 6u);
+  }
+  with([](lf::Fragment& o) { o.camera_id++; }, "one probe");
+  with([](lf::Fragment& o) { o.viewer_id++; }, "one probe");
+  with([](lf::Fragment& o) { o.sequence = lf::focus_probe_sequence(10, 7); }, "one probe");
+  with([](lf::Fragment& o) { o.sequence = lf::surface_probe_sequence(9, 7); }, "one probe");
+  with([](lf::Fragment& o) { o.sequence = lf::focus_probe_sequence(9, 2); }, "one probe");
+  with([](lf::Fragment& o) { o.sequence = 12; }, "one probe");
+  with([](lf::Fragment& o) { o.layer = 1; }, "one probe");
+  // Truncated anywhere in the last fragment, or trailing bytes.
+  for (size_t cut = 1; cut < sizes.back(); cut += 997) {
+    EXPECT_THROW(lf::split_probe_answer(b.data(), b.size() - cut), lf::WireError) << cut;
+  }
+  std::vector<uint8_t> trailing = b;
+  trailing.push_back(0);
+  EXPECT_THROW(lf::split_probe_answer(trailing.data(), trailing.size()), lf::WireError);
+  // More fragments than a bundle holds.
+  EXPECT_THROW(lf::split_fragments(b.data(), b.size(), 4), lf::WireError);
+  EXPECT_EQ(lf::split_fragments(b.data(), b.size(), 5).size(), 5u);
 }
 
 TEST(Wire, InvalidRequestsAreRejected) {

@@ -26,7 +26,9 @@
 // Protocol: probe requests carry the viewer's id and a sequence with bits
 // 48..63 = 0x4001 (kSurfaceProbeBit; focus probes use 0x4000), the probe id
 // in bits 16..47 and the step k (plane k) in bits 0..15, so they never
-// collide with frame requests (below 2^62) or focus probes.
+// collide with frame requests (below 2^62) or focus probes. lfviewrequest
+// sends a probe's requests in one buffer and each camera answers them in
+// one (lf/probe_bundle.h).
 #pragma once
 
 #include <cstdint>

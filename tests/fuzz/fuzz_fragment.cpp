@@ -1,6 +1,8 @@
 // libFuzzer harness: the fragment parser (lib/lf/wire.h) as a receiver uses
 // it (also in place with the CRC waived), then compositing of whatever it
-// accepts. A parsed fragment must pass
+// accepts; and the split of a buffer into fragments (a probe bundle's
+// answer, lib/lf/probe_bundle.h): spans back to back covering it exactly,
+// each its header's size. A parsed fragment must pass
 // check_fragment, survive a raw round trip unchanged, and add to a frame of
 // its size without error.
 #include <cstdint>
@@ -8,9 +10,25 @@
 #include <exception>
 
 #include "lf/composite.h"
+#include "lf/probe_bundle.h"
 #include "lf/wire.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  for (const bool probe : {false, true}) {
+    std::vector<lf::FragmentSpan> spans;
+    try {
+      spans = probe ? lf::split_probe_answer(data, size)
+                    : lf::split_fragments(data, size, lf::kMaxBundleSteps);
+    } catch (const lf::WireError&) {
+      continue;
+    }
+    size_t at = 0;
+    for (const lf::FragmentSpan& s : spans) {
+      if (s.offset != at || s.size != lf::kFragmentHeaderSize + s.head.payload_size) std::abort();
+      at += s.size;
+    }
+    if (at != size || spans.empty() || spans.size() > lf::kMaxBundleSteps) std::abort();
+  }
   // In place with the CRC waived (as lfcompositor parses buffers sealed in
   // its own process): the fuzzer gets past the checksum, and every other
   // check must still keep the fused compositor safe; a fragment accepted

@@ -1,11 +1,16 @@
-// libFuzzer harness: the view request parser, then planning and rendering of
-// the parsed view on a small synthetic rig (views capped at 96x96 pixels to
-// keep executions fast). The SIMD and scalar kernels must agree bit for bit.
+// libFuzzer harness: the view request parser (one request or a probe bundle,
+// lib/lf/probe_bundle.h), then planning and rendering of the first parsed
+// view on a small synthetic rig (views capped at 96x96 pixels to keep
+// executions fast). The SIMD and scalar kernels must agree bit for bit; a
+// bundle must be distinct steps of one probe and viewer, and its bytes must
+// serialize back as they came.
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <set>
 
 #include "lf/plan.h"
+#include "lf/probe_bundle.h"
 #include "lf/render.h"
 #include "lf/synthetic.h"
 #include "lf/wire.h"
@@ -26,14 +31,25 @@ const Scene& scene() {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  lf::ViewRequest req;
+  std::vector<lf::ViewRequest> reqs;
   try {
-    req = lf::parse_request(data, size);
+    reqs = lf::parse_requests(data, size);
   } catch (const lf::WireError&) {
     return 0;
   } catch (const std::invalid_argument&) {
     return 0;  // lf::validate's rejections
   }
+  if (reqs.empty() || reqs.size() > lf::kMaxBundleSteps) std::abort();
+  if (reqs.size() > 1) {
+    std::set<uint64_t> steps;
+    for (const lf::ViewRequest& r : reqs)
+      if (!lf::same_probe(r.sequence, reqs[0].sequence) || r.viewer_id != reqs[0].viewer_id ||
+          !steps.insert(r.sequence).second)
+        std::abort();
+    if (lf::parse_requests(lf::serialize_probe_bundle(reqs).data(), size).size() != reqs.size())
+      std::abort();
+  }
+  const lf::ViewRequest& req = reqs[0];
   if (req.view.width > 96 || req.view.height > 96) return 0;
   const Scene& s = scene();
   const lf::ViewGeometry g(s.rig, req);

@@ -6,6 +6,7 @@
 
 #include "lf/focus.h"
 #include "lf/plan.h"
+#include "lf/probe_bundle.h"
 #include "lf/render.h"
 #include "lf/rig_file.h"
 #include "lf/synthetic.h"
@@ -47,6 +48,9 @@ int main(int argc, char** argv) {
     sf.planes = {lf::plane_at_depth(rig, 0.7), lf::plane_at_depth(rig, 3.0)};
     for (int t = 0; t < sf.cols * sf.rows; ++t) sf.plane_of.push_back((t / sf.cols + t) % 2);
     write(out / "request", 4 + v, str(lf::serialize_request(surfaced)));
+    // A probe bundle: a surface probe's steps (lib/lf/probe_bundle.h).
+    write(out / "request", 8 + v,
+          str(lf::serialize_probe_bundle(lf::surface_probe_requests(rig, req, 1 + v))));
     const lf::ViewGeometry g(rig, req);
     for (int i = 0; i < static_cast<int>(rig.cameras.size()); i += 4) {
       lf::Fragment f;
@@ -55,6 +59,13 @@ int main(int argc, char** argv) {
       lf::render_fragment(lf::plan_fragment(g, i), rig.cameras[i], scene.render(rig.cameras[i], 0),
                           f);
       write(out / "fragment", k++, str(lf::serialize_fragment(f, lf::Encoding::kRaw)));
+      // Two steps of a focus probe in one buffer (a probe bundle's answer).
+      lf::Fragment s0 = f, s1 = f;
+      s0.sequence = lf::focus_probe_sequence(1 + v, 0);
+      s1.sequence = lf::focus_probe_sequence(1 + v, 1);
+      write(out / "fragment", k++,
+            str(lf::serialize_fragment(s0, lf::Encoding::kRaw)) +
+                str(lf::serialize_fragment(s1, lf::Encoding::kRaw)));
       if (!f.empty())
         write(out / "fragment", k++,
               str(lf::serialize_fragment(f, lf::Encoding::kJpeg, 50 + 10 * v)));

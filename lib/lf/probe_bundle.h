@@ -1,0 +1,69 @@
+// Probe bundles: all steps of one focus or surface probe in one buffer each
+// way. A probe is a plane sweep of 32 steps (lf/focus_probe.h,
+// lf/surface_probe.h); sent as 32 requests, every camera answered 32 times,
+// so a probe of 64 cameras was 2048 fragment buffers through queues,
+// threads and the compositor, for about two frames' worth of pixels. As a
+// bundle it is one request buffer and one answer buffer per camera.
+//
+// Requests: the steps' requests back to back, each a whole version-2 request
+// (kRequestSize bytes with its own CRC, lf/wire.h), all of one probe: the
+// same viewer and sequence bits 16..63 (kind and probe id), distinct steps.
+// Answers: the camera's fragment of each step, back to back, each whole
+// (lf/wire.h: its header's payload size says where the next starts), in the
+// order of the steps. An older receiver refuses a bundle as a request of
+// the wrong size.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "lf/focus_probe.h"
+#include "lf/surface_probe.h"
+#include "lf/view.h"
+#include "lf/wire.h"
+
+namespace lf {
+
+// The most steps a bundle holds: a surface probe's most planes (a focus
+// probe has kFocusProbeSteps).
+constexpr size_t kMaxBundleSteps = FocalSurface::kMaxPlanes;
+
+// Whether a sequence is a probe step (focus or surface), and whether two
+// are steps of the same probe.
+inline bool is_probe_step(uint64_t sequence) {
+  return is_focus_probe(sequence) || is_surface_probe(sequence);
+}
+inline bool same_probe(uint64_t a, uint64_t b) {
+  return is_probe_step(a) && is_probe_step(b) && (a >> 16) == (b >> 16);
+}
+
+// The bundle of `steps` (1..kMaxBundleSteps requests of one probe, none
+// with a focal surface). Throws std::invalid_argument otherwise.
+std::vector<uint8_t> serialize_probe_bundle(const std::vector<ViewRequest>& steps);
+
+// The requests in a request buffer: one request (lf::parse_request), or a
+// probe bundle of 2..kMaxBundleSteps. Throws WireError for anything else: a
+// size that is not a whole number of requests, a step of another viewer or
+// probe, a frame request in a bundle, a step twice; with `sizes`, each
+// request's byte count (its offset is the sum of those before it).
+std::vector<ViewRequest> parse_requests(const uint8_t* data, size_t size,
+                                        std::vector<size_t>* sizes = nullptr);
+
+// The byte ranges of the fragments in an answer buffer, from their headers
+// (lf::peek_fragment_header; nothing is decoded or CRC-checked): one
+// fragment, a layer pair or a probe bundle, at most `max_count`
+// (truncation, a header that does not parse, or more: WireError). What the
+// fragments must have in common is the caller's to check.
+struct FragmentSpan {
+  size_t offset = 0, size = 0;
+  FragmentHeader head;
+};
+std::vector<FragmentSpan> split_fragments(const uint8_t* data, size_t size, size_t max_count);
+
+// The spans of a probe bundle's answer: every fragment a step of the first
+// one's probe, of its viewer and camera, each step once. Throws WireError
+// otherwise.
+std::vector<FragmentSpan> split_probe_answer(const uint8_t* data, size_t size);
+
+}  // namespace lf
