@@ -24,6 +24,20 @@ cv::Mat camera_view_image(const Camera& cam, const cv::Mat& image, int width, in
   return out;
 }
 
+cv::Mat square_pixel_image(const Camera& cam, const cv::Mat& image, Camera* square) {
+  const Intrinsics& k = cam.intrinsics;
+  if (k.has_distortion())
+    throw std::invalid_argument("square_pixel_image: camera " + std::to_string(cam.id) +
+                                " has lens distortion");
+  *square = cam;
+  square->intrinsics.fx = k.fy;
+  const double s = k.fy / k.fx;
+  cv::Mat out;
+  cv::warpAffine(image, out, cv::Matx23d(s, 0, k.cx * (1 - s), 0, 1, 0), image.size(),
+                 cv::INTER_LANCZOS4);
+  return out;
+}
+
 // ---------------------------------------------------------------------------
 // Metrics
 

@@ -14,6 +14,12 @@ namespace lf {
 // Throws if the horizontal crop is not a whole number of pixels.
 cv::Mat camera_view_image(const Camera& cam, const cv::Mat& image, int width, int height);
 
+// A camera with fx != fy (e.g. Middlebury's) as one with square pixels, for
+// VirtualView::from_camera: *square gets fx = fy, and the image is resampled
+// to it (x' = cx + (x - cx) fy / fx, Lanczos; the principal point, the rows
+// and the size stay). Undistorted cameras only (std::invalid_argument).
+cv::Mat square_pixel_image(const Camera& cam, const cv::Mat& image, Camera* square);
+
 // Quality metrics on the colour channels of two same-size 8-bit images, with
 // `border` pixels cut from every side.
 double psnr(const cv::Mat& a, const cv::Mat& b, int border = 0);
