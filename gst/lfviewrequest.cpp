@@ -731,7 +731,8 @@ static gboolean lf_view_request_event(GstBaseSrc* src, GstEvent* event) {
 }
 
 // A buffer of request reqs[which], or with which == reqs.size() of all of
-// them as a probe bundle (lib/lf/probe_bundle.h), for time `pts`.
+// them as a probe bundle (lib/lf/probe_bundle.h), for time `pts`; nullptr
+// (with a warning) if they cannot be serialized.
 static GstBuffer* request_buffer(GstBaseSrc* src, const std::vector<lf::ViewRequest>& reqs,
                                  size_t which, GstClockTime pts, GstClockTime period) {
   std::vector<lf::ViewRequest> timed(reqs.begin() + (which < reqs.size() ? which : 0),
@@ -741,8 +742,18 @@ static GstBuffer* request_buffer(GstBaseSrc* src, const std::vector<lf::ViewRequ
     // The request is for its PTS (cameras: frame-select).
     r.time_ns = GST_CLOCK_TIME_IS_VALID(pts) ? static_cast<int64_t>(pts) : -1;
   }
-  const std::vector<uint8_t> bytes =
-      which < reqs.size() ? lf::serialize_request(timed[0]) : lf::serialize_probe_bundle(timed);
+  std::vector<uint8_t> bytes;
+  GError* err = nullptr;
+  if (!lfgst::guard(
+          [&] {
+            bytes = which < reqs.size() ? lf::serialize_request(timed[0])
+                                        : lf::serialize_probe_bundle(timed);
+          },
+          &err)) {
+    GST_WARNING_OBJECT(src, "cannot serialize a view request: %s", err->message);
+    g_error_free(err);
+    return nullptr;
+  }
   GstBuffer* buf = gst_buffer_new_memdup(bytes.data(), bytes.size());
   GST_BUFFER_PTS(buf) = pts;
   GST_BUFFER_DTS(buf) = pts;
@@ -952,15 +963,22 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
                probes.end());
   // The tick's first request now, the others from the next calls, at once
   // (num-buffers counts ticks: the base class counts each call).
-  *out = request_buffer(src, tick, 0, pts, period);
-  for (size_t i = 1; i < tick.size(); ++i)
-    st->rest_of_tick.push_back(request_buffer(src, tick, i, pts, period));
+  std::vector<GstBuffer*> bufs;
+  for (size_t i = 0; i < tick.size(); ++i)
+    bufs.push_back(request_buffer(src, tick, i, pts, period));
   for (const std::vector<lf::ViewRequest>& probe : probes)
-    st->rest_of_tick.push_back(request_buffer(src, probe, probe.size(), pts, period));
-  if (tick.size() + probes.size() > 1) {
+    bufs.push_back(request_buffer(src, probe, probe.size(), pts, period));
+  bufs.erase(std::remove(bufs.begin(), bufs.end(), nullptr), bufs.end());
+  if (bufs.empty()) {
+    GST_ELEMENT_ERROR(self, LIBRARY, FAILED, ("Cannot serialize the view request"),
+                      ("request %" G_GUINT64_FORMAT, req.sequence));
+    return GST_FLOW_ERROR;
+  }
+  *out = bufs[0];
+  st->rest_of_tick.insert(st->rest_of_tick.end(), bufs.begin() + 1, bufs.end());
+  if (bufs.size() > 1) {
     g_mutex_lock(&src->live_lock);  // the base class reads it under this lock
-    if (src->num_buffers_left >= 0)
-      src->num_buffers_left += static_cast<gint>(tick.size() + probes.size() - 1);
+    if (src->num_buffers_left >= 0) src->num_buffers_left += static_cast<gint>(bufs.size() - 1);
     g_mutex_unlock(&src->live_lock);
   }
   st->sequence++;

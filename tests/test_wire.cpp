@@ -646,6 +646,10 @@ TEST(Wire, ProbeBundlesRoundTripAndRefuseStrangers) {
   refused(edited([](lf::ViewRequest& r) { r.sequence = 5; }), "probe and viewer");
   refused({view, view}, "probe and viewer");  // frame requests are never bundled
   refused(edited([&](lf::ViewRequest& r) { r.sequence = two[0].sequence; }), "twice");
+  // A step too large to keep 64 of (a camera holds its answers to the last).
+  refused(edited([](lf::ViewRequest& r) { r.view.width = 321, r.view.height = 240; }), "pixels");
+  EXPECT_NO_THROW(lf::serialize_probe_bundle(
+      edited([](lf::ViewRequest& r) { r.view.width = 320, r.view.height = 240; })));
   // Beyond kMaxBundleSteps, or not whole requests.
   std::vector<uint8_t> many;
   for (size_t k = 0; k <= lf::kMaxBundleSteps; ++k) {

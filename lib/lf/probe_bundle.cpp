@@ -15,10 +15,12 @@ std::vector<uint8_t> serialize_probe_bundle(const std::vector<ViewRequest>& step
   std::set<uint64_t> seen;
   for (const ViewRequest& r : steps) {
     if (!same_probe(r.sequence, steps[0].sequence) || r.viewer_id != steps[0].viewer_id ||
-        !r.surface.empty() || !seen.insert(r.sequence).second)
+        !r.surface.empty() || !seen.insert(r.sequence).second ||
+        static_cast<long>(r.view.width) * r.view.height > kMaxBundleStepPixels)
       throw std::invalid_argument(
           "probe bundle: every step must be a distinct step of one probe of one viewer, without "
-          "a focal surface");
+          "a focal surface, of at most " +
+          std::to_string(kMaxBundleStepPixels) + " pixels");
     const std::vector<uint8_t> one = serialize_request(r);
     out.insert(out.end(), one.begin(), one.end());
   }
@@ -57,6 +59,10 @@ std::vector<ViewRequest> parse_requests(const uint8_t* data, size_t size,
                       " is not a step of the first one's probe and viewer");
     if (!steps.insert(r.sequence).second)
       throw WireError("probe bundle: step " + std::to_string(r.sequence & 0xffff) + " twice");
+    if (static_cast<long>(r.view.width) * r.view.height > kMaxBundleStepPixels)
+      throw WireError("probe bundle: a step of " + std::to_string(r.view.width) + "x" +
+                      std::to_string(r.view.height) + " pixels (at most " +
+                      std::to_string(kMaxBundleStepPixels) + ")");
     if (sizes) sizes->push_back(kRequestSize);
   }
   return out;

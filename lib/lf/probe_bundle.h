@@ -28,6 +28,12 @@ namespace lf {
 // The most steps a bundle holds: a surface probe's most planes (a focus
 // probe has kFocusProbeSteps).
 constexpr size_t kMaxBundleSteps = FocalSurface::kMaxPlanes;
+// The most output pixels of one step's view in a bundle (a surface probe is
+// SurfaceOptions::analysis_width = 160 pixels wide, a focus probe 33 x 33):
+// a camera keeps all its answers to a bundle until the last step, so a
+// bundle asks for at most kMaxBundleSteps x 320 x 240 fragment pixels
+// (20 MB) whatever a peer puts in it.
+constexpr long kMaxBundleStepPixels = 320 * 240;
 
 // Whether a sequence is a probe step (focus or surface), and whether two
 // are steps of the same probe.
@@ -39,13 +45,15 @@ inline bool same_probe(uint64_t a, uint64_t b) {
 }
 
 // The bundle of `steps` (1..kMaxBundleSteps requests of one probe, none
-// with a focal surface). Throws std::invalid_argument otherwise.
+// with a focal surface, each of at most kMaxBundleStepPixels). Throws
+// std::invalid_argument otherwise.
 std::vector<uint8_t> serialize_probe_bundle(const std::vector<ViewRequest>& steps);
 
 // The requests in a request buffer: one request (lf::parse_request), or a
 // probe bundle of 2..kMaxBundleSteps. Throws WireError for anything else: a
 // size that is not a whole number of requests, a step of another viewer or
-// probe, a frame request in a bundle, a step twice; with `sizes`, each
+// probe, a frame request in a bundle, a step twice, a step's view over
+// kMaxBundleStepPixels; with `sizes`, each
 // request's byte count (its offset is the sum of those before it).
 std::vector<ViewRequest> parse_requests(const uint8_t* data, size_t size,
                                         std::vector<size_t>* sizes = nullptr);
