@@ -135,8 +135,19 @@ case "$role" in
       if [ $((i % HOSTS)) = "$host" ]; then mine+="${mine:+,}$i"; n=$((n + 1)); fi
       i=$((i + 1))
     done
+    # The requests' caps, as the viewer's lfviewrequest sets them, in the RTP
+    # caps (base64, rtpgstpay's first caps version): rtpgstdepay starts from
+    # them instead of dropping requests until the viewer's next in-band copy
+    # (config-interval, a second), so a restarted host answers at once.
+    # Padded with spaces to whole base64 quanta: no '=' in the caps string.
+    vw=640 vh=480
+    if [[ " $VIEW " =~ [[:space:]]width=([0-9]+) ]]; then vw=${BASH_REMATCH[1]}; fi
+    if [[ " $VIEW " =~ [[:space:]]height=([0-9]+) ]]; then vh=${BASH_REMATCH[1]}; fi
+    rc="application/x-lf-view-request, framerate=(fraction)$FPS/1, width=(int)$vw, height=(int)$vh"
+    while [ $((${#rc} % 3)) != 0 ]; do rc+=" "; done
+    req_caps="$rtp_caps,caps=(string)$(printf '%s' "$rc" | base64 -w0),capsversion=(string)0"
     # One request stream in, one fragment stream out (the lfcamerahost bin).
-    desc="$src $(receive "$rtp_caps" $SSRC_REQUESTS) ! rtpgstdepay"
+    desc="$src $(receive "$req_caps" $SSRC_REQUESTS) ! rtpgstdepay"
     desc+=" ! lfcamerahost rig=$RIG cameras=$mine is-live=true framerate=$FPS/1 phase=$PHASE_NS frame-select=capture-time"
     desc+=" encoding=$ENCODING jpeg-quality=$QUALITY"
     desc+=" ! rtpgstpay config-interval=1 ssrc=$((SSRC_FRAGMENTS + host)) ! $(protect)$loss"

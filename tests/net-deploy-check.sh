@@ -9,7 +9,8 @@
 #     all fragments of a frame from the same capture instant;
 #  2. camera host 1 killed at 1/3, restarted at 2/3: output keeps flowing
 #     within the compositor deadline with the other 48 cameras, and the host
-#     rejoins (complete frames again);
+#     rejoins: complete frames again soon after the restart (lf-trace
+#     --rejoin-after);
 #  3. 5 % packet loss on every link, view requests sent by unicast fan-out
 #     instead of multicast: output keeps flowing, nothing hangs.
 # Requests issued before every camera had captured its first frame (hosts
@@ -87,7 +88,10 @@ fi
 
 echo "== 2. camera host killed and restarted"
 "$root/tools/lf-netem.sh" run "$work/kill" $kill_s kill
-"$build/tools/lf-trace" --cameras 64 --fps $FPS --timeline "$work"/kill/*.trace > "$work/kill.txt"
+restart_ns=$(awk '/^restarted/{for (i = 1; i < NF; ++i) if ($i == "clock-ns") print $(i + 1)}' \
+  "$work/kill/events")
+"$build/tools/lf-trace" --cameras 64 --fps $FPS --timeline --rejoin-after "$restart_ns" \
+  "$work"/kill/*.trace > "$work/kill.txt"
 cat "$work/kill.txt"
 summary "$work/kill.txt"
 check "$work/kill.txt" "output flowing while the host is down" 'v["composited"] >= 0.9 * v["issued"]'
@@ -102,6 +106,13 @@ fi
 check "$work/kill.txt" "no gap longer than period + deadline + 250 ms" \
   'v["max-gap-ms"] < '"$period"' + '"$LATENCY_MS"' + 250'
 check "$work/kill.txt" "the restarted host rejoins (last frames complete)" 'v["last-15-complete"] >= 12'
+# Restart (the process launched) -> the first complete frame out: the host
+# decodes its 16 cameras' images while its clock synchronises, and answers
+# the next request (issue 15: within 1 s). Measured 0.49-0.52 s alone,
+# 0.71 s beside a niced busy loop, 0.70-0.84 s beside two; 1.5 s leaves room
+# for a busier machine (CI runs other tests beside this one).
+check "$work/kill.txt" "complete frames again within 1.5 s of the restart" \
+  'v["rejoin-ms"] >= 0 && v["rejoin-ms"] < 1500 && v["rejoin-complete-after"] >= 0.8'
 
 echo "== 3. 5 % packet loss (view requests by unicast fan-out)"
 LOSS=0.05 REQUESTS=unicast "$root/tools/lf-netem.sh" run "$work/loss" $loss_s loss

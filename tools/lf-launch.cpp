@@ -96,6 +96,22 @@ int main(int argc, char** argv) {
   }
   GstClock* clock = nullptr;
   GstNetTimeProvider* provider = nullptr;
+  // The pipeline, parsed and set to PAUSED (nullptr: an error, printed).
+  GstElement* pipeline = nullptr;
+  auto build = [&]() -> GstElement* {
+    if (description.empty()) return nullptr;
+    GError* err = nullptr;
+    GstElement* p = gst_parse_launch(description.c_str(), &err);
+    if (!p || err) {  // a missing element too: never run half a pipeline
+      std::fprintf(stderr, "lf-launch: error: %s\n", err ? err->message : "bad description");
+      g_clear_error(&err);
+      if (p) gst_object_unref(p);
+      return nullptr;
+    }
+    // A failure here is posted on the bus and reported below.
+    gst_element_set_state(p, GST_STATE_PAUSED);
+    return p;
+  };
   if (!server_port.empty()) {
     clock = gst_system_clock_obtain();
     provider = gst_net_time_provider_new(clock, nullptr, std::stoi(server_port));
@@ -115,9 +131,14 @@ int main(int argc, char** argv) {
     if (max_round_trip_ms > 0)
       g_object_set(clock, "round-trip-limit", static_cast<guint64>(max_round_trip_ms * GST_MSECOND),
                    nullptr);
+    // While the clock synchronises, the pipeline starts up to PAUSED (a live
+    // pipeline's sources open their inputs there, e.g. lfcamsrc decodes its
+    // stills): a restarted camera host is back sooner.
+    if (!check && !(pipeline = build()) && !description.empty()) return 1;
     if (!gst_clock_wait_for_sync(clock, static_cast<GstClockTime>(sync_timeout * GST_SECOND))) {
       std::fprintf(stderr, "lf-launch: error: clock %s not synchronised after %.0f s\n",
                    client.c_str(), sync_timeout);
+      if (pipeline) gst_element_set_state(pipeline, GST_STATE_NULL), gst_object_unref(pipeline);
       return 1;
     }
     if (check) {
@@ -166,14 +187,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "lf-launch: error: no pipeline description after --\n");
     return 2;
   }
-  GError* err = nullptr;
-  GstElement* pipeline = gst_parse_launch(description.c_str(), &err);
-  if (!pipeline || err) {  // a missing element too: never run half a pipeline
-    std::fprintf(stderr, "lf-launch: error: %s\n", err ? err->message : "bad description");
-    g_clear_error(&err);
-    if (pipeline) gst_object_unref(pipeline);
-    return 1;
-  }
+  if (!pipeline && !(pipeline = build())) return 1;
   // Same clock and base time everywhere; never redistribute the base time.
   gst_pipeline_use_clock(GST_PIPELINE(pipeline), clock);
   gst_element_set_start_time(pipeline, GST_CLOCK_TIME_NONE);

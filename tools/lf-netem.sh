@@ -21,8 +21,10 @@
 # Environment: RIG (required), HOSTS [4], REQUESTS=unicast for a unicast
 # fan-out of the view requests (default: multicast), and net-host.sh's settings (FPS,
 # ENCODING, VIEW, LATENCY_MS, ...). Writes OUTDIR/{comp,view,cam*}.trace,
-# .log, base-time, clock-offsets, and the viewer's last output frames
-# OUTDIR/view-N.png.
+# .log, base-time, clock-offsets, the viewer's last output frames
+# OUTDIR/view-N.png, and for kill OUTDIR/events (the kill and the restart,
+# the restart also on the hosts' shared clock: clock-ns, for lf-trace
+# --rejoin-after).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build="${LF_BUILD_DIR:-$root/build}"  # the build directory (scripts/setup.sh: LF_BUILD_DIR)
@@ -155,8 +157,10 @@ case "$scenario" in
     kill -9 "${pid[cam1]}" 2>/dev/null || true
     echo "killed cam1 at $(date +%s.%N)" >> "$out/events"
     sleep "$third"
+    # The restart on the hosts' shared clock too (lf-trace --rejoin-after).
+    echo "restarted cam1 at $(date +%s.%N) clock-ns $("$build/tools/lf-trace" --clock-now)" \
+      >> "$out/events"
     launch cam1 camera 1
-    echo "restarted cam1 at $(date +%s.%N)" >> "$out/events"
     sleep "$third"
     ;;
   *) sleep "$seconds" ;;

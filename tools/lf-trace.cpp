@@ -11,10 +11,14 @@
 //  * capture alignment: spread of the actual capture instants of one frame
 //    number across all cameras, against the frame period;
 //  * with --reference: composited frames compared (CRC-32 of the RGBA frame)
-//    with another run's, e.g. the single-machine pipeline.
+//    with another run's, e.g. the single-machine pipeline;
+//  * with --rejoin-after T: how long after clock time T (e.g. a camera
+//    host's restart, taken with --clock-now) the first complete frame left
+//    the compositor, and how many of the frames after it were complete.
 // All times come from the hosts' shared pipeline clock (tools/lf-launch).
 // Ends with machine-readable "key value" lines after "## summary".
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -41,6 +45,13 @@ usage: lf-trace [options] TRACE...
   --reference TRACE  compare composited frames (CRC-32) with this trace's
   --plot FILE        write the latency breakdown as a PNG
   --timeline         print output frames and fragments per second
+  --rejoin-after NS  time from clock time NS (ns) to the first complete frame composited
+                     after it (e.g. a restarted camera host's; summary: rejoin-ms, and
+                     rejoin-complete-after: the share of later frames that were complete)
+
+usage: lf-trace --clock-now
+  prints this machine's monotonic clock in ns: the clock the hosts' pipelines share
+  (GStreamer's system clock, served by the compositor host), for --rejoin-after
 
 usage: lf-trace --bandwidth-plot FILE SERIES...
   writes the paper's Figure 6 as a PNG: bytes per output frame (log scale)
@@ -183,6 +194,15 @@ void bandwidth_plot(const std::string& file, const std::vector<std::string>& ser
 
 int main(int argc, char** argv) {
   if (cli::help_requested(argc, argv, kHelp)) return 0;
+  if (argc == 2 && std::string(argv[1]) == "--clock-now") {
+    // CLOCK_MONOTONIC (libstdc++'s steady_clock), as GstSystemClock's
+    // default GST_CLOCK_TYPE_MONOTONIC.
+    std::printf("%lld\n",
+                static_cast<long long>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                           std::chrono::steady_clock::now().time_since_epoch())
+                                           .count()));
+    return 0;
+  }
   if (argc >= 3 && std::string(argv[1]) == "--bandwidth-plot") {
     try {
       bandwidth_plot(argv[2], std::vector<std::string>(argv + 3, argv + argc));
@@ -204,8 +224,10 @@ int main(int argc, char** argv) {
         files.push_back(a);
       }
     }
-    const cli::Args args(static_cast<int>(opt_argv.size()), opt_argv.data(),
-                         {"--cameras", "--fps", "--skip", "--reference", "--plot"}, {"--timeline"});
+    const cli::Args args(
+        static_cast<int>(opt_argv.size()), opt_argv.data(),
+        {"--cameras", "--fps", "--skip", "--reference", "--plot", "--rejoin-after"},
+        {"--timeline"});
     if (files.empty()) throw std::invalid_argument("no trace files (see --help)");
     std::vector<Event> events;
     for (const auto& f : files) {
@@ -472,6 +494,21 @@ int main(int argc, char** argv) {
       std::printf("\nlast-15-complete %d\n", last_complete);
     }
     if (args.has("--reference")) std::printf("compared %zu\nidentical %zu\n", compared, identical);
+    if (args.has("--rejoin-after")) {
+      // The first complete frame composited after T, and the frames after it.
+      const int64_t t0 = std::stoll(args.get("--rejoin-after"));
+      std::vector<std::pair<int64_t, int>> after;
+      for (const auto& [k, r] : req)
+        if (r.composited >= t0) after.push_back({r.composited, r.fragments});
+      std::sort(after.begin(), after.end());
+      size_t first = 0;
+      while (first < after.size() && after[first].second < expected) ++first;
+      int later_complete = 0;
+      for (size_t i = first; i < after.size(); ++i) later_complete += after[i].second >= expected;
+      std::printf("rejoin-ms %.1f\nrejoin-complete-after %.3f\n",
+                  first < after.size() ? (after[first].first - t0) / 1e6 : -1.0,
+                  first < after.size() ? later_complete / double(after.size() - first) : 0.0);
+    }
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "lf-trace: error: %s\n", e.what());
