@@ -4,7 +4,9 @@
  *
  * One camera of a light field rig as a video source (`video/x-raw`, RGBA, the
  * rig's image size). `mode=dataset`: the camera's still image from the rig,
- * repeated; `mode=synthetic`: a dynamic scene with known depths ray-cast from
+ * repeated (decoded from start on, beside the other cameras' stills: a
+ * missing file fails the start, one that does not decode the first frame);
+ * `mode=synthetic`: a dynamic scene with known depths ray-cast from
  * the camera's calibration (lib/lf/synthetic.h); `mode=file`: a video file or
  * image sequence (`location`) through GStreamer's decoders; `mode=v4l2`: a
  * capture `device`. Frames are captured on a schedule aligned to the pipeline
