@@ -187,11 +187,12 @@ struct Blocks {
 };
 
 // Adds 255 |p|^2 / a (w |c|^2 with w = a / 255 and c = 255 p / a, p
-// premultiplied) of a fragment's pixels in `blocks` where `where` has weight.
-void add_squares(const Fragment& f, const uint8_t* pixels, const Compositor& where,
+// premultiplied) of a fragment's rows [r0, r1) (`pixels`: row r0's) in
+// `blocks` where `where` has weight.
+void add_squares(const Fragment& f, const uint8_t* pixels, int r0, int r1, const Compositor& where,
                  const Blocks& blocks, cv::Mat& sq) {
   const uint8_t* px = pixels;
-  for (int r = 0; r < f.rect.height; ++r) {
+  for (int r = r0; r < r1; ++r) {
     const int b = f.spans[r][0], e = f.spans[r][1], y = f.rect.y + r;
     float* row = sq.ptr<float>(y);
     for (int x = b; x < e;) {
@@ -208,12 +209,41 @@ void add_squares(const Fragment& f, const uint8_t* pixels, const Compositor& whe
     px += 4 * (e - b);
   }
 }
+
+// add_squares of fragments[i] for each i of `which`, in that order, in
+// bands of rows on every core: each pixel's sum is the serial one.
+void add_squares(const std::vector<FragmentPixels>& fragments, const std::vector<size_t>& which,
+                 const Compositor& where, const Blocks& blocks, cv::Mat& sq) {
+  std::vector<std::vector<size_t>> row_start(which.size());
+  for (size_t k = 0; k < which.size(); ++k) {
+    const Fragment& f = *fragments[which[k]].fragment;
+    row_start[k].assign(f.spans.size() + 1, 0);
+    for (size_t r = 0; r < f.spans.size(); ++r)
+      row_start[k][r + 1] =
+          row_start[k][r] + 4 * static_cast<size_t>(f.spans[r][1] - f.spans[r][0]);
+  }
+  constexpr int kBandRows = 32;
+  cv::parallel_for_(cv::Range(0, (sq.rows + kBandRows - 1) / kBandRows),
+                    [&](const cv::Range& bands) {
+                      for (int band = bands.start; band < bands.end; ++band) {
+                        const int y0 = band * kBandRows, y1 = std::min(sq.rows, y0 + kBandRows);
+                        for (size_t k = 0; k < which.size(); ++k) {
+                          const FragmentPixels& fp = fragments[which[k]];
+                          const Fragment& f = *fp.fragment;
+                          const int r0 = std::max(y0, f.rect.y) - f.rect.y;
+                          const int r1 = std::min(y1, f.rect.y + f.rect.height) - f.rect.y;
+                          if (r0 < r1)
+                            add_squares(f, fp.pixels + row_start[k][r0], r0, r1, where, blocks, sq);
+                        }
+                      }
+                    });
+}
 }  // namespace
 
 std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
     int width, int height, const std::vector<FragmentPixels>& fragments, cv::Mat& out,
     cv::Mat* choice) {
-  for (int l = 0; l < 2; ++l) comp_[l].reset(width, height);  // throws for a bad size
+  comp_[1].reset(width, height);  // throws for a bad size (layer 0: composite() below)
   std::vector<std::pair<size_t, std::string>> refused;
   std::vector<size_t> layer_of[2];
   for (size_t i = 0; i < fragments.size(); ++i) {
@@ -244,27 +274,30 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
       for (int x = f.spans[r][0]; x < f.spans[r][1]; x = (x / kBlock + 1) * kBlock)
         blocks.on[((f.rect.y + r) / kBlock) * blocks.cols + x / kBlock] = 1;
   }
-  for (size_t i : layer_of[1])
-    add_squares(*fragments[i].fragment, fragments[i].pixels, comp_[1], blocks, sq_[1]);
-  for (size_t i : layer_of[0]) {
-    comp_[0].add(*fragments[i].fragment, fragments[i].pixels);
-    if (!layer_of[1].empty())
-      add_squares(*fragments[i].fragment, fragments[i].pixels, comp_[1], blocks, sq_[0]);
-  }
-  comp_[0].resolve(out);
+  add_squares(fragments, layer_of[1], comp_[1], blocks, sq_[1]);
+  // Layer 0, the whole frame: Compositor's fused, banded composite on every
+  // core (its sums are the serial ones, and stay for sums_at).
+  std::vector<FragmentPixels> zero;
+  zero.reserve(layer_of[0].size());
+  for (size_t i : layer_of[0]) zero.push_back(fragments[i]);
+  comp_[0].composite(width, height, zero, out);
   if (layer_of[1].empty()) return refused;
+  add_squares(fragments, layer_of[0], comp_[1], blocks, sq_[0]);
   // Per pixel where layer 1 has weight: both layers' variances; then their
   // window means over those pixels, block by block.
   const int R = kChoiceWindow / 2;
   cv::Mat v[2] = {cv::Mat::zeros(height, width, CV_32FC1), cv::Mat::zeros(height, width, CV_32FC1)};
+  // Rows of blocks on every core: each pixel's result is its own.
   auto each_block_pixel = [&](auto fn) {
-    for (int by = 0; by * kBlock < height; ++by)
-      for (int bx = 0; bx < blocks.cols; ++bx) {
-        if (!blocks.on[by * blocks.cols + bx]) continue;
-        for (int y = by * kBlock; y < std::min(height, (by + 1) * kBlock); ++y)
-          for (int x = bx * kBlock; x < std::min(width, (bx + 1) * kBlock); ++x)
-            if (comp_[1].weight_at(x, y) > 0) fn(x, y);
-      }
+    cv::parallel_for_(cv::Range(0, (height + kBlock - 1) / kBlock), [&](const cv::Range& rows) {
+      for (int by = rows.start; by < rows.end; ++by)
+        for (int bx = 0; bx < blocks.cols; ++bx) {
+          if (!blocks.on[by * blocks.cols + bx]) continue;
+          for (int y = by * kBlock; y < std::min(height, (by + 1) * kBlock); ++y)
+            for (int x = bx * kBlock; x < std::min(width, (bx + 1) * kBlock); ++x)
+              if (comp_[1].weight_at(x, y) > 0) fn(x, y);
+        }
+    });
   };
   each_block_pixel([&](int x, int y) {
     for (int l = 0; l < 2; ++l) v[l].at<float>(y, x) = variance_at(l, x, y);
