@@ -95,7 +95,8 @@ class LayerCompositor {
   static constexpr int kChoiceWindow = 3;
   static constexpr float kChoiceMargin = 64.0f;  // levels^2, 3 channels
   // As Compositor::composite (the same checks, refusals and exceptions,
-  // and a refusal of a layer other than 0 and 1); `choice`, when given:
+  // a refusal of a layer other than 0 and 1, and its threads: bands of
+  // rows, each pixel's sums in the serial order); `choice`, when given:
   // CV_8UC1, 1 where layer 1 was taken, else 0.
   std::vector<std::pair<size_t, std::string>> composite(
       int width, int height, const std::vector<FragmentPixels>& fragments, cv::Mat& out,
