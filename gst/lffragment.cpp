@@ -20,9 +20,10 @@
  * (lib/lf/probe_bundle.h), answered with one buffer of this camera's
  * fragment of each step; they always pick by capture time, one frame for
  * all steps of a probe; a camera that no longer holds the frame of the
- * probe's instant (its frame period), or skipped it, sits the probe out. Camera frames may come from any upstream element (e.g.
- * `uridecodebin ! videoconvert ! videoscale ! video/x-raw,format=RGBA,
- * width=W,height=H ! lffragment`); their PTS is then the capture time.
+ * probe's instant (its frame period), or skipped it, sits the probe out.
+ * Camera frames may come from any upstream element (e.g. `uridecodebin !
+ * videoconvert ! videoscale ! video/x-raw,format=RGBA,width=W,height=H !
+ * lffragment`); their PTS is then the capture time.
  * Cameras that do not contribute send an explicitly empty fragment, so the
  * compositor knows the request is complete. The fragment caps carry the
  * request caps' `framerate`. Raw fragments are rendered straight into the

@@ -52,21 +52,19 @@
  * parallel to the camera plane (0 to 24 px of neighbour parallax), seen from
  * the centre of the aperture triangle under that pixel, in one buffer (a
  * probe bundle, lib/lf/probe_bundle.h). Each camera answers with its
- * fragment of each step, in one buffer; `lfcompositor` measures the weighted colour
- * variance among the cameras (photo-consistency), runs the focal surface
- * estimator on the window and takes the plane of the clicked pixel's tile
- * (so a thin object under the pointer wins over the background around it),
- * and sends an upstream `lf-focus` event (`viewer-id`, `probe-id`, `inverse-depth`, rig
- * units^-1, and `capture-time`, the instant measured, ns of running time,
- * -1 unknown), which sets `focal-depth` here. `continuous-focus=true` keeps
- * focusing at the last clicked point (the view centre before any click): a
- * probe every 5 requests, each answer moving the plane half way (smoothing
- * in inverse depth). Answers are taken in probe order, each once: the last
- * click's, then any continuous probe's issued after it (on a busy machine
- * an answer may come after the next probe has gone out). A click with no
- * answer after a second (at least 5 requests: its requests dropped as stale
- * on a busy camera host, or every camera skipped its frame) is probed again,
- * twice at most.
+ * fragment of each step, in one buffer; `lfcompositor` measures the
+ * weighted colour variance among the cameras (photo-consistency), runs the
+ * focal surface estimator on the window and takes the plane of the clicked
+ * pixel's tile (so a thin object under the pointer wins over the background
+ * around it), and sends an upstream `lf-focus` event (`viewer-id`,
+ * `probe-id`, `inverse-depth`, rig units^-1, and `capture-time`, the instant measured, ns of
+ * running time, -1 unknown), which sets `focal-depth` here. `continuous-focus=true` keeps focusing
+ * at the last clicked point (the view centre before any click): a probe every 5 requests, each
+ * answer moving the plane half way (smoothing in inverse depth). Answers are taken in probe order,
+ * each once: the last click's, then any continuous probe's issued after it (on a busy machine an
+ * answer may come after the next probe has gone out). A click with no answer after a second (at
+ * least 5 requests: its requests dropped as stale on a busy camera host, or every camera skipped
+ * its frame) is probed again, twice at most.
  *
  * ## Focal surface
  *
@@ -77,9 +75,9 @@
  * tick's request: 32 requests for the view at 160 pixels wide, one per
  * candidate plane parallel to the camera plane (0 to 24 px of neighbour
  * parallax), in one buffer (a probe bundle). Each camera answers with its
- * fragment of each step, in one buffer; `lfcompositor`
- * measures their photo-consistency per tile, labels the tiles (one plane
- * where the scene is flat, more only where it has depth) and sends an
+ * fragment of each step, in one buffer; `lfcompositor` measures their
+ * photo-consistency per tile, labels the tiles (one plane where the scene
+ * is flat, more only where it has depth) and sends an
  * upstream `lf-surface` event (`viewer-id`, `probe-id`, `capture-time`,
  * `tile`, `cols`, `rows`, `planes`: #GBytes of 4 doubles (n.x, n.y, n.z, d)
  * per plane, world frame, plane 0 the single plane; `plane-of`: #GBytes of
@@ -730,13 +728,11 @@ static gboolean lf_view_request_event(GstBaseSrc* src, GstEvent* event) {
   return GST_BASE_SRC_CLASS(lf_view_request_parent_class)->event(src, event);
 }
 
-// A buffer of request reqs[which], or with which == reqs.size() of all of
-// them as a probe bundle (lib/lf/probe_bundle.h), for time `pts`; nullptr
-// (with a warning) if they cannot be serialized.
-static GstBuffer* request_buffer(GstBaseSrc* src, const std::vector<lf::ViewRequest>& reqs,
-                                 size_t which, GstClockTime pts, GstClockTime period) {
-  std::vector<lf::ViewRequest> timed(reqs.begin() + (which < reqs.size() ? which : 0),
-                                     which < reqs.size() ? reqs.begin() + which + 1 : reqs.end());
+// A buffer of one request, or of a probe's steps as a bundle
+// (lib/lf/probe_bundle.h), for time `pts`; nullptr (with a warning) if they
+// cannot be serialized.
+static GstBuffer* request_buffer(GstBaseSrc* src, std::vector<lf::ViewRequest> timed,
+                                 GstClockTime pts, GstClockTime period) {
   for (lf::ViewRequest& r : timed) {
     lfgst::trace(GST_ELEMENT(src), "issue", r.viewer_id, r.sequence, -1, static_cast<gint64>(pts));
     // The request is for its PTS (cameras: frame-select).
@@ -746,8 +742,8 @@ static GstBuffer* request_buffer(GstBaseSrc* src, const std::vector<lf::ViewRequ
   GError* err = nullptr;
   if (!lfgst::guard(
           [&] {
-            bytes = which < reqs.size() ? lf::serialize_request(timed[0])
-                                        : lf::serialize_probe_bundle(timed);
+            bytes = timed.size() == 1 ? lf::serialize_request(timed[0])
+                                      : lf::serialize_probe_bundle(timed);
           },
           &err)) {
     GST_WARNING_OBJECT(src, "cannot serialize a view request: %s", err->message);
@@ -964,10 +960,9 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   // The tick's first request now, the others from the next calls, at once
   // (num-buffers counts ticks: the base class counts each call).
   std::vector<GstBuffer*> bufs;
-  for (size_t i = 0; i < tick.size(); ++i)
-    bufs.push_back(request_buffer(src, tick, i, pts, period));
-  for (const std::vector<lf::ViewRequest>& probe : probes)
-    bufs.push_back(request_buffer(src, probe, probe.size(), pts, period));
+  for (const lf::ViewRequest& r : tick) bufs.push_back(request_buffer(src, {r}, pts, period));
+  for (std::vector<lf::ViewRequest>& probe : probes)
+    bufs.push_back(request_buffer(src, std::move(probe), pts, period));
   bufs.erase(std::remove(bufs.begin(), bufs.end(), nullptr), bufs.end());
   if (bufs.empty()) {
     GST_ELEMENT_ERROR(self, LIBRARY, FAILED, ("Cannot serialize the view request"),
@@ -1077,8 +1072,8 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
                 "cameras' fragments (lib/lf/surface_probe.h): every surface-interval requests a "
                 "surface probe (32 requests for the view at 160 pixels wide, one per candidate "
                 "plane, in one buffer) goes out with the request, lfcompositor estimates the "
-                "surface from the "
-                "answers and sends it back (an lf-surface event), and the requests carry it "
+                "surface from the answers and sends it back (an lf-surface event), and the "
+                "requests carry it "
                 "from then on (view request version 3) in place of focal-plane and focal-depth",
                 FALSE, play));
   props.add(oc, &Settings::surface_interval,

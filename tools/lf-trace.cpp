@@ -478,14 +478,16 @@ int main(int argc, char** argv) {
                 spread.empty() ? -1.0 : quantile(spread, 0.95), period);
     std::printf("used-capture-spread-max-ms %.3f\n",
                 used_spread.empty() ? -1.0 : quantile(used_spread, 1));
+    // Output frames in the order they were composited: (time, fragments).
+    std::vector<std::pair<int64_t, int>> by_time;
+    for (const auto& [k, r] : req)
+      if (r.composited >= 0) by_time.push_back({r.composited, r.fragments});
+    std::sort(by_time.begin(), by_time.end());
     {
       // Fragments per output frame: how many frames had each count, and how
       // many of the last 15 frames were complete.
       std::map<int, int> hist;
-      std::vector<std::pair<int64_t, int>> by_time;
-      for (const auto& [k, r] : req)
-        if (r.composited >= 0) hist[r.fragments]++, by_time.push_back({r.composited, r.fragments});
-      std::sort(by_time.begin(), by_time.end());
+      for (const auto& [t, n] : by_time) hist[n]++;
       int last_complete = 0;
       for (size_t i = by_time.size() > 15 ? by_time.size() - 15 : 0; i < by_time.size(); ++i)
         last_complete += by_time[i].second >= expected;
@@ -497,17 +499,16 @@ int main(int argc, char** argv) {
     if (args.has("--rejoin-after")) {
       // The first complete frame composited after T, and the frames after it.
       const int64_t t0 = std::stoll(args.get("--rejoin-after"));
-      std::vector<std::pair<int64_t, int>> after;
-      for (const auto& [k, r] : req)
-        if (r.composited >= t0) after.push_back({r.composited, r.fragments});
-      std::sort(after.begin(), after.end());
-      size_t first = 0;
-      while (first < after.size() && after[first].second < expected) ++first;
+      size_t first =
+          std::lower_bound(by_time.begin(), by_time.end(), std::make_pair(t0, 0)) - by_time.begin();
+      while (first < by_time.size() && by_time[first].second < expected) ++first;
       int later_complete = 0;
-      for (size_t i = first; i < after.size(); ++i) later_complete += after[i].second >= expected;
+      for (size_t i = first; i < by_time.size(); ++i)
+        later_complete += by_time[i].second >= expected;
+      const bool found = first < by_time.size();
       std::printf("rejoin-ms %.1f\nrejoin-complete-after %.3f\n",
-                  first < after.size() ? (after[first].first - t0) / 1e6 : -1.0,
-                  first < after.size() ? later_complete / double(after.size() - first) : 0.0);
+                  found ? (by_time[first].first - t0) / 1e6 : -1.0,
+                  found ? later_complete / double(by_time.size() - first) : 0.0);
     }
     return 0;
   } catch (const std::exception& e) {

@@ -105,6 +105,17 @@ void Compositor::resolve_rows(cv::Mat& out, int y0, int y1) const {
   }
 }
 
+namespace {
+// Where each row of a fragment's pixels starts (bytes; prefix sums of its
+// span lengths, one more entry than rows).
+std::vector<size_t> row_starts(const Fragment& f) {
+  std::vector<size_t> starts(f.spans.size() + 1, 0);
+  for (size_t r = 0; r < f.spans.size(); ++r)
+    starts[r + 1] = starts[r] + 4 * static_cast<size_t>(f.spans[r][1] - f.spans[r][0]);
+  return starts;
+}
+}  // namespace
+
 std::vector<std::pair<size_t, std::string>> Compositor::composite(
     int width, int height, const std::vector<FragmentPixels>& fragments, cv::Mat& out) {
   if (width < 1 || height < 1 || width > 16384 || height > 16384)
@@ -130,12 +141,8 @@ std::vector<std::pair<size_t, std::string>> Compositor::composite(
       continue;
     }
     if (fp.fragment->empty()) continue;
-    const Fragment& f = *fp.fragment;
-    std::vector<size_t> starts(f.spans.size() + 1, 0);
-    for (size_t r = 0; r < f.spans.size(); ++r)
-      starts[r + 1] = starts[r] + 4 * static_cast<size_t>(f.spans[r][1] - f.spans[r][0]);
     ok.push_back(&fp);
-    row_start.push_back(std::move(starts));
+    row_start.push_back(row_starts(*fp.fragment));
   }
   // Bands of 32 rows: a 640-pixel band's sums take 320 KiB (L2-sized); a
   // band is zeroed, accumulated and resolved by one thread, in fragment
@@ -214,14 +221,8 @@ void add_squares(const Fragment& f, const uint8_t* pixels, int r0, int r1, const
 // bands of rows on every core: each pixel's sum is the serial one.
 void add_squares(const std::vector<FragmentPixels>& fragments, const std::vector<size_t>& which,
                  const Compositor& where, const Blocks& blocks, cv::Mat& sq) {
-  std::vector<std::vector<size_t>> row_start(which.size());
-  for (size_t k = 0; k < which.size(); ++k) {
-    const Fragment& f = *fragments[which[k]].fragment;
-    row_start[k].assign(f.spans.size() + 1, 0);
-    for (size_t r = 0; r < f.spans.size(); ++r)
-      row_start[k][r + 1] =
-          row_start[k][r] + 4 * static_cast<size_t>(f.spans[r][1] - f.spans[r][0]);
-  }
+  std::vector<std::vector<size_t>> row_start;
+  for (size_t i : which) row_start.push_back(row_starts(*fragments[i].fragment));
   constexpr int kBandRows = 32;
   cv::parallel_for_(cv::Range(0, (sq.rows + kBandRows - 1) / kBandRows),
                     [&](const cv::Range& bands) {
@@ -262,6 +263,13 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
     layer_of[fp.fragment->layer].push_back(i);
   }
   if (choice) *choice = cv::Mat::zeros(height, width, CV_8UC1);
+  // Layer 0, the whole frame: Compositor's fused, banded composite on every
+  // core (its sums are the serial ones, and stay for sums_at).
+  std::vector<FragmentPixels> zero;
+  zero.reserve(layer_of[0].size());
+  for (size_t i : layer_of[0]) zero.push_back(fragments[i]);
+  comp_[0].composite(width, height, zero, out);
+  if (layer_of[1].empty()) return refused;
   for (int l = 0; l < 2; ++l) sq_[l] = cv::Mat::zeros(height, width, CV_32FC1);
   // Layer 1 first: where it has weight is where the choice is made.
   Blocks blocks;
@@ -275,13 +283,6 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
         blocks.on[((f.rect.y + r) / kBlock) * blocks.cols + x / kBlock] = 1;
   }
   add_squares(fragments, layer_of[1], comp_[1], blocks, sq_[1]);
-  // Layer 0, the whole frame: Compositor's fused, banded composite on every
-  // core (its sums are the serial ones, and stay for sums_at).
-  std::vector<FragmentPixels> zero;
-  zero.reserve(layer_of[0].size());
-  for (size_t i : layer_of[0]) zero.push_back(fragments[i]);
-  comp_[0].composite(width, height, zero, out);
-  if (layer_of[1].empty()) return refused;
   add_squares(fragments, layer_of[0], comp_[1], blocks, sq_[0]);
   // Per pixel where layer 1 has weight: both layers' variances; then their
   // window means over those pixels, block by block.

@@ -6,6 +6,22 @@
 
 namespace lf {
 
+namespace {
+// Why step `r` cannot join a bundle whose first step is `first` and whose
+// steps so far are `seen` (which it joins); empty if it can.
+std::string step_problem(const ViewRequest& r, const ViewRequest& first, std::set<uint64_t>& seen) {
+  if (!same_probe(r.sequence, first.sequence) || r.viewer_id != first.viewer_id)
+    return "a request that is not a step of the first one's probe and viewer";
+  if (!r.surface.empty()) return "a step with a focal surface";
+  if (!seen.insert(r.sequence).second)
+    return "step " + std::to_string(r.sequence & 0xffff) + " twice";
+  if (static_cast<long>(r.view.width) * r.view.height > kMaxBundleStepPixels)
+    return "a step of " + std::to_string(r.view.width) + "x" + std::to_string(r.view.height) +
+           " pixels (at most " + std::to_string(kMaxBundleStepPixels) + ")";
+  return "";
+}
+}  // namespace
+
 std::vector<uint8_t> serialize_probe_bundle(const std::vector<ViewRequest>& steps) {
   if (steps.empty() || steps.size() > kMaxBundleSteps)
     throw std::invalid_argument("probe bundle of " + std::to_string(steps.size()) + " steps (1.." +
@@ -14,13 +30,8 @@ std::vector<uint8_t> serialize_probe_bundle(const std::vector<ViewRequest>& step
   out.reserve(steps.size() * kRequestSize);
   std::set<uint64_t> seen;
   for (const ViewRequest& r : steps) {
-    if (!same_probe(r.sequence, steps[0].sequence) || r.viewer_id != steps[0].viewer_id ||
-        !r.surface.empty() || !seen.insert(r.sequence).second ||
-        static_cast<long>(r.view.width) * r.view.height > kMaxBundleStepPixels)
-      throw std::invalid_argument(
-          "probe bundle: every step must be a distinct step of one probe of one viewer, without "
-          "a focal surface, of at most " +
-          std::to_string(kMaxBundleStepPixels) + " pixels");
+    const std::string why = step_problem(r, steps[0], seen);
+    if (!why.empty()) throw std::invalid_argument("probe bundle: " + why);
     const std::vector<uint8_t> one = serialize_request(r);
     out.insert(out.end(), one.begin(), one.end());
   }
@@ -30,39 +41,24 @@ std::vector<uint8_t> serialize_probe_bundle(const std::vector<ViewRequest>& step
 std::vector<ViewRequest> parse_requests(const uint8_t* data, size_t size,
                                         std::vector<size_t>* sizes) {
   if (sizes) sizes->clear();
-  // One request of any version: its own size rules (parse_request).
-  if (size <= kRequestSize || size % kRequestSize != 0) {
-    if (sizes) sizes->push_back(size);
-    return {parse_request(data, size)};
-  }
+  // One request of any version, by its own size rules (parse_request),
+  // unless the buffer is 2..kMaxBundleSteps version-2 requests: a version-3
+  // request (a focal surface) may also be a multiple of kRequestSize long,
+  // and its version (bytes 4..5) says so.
   const size_t n = size / kRequestSize;
-  if (n > kMaxBundleSteps) {
-    // A version-3 request (a focal surface) is longer than one version-2
-    // request; so is a bundle. Try the single request first.
-    if (sizes) sizes->push_back(size);
-    return {parse_request(data, size)};
-  }
-  // A multiple of kRequestSize: a bundle, or a version-3 request of that
-  // size. The fifth and sixth bytes (the version) say which.
-  if (data[4] != 0 || data[5] != 2) {
+  if (size % kRequestSize != 0 || n < 2 || n > kMaxBundleSteps || data[4] != 0 || data[5] != 2) {
     if (sizes) sizes->push_back(size);
     return {parse_request(data, size)};
   }
   std::vector<ViewRequest> out;
   out.reserve(n);
-  std::set<uint64_t> steps;
+  std::set<uint64_t> seen;
   for (size_t k = 0; k < n; ++k) {
     out.push_back(parse_request(data + k * kRequestSize, kRequestSize));
-    const ViewRequest& r = out.back();
-    if (!same_probe(r.sequence, out[0].sequence) || r.viewer_id != out[0].viewer_id)
+    const std::string why = step_problem(out.back(), out[0], seen);
+    if (!why.empty())
       throw WireError("probe bundle: request " + std::to_string(k) + " of " + std::to_string(n) +
-                      " is not a step of the first one's probe and viewer");
-    if (!steps.insert(r.sequence).second)
-      throw WireError("probe bundle: step " + std::to_string(r.sequence & 0xffff) + " twice");
-    if (static_cast<long>(r.view.width) * r.view.height > kMaxBundleStepPixels)
-      throw WireError("probe bundle: a step of " + std::to_string(r.view.width) + "x" +
-                      std::to_string(r.view.height) + " pixels (at most " +
-                      std::to_string(kMaxBundleStepPixels) + ")");
+                      ": " + why);
     if (sizes) sizes->push_back(kRequestSize);
   }
   return out;
