@@ -17,7 +17,8 @@
 # Every scenario samples each host's resident memory every 5 s (OUTDIR/rss:
 # seconds, host, VmRSS kB) and writes its peak (OUTDIR/rss-peak: host,
 # VmHWM kB), and each host's UDP counters at the end (OUTDIR/udp: datagrams
-# received, dropped for a full socket buffer, errors).
+# received, dropped for a full socket buffer, errors) and the bytes its
+# link carried (OUTDIR/link-bytes: host, received, sent).
 # Environment: RIG (required), HOSTS [4], REQUESTS=unicast for a unicast
 # fan-out of the view requests (default: multicast), and net-host.sh's settings (FPS,
 # ENCODING, VIEW, LATENCY_MS, ...). Writes OUTDIR/{comp,view,cam*}.trace,
@@ -179,6 +180,13 @@ echo "host in-datagrams rcvbuf-errors in-errors" > "$out/udp"
 for h in "${hosts[@]}"; do
   ip netns exec "$tag$h" awk -v h="$h" '$1 == "Udp:" && $2 ~ /^[0-9]/ {print h, $2, $6, $4}' \
     /proc/net/snmp >> "$out/udp" 2>/dev/null || true
+done
+# Bytes each host's link carried (IP packets, both ways; RTP, RTCP, FEC and
+# clock traffic alike): host, received, sent.
+echo "host rx-bytes tx-bytes" > "$out/link-bytes"
+for h in "${hosts[@]}"; do
+  echo "$h $(ip netns exec "$tag$h" cat /sys/class/net/eth0/statistics/rx_bytes \
+    /sys/class/net/eth0/statistics/tx_bytes 2>/dev/null | tr '\n' ' ')" >> "$out/link-bytes"
 done
 status=0
 for h in "${!pid[@]}"; do
