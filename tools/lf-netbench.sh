@@ -10,7 +10,12 @@
 #  (c) the paper's Figure 5: round-trip latency and its components, 64
 #      cameras, JPEG and raw fragments;
 #  (d) overload: the JPEG run of (c) again beside a niced CPU loop
-#      (`nice -n 19`, one core's worth), round trip against (c)'s.
+#      (`nice -n 19`, one core's worth), round trip against (c)'s;
+#  (e) loss: the JPEG run of (c) with LOSS (5 %) of the RTP packets dropped
+#      on every link, without and with forward error correction
+#      (net-host.sh FEC=25, 50), and FEC=25 without loss (its cost):
+#      fragment bytes composited and bytes into the compositor's link
+#      against (c)'s, complete frames, round trip.
 # usage: lf-netbench.sh [OUTDIR] [SECONDS per run]   (default out/netbench, 8)
 # Environment: FPS [15], QUALITY [90], WIDTH x HEIGHT [640x480], INPUT_SCALE
 # of the camera images [0.5: 700x400], DATA [../shared/data].
@@ -48,6 +53,15 @@ RIG="$out/rig64.json" HOSTS=4 ENCODING=jpeg "$root/tools/lf-netem.sh" run "$out/
   { kill "$busy"; exit 1; }
 kill "$busy"
 "$trace" --cameras 64 --fps "$FPS" "$out"/busy64/*.trace > "$out/busy64.txt"
+
+for f in 0 25 50; do
+  echo "== loss ${LOSS:-0.05} on every link, 64 cameras, jpeg fragments, FEC $f % ($seconds s)" >&2
+  RIG="$out/rig64.json" HOSTS=4 ENCODING=jpeg FEC=$f "$root/tools/lf-netem.sh" run "$out/loss-fec$f" "$seconds" loss
+  "$trace" --cameras 64 --fps "$FPS" "$out/loss-fec$f"/*.trace > "$out/loss-fec$f.txt"
+done
+echo "== no loss, 64 cameras, jpeg fragments, FEC 25 % ($seconds s)" >&2
+RIG="$out/rig64.json" HOSTS=4 ENCODING=jpeg FEC=25 "$root/tools/lf-netem.sh" run "$out/fec25" "$seconds" normal
+"$trace" --cameras 64 --fps "$FPS" "$out/fec25"/*.trace > "$out/fec25.txt"
 
 echo "== all-viewpoints baseline, 64 cameras, jpegenc quality=$QUALITY ($seconds s)" >&2
 rm -rf "$out/baseline-frames"
@@ -106,6 +120,30 @@ base_bytes=${base% *}; base_cams=${base#* }
   done
   awk -v q="$(key "$out/jpeg64.txt" round-trip-p95-ms)" -v b="$(key "$out/busy64.txt" round-trip-p95-ms)" \
     'BEGIN{printf "\np95 beside the loop / alone: %.2f (issue 15: at most 2)\n", b / q}'
+  echo
+  echo "## (e) Loss: ${LOSS:-0.05} of the RTP packets dropped on every link, 64 cameras, JPEG fragments"
+  echo
+  echo "FEC: net-host.sh FEC=N (RFC 5109 ULPFEC, rtpulpfecenc percentage=N; receivers"
+  echo "rtpstorage ! rtpjitterbuffer latency=FEC_LATENCY_MS [30] ! rtpulpfecdec). Against the"
+  echo "lossless run of (c): fragment bytes composited per frame, and bytes into the compositor's"
+  echo "link per composited frame (media, FEC, clock)."
+  echo
+  echo "| run | fragment bytes composited | complete frames | link bytes per frame | round trip median ms | p95 ms |"
+  echo "|---|---|---|---|---|---|"
+  linkpf() { awk -v n="$(key "$2" composited)" '$1 == "comp" {printf "%.0f", $2 / n}' "$1/link-bytes"; }
+  ref_bytes=$(key "$out/jpeg64.txt" bytes-per-frame); ref_link=$(linkpf "$out/jpeg64" "$out/jpeg64.txt")
+  for r in jpeg64 fec25 loss-fec0 loss-fec25 loss-fec50; do
+    case $r in
+      jpeg64) label="no loss, no FEC ((c) above)" ;;
+      fec25) label="no loss, FEC 25 %" ;;
+      *) label="loss, FEC ${r#loss-fec} %" ;;
+    esac
+    awk -v l="$label" -v b="$(key "$out/$r.txt" bytes-per-frame)" -v rb="$ref_bytes" \
+      -v c="$(key "$out/$r.txt" complete)" -v n="$(key "$out/$r.txt" composited)" \
+      -v lk="$(linkpf "$out/$r" "$out/$r.txt")" -v rl="$ref_link" \
+      -v m="$(key "$out/$r.txt" round-trip-median-ms)" -v p="$(key "$out/$r.txt" round-trip-p95-ms)" \
+      'BEGIN{printf "| %s | %.0f (%.1f %%) | %d / %d | %.0f (%.2fx) | %s | %s |\n", l, b, 100 * b / rb, c, n, lk, lk / rl, m, p}'
+  done
 } > "$out/report.md"
 "$trace" --bandwidth-plot "$out/figure6.png" \
   "raw fragments=4:${bytes[raw4]},16:${bytes[raw16]},64:${bytes[raw64]}" \
