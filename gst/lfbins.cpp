@@ -96,13 +96,13 @@ struct Forward {
   const char* name;
 };
 const Forward kCameraHostForwards[] = {
-    {lf_cam_src_get_type, "mode"},           {lf_cam_src_get_type, "framerate"},
-    {lf_cam_src_get_type, "phase"},          {lf_cam_src_get_type, "is-live"},
-    {lf_cam_src_get_type, "num-buffers"},    {lf_cam_src_get_type, "loop"},
-    {lf_fragment_get_type, "encoding"},      {lf_fragment_get_type, "jpeg-quality"},
-    {lf_fragment_get_type, "max-pixels"},    {lf_fragment_get_type, "max-rate"},
-    {lf_fragment_get_type, "frame-timeout"}, {lf_fragment_get_type, "frame-select"},
-    {lf_fragment_get_type, "backend"}};
+    {lf_cam_src_get_type, "mode"},          {lf_cam_src_get_type, "framerate"},
+    {lf_cam_src_get_type, "phase"},         {lf_cam_src_get_type, "is-live"},
+    {lf_cam_src_get_type, "num-buffers"},   {lf_cam_src_get_type, "loop"},
+    {lf_cam_src_get_type, "noise"},         {lf_fragment_get_type, "encoding"},
+    {lf_fragment_get_type, "jpeg-quality"}, {lf_fragment_get_type, "max-pixels"},
+    {lf_fragment_get_type, "max-rate"},     {lf_fragment_get_type, "frame-timeout"},
+    {lf_fragment_get_type, "frame-select"}, {lf_fragment_get_type, "backend"}};
 const Forward kArrayForwards[] = {
     {lf_compositor_get_type, "viewer-id"}, {lf_compositor_get_type, "latency"},
     {lf_compositor_get_type, "stereo"},    {lf_compositor_get_type, "second-planes"},

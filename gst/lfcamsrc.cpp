@@ -18,6 +18,13 @@
  * The camera is named like lffragment's: `camera-id`, or `row` and `col` of
  * the rig's grid.
  *
+ * `noise` adds sensor noise to the dataset and synthetic modes' frames:
+ * zero-mean Gaussian noise of that standard deviation (8-bit levels) on each
+ * colour channel of each pixel, drawn afresh for every frame from a seed of
+ * the camera id and the frame number (OFFSET), so a run is reproducible.
+ * Noise is what separates a real camera's video from a still and what costs
+ * a video codec its temporal prediction (issue 15's H.264 baseline).
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 lfcamsrc rig=rig.json row=2 col=3 mode=synthetic num-buffers=30 ! \
@@ -63,6 +70,7 @@ enum class Mode { kDataset = 0, kSynthetic = 1, kFile = 2, kV4l2 = 3 };
 #define DEFAULT_MODE Mode::kDataset
 #define DEFAULT_DEVICE "/dev/video0"
 #define DEFAULT_LOOP FALSE
+#define DEFAULT_NOISE 0.0
 
 #define LF_TYPE_CAM_SRC_MODE (lf_cam_src_mode_get_type())
 static GType lf_cam_src_mode_get_type() {
@@ -94,6 +102,7 @@ struct Settings : lfgst::CameraAddress {
   std::string location;
   std::string device = DEFAULT_DEVICE;
   bool loop = DEFAULT_LOOP;
+  double noise = DEFAULT_NOISE;  // sensor noise, standard deviation in 8-bit levels
 };
 
 // From start (READY->PAUSED) to stop (PAUSED->READY).
@@ -445,6 +454,17 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
   auto* ref = new cv::Mat(set.mode == Mode::kSynthetic
                               ? st->scene.render(st->rig->cameras[st->index], pts / 1e9)
                               : st->rgba);
+  if (set.noise > 0) {
+    // Seeded by camera and frame: the same run gives the same frames.
+    cv::RNG rng((static_cast<uint64_t>(st->rig->cameras[st->index].id) << 40) ^ st->frame ^
+                0x9e3779b97f4a7c15ULL);
+    cv::Mat noise(ref->size(), CV_16SC4);
+    rng.fill(noise, cv::RNG::NORMAL, cv::Scalar::all(0),
+             cv::Scalar(set.noise, set.noise, set.noise, 0));
+    cv::Mat noisy;
+    cv::add(*ref, noise, noisy, cv::noArray(), CV_8UC4);  // saturating
+    *ref = noisy;
+  }
   GstBuffer* buf = gst_buffer_new_wrapped_full(GST_MEMORY_FLAG_READONLY, ref->data,
                                                ref->total() * ref->elemSize(), 0,
                                                ref->total() * ref->elemSize(), ref, free_mat);
@@ -502,6 +522,12 @@ static void lf_cam_src_class_init(LfCamSrcClass* klass) {
   props.add(
       oc, &Settings::device,
       g_param_spec_string("device", "Device", "mode=v4l2: the capture device", DEFAULT_DEVICE, rw));
+  props.add(oc, &Settings::noise,
+            g_param_spec_double("noise", "Sensor noise",
+                                "Gaussian sensor noise added to the dataset and synthetic "
+                                "modes' frames: standard deviation in 8-bit levels, per colour "
+                                "channel and pixel, seeded by camera id and frame number (0: none)",
+                                0.0, 64.0, DEFAULT_NOISE, rw));
   props.add(
       oc, &Settings::loop,
       g_param_spec_boolean("loop", "Loop", "mode=file: start again at the end", DEFAULT_LOOP, rw));

@@ -360,6 +360,45 @@ TEST_F(Gst, SyntheticCameraRendersTheSceneAtCaptureTime) {
   EXPECT_NEAR(scene.far_depth, 60 * 0.05, 1e-12);
 }
 
+// lfcamsrc noise=S: the frames differ from the noise-free ones by Gaussian
+// noise of standard deviation S on the colour channels (alpha untouched),
+// fresh in every frame and the same in every run.
+TEST_F(Gst, SensorNoiseIsGaussianFreshPerFrameAndReproducible) {
+  const lf::Rig rig = lf::synthetic_grid_rig(2, 2, 0.05, 160, 120, 40);
+  const std::string path = (std::filesystem::temp_directory_path() / "lf-test-noise.json").string();
+  lf::save_rig(rig, path);
+  auto frames = [&](double noise) {
+    return run("lfcamsrc rig=" + path + " camera-id=1 mode=synthetic framerate=10/1 noise=" +
+               std::to_string(noise) + " num-buffers=2 ! appsink name=out sync=false");
+  };
+  const auto clean = frames(0), noisy = frames(6), again = frames(6);
+  ASSERT_EQ(clean.size(), 2u);
+  ASSERT_EQ(noisy.size(), 2u);
+  ASSERT_EQ(again.size(), 2u);
+  std::vector<cv::Mat> d(2);
+  for (int k = 0; k < 2; ++k) {
+    noisy[k].convertTo(d[k], CV_64FC4);
+    cv::Mat c;
+    clean[k].convertTo(c, CV_64FC4);
+    d[k] -= c;
+    cv::Scalar mean, sd;
+    cv::meanStdDev(d[k], mean, sd);
+    for (int ch = 0; ch < 3; ++ch) {
+      // 19200 samples: the standard deviation within 5 % (its standard error
+      // is 0.5 %, clipping at 0 and 255 aside), the mean within 0.3 levels.
+      EXPECT_NEAR(sd[ch], 6.0, 0.3) << "frame " << k << " channel " << ch;
+      EXPECT_NEAR(mean[ch], 0.0, 0.3) << "frame " << k << " channel " << ch;
+    }
+    EXPECT_EQ(sd[3], 0.0) << "alpha untouched";
+    cv::Mat same;
+    cv::absdiff(noisy[k], again[k], same);
+    EXPECT_EQ(cv::countNonZero(same.reshape(1)), 0) << "the same frame in every run";
+  }
+  // Fresh noise per frame: the two frames' noise is uncorrelated.
+  const double corr = d[0].dot(d[1]) / std::sqrt(d[0].dot(d[0]) * d[1].dot(d[1]));
+  EXPECT_LT(std::abs(corr), 0.05);
+}
+
 TEST_F(Gst, CameraFromImageSequenceAndVideoFile) {
   const lf::Rig rig = lf::synthetic_grid_rig(2, 2, 0.05, 96, 72, 40);
   const auto dir = std::filesystem::temp_directory_path() / "lf-test-seq";
