@@ -15,7 +15,11 @@
 #      on every link, without and with forward error correction
 #      (net-host.sh FEC=25, 50), and FEC=25 without loss (its cost):
 #      fragment bytes composited and bytes into the compositor's link
-#      against (c)'s, complete frames, round trip.
+#      against (c)'s, complete frames, round trip;
+#  (f) stronger all-viewpoints baselines (tools/lf-baseline, in process): on
+#      the synthetic dynamic scene with sensor noise, fragments (JPEG) against
+#      every camera streaming JPEG or H.264 video at the same PSNR, 4, 16 and
+#      64 cameras.
 # usage: lf-netbench.sh [OUTDIR] [SECONDS per run]   (default out/netbench, 8)
 # Environment: FPS [15], QUALITY [90], WIDTH x HEIGHT [640x480], INPUT_SCALE
 # of the camera images [0.5: 700x400], DATA [../shared/data].
@@ -62,6 +66,12 @@ done
 echo "== no loss, 64 cameras, jpeg fragments, FEC 25 % ($seconds s)" >&2
 RIG="$out/rig64.json" HOSTS=4 ENCODING=jpeg FEC=25 "$root/tools/lf-netem.sh" run "$out/fec25" "$seconds" normal
 "$trace" --cameras 64 --fps "$FPS" "$out/fec25"/*.trace > "$out/fec25.txt"
+
+for n in 4 16 64; do
+  echo "== all-viewpoints JPEG and H.264 against fragments, synthetic scene with noise, $n cameras" >&2
+  GST_PLUGIN_PATH="$build/gst${GST_PLUGIN_PATH:+:$GST_PLUGIN_PATH}" "$build/tools/lf-baseline" --rig "$out/rig$n.json" --fps "$FPS" --quality "$QUALITY" \
+    --size "${W}x${H}" > "$out/codec$n.txt"
+done
 
 echo "== all-viewpoints baseline, 64 cameras, jpegenc quality=$QUALITY ($seconds s)" >&2
 rm -rf "$out/baseline-frames"
@@ -143,6 +153,24 @@ base_bytes=${base% *}; base_cams=${base#* }
       -v lk="$(linkpf "$out/$r" "$out/$r.txt")" -v rl="$ref_link" \
       -v m="$(key "$out/$r.txt" round-trip-median-ms)" -v p="$(key "$out/$r.txt" round-trip-p95-ms)" \
       'BEGIN{printf "| %s | %.0f (%.1f %%) | %d / %d | %.0f (%.2fx) | %s | %s |\n", l, b, 100 * b / rb, c, n, lk, lk / rl, m, p}'
+  done
+  echo
+  echo "## (f) All-viewpoints JPEG and H.264 against fragments (synthetic scene, sensor noise)"
+  echo
+  echo "tools/lf-baseline: the rigs of (a) with lfcamsrc mode=synthetic noise=2 (a textured disc"
+  echo "moving over a textured plane; Gaussian noise of 2 levels, fresh every frame); fragments"
+  echo "JPEG q$QUALITY; every camera's video through jpegenc q$QUALITY, or openh264enc at the"
+  echo "constant quantiser that gives the JPEG's PSNR of the camera images (I420; interpolated"
+  echo "between the two nearest QPs of a sweep, keyframe every 2 s), measured on 8 cameras and"
+  echo "scaled to all."
+  echo
+  echo "| cameras | fragments bytes/frame | all-viewpoints JPEG | all-viewpoints H.264, same PSNR | PSNR dB |"
+  echo "|---|---|---|---|---|"
+  for n in 4 16 64; do
+    awk -v n=$n -v f="$(key "$out/codec$n.txt" fragment-bytes)" -v j="$(key "$out/codec$n.txt" jpeg-bytes)" \
+      -v h="$(key "$out/codec$n.txt" h264-bytes)" -v p="$(key "$out/codec$n.txt" jpeg-psnr)" \
+      'BEGIN{printf "| %d | %.0f | %.0f (%.1fx the fragments) | %s | %.2f |\n", n, f, j, j / f,
+        (h > 0 ? sprintf("%.0f (%.2fx the fragments)", h, h / f) : "outside the QP sweep"), p}'
   done
 } > "$out/report.md"
 "$trace" --bandwidth-plot "$out/figure6.png" \
