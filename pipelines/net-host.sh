@@ -58,7 +58,10 @@
 #                rebuilding one lost packet of those it covers. The view
 #                requests (one small packet each) always get one (a lost
 #                request costs a host's every fragment of it). The receiving
-#                jitter buffer's latency adds to the compositor's deadline.
+#                jitter buffer holds packets for most of its latency even
+#                without loss (round trip +18 ms at FEC_LATENCY_MS=30, +5 ms
+#                at 10; its modes none, synced, buffer and faststart did not
+#                help) and its latency adds to the compositor's deadline.
 #                Measured (docs/netbench.md (e)): under 5 % loss FEC=25 brings
 #                27 % of the fragment bytes to 87 %, FEC=50 to 93 %, for
 #                1.26x and 1.49x the bytes. Without SRTP_KEY, forged packets
