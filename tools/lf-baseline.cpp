@@ -14,7 +14,9 @@
 //    keyframe every 2 s; bytes per frame at the JPEG's PSNR, interpolated
 //    between the two nearest QPs (log bytes linear in PSNR).
 // The codecs are measured on a sample of the cameras (spread over the rig)
-// and scaled to all of them: every camera sees the same scene.
+// and scaled to all of them: every camera sees the same scene. (Debian 12's
+// openh264 prints "cmInitParaError" once per stream whatever the settings,
+// GStreamer's defaults included; the streams are encoded regardless.)
 // Prints a markdown table; ends with "key value" lines after "## summary".
 #include <gst/app/gstappsink.h>
 #include <gst/gst.h>
