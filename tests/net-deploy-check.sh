@@ -128,7 +128,7 @@ check "$work/loss.txt" "no gap longer than period + deadline + 250 ms" \
   'v["max-gap-ms"] < '"$period"' + '"$LATENCY_MS"' + 250'
 
 echo "== 4. 5 % packet loss with forward error correction (FEC=25)"
-# Measured here (2 runs each, 2026-11-23): fragment bytes composited per frame
+# Measured here (2026-11-23): fragment bytes composited per frame
 # 0.61-0.64 of the lossless run's without FEC, 0.95-0.96 with FEC=25 (4 runs each).
 FEC_SHARE=0.85
 LOSS=0.05 REQUESTS=unicast FEC=25 "$root/tools/lf-netem.sh" run "$work/fec" $loss_s loss
