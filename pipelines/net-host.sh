@@ -63,8 +63,8 @@
 #                at 10; its modes none, synced, buffer and faststart did not
 #                help) and its latency adds to the compositor's deadline.
 #                Measured (docs/netbench.md (e)): under 5 % loss FEC=25 brings
-#                27 % of the fragment bytes to 87 %, FEC=50 to 93 %, for
-#                1.26x and 1.49x the bytes. Without SRTP_KEY, forged packets
+#                28 % of the fragment bytes to 89 %, FEC=50 to 93 %, for
+#                1.20x and 1.43x the bytes. Without SRTP_KEY, forged packets
 #                with a stream's SSRC upset the jitter buffer: on an untrusted
 #                network use both. 0 = off, as before                   [0]
 #   FEC_LATENCY_MS  how long a receiver waits for a lost packet before it
