@@ -57,11 +57,12 @@
 #                fragment, request or video frame, as the budget allows, each
 #                rebuilding one lost packet of those it covers. The view
 #                requests (one small packet each) always get one (a lost
-#                request costs a host's every fragment of it). The receiving
-#                jitter buffer holds packets for most of its latency even
-#                without loss (round trip +18 ms at FEC_LATENCY_MS=30, +5 ms
-#                at 10; its modes none, synced, buffer and faststart did not
-#                help) and its latency adds to the compositor's deadline.
+#                request costs a host's every fragment of it). lf-launch
+#                --rtp-clock-rate 90000 tells the jitter buffers the parity
+#                packets' clock rate (without it they dropped every parity
+#                packet and waited out their latency for the gap: round trip
+#                +18 ms without any loss); their latency adds to the
+#                compositor's deadline.
 #                Measured (docs/netbench.md (e)): under 5 % loss FEC=25 brings
 #                28 % of the fragment bytes to 89 %, FEC=50 to 93 %, for
 #                1.20x and 1.43x the bytes. Without SRTP_KEY, forged packets
@@ -228,6 +229,9 @@ case "$role" in
     ;;
 esac
 cmd=("$build/tools/lf-launch" "${clock[@]}")
+# FEC: the jitter buffers learn the parity packets' clock rate (else they
+# drop them and wait out their latency for each gap).
+if [ "$FEC" != 0 ]; then cmd+=(--rtp-clock-rate 90000); fi
 if [ -n "${DURATION:-}" ]; then cmd+=(--duration "$DURATION"); fi
 if [ "${PRINT:-0}" = 1 ]; then
   printf '%q ' "${cmd[@]}" --; echo "$desc"

@@ -9,6 +9,12 @@
 // schedules of lfcamsrc align within the clock error (paper 4.4.4). With
 // --base-time now+MS the server picks "now + MS ms" and prints it
 // (`base-time NS`) for the clients.
+// --rtp-clock-rate HZ answers every rtpjitterbuffer's request-pt-map for a
+// payload type its caps do not name with that clock rate: a stream whose
+// forward error correction packets (rtpulpfecenc) share its SSRC and
+// sequence numbers under another payload type. Without it the jitter buffer
+// drops each parity packet ("No clock-rate in caps!"), waits its whole
+// latency for the gap, and the decoder never sees the packet in order.
 #include <gst/gst.h>
 #include <gst/net/gstnet.h>
 
@@ -31,6 +37,27 @@ GstClockTime parse_base(const std::string& s, GstClock* clock) {
   return std::stoull(s);
 }
 
+// request-pt-map of an rtpjitterbuffer: RTP caps at the clock rate given.
+GstCaps* pt_map(GstElement*, guint pt, gpointer rate) {
+  return gst_caps_new_simple("application/x-rtp", "clock-rate", G_TYPE_INT, GPOINTER_TO_INT(rate),
+                             "payload", G_TYPE_INT, static_cast<gint>(pt), nullptr);
+}
+
+// Connects pt_map to every rtpjitterbuffer in the pipeline.
+void answer_pt_maps(GstElement* pipeline, int rate) {
+  GstIterator* it = gst_bin_iterate_recurse(GST_BIN(pipeline));
+  GValue v = G_VALUE_INIT;
+  while (gst_iterator_next(it, &v) == GST_ITERATOR_OK) {
+    GstElement* e = GST_ELEMENT(g_value_get_object(&v));
+    GstElementFactory* f = gst_element_get_factory(e);
+    if (f && g_str_equal(GST_OBJECT_NAME(f), "rtpjitterbuffer"))
+      g_signal_connect(e, "request-pt-map", G_CALLBACK(pt_map), GINT_TO_POINTER(rate));
+    g_value_reset(&v);
+  }
+  g_value_unset(&v);
+  gst_iterator_free(it);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -39,6 +66,7 @@ int main(int argc, char** argv) {
   gchar* base_opt = nullptr;
   gdouble sync_timeout = 10, duration = -1, max_round_trip_ms = 0, settle = 0;
   gboolean check = FALSE;
+  gint rtp_clock_rate = 0;
   gchar** rest = nullptr;
   const GOptionEntry entries[] = {
       {"clock-server", 0, 0, G_OPTION_ARG_INT, &port,
@@ -68,6 +96,11 @@ int main(int argc, char** argv) {
        "readings of the system clock, right after sync; with --clock-settle, the median of 10 "
        "readings 100 ms apart after it) and exit without running a pipeline",
        nullptr},
+      {"rtp-clock-rate", 0, 0, G_OPTION_ARG_INT, &rtp_clock_rate,
+       "Answer every rtpjitterbuffer's request-pt-map (a payload type its caps do not name, "
+       "e.g. forward error correction packets sharing the stream) with this clock rate, Hz "
+       "(default: not answered)",
+       "HZ"},
       {G_OPTION_REMAINING, 0, 0, G_OPTION_ARG_STRING_ARRAY, &rest, nullptr, nullptr},
       {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
   GOptionContext* ctx = g_option_context_new("-- PIPELINE DESCRIPTION...");
@@ -108,6 +141,7 @@ int main(int argc, char** argv) {
       if (p) gst_object_unref(p);
       return nullptr;
     }
+    if (rtp_clock_rate > 0) answer_pt_maps(p, rtp_clock_rate);
     // A failure here is posted on the bus and reported below.
     gst_element_set_state(p, GST_STATE_PAUSED);
     return p;
