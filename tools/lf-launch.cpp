@@ -9,12 +9,15 @@
 // schedules of lfcamsrc align within the clock error (paper 4.4.4). With
 // --base-time now+MS the server picks "now + MS ms" and prints it
 // (`base-time NS`) for the clients.
-// --rtp-clock-rate HZ answers every rtpjitterbuffer's request-pt-map for a
-// payload type its caps do not name with that clock rate: a stream whose
-// forward error correction packets (rtpulpfecenc) share its SSRC and
-// sequence numbers under another payload type. Without it the jitter buffer
-// drops each parity packet ("No clock-rate in caps!"), waits its whole
-// latency for the gap, and the decoder never sees the packet in order.
+// --rtp-clock-rate PT=HZ answers every rtpjitterbuffer's request-pt-map for
+// payload type PT with that clock rate: the forward error correction packets
+// (rtpulpfecenc) that share a stream's SSRC and sequence numbers under a
+// payload type of their own. Without it the jitter buffer drops each parity
+// packet ("No clock-rate in caps!"), waits its whole latency for the gap,
+// and the decoder never sees the packet in order. Any other payload type
+// stays unanswered, so the jitter buffer drops it: a forged packet of a
+// third type never reaches an rtpptdemux, which would make a pad for it
+// that nothing is linked to and stop the stream.
 #include <gst/gst.h>
 #include <gst/net/gstnet.h>
 
@@ -37,21 +40,30 @@ GstClockTime parse_base(const std::string& s, GstClock* clock) {
   return std::stoull(s);
 }
 
-// request-pt-map of an rtpjitterbuffer: RTP caps at the clock rate given.
-GstCaps* pt_map(GstElement*, guint pt, gpointer rate) {
-  return gst_caps_new_simple("application/x-rtp", "clock-rate", G_TYPE_INT, GPOINTER_TO_INT(rate),
-                             "payload", G_TYPE_INT, static_cast<gint>(pt), nullptr);
+// The payload type and clock rate of --rtp-clock-rate.
+struct PtClock {
+  guint pt = 0;
+  gint rate = 0;
+};
+
+// request-pt-map of an rtpjitterbuffer: RTP caps at the clock rate given,
+// for its payload type only (nullptr: the jitter buffer drops the packet).
+GstCaps* pt_map(GstElement*, guint pt, gpointer data) {
+  const auto* c = static_cast<const PtClock*>(data);
+  if (pt != c->pt) return nullptr;
+  return gst_caps_new_simple("application/x-rtp", "clock-rate", G_TYPE_INT, c->rate, "payload",
+                             G_TYPE_INT, static_cast<gint>(pt), nullptr);
 }
 
 // Connects pt_map to every rtpjitterbuffer in the pipeline.
-void answer_pt_maps(GstElement* pipeline, int rate) {
+void answer_pt_maps(GstElement* pipeline, const PtClock* c) {
   GstIterator* it = gst_bin_iterate_recurse(GST_BIN(pipeline));
   GValue v = G_VALUE_INIT;
   while (gst_iterator_next(it, &v) == GST_ITERATOR_OK) {
     GstElement* e = GST_ELEMENT(g_value_get_object(&v));
     GstElementFactory* f = gst_element_get_factory(e);
     if (f && g_str_equal(GST_OBJECT_NAME(f), "rtpjitterbuffer"))
-      g_signal_connect(e, "request-pt-map", G_CALLBACK(pt_map), GINT_TO_POINTER(rate));
+      g_signal_connect(e, "request-pt-map", G_CALLBACK(pt_map), const_cast<PtClock*>(c));
     g_value_reset(&v);
   }
   g_value_unset(&v);
@@ -66,7 +78,7 @@ int main(int argc, char** argv) {
   gchar* base_opt = nullptr;
   gdouble sync_timeout = 10, duration = -1, max_round_trip_ms = 0, settle = 0;
   gboolean check = FALSE;
-  gint rtp_clock_rate = 0;
+  gchar* pt_clock_opt = nullptr;
   gchar** rest = nullptr;
   const GOptionEntry entries[] = {
       {"clock-server", 0, 0, G_OPTION_ARG_INT, &port,
@@ -96,11 +108,11 @@ int main(int argc, char** argv) {
        "readings of the system clock, right after sync; with --clock-settle, the median of 10 "
        "readings 100 ms apart after it) and exit without running a pipeline",
        nullptr},
-      {"rtp-clock-rate", 0, 0, G_OPTION_ARG_INT, &rtp_clock_rate,
-       "Answer every rtpjitterbuffer's request-pt-map (a payload type its caps do not name, "
-       "e.g. forward error correction packets sharing the stream) with this clock rate, Hz "
-       "(default: not answered)",
-       "HZ"},
+      {"rtp-clock-rate", 0, 0, G_OPTION_ARG_STRING, &pt_clock_opt,
+       "Answer every rtpjitterbuffer's request-pt-map for payload type PT (e.g. forward error "
+       "correction packets sharing the stream) with clock rate HZ; other payload types stay "
+       "unanswered and dropped (default: none answered)",
+       "PT=HZ"},
       {G_OPTION_REMAINING, 0, 0, G_OPTION_ARG_STRING_ARRAY, &rest, nullptr, nullptr},
       {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
   GOptionContext* ctx = g_option_context_new("-- PIPELINE DESCRIPTION...");
@@ -115,6 +127,20 @@ int main(int argc, char** argv) {
     return 2;
   }
   g_option_context_free(ctx);
+  PtClock pt_clock;
+  if (pt_clock_opt) {
+    unsigned pt = 0;
+    int rate = 0;
+    char tail = 0;
+    if (std::sscanf(pt_clock_opt, "%u=%d%c", &pt, &rate, &tail) != 2 || pt > 127 || rate <= 0) {
+      std::fprintf(stderr, "lf-launch: error: --rtp-clock-rate '%s': give PT=HZ (PT 0..127)\n",
+                   pt_clock_opt);
+      g_free(pt_clock_opt);
+      return 2;
+    }
+    pt_clock = {pt, rate};
+    g_free(pt_clock_opt);
+  }
   const std::string server_port = port > 0 ? std::to_string(port) : "";
   const std::string client = client_opt ? client_opt : "";
   const std::string base = base_opt ? base_opt : "now+500";
@@ -141,7 +167,7 @@ int main(int argc, char** argv) {
       if (p) gst_object_unref(p);
       return nullptr;
     }
-    if (rtp_clock_rate > 0) answer_pt_maps(p, rtp_clock_rate);
+    if (pt_clock.rate > 0) answer_pt_maps(p, &pt_clock);
     // A failure here is posted on the bus and reported below.
     gst_element_set_state(p, GST_STATE_PAUSED);
     return p;
