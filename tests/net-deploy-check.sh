@@ -14,7 +14,10 @@
 #  3. 5 % packet loss on every link, view requests sent by unicast fan-out
 #     instead of multicast: output keeps flowing, nothing hangs;
 #  4. the same loss with forward error correction (net-host.sh FEC=25):
-#     more of the fragment bytes reach the compositor than without it.
+#     more of the fragment bytes reach the compositor than without it;
+#  5. FEC on, an attacker (tools/lf-hostile) sending forged packets to every
+#     host: every host keeps running (forged payload types once stopped
+#     every camera host).
 # Requests issued before every camera had captured its first frame (hosts
 # start at their own pace) are startup; lf-trace leaves them out.
 # usage: net-deploy-check.sh BUILD_DIR SHARED_DATA_DIR
@@ -141,4 +144,12 @@ check "$work/fec.txt" "output keeps flowing under loss with FEC" \
   'v["composited"] >= 0.85 * v["issued"] && v["issued"] >= 0.7 * '"$FPS * $loss_s"
 check "$work/fec.txt" "FEC recovers fragment bytes (at least $FEC_SHARE of the lossless run's, and more than without FEC)" \
   'v["bytes-per-frame"] >= '"$FEC_SHARE * $normal_bytes"' && v["bytes-per-frame"] > '"$loss_bytes"
+
+echo "== 5. forward error correction (FEC=25) beside an attacker"
+if FEC=25 HOSTILE_RATE=1000 "$root/tools/lf-netem.sh" run "$work/fechostile" 6 hostile; then
+  echo "ok: every host survives forged packets with FEC on"
+else
+  echo "FAIL: a host stopped under forged packets with FEC on"; fail=1
+  tail -3 "$work"/fechostile/*.log
+fi
 exit $fail
