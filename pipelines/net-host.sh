@@ -64,8 +64,8 @@
 #                +18 ms without any loss); their latency adds to the
 #                compositor's deadline.
 #                Measured (docs/netbench.md (e)): under 5 % loss FEC=25 brings
-#                28 % of the fragment bytes to 89 %, FEC=50 to 93 %, for
-#                1.20x and 1.43x the bytes. Without SRTP_KEY, forged packets
+#                28 % of the fragment bytes to 88 %, FEC=50 to 93 %, for
+#                1.19x and 1.44x the bytes. Without SRTP_KEY, forged packets
 #                with a stream's SSRC upset the jitter buffer (lf-netem.sh's
 #                hostile run, 1000 packets/s: 27 of 139 frames composited,
 #                65 of 142 without FEC; every host kept running): on an
@@ -107,8 +107,8 @@ receive() {
 # protect: what follows a payloader, before the sender.
 protect() { if [ -n "$SRTP_KEY" ]; then echo "srtpenc key=$SRTP_KEY ! "; fi; }
 # Forward error correction (FEC percent): fec_send PERCENT before protect;
-# fec_receive SSRC after receive, before the depayloader. The receiver's
-# caps carry the stream's SSRC (rtpulpfecdec needs it).
+# fec_receive after receive_ssrc, before the depayloader, whose caps carry
+# the stream's SSRC (rtpulpfecdec needs it).
 FEC="${FEC:-0}"; FEC_LATENCY_MS="${FEC_LATENCY_MS:-30}"; FEC_PT=122
 if ! [[ "$FEC" =~ ^[0-9]+$ ]] || [ "$FEC" -gt 100 ]; then
   echo "net-host.sh: FEC must be a percentage, 0..100" >&2; exit 2
@@ -129,8 +129,10 @@ fec_receive() {
 # receive CAPS SSRC with the SSRC in the caps when FEC needs it.
 receive_ssrc() {
   local caps="$1"
-  if [ "$FEC" != 0 ] && [[ "$caps" != *payload=* ]]; then caps+=",payload=(int)96"; fi  # rtpgstpay's
-  if [ "$FEC" != 0 ] && [ -z "$SRTP_KEY" ]; then caps+=",ssrc=(uint)$2"; fi
+  if [ "$FEC" != 0 ]; then
+    if [[ "$caps" != *payload=* ]]; then caps+=",payload=(int)96"; fi  # rtpgstpay's
+    if [ -z "$SRTP_KEY" ]; then caps+=",ssrc=(uint)$2"; fi  # receive adds it with SRTP
+  fi
   receive "$caps" "$2"
 }
 # Sender side of an RTP stream: optional emulated loss, never clock-synced

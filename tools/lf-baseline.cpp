@@ -124,10 +124,11 @@ Run run(const std::string& desc) {
 // frames, from one mean squared error: the codecs' own measure, free of
 // colour conversions (decoders label their output's range differently).
 double psnr(const std::vector<cv::Mat>& a, const std::vector<cv::Mat>& b) {
-  const size_t n = std::min(a.size(), b.size());
-  if (n == 0) throw std::runtime_error("no decoded frames to compare");
+  if (a.empty() || a.size() != b.size())
+    throw std::runtime_error(std::to_string(b.size()) + " decoded frames for " +
+                             std::to_string(a.size()) + " sent");
   double se = 0, count = 0;
-  for (size_t k = 0; k < n; ++k) {
+  for (size_t k = 0; k < a.size(); ++k) {
     if (a[k].total() != b[k].total()) throw std::runtime_error("decoded frames differ in size");
     const double d = cv::norm(a[k], b[k], cv::NORM_L2);
     se += d * d;
@@ -210,8 +211,7 @@ int main(int argc, char** argv) {
     const int m = std::clamp(sample, 1, n);
     for (int i = 0; i < m; ++i) picks.push_back(static_cast<int>((i + 0.5) * n / m));
     auto codec = [&](const std::string& enc, const std::string& dec) {
-      Point p{0, 0};
-      std::vector<double> ps;
+      Point p{0, 0};  // means over the cameras
       for (size_t i = 0; i < picks.size(); ++i) {
         cli::progress("  " + enc.substr(0, enc.find(' ')), static_cast<int>(i),
                       static_cast<int>(picks.size()));
@@ -222,13 +222,11 @@ int main(int argc, char** argv) {
                           "appsink name=orig sync=false t. ! queue ! " +
                           enc + " ! identity name=bytes ! " + dec +
                           " ! video/x-raw,format=I420 ! appsink name=dec sync=false");
-        p.bytes_per_frame += static_cast<double>(r.bytes) / frames;
-        ps.push_back(psnr(r.orig, r.dec));
+        p.bytes_per_frame += static_cast<double>(r.bytes) / frames / picks.size();
+        p.psnr += psnr(r.orig, r.dec) / picks.size();
       }
       cli::progress("  " + enc.substr(0, enc.find(' ')), static_cast<int>(picks.size()),
                     static_cast<int>(picks.size()));
-      p.bytes_per_frame /= picks.size();
-      for (double v : ps) p.psnr += v / ps.size();
       return p;
     };
     std::fprintf(stderr, "lf-baseline: JPEG q%d on %d of %d cameras\n", quality, m, n);

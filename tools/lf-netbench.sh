@@ -161,8 +161,8 @@ base_bytes=${base% *}; base_cams=${base#* }
   echo "moving over a textured plane; Gaussian noise of 2 levels, fresh every frame); fragments"
   echo "JPEG q$QUALITY; every camera's video through jpegenc q$QUALITY, or openh264enc at the"
   echo "constant quantiser that gives the JPEG's PSNR of the camera images (I420; interpolated"
-  echo "between the two nearest QPs of a sweep, keyframe every 2 s), measured on 8 cameras and"
-  echo "scaled to all."
+  echo "between the two nearest QPs of a sweep, keyframe every 2 s), measured on up to 8 cameras"
+  echo "and scaled to all."
   echo
   echo "| cameras | fragments bytes/frame | all-viewpoints JPEG | all-viewpoints H.264, same PSNR | PSNR dB |"
   echo "|---|---|---|---|---|"
