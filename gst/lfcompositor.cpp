@@ -33,7 +33,10 @@
  * image leaves its host, and the probes are ordinary requests and
  * fragments, so RTP carries them unchanged.
  *
- * With `second-planes`, the surface gives tiles next to a depth edge a
+ * With `second-planes`, the surface gives tiles next to a depth edge, and
+ * tiles with a thin structure inside (bars, wires: cells of the tile that
+ * agree far better at another depth, as their neighbours along the
+ * structure do; lib/lf/focal_surface.h SurfaceOptions::thin_ratio), a
  * second plane. A camera then answers with two fragments in one buffer,
  * its layer 0 and its layer 1 (the nearer plane of each two-plane tile),
  * and such a frame is composited with a per-pixel choice between the
@@ -108,7 +111,7 @@ struct Settings {
   gint width = DEFAULT_WIDTH, height = DEFAULT_HEIGHT;
   lfgst::Fraction framerate{DEFAULT_FPS_N, DEFAULT_FPS_D};
   bool stereo = DEFAULT_STEREO;
-  bool second_planes = false;  // surface probes: second planes at depth edges
+  bool second_planes = false;  // surface probes: second planes at depth edges and thin structures
   lf::Backend backend = lf::Backend::kAuto;
   // Read-only statistics, written by the aggregate thread under the lock.
   guint64 frames = 0;      // frames composited since start
@@ -1148,7 +1151,8 @@ static void lf_compositor_class_init(LfCompositorClass* klass) {
             g_param_spec_boolean(
                 "second-planes", "Second planes",
                 "Surface probes (lfviewrequest focal-surface): tiles next to a depth edge get the "
-                "neighbouring depth as a second plane; the cameras then send those tiles twice "
+                "neighbouring depth as a second plane, tiles with a thin structure inside (bars, "
+                "wires) its depth; the cameras then send those tiles twice "
                 "(layer 1: the nearer plane) and this element takes per pixel the layer whose "
                 "cameras agree (lib/lf/composite.h LayerCompositor, on the CPU); more bytes where "
                 "the scene has depth edges, none elsewhere",

@@ -52,8 +52,8 @@ rendering
                         or surface: a focal surface from the images, one plane
                         per 16-pixel tile (lib/lf/focal_surface.h; a flat scene
                         keeps one plane)
-  --second-planes       with --focal surface: tiles next to a depth edge get a
-                        second plane, chosen per pixel (lib/lf/composite.h
+  --second-planes       with --focal surface: tiles next to a depth edge or with
+                        a thin structure inside get a second plane, chosen per pixel (lib/lf/composite.h
                         LayerCompositor; CPU backend)
   --refocus-every N     on a path: re-run auto-focus every N frames (default 15),
                         or estimate the focal surface every N frames (default 1)

@@ -5,6 +5,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace lf {
 
@@ -23,6 +24,17 @@ void validate(const SurfaceOptions& opt) {
   if (opt.stride < 1 || opt.stride > std::min(opt.planes, opt.fine_planes))
     bad("stride must be 1..planes");
   if (!(opt.max_parallax_px > 0) || !(opt.truncate > 0)) bad("parallax and truncation must be > 0");
+  if (!(opt.thin_ratio > 0 && opt.thin_ratio <= 1) || !(opt.thin_margin >= 0) ||
+      !(opt.thin_fraction >= 0 && opt.thin_fraction <= 1) || opt.thin_neighbours < 0 ||
+      opt.thin_neighbours > 8)
+    bad("thin structure votes: ratio 0..1, margin >= 0, fraction 0..1, neighbours 0..8");
+}
+
+int thin_cell(int tile, int analysis_width, int width) {
+  const int samples = tile * analysis_width / std::max(1, width);  // analysis pixels per tile side
+  int per = 1;
+  while (per * 2 <= samples / 2 && tile % (per * 2) == 0) per *= 2;
+  return tile / per;
 }
 
 double sweep_q_max(const Rig& rig, const SurfaceOptions& opt) {
@@ -52,15 +64,29 @@ void sweep(const AnalysisImages& an, const ViewRequest& req, int W, int H, int T
   const int ah = sreq.view.height;
   const int cols = (W + T - 1) / T, rows = (H + T - 1) / T, tiles = cols * rows;
   const int n = static_cast<int>(c.qs.size());
-  if (c.sum.size() != static_cast<size_t>(n) * tiles) {
+  const int C = c.cell, ccols = C ? (W + C - 1) / C : 0, crows = C ? (H + C - 1) / C : 0;
+  const size_t cells = static_cast<size_t>(ccols) * crows;
+  if (c.sum.size() != static_cast<size_t>(n) * tiles || c.cell_cols != ccols ||
+      c.cell_rows != crows) {
     c.sum.assign(static_cast<size_t>(n) * tiles, 0.0);
     c.count.assign(c.sum.size(), 0.0);
     c.have.assign(n, false);
+    c.cell_cols = ccols, c.cell_rows = crows;
+    c.cell_sum.assign(n * cells, 0.0);
+    c.cell_count.assign(c.cell_sum.size(), 0.0);
   }
-  // Tile of each analysis column and row.
-  std::vector<int> tx(aw), ty(ah);
-  for (int x = 0; x < aw; ++x) tx[x] = std::min(cols - 1, static_cast<int>((x + 0.5) * W / aw) / T);
-  for (int y = 0; y < ah; ++y) ty[y] = std::min(rows - 1, static_cast<int>((y + 0.5) * H / ah) / T);
+  // Tile (and cell) of each analysis column and row.
+  std::vector<int> tx(aw), ty(ah), cx(C ? aw : 0), cy(C ? ah : 0);
+  for (int x = 0; x < aw; ++x) {
+    const int ox = static_cast<int>((x + 0.5) * W / aw);
+    tx[x] = std::min(cols - 1, ox / T);
+    if (C) cx[x] = std::min(ccols - 1, ox / C);
+  }
+  for (int y = 0; y < ah; ++y) {
+    const int oy = static_cast<int>((y + 0.5) * H / ah);
+    ty[y] = std::min(rows - 1, oy / T);
+    if (C) cy[y] = std::min(crows - 1, oy / C);
+  }
   cv::Mat cost;
   for (int k = 0; k < n; ++k) {
     if (c.have[k] && k % stride != phase) continue;
@@ -69,6 +95,9 @@ void sweep(const AnalysisImages& an, const ViewRequest& req, int W, int H, int T
     double* cnt = &c.count[static_cast<size_t>(k) * tiles];
     std::fill(sum, sum + tiles, 0.0);
     std::fill(cnt, cnt + tiles, 0.0);
+    double* csum = C ? &c.cell_sum[k * cells] : nullptr;
+    double* ccnt = C ? &c.cell_count[k * cells] : nullptr;
+    if (C) std::fill(csum, csum + cells, 0.0), std::fill(ccnt, ccnt + cells, 0.0);
     for (int y = 0; y < ah; ++y) {
       const float* row = cost.ptr<float>(y);
       for (int x = 0; x < aw; ++x) {
@@ -76,6 +105,11 @@ void sweep(const AnalysisImages& an, const ViewRequest& req, int W, int H, int T
         const int t = ty[y] * cols + tx[x];
         sum[t] += row[x];
         cnt[t] += 1.0;
+        if (C) {
+          const size_t i = static_cast<size_t>(cy[y]) * ccols + cx[x];
+          csum[i] += row[x];
+          ccnt[i] += 1.0;
+        }
       }
     }
     c.have[k] = true;
@@ -104,7 +138,8 @@ double q_at(const std::vector<double>& qs, double pos) {
 // Tile labels by semi-global matching: 0..n-1 the sweep's planes, n the
 // single plane at fractional index `gpos`; -1 for tiles without texture.
 std::vector<int> solve(const SweepCosts& c, int cols, int rows, double gpos, double min_count,
-                       const SurfaceOptions& o, std::vector<bool>& textured) {
+                       const SurfaceOptions& o, std::vector<bool>& textured,
+                       double* contrast = nullptr) {
   const int n = static_cast<int>(c.qs.size()), L = n + 1, tiles = cols * rows;
   std::vector<double> unary(static_cast<size_t>(tiles) * L, 0.0);
   textured.assign(tiles, false);
@@ -143,6 +178,7 @@ std::vector<int> solve(const SweepCosts& c, int cols, int rows, double gpos, dou
     std::nth_element(range.begin(), range.begin() + range.size() / 2, range.end());
     scale = range[range.size() / 2] / 100.0;
   }
+  if (contrast) *contrast = scale;
   for (int t = 0; t < tiles; ++t)
     if (textured[t])
       for (int k = 0; k < n; ++k) unary[static_cast<size_t>(t) * L + k] += o.leave_penalty * scale;
@@ -209,7 +245,14 @@ SurfaceEstimate FocalSurfaceEstimator::estimate(const ViewRequest& req, SurfaceC
     return 0.5 * aw * (aw * H / W) / tiles;
   };
 
-  // Pass 1: the whole range of depths, coarsely.
+  // Pass 1: the whole range of depths, coarsely; with second planes, also
+  // per cell of about 2 x 2 analysis pixels (a whole fraction of a tile).
+  if (opt_.second_planes && c.coarse.cell != thin_cell(T, std::min(coarse_.width, W), W)) {
+    SweepCosts fresh;
+    fresh.qs = c.coarse.qs;
+    fresh.cell = thin_cell(T, std::min(coarse_.width, W), W);
+    c.coarse = std::move(fresh);
+  }
   sweep(coarse_, req, W, H, T, opt_.truncate, opt_.stride, c.phase, c.coarse,
         &out.planes_evaluated);
   double gpos = best_single(c.coarse, tiles, cap);
@@ -230,19 +273,24 @@ SurfaceEstimate FocalSurfaceEstimator::estimate(const ViewRequest& req, SurfaceC
   std::vector<double> fine_qs(opt_.fine_planes);
   for (int k = 0; k < opt_.fine_planes; ++k)
     fine_qs[k] = qa + (qb - qa) * k / (opt_.fine_planes - 1);
-  if (fine_qs != c.fine.qs) c.fine = SweepCosts{fine_qs, {}, {}, {}};
+  if (fine_qs != c.fine.qs) {
+    c.fine = SweepCosts{};
+    c.fine.qs = fine_qs;
+  }
   sweep(fine_, req, W, H, T, opt_.truncate, opt_.stride, c.phase, c.fine, &out.planes_evaluated);
   c.phase = (c.phase + 1) % opt_.stride;
   const double fpos = best_single(c.fine, tiles, cap);
   if (fpos > 0 && fpos < opt_.fine_planes - 1) out.single_q = q_at(fine_qs, fpos);
   const int evaluated = out.planes_evaluated;
-  out = surface_from_costs(*rig_, c.fine, cols, rows, out.single_q, min_count(fine_), opt_);
+  out = surface_from_costs(*rig_, c.fine, cols, rows, out.single_q, min_count(fine_), opt_,
+                           opt_.second_planes ? &c.coarse : nullptr);
   out.planes_evaluated = evaluated;
   return out;
 }
 
 SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols, int rows,
-                                   double single_q, double min_count, const SurfaceOptions& opt) {
+                                   double single_q, double min_count, const SurfaceOptions& opt,
+                                   const SweepCosts* cells) {
   const int tiles = cols * rows, M = static_cast<int>(c.qs.size());
   if (M < 3 || c.sum.size() != static_cast<size_t>(M) * tiles || c.count.size() != c.sum.size())
     throw std::invalid_argument("surface_from_costs: " + std::to_string(c.sum.size()) +
@@ -258,7 +306,8 @@ SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols
   while (k + 2 < M && single_q > c.qs[k + 1]) ++k;
   const double gpos = k + (single_q - c.qs[k]) / (c.qs[k + 1] - c.qs[k]);
   out.single = plane_at_inverse_depth(rig, single_q);
-  const std::vector<int> label = solve(c, cols, rows, gpos, min_count, opt, out.textured);
+  double scale = 0;
+  const std::vector<int> label = solve(c, cols, rows, gpos, min_count, opt, out.textured, &scale);
 
   // Labels -> planes (index 0: the single plane).
   std::vector<int> plane_of_label(M + 1, -1);
@@ -301,6 +350,71 @@ SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols
           }
         if (far >= 0) fs.second_of[t] = static_cast<uint8_t>(plane_of_label[far]);
       }
+    if (cells && cells->cell > 0) {
+      const SweepCosts& cc = *cells;
+      const int C = cc.cell, per = opt.tile / C, K = static_cast<int>(cc.qs.size());
+      const size_t n = static_cast<size_t>(cc.cell_cols) * cc.cell_rows;
+      if (opt.tile % C || K < 3 || cc.cell_sum.size() != K * n || cc.cell_count.size() != K * n ||
+          cc.cell_cols < (cols - 1) * per + 1 || cc.cell_rows < (rows - 1) * per + 1)
+        throw std::invalid_argument("surface_from_costs: per-cell costs do not fit the tiles");
+      // Each tile's cells vote; best_of[t] is the plane with the most votes
+      // (with its two neighbours), votes_of[t] their number.
+      std::vector<int> votes(K), plane_of_cell_label(K, -1), best_of(tiles, -1), votes_of(tiles, 0);
+      std::vector<double> cost(K);
+      for (int r = 0; r < rows; ++r)
+        for (int q = 0; q < cols; ++q) {
+          const int t = r * cols + q;
+          if (label[t] < 0 || fs.second_of[t] != FocalSurface::kNone) continue;
+          // The tile's plane among the cells' planes: the nearest.
+          int own = 0;
+          for (int k = 1; k < K; ++k)
+            if (std::abs(cc.qs[k] - out.tile_q[t]) < std::abs(cc.qs[own] - out.tile_q[t])) own = k;
+          std::fill(votes.begin(), votes.end(), 0);
+          for (int cr = r * per; cr < std::min((r + 1) * per, cc.cell_rows); ++cr)
+            for (int cq = q * per; cq < std::min((q + 1) * per, cc.cell_cols); ++cq) {
+              const size_t i = static_cast<size_t>(cr) * cc.cell_cols + cq;
+              bool seen = true;
+              for (int k = 0; k < K && seen; ++k) {
+                const double m = cc.cell_count[k * n + i];
+                seen = m > 0;
+                cost[k] = seen ? cc.cell_sum[k * n + i] / m : 0.0;
+              }
+              if (!seen) continue;
+              const int b =
+                  static_cast<int>(std::min_element(cost.begin(), cost.end()) - cost.begin());
+              if (std::abs(cc.qs[b] - out.tile_q[t]) >= min_dq &&
+                  cost[b] <= opt.thin_ratio * cost[own] &&
+                  cost[own] - cost[b] >= opt.thin_margin * scale)
+                ++votes[b];
+            }
+          for (int k = 0; k < K; ++k) {
+            const int v = votes[k] + (k > 0 ? votes[k - 1] : 0) + (k + 1 < K ? votes[k + 1] : 0);
+            if (votes[k] > 0 &&
+                (v > votes_of[t] || (v == votes_of[t] && votes[k] > votes[best_of[t]])))
+              best_of[t] = k, votes_of[t] = v;
+          }
+        }
+      for (int r = 0; r < rows; ++r)
+        for (int q = 0; q < cols; ++q) {
+          const int t = r * cols + q, best = best_of[t];
+          if (best < 0 || votes_of[t] < std::max(2.0, opt.thin_fraction * per * per)) continue;
+          int nb = 0;
+          for (int dr = -1; dr <= 1; ++dr)
+            for (int dq = -1; dq <= 1; ++dq) {
+              const int rr = r + dr, qq = q + dq;
+              if ((dr || dq) && rr >= 0 && qq >= 0 && rr < rows && qq < cols &&
+                  best_of[rr * cols + qq] >= 0 && std::abs(best_of[rr * cols + qq] - best) <= 1)
+                ++nb;
+            }
+          if (nb < opt.thin_neighbours) continue;
+          if (plane_of_cell_label[best] < 0) {
+            plane_of_cell_label[best] = static_cast<int>(fs.planes.size());
+            fs.planes.push_back(plane_at_inverse_depth(rig, cc.qs[best]));
+          }
+          fs.second_of[t] = static_cast<uint8_t>(plane_of_cell_label[best]);
+          ++out.thin_tiles;
+        }
+    }
     out.two_plane_tiles = fs.two_plane_tiles();
     if (out.two_plane_tiles == 0) fs.second_of.clear();
   }

@@ -22,6 +22,11 @@
 // keep the single plane; when every tile agrees on one plane the surface is
 // empty and that plane is the single plane.
 //
+// Second planes (SurfaceOptions::second_planes, beyond the paper): a tile at
+// a depth edge takes its far neighbour's plane; a tile with a thin structure
+// inside (no neighbour at its depth) takes the plane its cells vote for
+// (pass 1's costs per cell of about 2 x 2 analysis pixels).
+//
 // Units: costs are variances of 8-bit grey levels (levels^2).
 #pragma once
 
@@ -60,6 +65,25 @@ struct SurfaceOptions {
   // the compositor chooses per pixel, lf/composite.h LayerCompositor).
   bool second_planes = false;
   double second_gap = 4.0;
+  // ... and any other tile that holds a thin structure (bars, wires: no
+  // neighbour labelled at its depth) gets the structure's plane: pass 1
+  // (the whole range of depths) also sums its costs per cell of about 2 x 2
+  // analysis pixels (thin_cell). A cell votes for its best plane when that
+  // plane is second_gap planes of the first pass or more from the tile's,
+  // costs at most thin_ratio of the tile's plane there, and is lower by at
+  // least thin_margin percent of the scene's contrast (as the penalties).
+  // The plane with the most votes (a plane and its two neighbours counted
+  // together) is the tile's candidate when at least thin_fraction of its
+  // cells, and at least 2, voted for it; it becomes the second plane when
+  // at least thin_neighbours of the 8 neighbouring tiles have a candidate
+  // within a plane of it (a structure runs on through its neighbours; a
+  // lone candidate is noise: on Chess at 640x480 every one was, and cost
+  // up to 1 dB). A textured plane or a slope has cells whose best plane is
+  // the tile's or near it: no votes.
+  double thin_ratio = 0.5;     // 0 < thin_ratio <= 1
+  double thin_margin = 10.0;   // percent of the contrast, >= 0
+  double thin_fraction = 0.2;  // of the tile's cells, 0..1
+  int thin_neighbours = 2;     // of 8 neighbouring tiles, 0..8
 };
 
 // Per-tile costs of one sweep.
@@ -67,6 +91,10 @@ struct SweepCosts {
   std::vector<double> qs;          // inverse depths of the planes
   std::vector<double> sum, count;  // [plane * tiles + tile]
   std::vector<bool> have;          // per plane: evaluated at least once
+  // Per cell of `cell` output pixels (0: none; the estimator's last pass
+  // with second planes): cell_cols x cell_rows cells, [plane * cells + cell].
+  int cell = 0, cell_cols = 0, cell_rows = 0;
+  std::vector<double> cell_sum, cell_count;
 };
 // Per-tile costs carried from one frame's estimate to the next (one viewer).
 struct SurfaceCosts {
@@ -85,6 +113,7 @@ struct SurfaceEstimate {
   std::vector<bool> textured;  // per tile: decided by the images (not a fallback)
   int planes_used = 1;         // distinct planes over the tiles (first and second)
   int two_plane_tiles = 0;     // tiles with a second plane (SurfaceOptions::second_planes)
+  int thin_tiles = 0;          // of those, given one for a thin structure inside the tile
   int planes_evaluated = 0;    // candidate planes swept by this call
 };
 
@@ -95,6 +124,12 @@ void validate(const SurfaceOptions& opt);
 // median focal length; candidate plane k is at q_max * k / (planes - 1).
 // Throws std::invalid_argument for an empty rig.
 double sweep_q_max(const Rig& rig, const SurfaceOptions& opt);
+
+// The side (output pixels) of the cells whose costs vote for thin
+// structures (SurfaceOptions::thin_ratio): a power-of-two fraction of `tile`
+// about 2 analysis pixels wide, for an analysis `analysis_width` pixels
+// wide of a view `width` wide; `tile` itself when a tile has under 4.
+int thin_cell(int tile, int analysis_width, int width);
 
 class FocalSurfaceEstimator {
  public:
@@ -123,12 +158,16 @@ class FocalSurfaceEstimator {
 // plane is at inverse depth `single_q` (NaN: the minimum of the whole
 // view's mean cost, parabola-refined). Tiles whose 3 x 3 neighbourhood has
 // fewer than `min_count` samples at some plane, or too little texture, keep
-// the single plane; the others are labelled by semi-global matching. Used
+// the single plane; the others are labelled by semi-global matching. With
+// opt.second_planes, tiles at depth edges get second planes, and so do
+// tiles with thin structures where `c` has per-cell costs (c.cell > 0,
+// cell_cols x cell_rows cells covering the tiles' grid). Used
 // by FocalSurfaceEstimator and by surface probes (lf/surface_probe.h), which
 // measure the costs from the cameras' fragments. planes_evaluated is left
 // 0. Throws std::invalid_argument if the costs do not fit the grid.
 SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols, int rows,
-                                   double single_q, double min_count, const SurfaceOptions& opt);
+                                   double single_q, double min_count, const SurfaceOptions& opt,
+                                   const SweepCosts* cells = nullptr);
 
 // Applies an estimate to a request: its focal plane and surface.
 void apply(const SurfaceEstimate& e, ViewRequest& req);

@@ -73,12 +73,25 @@ SurfaceEstimate SurfaceProbeAnswers::estimate(const Rig& rig, bool* ok) const {
   c.sum.assign(n * tiles, 0.0);
   c.count.assign(n * tiles, 0.0);
   c.have.assign(n, true);
-  // Tile of each probe column and row (as the estimator's sweep).
-  std::vector<int> tx(aw_), ty(ah_);
-  for (int x = 0; x < aw_; ++x)
-    tx[x] = std::min(cols - 1, static_cast<int>((x + 0.5) * width_ / aw_) / T);
-  for (int y = 0; y < ah_; ++y)
-    ty[y] = std::min(rows - 1, static_cast<int>((y + 0.5) * height_ / ah_) / T);
+  // With second planes, per-cell costs too: thin structures inside tiles.
+  const int C = opt_.second_planes ? thin_cell(T, aw_, width_) : 0;
+  if (C) {
+    c.cell = C, c.cell_cols = (width_ + C - 1) / C, c.cell_rows = (height_ + C - 1) / C;
+    c.cell_sum.assign(n * c.cell_cols * c.cell_rows, 0.0);
+    c.cell_count.assign(c.cell_sum.size(), 0.0);
+  }
+  // Tile (and cell) of each probe column and row (as the estimator's sweep).
+  std::vector<int> tx(aw_), ty(ah_), cx(aw_), cy(ah_);
+  for (int x = 0; x < aw_; ++x) {
+    const int ox = static_cast<int>((x + 0.5) * width_ / aw_);
+    tx[x] = std::min(cols - 1, ox / T);
+    if (C) cx[x] = std::min(c.cell_cols - 1, ox / C);
+  }
+  for (int y = 0; y < ah_; ++y) {
+    const int oy = static_cast<int>((y + 0.5) * height_ / ah_);
+    ty[y] = std::min(rows - 1, oy / T);
+    if (C) cy[y] = std::min(c.cell_rows - 1, oy / C);
+  }
   // Per probe pixel: sum w, sum w g, sum w g^2 (g: grey level of the
   // un-premultiplied colour, (c0 + 2 c1 + c2) / 4, the same for RGBA and
   // BGRA), one step at a time.
@@ -112,8 +125,14 @@ SurfaceEstimate SurfaceProbeAnswers::estimate(const Rig& rig, bool* ok) const {
         if (s0[k] < 0.9f) continue;  // most of the aperture must see the point
         const float m = s1[k] / s0[k];
         const int t = ty[y] * cols + tx[x];
-        sum[t] += std::min(std::max(0.0f, s2[k] / s0[k] - m * m), cap);
+        const float v = std::min(std::max(0.0f, s2[k] / s0[k] - m * m), cap);
+        sum[t] += v;
         cnt[t] += 1.0;
+        if (C) {
+          const size_t cell = (i * c.cell_rows + cy[y]) * c.cell_cols + cx[x];
+          c.cell_sum[cell] += v;
+          c.cell_count[cell] += 1.0;
+        }
       }
   }
   // No pixel seen by most of the aperture at any plane (every camera sat
@@ -121,7 +140,7 @@ SurfaceEstimate SurfaceProbeAnswers::estimate(const Rig& rig, bool* ok) const {
   if (std::all_of(c.count.begin(), c.count.end(), [](double v) { return v == 0; })) return none();
   if (ok) *ok = true;
   return surface_from_costs(rig, c, cols, rows, std::numeric_limits<double>::quiet_NaN(),
-                            0.5 * static_cast<double>(npx) / tiles, opt_);
+                            0.5 * static_cast<double>(npx) / tiles, opt_, C ? &c : nullptr);
 }
 
 }  // namespace lf
