@@ -630,6 +630,18 @@ TEST(Surface, ThinBarsInsideTilesGetTheirSecondPlane) {
                  q_bars) < 2 * step)
       ++near_bars;
   EXPECT_GT(near_bars, im.e.two_plane_tiles * 3 / 4);
+  // Other widths and spacings: never worse than one plane per tile.
+  for (const auto& [bar, pitch] :
+       {std::pair{3.0, 20.0}, {4.0, 20.0}, {8.0, 20.0}, {10.0, 30.0}, {6.0, 40.0}, {12.0, 40.0}}) {
+    const OffPlaneView w(bar, pitch);
+    const ThinResult r =
+        render_both(w, lf::FocalSurfaceEstimator(w.rig, w.images, opt).estimate(w.req));
+    std::printf(
+        "bars %2.0f px every %2.0f: %2d thin tiles of %d two-plane; %.2f -> %.2f dB (%+.2f); "
+        "%.2fx -> %.2fx\n",
+        bar, pitch, r.e.thin_tiles, r.e.two_plane_tiles, r.p1, r.p2, r.p2 - r.p1, r.px1, r.px2);
+    EXPECT_GT(r.p2, r.p1 - 0.1) << bar << " px bars every " << pitch;
+  }
   // A textured plane with noise gets no second plane, nor does the disc's
   // background (its rim tiles get theirs from the depth-edge rule).
   std::vector<cv::Mat> noisy = plane_images(v.rig, 3.0);
