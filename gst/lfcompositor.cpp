@@ -947,13 +947,13 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
   }
   // `timeout` also comes when a fragment arrived (get_next_time()); the
   // deadline is the oldest pending request's running time plus the latency.
-  bool deadline = false;
-  if (timeout && !st->pending.empty()) {
-    const GstClockTime rt = st->pending.begin()->second.running_time;
-    const GstClockTime now = running_now(GST_ELEMENT(agg));
-    deadline = !GST_CLOCK_TIME_IS_VALID(rt) || !GST_CLOCK_TIME_IS_VALID(now) || !live ||
-               now >= rt + latency;
-  }
+  const GstClockTime now = timeout ? running_now(GST_ELEMENT(agg)) : GST_CLOCK_TIME_NONE;
+  auto past_deadline = [&](GstClockTime rt) {
+    return timeout && (!GST_CLOCK_TIME_IS_VALID(rt) || !GST_CLOCK_TIME_IS_VALID(now) || !live ||
+                       now >= rt + latency);
+  };
+  const bool deadline =
+      !st->pending.empty() && past_deadline(st->pending.begin()->second.running_time);
   // At the deadline (a silent pad: a dead host), also take every queued
   // fragment of the requests up to the one due, so the live pads' fragments
   // all make it into the frame (a pad may carry many cameras' fragments).
@@ -994,17 +994,20 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
   }
   const size_t expected = expected_fragments(self);
   GstFlowReturn ret = GST_FLOW_OK;
-  // Complete requests, in order; at a deadline (or end of stream), also the
-  // incomplete ones, renormalised; too many pending: the oldest.
+  // Complete requests, in order; at its deadline (or end of stream), also an
+  // incomplete one, renormalised; too many pending: the oldest. Each request
+  // has its own deadline: one that came late must not take the next ones,
+  // still in time, with it (their fragments are on their way).
   while (!st->pending.empty() && ret == GST_FLOW_OK) {
     auto it = st->pending.begin();
     const bool complete = it->second.cameras.size() >= expected;
-    if (!(complete || deadline || all_eos || st->pending.size() > kMaxPending)) break;
+    const bool due = past_deadline(it->second.running_time);
+    if (!(complete || due || all_eos || st->pending.size() > kMaxPending)) break;
     if (!complete)
       GST_DEBUG_OBJECT(self,
                        "request %" G_GUINT64_FORMAT
                        " incomplete: %zu of %zu fragments (deadline %d, eos %d, pending %zu)",
-                       it->first, it->second.cameras.size(), expected, deadline, all_eos,
+                       it->first, it->second.cameras.size(), expected, due, all_eos,
                        st->pending.size());
     ret = emit(self, it->first, it->second, complete);
     st->pending.erase(it);
