@@ -95,7 +95,7 @@ double quantile(std::vector<double> v, double q) {
 
 struct Fragment {
   int64_t request_in = -1, warped = -1, encoded = -1, arrived = -1;
-  int64_t bytes = 0, capture = -1, decode_ns = -1;
+  int64_t bytes = 0, capture = -1, decode_ns = -1, decoded = -1;
 };
 struct Request {
   int64_t issued = -1, composited = -1, composite_ns = 0;
@@ -123,7 +123,7 @@ std::map<Key, Request> collect(const std::vector<Event>& events) {
       if (e.name == "warped") f.warped = e.t;
       if (e.name == "encoded") f.encoded = e.t;
       if (e.name == "fragment-in") f.arrived = e.t, f.bytes = e.a, f.capture = e.b;
-      if (e.name == "decoded") f.decode_ns = e.a;
+      if (e.name == "decoded") f.decode_ns = e.a, f.decoded = e.t;
     }
   }
   return req;
@@ -311,13 +311,21 @@ int main(int argc, char** argv) {
     }
 
     // ---- bandwidth --------------------------------------------------------
+    // Bytes entering the compositor, and bytes in the frame: the fragments
+    // it took (decoded) before it composited the request; one that came
+    // after the deadline entered but was not composited.
     std::vector<double> bytes_per_frame;
+    double composited_bytes = 0;
     for (const auto& [k, r] : req) {
       if (r.composited < 0) continue;
       double b = 0;
-      for (const auto& [c, f] : r.cams) b += f.bytes;
+      for (const auto& [c, f] : r.cams) {
+        b += f.bytes;
+        if (f.decoded >= 0 && f.decoded <= r.composited) composited_bytes += f.bytes;
+      }
       bytes_per_frame.push_back(b);
     }
+    if (!bytes_per_frame.empty()) composited_bytes /= bytes_per_frame.size();
     double mean_bytes = 0;
     for (double b : bytes_per_frame) mean_bytes += b;
     if (!bytes_per_frame.empty()) mean_bytes /= bytes_per_frame.size();
@@ -471,6 +479,7 @@ int main(int argc, char** argv) {
                 composited, complete, expected);
     std::printf("startup-left-out %zu\n", startup);
     std::printf("max-gap-ms %.2f\nbytes-per-frame %.0f\n", max_gap, mean_bytes);
+    std::printf("composited-bytes-per-frame %.0f\n", composited_bytes);
     std::printf("round-trip-median-ms %.2f\nround-trip-p95-ms %.2f\n", quantile(rt, 0.5),
                 quantile(rt, 0.95));
     std::printf("capture-spread-max-ms %.3f\ncapture-spread-p95-ms %.3f\nperiod-ms %.3f\n",
