@@ -74,6 +74,37 @@
 #   FEC_LATENCY_MS  how long a receiver waits for a lost packet before it
 #                gives up on it (rtpjitterbuffer latency; 10 ms lost more
 #                packets than it recovered on bursts of fragments)      [30]
+#   REQUEST_FEC_LATENCY_MS  the same for the view requests (one packet and
+#                its parity packet, back to back: at 30 ms a lost request
+#                reached every camera host after the compositor's deadline,
+#                as the multicast leaves the viewer's link once)         [5]
+#   RTX=1        retransmission of the fragments instead of FEC (RFC 4588;
+#                GStreamer's elements without rtpbin, as rtprtxreceive's
+#                documentation lays them out): each camera host keeps
+#                RTX_KEEP_MS of its packets (rtprtxsend) behind an rtpsession
+#                (RTP/AVPF); the compositor's rtpsession ! rtprtxreceive !
+#                rtpjitterbuffer do-retransmission=true asks for each missing
+#                packet (RTCP NACK, RFC 4585) at camera host K's UDP port
+#                NACK_PORT + K, at REQUESTS (the multicast group, or the K-th
+#                address of the fan-out list). lf-launch gives the requests
+#                their stream's SSRC and caps each camera host's answers at
+#                --rtx-budget (25 %) of the packets it sent. The view
+#                requests get FEC 100. Not with SRTP_KEY (srtpdec knows each
+#                stream's own SSRC only, not its retransmissions'); without
+#                it, forged packets with a stream's SSRC upset the jitter
+#                buffer as with FEC: net-host.sh warns.
+#                Measured (docs/netbench.md (e)): under 5 % loss every frame
+#                complete and identical to the lossless run's, at 1.00x the
+#                bytes                                                      [0]
+#   RTX_LATENCY_MS  how long the compositor waits for a missing packet
+#                (rtpjitterbuffer latency; adds to its deadline when a packet
+#                is missing). The jitter buffer counts it from the packet's
+#                RTP timestamp, which a request's whole burst of fragments
+#                from one host shares (20-30 ms of packets): at 30 the last
+#                packets of a burst had a few ms, and 7-19 % of the fragment
+#                bytes missed the frame                                     [60]
+#   RTX_KEEP_MS  how long a camera host keeps its packets for resending  [200]
+#   NACK_PORT    RTX: camera host K reads NACKs on UDP port NACK_PORT + K [5400]
 #   PRINT=1      print the lf-launch command instead of running it
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -94,7 +125,7 @@ SRTP_KEY="${SRTP_KEY:-}"
 if [ -n "$SRTP_KEY" ] && ! [[ "$SRTP_KEY" =~ ^[0-9a-fA-F]{60}$ ]]; then
   echo "net-host.sh: SRTP_KEY must be 60 hex digits (30 bytes: AES-128 key + salt)" >&2; exit 2
 fi
-SSRC_REQUESTS=4096; SSRC_FRAGMENTS=8192; SSRC_VIDEO=12288
+SSRC_REQUESTS=4096; SSRC_FRAGMENTS=8192; SSRC_VIDEO=12288; SSRC_RTX=16384
 srtp_params="srtp-key=(buffer)$SRTP_KEY,srtp-cipher=(string)aes-128-icm,srtp-auth=(string)hmac-sha1-80"
 srtp_params+=",srtcp-cipher=(string)aes-128-icm,srtcp-auth=(string)hmac-sha1-80,roc=(uint)0"
 # receive CAPS SSRC: a udpsrc's caps and what follows it, up to the depayloader.
@@ -110,6 +141,7 @@ protect() { if [ -n "$SRTP_KEY" ]; then echo "srtpenc key=$SRTP_KEY ! "; fi; }
 # fec_receive after receive_ssrc, before the depayloader, whose caps carry
 # the stream's SSRC (rtpulpfecdec needs it).
 FEC="${FEC:-0}"; FEC_LATENCY_MS="${FEC_LATENCY_MS:-30}"; FEC_PT=122
+REQUEST_FEC_LATENCY_MS="${REQUEST_FEC_LATENCY_MS:-5}"
 if ! [[ "$FEC" =~ ^[0-9]+$ ]] || [ "$FEC" -gt 100 ]; then
   echo "net-host.sh: FEC must be a percentage, 0..100" >&2; exit 2
 fi
@@ -117,24 +149,63 @@ if [ "$FEC" != 0 ] && [ -z "$SRTP_KEY" ]; then
   echo "net-host.sh: warning: FEC without SRTP_KEY: forged packets carrying a stream's SSRC" \
     "upset its jitter buffer and can stop the output; set SRTP_KEY on an untrusted network" >&2
 fi
+# Retransmission (RTX=1) of the fragments instead: see the header. The
+# jitter buffer asks 1 ms after it sees a gap, again every 4 ms while the
+# packet can still make it; the rtpsessions may send RTCP every 10 ms.
+RTX="${RTX:-0}"; RTX_LATENCY_MS="${RTX_LATENCY_MS:-60}"; RTX_KEEP_MS="${RTX_KEEP_MS:-200}"
+NACK_PORT="${NACK_PORT:-5400}"; RTX_PT=97
+if [ "$RTX" != 0 ] && [ "$RTX" != 1 ]; then echo "net-host.sh: RTX must be 0 or 1" >&2; exit 2; fi
+for v in RTX_LATENCY_MS RTX_KEEP_MS NACK_PORT FEC_LATENCY_MS REQUEST_FEC_LATENCY_MS; do
+  if ! [[ "${!v}" =~ ^[0-9]+$ ]] || [ "${!v}" -lt 1 ] || [ "${!v}" -gt 65535 ]; then
+    echo "net-host.sh: $v must be a whole number, 1..65535" >&2; exit 2
+  fi
+done
+rtx_timers="rtx-delay=1 rtx-retry-timeout=4 rtx-min-retry-timeout=2"
+if [ "$RTX" = 1 ] && [ -z "$SRTP_KEY" ]; then
+  echo "net-host.sh: warning: RTX without SRTP_KEY: forged packets carrying a stream's SSRC" \
+    "upset its jitter buffer, and forged NACKs cost a camera host up to lf-launch's" \
+    "--rtx-budget (25 %) more packets; use RTX only on a trusted network" >&2
+fi
+if [ "$RTX" = 1 ] && [ -n "$SRTP_KEY" ]; then
+  echo "net-host.sh: RTX=1 with SRTP_KEY is not supported (srtpdec knows only each stream's" \
+    "own SSRC, not its retransmission stream's); use FEC" >&2; exit 2
+fi
+if [ "$RTX" = 1 ] && [ "$FEC" != 0 ]; then
+  echo "net-host.sh: give one of RTX=1 and FEC (the view requests get FEC 100 with RTX)" >&2; exit 2
+fi
+REQ_FEC=0
+if [ "$FEC" != 0 ] || [ "$RTX" = 1 ]; then REQ_FEC=100; fi
+FRAG_FEC="$FEC"
+# fec_send PERCENT: parity packets, PERCENT 0 for none.
 fec_send() {
-  if [ "$FEC" != 0 ]; then echo "rtpulpfecenc pt=$FEC_PT percentage=$1 multipacket=true ! "; fi
+  if [ "$1" != 0 ]; then echo "rtpulpfecenc pt=$FEC_PT percentage=$1 multipacket=true ! "; fi
 }
+# fec_receive ON [LATENCY_MS]: the FEC receiver when ON is not 0, giving up
+# on a lost packet after LATENCY_MS [FEC_LATENCY_MS].
 fec_receive() {
-  if [ "$FEC" = 0 ]; then return; fi
-  echo " ! rtpstorage size-time=$(((FEC_LATENCY_MS + 100) * 1000000))"\
-    "! rtpjitterbuffer do-lost=true latency=$FEC_LATENCY_MS ! rtpulpfecdec pt=$FEC_PT"\
+  if [ "$1" = 0 ]; then return; fi
+  local latency="${2:-$FEC_LATENCY_MS}"
+  echo " ! rtpstorage size-time=$(((latency + 100) * 1000000))"\
+    "! rtpjitterbuffer do-lost=true latency=$latency ! rtpulpfecdec pt=$FEC_PT"\
     "! rtpptdemux ignored-payload-types=\"<$FEC_PT>\""
 }
-# receive CAPS SSRC with the SSRC in the caps when FEC needs it.
+# receive_ssrc CAPS SSRC: receive, with the stream's SSRC in the caps
+# (rtpulpfecdec and the retransmission requests need it, and lf-launch drops
+# every packet of another SSRC before the jitter buffers and depayloaders).
 receive_ssrc() {
   local caps="$1"
-  if [ "$FEC" != 0 ]; then
-    if [[ "$caps" != *payload=* ]]; then caps+=",payload=(int)96"; fi  # rtpgstpay's
-    if [ -z "$SRTP_KEY" ]; then caps+=",ssrc=(uint)$2"; fi  # receive adds it with SRTP
-  fi
+  if [[ "$caps" != *payload=* ]]; then caps+=",payload=(int)96"; fi  # rtpgstpay's
+  if [ -z "$SRTP_KEY" ]; then caps+=",ssrc=(uint)$2"; fi  # receive adds it with SRTP
   receive "$caps" "$2"
 }
+# RTCP feedback to camera host K: its address (the group, or the K-th of
+# the fan-out list).
+nack_host() {
+  if [ "$multicast" = 1 ]; then echo "$REQUESTS"; return; fi
+  local ips=(${REQUESTS//,/ })
+  echo "${ips[$1]:?REQUESTS lists no camera host $1}"
+}
+rtx_session="rtp-profile=avpf rtcp-min-interval=10000000 bandwidth=100000000"
 # Sender side of an RTP stream: optional emulated loss, never clock-synced
 # (buffers leave when ready; the receivers' deadlines do the scheduling).
 loss=""
@@ -168,9 +239,22 @@ case "$role" in
       desc+=" ! rtpjpegpay ssrc=$SSRC_VIDEO ! $(fec_send "$FEC")$(protect)$loss"
       desc+="udpsink host=$VIEWER port=$VIDEO_PORT $sender"
       for ((k = 0; k < HOSTS; k++)); do
-        desc+="  udpsrc port=$((FRAGMENT_PORT + k)) buffer-size=16777216 $(receive_ssrc "$rtp_caps" $((SSRC_FRAGMENTS + k)))"
-        desc+="$(fec_receive) ! rtpgstdepay ! queue max-size-buffers=0 max-size-bytes=0 max-size-time=1000000000"
+        desc+="  udpsrc port=$((FRAGMENT_PORT + k)) buffer-size=16777216"
+        caps="$rtp_caps"
+        if [ "$RTX" = 1 ]; then caps+=",rtx-ssrc=(uint)$((SSRC_RTX + k))"; fi  # lf-launch lets both in
+        desc+=" $(receive_ssrc "$caps" $((SSRC_FRAGMENTS + k)))"
+        if [ "$RTX" = 1 ]; then
+          desc+=" ! rtx$k.recv_rtp_sink rtpsession name=rtx$k $rtx_session rtx$k.recv_rtp_src"
+          desc+=" ! rtprtxreceive payload-type-map=\"application/x-rtp-pt-map,96=(uint)$RTX_PT\""
+          desc+=" ! rtpjitterbuffer do-retransmission=true do-lost=true latency=$RTX_LATENCY_MS $rtx_timers"
+        fi
+        desc+="$(fec_receive "$FRAG_FEC") ! rtpgstdepay ! queue max-size-buffers=0 max-size-bytes=0 max-size-time=1000000000"
         desc+=" ! comp.sink_$k"
+        if [ "$RTX" = 1 ]; then
+          mc=""
+          if [ "$multicast" = 1 ]; then mc="auto-multicast=true ttl-mc=1 $iface"; fi
+          desc+="  rtx$k.send_rtcp_src ! udpsink host=$(nack_host $k) port=$((NACK_PORT + k)) $mc $sender"
+        fi
       done
     fi
     ;;
@@ -200,11 +284,25 @@ case "$role" in
     while [ $((${#rc} % 3)) != 0 ]; do rc+=" "; done
     req_caps="$rtp_caps,caps=(string)$(printf '%s' "$rc" | base64 -w0),capsversion=(string)0"
     # One request stream in, one fragment stream out (the lfcamerahost bin).
-    desc="$src $(receive_ssrc "$req_caps" $SSRC_REQUESTS)$(fec_receive) ! rtpgstdepay"
+    desc="$src $(receive_ssrc "$req_caps" $SSRC_REQUESTS)$(fec_receive "$REQ_FEC" "$REQUEST_FEC_LATENCY_MS") ! rtpgstdepay"
     desc+=" ! lfcamerahost rig=$RIG cameras=$mine is-live=true framerate=$FPS/1 phase=$PHASE_NS frame-select=capture-time"
     desc+=" encoding=$ENCODING jpeg-quality=$QUALITY"
-    desc+=" ! rtpgstpay config-interval=1 ssrc=$((SSRC_FRAGMENTS + host)) ! $(fec_send "$FEC")$(protect)$loss"
+    desc+=" ! rtpgstpay config-interval=1 ssrc=$((SSRC_FRAGMENTS + host)) ! $(fec_send "$FRAG_FEC")"
+    if [ "$RTX" = 1 ]; then
+      desc+="rtprtxsend payload-type-map=\"application/x-rtp-pt-map,96=(uint)$RTX_PT\""
+      desc+=" ssrc-map=\"application/x-rtp-ssrc-map,$((SSRC_FRAGMENTS + host))=(uint)$((SSRC_RTX + host))\""
+      desc+=" max-size-time=$RTX_KEEP_MS ! rtx.send_rtp_sink rtpsession name=rtx $rtx_session rtx.send_rtp_src ! "
+    fi
+    desc+="$(protect)$loss"
     desc+="udpsink host=$COMPOSITOR port=$((FRAGMENT_PORT + host)) $sender"
+    if [ "$RTX" = 1 ]; then
+      if [ "$multicast" = 1 ]; then
+        desc+="  udpsrc address=$REQUESTS port=$((NACK_PORT + host)) auto-multicast=true $iface"
+      else
+        desc+="  udpsrc port=$((NACK_PORT + host))"
+      fi
+      desc+=" caps=application/x-rtcp ! rtx.recv_rtcp_sink"
+    fi
     if [ -n "${BASELINE:-}" ]; then
       desc=""; i=0
       for id in $ids; do
@@ -228,9 +326,9 @@ case "$role" in
       dest="multiudpsink clients=$clients $sender"
     fi
     desc="lfviewrequest rig=$RIG is-live=true framerate=$FPS/1 $VIEW"
-    desc+=" ! rtpgstpay config-interval=1 ssrc=$SSRC_REQUESTS ! $(fec_send 100)$(protect)$loss$dest"
+    desc+=" ! rtpgstpay config-interval=1 ssrc=$SSRC_REQUESTS ! $(fec_send "$REQ_FEC")$(protect)$loss$dest"
     desc+="  udpsrc port=$VIDEO_PORT buffer-size=4194304 $(receive_ssrc "$jpeg_caps" $SSRC_VIDEO)"
-    desc+="$(fec_receive) ! rtpjpegdepay ! jpegdec ! $OUTPUT"
+    desc+="$(fec_receive "$FEC") ! rtpjpegdepay ! jpegdec ! $OUTPUT"
     ;;
   *)
     echo "usage: net-host.sh compositor | camera K | viewer   (settings: see the script's header)" >&2
@@ -240,7 +338,7 @@ esac
 cmd=("$build/tools/lf-launch" "${clock[@]}")
 # FEC: the jitter buffers learn the parity packets' clock rate (else they
 # drop them and wait out their latency for each gap).
-if [ "$FEC" != 0 ]; then cmd+=(--rtp-clock-rate "$FEC_PT=90000"); fi
+if [ "$REQ_FEC" != 0 ]; then cmd+=(--rtp-clock-rate "$FEC_PT=90000"); fi
 if [ -n "${DURATION:-}" ]; then cmd+=(--duration "$DURATION"); fi
 if [ "${PRINT:-0}" = 1 ]; then
   printf '%q ' "${cmd[@]}" --; echo "$desc"

@@ -13,11 +13,13 @@
 #     --rejoin-after);
 #  3. 5 % packet loss on every link, view requests sent by unicast fan-out
 #     instead of multicast: output keeps flowing, nothing hangs;
-#  4. the same loss with forward error correction (net-host.sh FEC=25):
-#     more of the fragment bytes reach the compositor than without it;
-#  5. FEC on, an attacker (tools/lf-hostile) sending forged packets to every
-#     host: every host keeps running (forged payload types once stopped
-#     every camera host).
+#  4. the same loss with retransmission (net-host.sh RTX=1): nearly all of
+#     the fragment bytes make it into the frames, and the frames are the
+#     single-machine pipeline's, bit for bit;
+#  5. an attacker (tools/lf-hostile) sending forged packets to every host,
+#     with FEC and with RTX (then forged NACKs too): every host keeps
+#     running (forged payload types once stopped every camera host) and the
+#     frames stay complete (forged SSRCs once kept a stream out for good).
 # Requests issued before every camera had captured its first frame (hosts
 # start at their own pace) are startup; lf-trace leaves them out.
 # usage: net-deploy-check.sh BUILD_DIR SHARED_DATA_DIR
@@ -130,26 +132,35 @@ check "$work/loss.txt" "output keeps flowing under loss" \
 check "$work/loss.txt" "no gap longer than period + deadline + 250 ms" \
   'v["max-gap-ms"] < '"$period"' + '"$LATENCY_MS"' + 250'
 
-echo "== 4. 5 % packet loss with forward error correction (FEC=25)"
+echo "== 4. 5 % packet loss with retransmission (RTX=1)"
 # Measured here (2026-11-23): fragment bytes composited per frame
-# 0.61-0.64 of the lossless run's without FEC, 0.95-0.96 with FEC=25 (4 runs each).
-FEC_SHARE=0.85
-LOSS=0.05 REQUESTS=unicast FEC=25 "$root/tools/lf-netem.sh" run "$work/fec" $loss_s loss
-"$build/tools/lf-trace" --cameras 64 --fps $FPS "$work"/fec/*.trace > "$work/fec.txt"
-summary "$work/fec.txt"
-bytes() { awk '/^## summary/{s=1; next} s && $1 == "bytes-per-frame" {print $2}' "$1"; }
+# 0.61-0.64 of the lossless run's without recovery; with RTX=1 see below.
+RTX_SHARE=0.97
+LOSS=0.05 REQUESTS=unicast RTX=1 "$root/tools/lf-netem.sh" run "$work/rtx" $loss_s loss
+"$build/tools/lf-trace" --cameras 64 --fps $FPS --reference "$work/ref.trace" "$work"/rtx/*.trace \
+  > "$work/rtx.txt"
+summary "$work/rtx.txt"
+bytes() { awk '/^## summary/{s=1; next} s && $1 == "composited-bytes-per-frame" {print $2}' "$1"; }
 normal_bytes=$(bytes "$work/normal.txt"); loss_bytes=$(bytes "$work/loss.txt")
-echo "fragment bytes per frame: no loss $normal_bytes, loss $loss_bytes, loss with FEC $(bytes "$work/fec.txt")"
-check "$work/fec.txt" "output keeps flowing under loss with FEC" \
+echo "fragment bytes composited per frame: no loss $normal_bytes, loss $loss_bytes, loss with RTX $(bytes "$work/rtx.txt")"
+check "$work/rtx.txt" "output keeps flowing under loss with RTX" \
   'v["composited"] >= 0.85 * v["issued"] && v["issued"] >= 0.7 * '"$FPS * $loss_s"
-check "$work/fec.txt" "FEC recovers fragment bytes (at least $FEC_SHARE of the lossless run's, and more than without FEC)" \
-  'v["bytes-per-frame"] >= '"$FEC_SHARE * $normal_bytes"' && v["bytes-per-frame"] > '"$loss_bytes"
+check "$work/rtx.txt" "RTX brings the fragment bytes in the frames to at least $RTX_SHARE of the lossless run's" \
+  'v["composited-bytes-per-frame"] >= '"$RTX_SHARE * $normal_bytes"' && v["composited-bytes-per-frame"] > '"$loss_bytes"
+check "$work/rtx.txt" "under loss with RTX the frames are the single-machine pipeline's (CRC-32)" \
+  'v["compared"] >= 0.9 * v["composited"] && v["identical"] == v["compared"]'
 
-echo "== 5. forward error correction (FEC=25) beside an attacker"
-if FEC=25 HOSTILE_RATE=1000 "$root/tools/lf-netem.sh" run "$work/fechostile" 6 hostile; then
-  echo "ok: every host survives forged packets with FEC on"
-else
-  echo "FAIL: a host stopped under forged packets with FEC on"; fail=1
-  tail -3 "$work"/fechostile/*.log
-fi
+echo "== 5. an attacker beside FEC=25, and beside RTX=1 (forged NACKs too)"
+for mode in FEC=25 RTX=1; do
+  if env "$mode" HOSTILE_RATE=1000 "$root/tools/lf-netem.sh" run "$work/hostile-$mode" 6 hostile; then
+    echo "ok: every host survives forged packets with $mode"
+  else
+    echo "FAIL: a host stopped under forged packets with $mode"; fail=1
+    tail -3 "$work"/hostile-"$mode"/*.log
+  fi
+  "$build/tools/lf-trace" --cameras 64 --fps $FPS "$work"/hostile-"$mode"/*.trace > "$work/hostile-$mode.txt"
+  summary "$work/hostile-$mode.txt"
+  check "$work/hostile-$mode.txt" "frames stay complete beside the attacker with $mode" \
+    'v["composited"] >= 0.85 * v["issued"] && v["complete"] >= 0.9 * v["composited"]'
+done
 exit $fail

@@ -14,7 +14,11 @@
 //   flipped  valid requests and fragments with a few bits flipped (CRC left
 //            as it was, or recomputed over the flipped bytes);
 //   caps     new caps announced in band through rtpgstpay (other sizes and
-//            frame rates), as a spoofing sender could.
+//            frame rates), as a spoofing sender could;
+//   nack     with --nacks, every other packet: an RTCP receiver report and a
+//            generic NACK (RFC 4585) naming 100 runs of 17 packets of the
+//            given stream, to make a camera host that resends lost packets
+//            (net-host.sh RTX=1) resend its history.
 // Counts per kind are printed at the end ("sent KIND N").
 #include <gio/gio.h>
 #include <gst/app/gstappsrc.h>
@@ -39,6 +43,23 @@ struct Target {
   std::string host;
   int port = 0;
 };
+
+// HOST:PORT:SSRC of --nacks.
+bool parse_nack_target(const char* s, Target* t, uint32_t* ssrc) {
+  std::string str = s;
+  const auto colon = str.rfind(':');
+  if (colon == std::string::npos) return false;
+  char* end = nullptr;
+  const unsigned long v = std::strtoul(str.c_str() + colon + 1, &end, 10);
+  if (!end || *end || end == str.c_str() + colon + 1 || v > 0xffffffffUL) return false;
+  *ssrc = static_cast<uint32_t>(v);
+  str.resize(colon);
+  const auto c2 = str.rfind(':');
+  if (c2 == std::string::npos || c2 == 0) return false;
+  t->host = str.substr(0, c2);
+  t->port = std::atoi(str.c_str() + c2 + 1);
+  return t->port > 0 && t->port < 65536;
+}
 
 bool parse_target(const char* s, Target* t) {
   const std::string str = s;
@@ -92,6 +113,23 @@ class Attacker {
       : rng_(seed), cameras_(std::move(camera_ids)) {}
 
   std::mt19937_64& rng() { return rng_; }
+  // An empty receiver report and a generic NACK (RTPFB, FMT 1) of `runs`
+  // FCIs, each naming a random packet and the 16 after it, for `ssrc`.
+  Bytes nack(uint32_t ssrc, int runs) {
+    Bytes b(8 + 12 + 4 * runs);
+    b[0] = 0x80, b[1] = 201;  // RR, no report blocks
+    put_u16(b, 2, 1);
+    put_u32(b, 4, static_cast<uint32_t>(rng_()));
+    b[8] = 0x81, b[9] = 205;  // RTPFB, generic NACK
+    put_u16(b, 10, static_cast<uint16_t>(2 + runs));
+    put_u32(b, 12, static_cast<uint32_t>(rng_()));
+    put_u32(b, 16, ssrc);
+    for (int i = 0; i < runs; ++i) {
+      put_u16(b, 20 + 4 * i, static_cast<uint16_t>(rng_()));
+      put_u16(b, 22 + 4 * i, 0xffff);
+    }
+    return b;
+  }
   uint64_t pick(uint64_t n) { return std::uniform_int_distribution<uint64_t>(0, n - 1)(rng_); }
   Bytes random_bytes(size_t n) {
     Bytes b(n);
@@ -215,6 +253,7 @@ GstCaps* hostile_caps(Attacker& a, bool requests) {
 int main(int argc, char** argv) {
   gchar** request_opts = nullptr;
   gchar** fragment_opts = nullptr;
+  gchar** nack_opts = nullptr;
   gchar* cameras_opt = nullptr;
   gdouble rate = 1000, duration = 10;
   gint seed = 1;
@@ -224,6 +263,10 @@ int main(int argc, char** argv) {
        "HOST:PORT"},
       {"fragments", 0, 0, G_OPTION_ARG_STRING_ARRAY, &fragment_opts,
        "Where the compositor host listens for fragments (repeatable)", "HOST:PORT"},
+      {"nacks", 0, 0, G_OPTION_ARG_STRING_ARRAY, &nack_opts,
+       "Where a camera host reads RTCP NACKs, and the SSRC of its stream: every other packet "
+       "is a forged NACK there (repeatable)",
+       "HOST:PORT:SSRC"},
       {"rate", 0, 0, G_OPTION_ARG_DOUBLE, &rate, "Packets per second, all kinds (default 1000)",
        "HZ"},
       {"duration", 0, 0, G_OPTION_ARG_DOUBLE, &duration, "Seconds to run (default 10)", "S"},
@@ -263,8 +306,19 @@ int main(int argc, char** argv) {
     }
     targets.push_back({t, false});
   }
+  std::vector<std::pair<Target, uint32_t>> nack_targets;
+  for (gchar** s = nack_opts; s && *s; ++s) {
+    Target t;
+    uint32_t ssrc = 0;
+    if (!parse_nack_target(*s, &t, &ssrc)) {
+      std::fprintf(stderr, "lf-hostile: error: --nacks %s is not HOST:PORT:SSRC\n", *s);
+      return 2;
+    }
+    nack_targets.push_back({t, ssrc});
+  }
   g_strfreev(request_opts);
   g_strfreev(fragment_opts);
+  g_strfreev(nack_opts);
   if (targets.empty() || rate <= 0 || rate > 100000 || duration <= 0) {
     std::fprintf(stderr,
                  "lf-hostile: error: give --requests and/or --fragments, 0 < --rate <= 100000, "
@@ -322,6 +376,20 @@ int main(int argc, char** argv) {
   std::vector<GSocketAddress*> addrs;
   for (const auto& tr : targets)
     addrs.push_back(g_inet_socket_address_new_from_string(tr.first.host.c_str(), tr.first.port));
+  std::vector<GSocketAddress*> nack_addrs;
+  for (const auto& tr : nack_targets)
+    nack_addrs.push_back(
+        g_inet_socket_address_new_from_string(tr.first.host.c_str(), tr.first.port));
+  for (GSocketAddress* s : addrs)
+    if (!s) {
+      std::fprintf(stderr, "lf-hostile: error: a target's host is not an IP address\n");
+      return 2;
+    }
+  for (GSocketAddress* s : nack_addrs)
+    if (!s) {
+      std::fprintf(stderr, "lf-hostile: error: a --nacks host is not an IP address\n");
+      return 2;
+    }
 
   Attacker a(static_cast<uint32_t>(seed), ids);
   std::map<std::string, guint64> sent;
@@ -333,6 +401,14 @@ int main(int argc, char** argv) {
     const gint64 now = g_get_monotonic_time();
     if (now - start > static_cast<gint64>(duration * 1e6)) break;
     if (due > now) g_usleep(static_cast<gulong>(due - now));
+    if (!nack_targets.empty() && n % 2 == 1) {
+      const size_t t = a.pick(nack_targets.size());
+      const Bytes b = a.nack(nack_targets[t].second, 100);
+      g_socket_send_to(sock, nack_addrs[t], reinterpret_cast<const gchar*>(b.data()), b.size(),
+                       nullptr, nullptr);
+      sent["nack"]++;
+      continue;
+    }
     const size_t t = a.pick(targets.size());
     const bool req = targets[t].second;
     Bytes payload;
@@ -386,6 +462,7 @@ int main(int argc, char** argv) {
   gst_element_set_state(pipe, GST_STATE_NULL);
   gst_object_unref(pipe);
   for (GSocketAddress* s : addrs) g_object_unref(s);
+  for (GSocketAddress* s : nack_addrs) g_object_unref(s);
   g_object_unref(sock);
   for (const auto& [k, v] : sent) std::printf("sent %s %" G_GUINT64_FORMAT "\n", k.c_str(), v);
   std::printf("sent total %" G_GUINT64_FORMAT " in %.1f s (%.0f per second)\n", n, secs,

@@ -18,10 +18,27 @@
 // stays unanswered, so the jitter buffer drops it: a forged packet of a
 // third type never reaches an rtpptdemux, which would make a pad for it
 // that nothing is linked to and stop the stream.
+// Retransmission (RFC 4588) without rtpbin, as rtprtxreceive's documentation
+// lays it out (rtpsession ! rtprtxreceive ! rtpjitterbuffer, rtprtxsend !
+// rtpsession), needs two things gst-launch cannot give:
+//  * every rtprtxreceive's retransmission requests get the SSRC of its
+//    stream (its caps' "ssrc"): rtpjitterbuffer leaves it out and relies on
+//    an rtpssrcdemux to add it, and rtpsession sends no NACK without one.
+//    An rtpssrcdemux would give its one linked pad to whichever SSRC came
+//    first, a forged one included.
+//  * a sending rtpsession (RTCP in, RTP out) accepts NACKs for at most
+//    --rtx-budget percent of the packets it has sent (plus a burst of 64): a
+//    NACK names up to 17 packets in 4 bytes, so anyone who can send RTCP to
+//    a camera host could otherwise make it resend its whole history again
+//    and again. An RTCP packet whose NACKs would go over is dropped before
+//    rtpsession turns them into a retransmission request each.
 #include <gst/gst.h>
 #include <gst/net/gstnet.h>
+#include <gst/rtp/gstrtcpbuffer.h>
+#include <gst/rtp/gstrtpbuffer.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cstdio>
 #include <cstring>
 #include <string>
@@ -70,6 +87,174 @@ void answer_pt_maps(GstElement* pipeline, const PtClock* c) {
   gst_iterator_free(it);
 }
 
+bool is_rtx_request(GstEvent* ev) {
+  if (GST_EVENT_TYPE(ev) != GST_EVENT_CUSTOM_UPSTREAM) return false;
+  const GstStructure* s = gst_event_get_structure(ev);
+  return s && gst_structure_has_name(s, "GstRTPRetransmissionRequest");
+}
+
+// Upstream on an rtprtxreceive's src pad: a retransmission request without
+// an SSRC gets the stream's, from the pad's caps (dropped if they have none).
+GstPadProbeReturn add_ssrc(GstPad* pad, GstPadProbeInfo* info, gpointer) {
+  GstEvent* ev = GST_PAD_PROBE_INFO_EVENT(info);
+  if (!is_rtx_request(ev) || gst_structure_has_field(gst_event_get_structure(ev), "ssrc"))
+    return GST_PAD_PROBE_OK;
+  GstCaps* caps = gst_pad_get_current_caps(pad);
+  guint ssrc = 0;
+  const bool known = caps && gst_caps_get_size(caps) > 0 &&
+                     gst_structure_get_uint(gst_caps_get_structure(caps, 0), "ssrc", &ssrc);
+  if (caps) gst_caps_unref(caps);
+  if (!known) return GST_PAD_PROBE_DROP;
+  ev = GST_EVENT(gst_mini_object_make_writable(GST_MINI_OBJECT(ev)));
+  gst_structure_set(gst_event_writable_structure(ev), "ssrc", G_TYPE_UINT, ssrc, nullptr);
+  GST_PAD_PROBE_INFO_DATA(info) = ev;
+  return GST_PAD_PROBE_OK;
+}
+
+// A sending rtpsession's budget: `percent` of a token per RTP packet sent,
+// one per packet that an incoming NACK asks for, at most kBurst saved.
+struct RtxBudget {
+  static constexpr long kBurst = 64;
+  double percent = 25;
+  std::atomic<long> milli_tokens{kBurst * 1000L};
+  std::atomic<long> refused{0};
+};
+GstPadProbeReturn count_packet(GstPad*, GstPadProbeInfo* info, gpointer data) {
+  auto* b = static_cast<RtxBudget*>(data);
+  long n = 1;
+  if (GST_PAD_PROBE_INFO_TYPE(info) & GST_PAD_PROBE_TYPE_BUFFER_LIST)
+    n = gst_buffer_list_length(GST_PAD_PROBE_INFO_BUFFER_LIST(info));
+  const long add = static_cast<long>(n * b->percent * 10);  // percent of 1000 milli-tokens
+  long cur = b->milli_tokens.load();
+  while (
+      !b->milli_tokens.compare_exchange_weak(cur, std::min(cur + add, RtxBudget::kBurst * 1000L))) {
+  }
+  return GST_PAD_PROBE_OK;
+}
+// Packets an RTCP compound packet's generic NACKs (RFC 4585 6.2.1) ask for:
+// each FCI, its packet and one per bit of its bitmask. -1: not RTCP.
+long nacked_packets(GstBuffer* buf) {
+  GstRTCPBuffer rtcp = GST_RTCP_BUFFER_INIT;
+  if (!gst_rtcp_buffer_map(buf, GST_MAP_READ, &rtcp)) return -1;
+  long n = 0;
+  GstRTCPPacket pkt;
+  for (gboolean more = gst_rtcp_buffer_get_first_packet(&rtcp, &pkt); more;
+       more = gst_rtcp_packet_move_to_next(&pkt)) {
+    if (gst_rtcp_packet_get_type(&pkt) != GST_RTCP_TYPE_RTPFB ||
+        gst_rtcp_packet_fb_get_type(&pkt) != GST_RTCP_RTPFB_TYPE_NACK)
+      continue;
+    const guint8* fci = gst_rtcp_packet_fb_get_fci(&pkt);
+    const guint words = gst_rtcp_packet_fb_get_fci_length(&pkt);
+    for (guint w = 0; fci && w < words; ++w)
+      n += 1 + __builtin_popcount(GST_READ_UINT16_BE(fci + 4 * w + 2));
+  }
+  gst_rtcp_buffer_unmap(&rtcp);
+  return n;
+}
+GstPadProbeReturn spend_tokens(GstPad* pad, GstPadProbeInfo* info, gpointer data) {
+  auto* b = static_cast<RtxBudget*>(data);
+  const long n = nacked_packets(GST_PAD_PROBE_INFO_BUFFER(info));
+  if (n <= 0) return GST_PAD_PROBE_OK;  // no NACK (or not RTCP: rtpsession drops it)
+  if (b->milli_tokens.fetch_sub(1000 * n) >= 1000 * n) return GST_PAD_PROBE_OK;
+  b->milli_tokens.fetch_add(1000 * n);
+  if (b->refused.fetch_add(1) % 1000 == 0)
+    g_printerr(
+        "lf-launch: warning: %s: NACKs over the budget (%.0f %% of the packets sent) "
+        "dropped (%ld RTCP packets so far)\n",
+        GST_OBJECT_NAME(GST_OBJECT_PARENT(pad)), b->percent, b->refused.load());
+  return GST_PAD_PROBE_DROP;
+}
+
+// Before an rtpjitterbuffer, a depayloader (rtpgstdepay, rtpjpegdepay) or
+// an rtpsession's RTP input whose
+// caps name the stream's SSRC (and "rtx-ssrc", its retransmission stream's):
+// a packet of any other SSRC is dropped. The jitter buffer follows the SSRC
+// of the packet it got last and starts afresh at each change, so packets
+// from anyone else on the network, interleaved with the stream's, kept it
+// from ever passing the stream's own (the view requests of lf-netem.sh's
+// hostile run with FEC or RTX: 1 to 27 of about 140 frames composited); an
+// rtpsession puts the SSRC of the first packet it sees into its output's
+// caps, so a forged packet ahead of the stream took the stream's place;
+// and rtpgstdepay takes in-band caps from any packet.
+bool foreign_ssrc(GstBuffer* buf, guint ssrc, guint rtx_ssrc) {
+  GstRTPBuffer rtp = GST_RTP_BUFFER_INIT;
+  if (!gst_rtp_buffer_map(buf, GST_MAP_READ, &rtp)) return true;  // not RTP
+  const guint s = gst_rtp_buffer_get_ssrc(&rtp);
+  gst_rtp_buffer_unmap(&rtp);
+  return s != ssrc && s != rtx_ssrc;
+}
+GstPadProbeReturn only_own_ssrc(GstPad* pad, GstPadProbeInfo* info, gpointer) {
+  GstCaps* caps = gst_pad_get_current_caps(pad);
+  guint ssrc = 0, rtx = 0;
+  bool known = caps && gst_caps_get_size(caps) > 0;
+  if (known) {
+    const GstStructure* s = gst_caps_get_structure(caps, 0);
+    known = gst_structure_get_uint(s, "ssrc", &ssrc);
+    if (!gst_structure_get_uint(s, "rtx-ssrc", &rtx)) rtx = ssrc;
+  }
+  if (caps) gst_caps_unref(caps);
+  if (!known) return GST_PAD_PROBE_OK;
+  if (GST_PAD_PROBE_INFO_TYPE(info) & GST_PAD_PROBE_TYPE_BUFFER)
+    return foreign_ssrc(GST_PAD_PROBE_INFO_BUFFER(info), ssrc, rtx) ? GST_PAD_PROBE_DROP
+                                                                    : GST_PAD_PROBE_OK;
+  GstBufferList* list = gst_buffer_list_make_writable(GST_PAD_PROBE_INFO_BUFFER_LIST(info));
+  for (guint i = gst_buffer_list_length(list); i-- > 0;)
+    if (foreign_ssrc(gst_buffer_list_get(list, i), ssrc, rtx)) gst_buffer_list_remove(list, i, 1);
+  GST_PAD_PROBE_INFO_DATA(info) = list;
+  return gst_buffer_list_length(list) ? GST_PAD_PROBE_OK : GST_PAD_PROBE_DROP;
+}
+
+// The probes above on every rtprtxreceive, every sending rtpsession and
+// every rtpjitterbuffer.
+void guard_retransmission(GstElement* pipeline, double budget_percent) {
+  GstIterator* it = gst_bin_iterate_recurse(GST_BIN(pipeline));
+  GValue v = G_VALUE_INIT;
+  while (gst_iterator_next(it, &v) == GST_ITERATOR_OK) {
+    GstElement* e = GST_ELEMENT(g_value_get_object(&v));
+    GstElementFactory* f = gst_element_get_factory(e);
+    const char* kind = f ? GST_OBJECT_NAME(f) : "";
+    if (g_str_equal(kind, "rtpjitterbuffer") || g_str_equal(kind, "rtpgstdepay") ||
+        g_str_equal(kind, "rtpjpegdepay")) {
+      GstPad* sink = gst_element_get_static_pad(e, "sink");
+      gst_pad_add_probe(
+          sink,
+          static_cast<GstPadProbeType>(GST_PAD_PROBE_TYPE_BUFFER | GST_PAD_PROBE_TYPE_BUFFER_LIST),
+          only_own_ssrc, nullptr, nullptr);
+      gst_object_unref(sink);
+    } else if (g_str_equal(kind, "rtprtxreceive")) {
+      GstPad* src = gst_element_get_static_pad(e, "src");
+      gst_pad_add_probe(src, GST_PAD_PROBE_TYPE_EVENT_UPSTREAM, add_ssrc, nullptr, nullptr);
+      gst_object_unref(src);
+    } else if (g_str_equal(kind, "rtpsession")) {
+      // Request pads, made while the description was parsed.
+      if (GstPad* in = gst_element_get_static_pad(e, "recv_rtp_sink")) {
+        gst_pad_add_probe(in,
+                          static_cast<GstPadProbeType>(GST_PAD_PROBE_TYPE_BUFFER |
+                                                       GST_PAD_PROBE_TYPE_BUFFER_LIST),
+                          only_own_ssrc, nullptr, nullptr);
+        gst_object_unref(in);
+      }
+      GstPad* rtp = gst_element_get_static_pad(e, "send_rtp_sink");
+      GstPad* rtcp = gst_element_get_static_pad(e, "recv_rtcp_sink");
+      if (rtp && rtcp) {
+        auto* b = new RtxBudget;
+        b->percent = budget_percent;
+        gst_pad_add_probe(rtp,
+                          static_cast<GstPadProbeType>(GST_PAD_PROBE_TYPE_BUFFER |
+                                                       GST_PAD_PROBE_TYPE_BUFFER_LIST),
+                          count_packet, b, nullptr);
+        gst_pad_add_probe(rtcp, GST_PAD_PROBE_TYPE_BUFFER, spend_tokens, b,
+                          [](gpointer d) { delete static_cast<RtxBudget*>(d); });
+      }
+      if (rtp) gst_object_unref(rtp);
+      if (rtcp) gst_object_unref(rtcp);
+    }
+    g_value_reset(&v);
+  }
+  g_value_unset(&v);
+  gst_iterator_free(it);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -78,6 +263,7 @@ int main(int argc, char** argv) {
   gchar* base_opt = nullptr;
   gdouble sync_timeout = 10, duration = -1, max_round_trip_ms = 0, settle = 0;
   gboolean check = FALSE;
+  gdouble rtx_budget = 25;
   gchar* pt_clock_opt = nullptr;
   gchar** rest = nullptr;
   const GOptionEntry entries[] = {
@@ -113,6 +299,11 @@ int main(int argc, char** argv) {
        "correction packets sharing the stream) with clock rate HZ; other payload types stay "
        "unanswered and dropped (default: none answered)",
        "PT=HZ"},
+      {"rtx-budget", 0, 0, G_OPTION_ARG_DOUBLE, &rtx_budget,
+       "Every rtpsession that sends RTP and reads RTCP accepts NACKs for at most P percent of "
+       "the packets it has sent, plus a burst of 64; RTCP packets whose NACKs would go over are "
+       "dropped with a warning (default 25)",
+       "P"},
       {G_OPTION_REMAINING, 0, 0, G_OPTION_ARG_STRING_ARRAY, &rest, nullptr, nullptr},
       {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
   GOptionContext* ctx = g_option_context_new("-- PIPELINE DESCRIPTION...");
@@ -127,6 +318,10 @@ int main(int argc, char** argv) {
     return 2;
   }
   g_option_context_free(ctx);
+  if (!(rtx_budget >= 0 && rtx_budget <= 100)) {
+    std::fprintf(stderr, "lf-launch: error: --rtx-budget must be 0..100 percent\n");
+    return 2;
+  }
   PtClock pt_clock;
   if (pt_clock_opt) {
     unsigned pt = 0;
@@ -168,6 +363,7 @@ int main(int argc, char** argv) {
       return nullptr;
     }
     if (pt_clock.rate > 0) answer_pt_maps(p, &pt_clock);
+    guard_retransmission(p, rtx_budget);
     // A failure here is posted on the bus and reported below.
     gst_element_set_state(p, GST_STATE_PAUSED);
     return p;

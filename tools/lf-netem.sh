@@ -13,7 +13,8 @@
 #             senders) | hostile (an attacker host, evil, runs tools/lf-hostile
 #             beside the others: random and crafted requests and fragments at
 #             HOSTILE_RATE packets/s, default 1000, to the request group, every
-#             camera host, the compositor's fragment ports and the viewer)
+#             camera host, the compositor's fragment ports and the viewer;
+#             with RTX=1 half of them forged NACKs to the camera hosts)
 # Every scenario samples each host's resident memory every 5 s (OUTDIR/rss:
 # seconds, host, VmRSS kB) and writes its peak (OUTDIR/rss-peak: host,
 # VmHWM kB), and each host's UDP counters at the end (OUTDIR/udp: datagrams
@@ -142,6 +143,13 @@ if [ "$scenario" = hostile ]; then
   for ((k = 0; k < HOSTS; k++)); do
     targets+=(--requests "${ip[cam$k]}:${REQUEST_PORT:-5000}")
     targets+=(--fragments "${ip[comp]}:$((${FRAGMENT_PORT:-5200} + k))")
+    # RTX=1: forged NACKs for each camera host's stream (SSRC 8192 + K),
+    # where it reads them (the request group, or its own address).
+    if [ "${RTX:-0}" = 1 ]; then
+      nack_at="${ip[cam$k]}"
+      if [[ "${REQUESTS:-239.255.42.1}" =~ ^2(2[4-9]|3[0-9])\. ]]; then nack_at="${REQUESTS:-239.255.42.1}"; fi
+      targets+=(--nacks "$nack_at:$((${NACK_PORT:-5400} + k)):$((8192 + k))")
+    fi
   done
   # The attacker forges the rig's real camera ids too.
   ids=$("$build/tools/lf-rig" --input "$RIG" --ids | tr -s ' \n' ',' | sed 's/,$//')
