@@ -64,13 +64,14 @@
 #                +18 ms without any loss); their latency adds to the
 #                compositor's deadline.
 #                Measured (docs/netbench.md (e)): under 5 % loss FEC=25 brings
-#                28 % of the fragment bytes to 88 %, FEC=50 to 93 %, for
-#                1.19x and 1.44x the bytes. Without SRTP_KEY, forged packets
-#                with a stream's SSRC upset the jitter buffer (lf-netem.sh's
-#                hostile run, 1000 packets/s: 27 of 139 frames composited,
-#                65 of 142 without FEC; every host kept running): on an
-#                untrusted network use both (then every frame was complete);
-#                net-host.sh warns. 0 = off, as before                   [0]
+#                28 % of the fragment bytes in the frames to 86 %, FEC=50 to
+#                87 %, for 1.19x and 1.45x the bytes (RTX=1: 100 % at 1.00x).
+#                Every stream's SSRC is in its receiver's caps, and lf-launch
+#                drops packets of any other SSRC before the jitter buffers and
+#                depayloaders (lf-netem.sh's hostile run: every frame
+#                complete); forged packets carrying a stream's own SSRC still
+#                upset its jitter buffer: on an untrusted network set SRTP_KEY
+#                too; net-host.sh warns. 0 = off, as before                [0]
 #   FEC_LATENCY_MS  how long a receiver waits for a lost packet before it
 #                gives up on it (rtpjitterbuffer latency; 10 ms lost more
 #                packets than it recovered on bursts of fragments)      [30]
@@ -93,9 +94,9 @@
 #                stream's own SSRC only, not its retransmissions'); without
 #                it, forged packets with a stream's SSRC upset the jitter
 #                buffer as with FEC: net-host.sh warns.
-#                Measured (docs/netbench.md (e)): under 5 % loss every frame
-#                complete and identical to the lossless run's, at 1.00x the
-#                bytes                                                      [0]
+#                Measured (docs/netbench.md (e)): under 5 % loss 100 % of the
+#                fragment bytes in the frames, every frame complete and
+#                identical to the lossless run's, at 1.00x the bytes        [0]
 #   RTX_LATENCY_MS  how long the compositor waits for a missing packet
 #                (rtpjitterbuffer latency; adds to its deadline when a packet
 #                is missing). The jitter buffer counts it from the packet's

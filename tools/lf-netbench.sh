@@ -12,10 +12,11 @@
 #  (d) overload: the JPEG run of (c) again beside a niced CPU loop
 #      (`nice -n 19`, one core's worth), round trip against (c)'s;
 #  (e) loss: the JPEG run of (c) with LOSS (5 %) of the RTP packets dropped
-#      on every link, without and with forward error correction
-#      (net-host.sh FEC=25, 50), and FEC=25 without loss (its cost):
-#      fragment bytes composited and bytes into the compositor's link
-#      against (c)'s, complete frames, round trip;
+#      on every link, without recovery, with forward error correction
+#      (net-host.sh FEC=25, 50) and with retransmission (RTX=1), and FEC=25
+#      and RTX=1 without loss (their cost): fragment bytes in the frames and
+#      bytes into the compositor's link against (c)'s, complete frames,
+#      frames identical to (c)'s for the same requests, round trip;
 #  (f) stronger all-viewpoints baselines (tools/lf-baseline, in process): on
 #      the synthetic dynamic scene with sensor noise, fragments (JPEG) against
 #      every camera streaming JPEG or H.264 video at the same PSNR, 4, 16 and
@@ -58,14 +59,18 @@ RIG="$out/rig64.json" HOSTS=4 ENCODING=jpeg "$root/tools/lf-netem.sh" run "$out/
 kill "$busy"
 "$trace" --cameras 64 --fps "$FPS" "$out"/busy64/*.trace > "$out/busy64.txt"
 
-for f in 0 25 50; do
-  echo "== loss ${LOSS:-0.05} on every link, 64 cameras, jpeg fragments, FEC $f % ($seconds s)" >&2
-  RIG="$out/rig64.json" HOSTS=4 ENCODING=jpeg FEC=$f "$root/tools/lf-netem.sh" run "$out/loss-fec$f" "$seconds" loss
-  "$trace" --cameras 64 --fps "$FPS" "$out/loss-fec$f"/*.trace > "$out/loss-fec$f.txt"
-done
-echo "== no loss, 64 cameras, jpeg fragments, FEC 25 % ($seconds s)" >&2
-RIG="$out/rig64.json" HOSTS=4 ENCODING=jpeg FEC=25 "$root/tools/lf-netem.sh" run "$out/fec25" "$seconds" normal
-"$trace" --cameras 64 --fps "$FPS" "$out/fec25"/*.trace > "$out/fec25.txt"
+# recovery RUN SCENARIO SETTING...: a 64-camera JPEG run with net-host.sh
+# settings, its frames compared with (c)'s (same requests).
+recovery() {
+  local run="$1" scenario="$2"; shift 2
+  echo "== $scenario, 64 cameras, jpeg fragments, $* ($seconds s)" >&2
+  env RIG="$out/rig64.json" HOSTS=4 ENCODING=jpeg "$@" "$root/tools/lf-netem.sh" run "$out/$run" "$seconds" "$scenario"
+  "$trace" --cameras 64 --fps "$FPS" --reference "$out/jpeg64/comp.trace" "$out/$run"/*.trace > "$out/$run.txt"
+}
+for f in 0 25 50; do recovery "loss-fec$f" loss FEC=$f; done
+recovery loss-rtx loss RTX=1
+recovery fec25 normal FEC=25
+recovery rtx normal RTX=1
 
 for n in 4 16 64; do
   echo "== all-viewpoints JPEG and H.264 against fragments, synthetic scene with noise, $n cameras" >&2
@@ -134,25 +139,32 @@ base_bytes=${base% *}; base_cams=${base#* }
   echo "## (e) Loss: ${LOSS:-0.05} of the RTP packets dropped on every link, 64 cameras, JPEG fragments"
   echo
   echo "FEC: net-host.sh FEC=N (RFC 5109 ULPFEC, rtpulpfecenc percentage=N; receivers"
-  echo "rtpstorage ! rtpjitterbuffer latency=FEC_LATENCY_MS [30] ! rtpulpfecdec). Against the"
-  echo "lossless run of (c): fragment bytes composited per frame, and bytes into the compositor's"
-  echo "link per composited frame (media, FEC, clock)."
+  echo "rtpstorage ! rtpjitterbuffer latency=FEC_LATENCY_MS [30] ! rtpulpfecdec). RTX: net-host.sh"
+  echo "RTX=1 (RFC 4588 retransmission on RTCP NACKs; rtpjitterbuffer latency=RTX_LATENCY_MS [60])."
+  echo "Against the lossless run of (c): fragment bytes in the frames (composited before the"
+  echo "deadline; in brackets, those that entered the compositor, late ones too), frames"
+  echo "bit-identical to (c)'s for the same requests, and bytes into the compositor's link per"
+  echo "composited frame (media, FEC, RTCP, clock)."
   echo
-  echo "| run | fragment bytes composited | complete frames | link bytes per frame | round trip median ms | p95 ms |"
-  echo "|---|---|---|---|---|---|"
+  echo "| run | fragment bytes in the frames (entered) | complete frames | complete frames identical to (c) | link bytes per frame | round trip median ms | p95 ms |"
+  echo "|---|---|---|---|---|---|---|"
   linkpf() { awk -v n="$(key "$2" composited)" '$1 == "comp" {printf "%.0f", $2 / n}' "$1/link-bytes"; }
-  ref_bytes=$(key "$out/jpeg64.txt" bytes-per-frame); ref_link=$(linkpf "$out/jpeg64" "$out/jpeg64.txt")
-  for r in jpeg64 fec25 loss-fec0 loss-fec25 loss-fec50; do
+  ref_bytes=$(key "$out/jpeg64.txt" composited-bytes-per-frame); ref_link=$(linkpf "$out/jpeg64" "$out/jpeg64.txt")
+  for r in jpeg64 fec25 rtx loss-fec0 loss-fec25 loss-fec50 loss-rtx; do
     case $r in
-      jpeg64) label="no loss, no FEC ((c) above)" ;;
+      jpeg64) label="no loss, no recovery ((c) above)" ;;
       fec25) label="no loss, FEC 25 %" ;;
+      rtx) label="no loss, RTX" ;;
+      loss-fec0) label="loss, no recovery" ;;
+      loss-rtx) label="loss, RTX" ;;
       *) label="loss, FEC ${r#loss-fec} %" ;;
     esac
-    awk -v l="$label" -v b="$(key "$out/$r.txt" bytes-per-frame)" -v rb="$ref_bytes" \
+    awk -v l="$label" -v b="$(key "$out/$r.txt" composited-bytes-per-frame)" -v e="$(key "$out/$r.txt" bytes-per-frame)" -v rb="$ref_bytes" \
       -v c="$(key "$out/$r.txt" complete)" -v n="$(key "$out/$r.txt" composited)" \
+      -v cmp="$(key "$out/$r.txt" compared)" -v same="$(key "$out/$r.txt" identical)" \
       -v lk="$(linkpf "$out/$r" "$out/$r.txt")" -v rl="$ref_link" \
       -v m="$(key "$out/$r.txt" round-trip-median-ms)" -v p="$(key "$out/$r.txt" round-trip-p95-ms)" \
-      'BEGIN{printf "| %s | %.0f (%.1f %%) | %d / %d | %.0f (%.2fx) | %s | %s |\n", l, b, 100 * b / rb, c, n, lk, lk / rl, m, p}'
+      'BEGIN{printf "| %s | %.0f (%.1f %%) (%.1f %%) | %d / %d | %s | %.0f (%.2fx) | %s | %s |\n", l, b, 100 * b / rb, 100 * e / rb, c, n, (cmp == "" ? "-" : same " / " cmp), lk, lk / rl, m, p}'
   done
   echo
   echo "## (f) All-viewpoints JPEG and H.264 against fragments (synthetic scene, sensor noise)"
