@@ -86,8 +86,9 @@
  * place of `focal-plane` and `focal-depth`, and `surface-planes` says how
  * many planes it has; a newer probe's answer replaces it. With
  * `lfcompositor second-planes=true` tiles next to a depth edge or with a
- * thin structure inside get a second plane (`second-of`: #GBytes of one plane index per tile, 255 for none;
- * `surface-two-plane-tiles` says how many): each camera then sends those
+ * thin structure inside get a second plane (`second-of`: #GBytes of one
+ * plane index per tile, 255 for none; `surface-two-plane-tiles` says how
+ * many): each camera then sends those
  * tiles twice and the compositor chooses per pixel. Between probes a
  * moving view keeps the last surface, so it suits a steady or slowly moving
  * view. An eye on a camera sees that camera's image, for which the

@@ -176,7 +176,6 @@ if [ "$RTX" = 1 ] && [ "$FEC" != 0 ]; then
 fi
 REQ_FEC=0
 if [ "$FEC" != 0 ] || [ "$RTX" = 1 ]; then REQ_FEC=100; fi
-FRAG_FEC="$FEC"
 # fec_send PERCENT: parity packets, PERCENT 0 for none.
 fec_send() {
   if [ "$1" != 0 ]; then echo "rtpulpfecenc pt=$FEC_PT percentage=$1 multipacket=true ! "; fi
@@ -249,7 +248,7 @@ case "$role" in
           desc+=" ! rtprtxreceive payload-type-map=\"application/x-rtp-pt-map,96=(uint)$RTX_PT\""
           desc+=" ! rtpjitterbuffer do-retransmission=true do-lost=true latency=$RTX_LATENCY_MS $rtx_timers"
         fi
-        desc+="$(fec_receive "$FRAG_FEC") ! rtpgstdepay ! queue max-size-buffers=0 max-size-bytes=0 max-size-time=1000000000"
+        desc+="$(fec_receive "$FEC") ! rtpgstdepay ! queue max-size-buffers=0 max-size-bytes=0 max-size-time=1000000000"
         desc+=" ! comp.sink_$k"
         if [ "$RTX" = 1 ]; then
           mc=""
@@ -288,7 +287,7 @@ case "$role" in
     desc="$src $(receive_ssrc "$req_caps" $SSRC_REQUESTS)$(fec_receive "$REQ_FEC" "$REQUEST_FEC_LATENCY_MS") ! rtpgstdepay"
     desc+=" ! lfcamerahost rig=$RIG cameras=$mine is-live=true framerate=$FPS/1 phase=$PHASE_NS frame-select=capture-time"
     desc+=" encoding=$ENCODING jpeg-quality=$QUALITY"
-    desc+=" ! rtpgstpay config-interval=1 ssrc=$((SSRC_FRAGMENTS + host)) ! $(fec_send "$FRAG_FEC")"
+    desc+=" ! rtpgstpay config-interval=1 ssrc=$((SSRC_FRAGMENTS + host)) ! $(fec_send "$FEC")"
     if [ "$RTX" = 1 ]; then
       desc+="rtprtxsend payload-type-map=\"application/x-rtp-pt-map,96=(uint)$RTX_PT\""
       desc+=" ssrc-map=\"application/x-rtp-ssrc-map,$((SSRC_FRAGMENTS + host))=(uint)$((SSRC_RTX + host))\""

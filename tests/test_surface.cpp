@@ -660,5 +660,7 @@ TEST(Surface, ThinBarsInsideTilesGetTheirSecondPlane) {
   EXPECT_EQ(flat.thin_tiles, 0);
   const lf::SurfaceEstimate disc =
       lf::FocalSurfaceEstimator(v.rig, OffPlaneView().images, opt).estimate(v.req);
+  std::printf("disc: %d thin tiles (of %d with a second plane)\n", disc.thin_tiles,
+              disc.two_plane_tiles);
   EXPECT_LT(disc.thin_tiles, 5) << "the disc has no thin structure";
 }

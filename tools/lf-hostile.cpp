@@ -27,6 +27,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 #include <map>
@@ -44,23 +45,6 @@ struct Target {
   int port = 0;
 };
 
-// HOST:PORT:SSRC of --nacks.
-bool parse_nack_target(const char* s, Target* t, uint32_t* ssrc) {
-  std::string str = s;
-  const auto colon = str.rfind(':');
-  if (colon == std::string::npos) return false;
-  char* end = nullptr;
-  const unsigned long v = std::strtoul(str.c_str() + colon + 1, &end, 10);
-  if (!end || *end || end == str.c_str() + colon + 1 || v > 0xffffffffUL) return false;
-  *ssrc = static_cast<uint32_t>(v);
-  str.resize(colon);
-  const auto c2 = str.rfind(':');
-  if (c2 == std::string::npos || c2 == 0) return false;
-  t->host = str.substr(0, c2);
-  t->port = std::atoi(str.c_str() + c2 + 1);
-  return t->port > 0 && t->port < 65536;
-}
-
 bool parse_target(const char* s, Target* t) {
   const std::string str = s;
   const auto colon = str.rfind(':');
@@ -68,6 +52,17 @@ bool parse_target(const char* s, Target* t) {
   t->host = str.substr(0, colon);
   t->port = std::atoi(str.c_str() + colon + 1);
   return t->port > 0 && t->port < 65536;
+}
+
+// HOST:PORT:SSRC of --nacks.
+bool parse_nack_target(const char* s, Target* t, uint32_t* ssrc) {
+  const char* colon = std::strrchr(s, ':');
+  if (!colon) return false;
+  char* end = nullptr;
+  const unsigned long v = std::strtoul(colon + 1, &end, 10);
+  if (end == colon + 1 || *end || v > 0xffffffffUL) return false;
+  *ssrc = static_cast<uint32_t>(v);
+  return parse_target(std::string(s, colon).c_str(), t);
 }
 
 // An appsrc ! rtpgstpay ! udpsink branch per target.

@@ -18,9 +18,11 @@
 // stays unanswered, so the jitter buffer drops it: a forged packet of a
 // third type never reaches an rtpptdemux, which would make a pad for it
 // that nothing is linked to and stop the stream.
-// Retransmission (RFC 4588) without rtpbin, as rtprtxreceive's documentation
-// lays it out (rtpsession ! rtprtxreceive ! rtpjitterbuffer, rtprtxsend !
-// rtpsession), needs two things gst-launch cannot give:
+// Every RTP receiver drops packets of an SSRC other than its caps' (see
+// only_own_ssrc). Retransmission (RFC 4588) without rtpbin, as
+// rtprtxreceive's documentation lays it out (rtpsession ! rtprtxreceive !
+// rtpjitterbuffer, rtprtxsend ! rtpsession), needs two more things
+// gst-launch cannot give:
 //  * every rtprtxreceive's retransmission requests get the SSRC of its
 //    stream (its caps' "ssrc"): rtpjitterbuffer leaves it out and relies on
 //    an rtpssrcdemux to add it, and rtpsession sends no NACK without one.
@@ -72,20 +74,40 @@ GstCaps* pt_map(GstElement*, guint pt, gpointer data) {
                              G_TYPE_INT, static_cast<gint>(pt), nullptr);
 }
 
-// Connects pt_map to every rtpjitterbuffer in the pipeline.
-void answer_pt_maps(GstElement* pipeline, const PtClock* c) {
+// Calls fn(element, factory name) for every element of the pipeline.
+template <typename Fn>
+void for_each_element(GstElement* pipeline, Fn fn) {
   GstIterator* it = gst_bin_iterate_recurse(GST_BIN(pipeline));
   GValue v = G_VALUE_INIT;
   while (gst_iterator_next(it, &v) == GST_ITERATOR_OK) {
     GstElement* e = GST_ELEMENT(g_value_get_object(&v));
     GstElementFactory* f = gst_element_get_factory(e);
-    if (f && g_str_equal(GST_OBJECT_NAME(f), "rtpjitterbuffer"))
-      g_signal_connect(e, "request-pt-map", G_CALLBACK(pt_map), const_cast<PtClock*>(c));
+    fn(e, f ? GST_OBJECT_NAME(f) : "");
     g_value_reset(&v);
   }
   g_value_unset(&v);
   gst_iterator_free(it);
 }
+
+// Connects pt_map to every rtpjitterbuffer in the pipeline.
+void answer_pt_maps(GstElement* pipeline, const PtClock* c) {
+  for_each_element(pipeline, [c](GstElement* e, const char* kind) {
+    if (g_str_equal(kind, "rtpjitterbuffer"))
+      g_signal_connect(e, "request-pt-map", G_CALLBACK(pt_map), const_cast<PtClock*>(c));
+  });
+}
+
+// A field of the pad's current caps (false: no caps, or no such field).
+bool caps_uint(GstPad* pad, const char* field, guint* value) {
+  GstCaps* caps = gst_pad_get_current_caps(pad);
+  const bool known = caps && gst_caps_get_size(caps) > 0 &&
+                     gst_structure_get_uint(gst_caps_get_structure(caps, 0), field, value);
+  if (caps) gst_caps_unref(caps);
+  return known;
+}
+
+const auto kBufferProbes =
+    static_cast<GstPadProbeType>(GST_PAD_PROBE_TYPE_BUFFER | GST_PAD_PROBE_TYPE_BUFFER_LIST);
 
 bool is_rtx_request(GstEvent* ev) {
   if (GST_EVENT_TYPE(ev) != GST_EVENT_CUSTOM_UPSTREAM) return false;
@@ -99,12 +121,8 @@ GstPadProbeReturn add_ssrc(GstPad* pad, GstPadProbeInfo* info, gpointer) {
   GstEvent* ev = GST_PAD_PROBE_INFO_EVENT(info);
   if (!is_rtx_request(ev) || gst_structure_has_field(gst_event_get_structure(ev), "ssrc"))
     return GST_PAD_PROBE_OK;
-  GstCaps* caps = gst_pad_get_current_caps(pad);
   guint ssrc = 0;
-  const bool known = caps && gst_caps_get_size(caps) > 0 &&
-                     gst_structure_get_uint(gst_caps_get_structure(caps, 0), "ssrc", &ssrc);
-  if (caps) gst_caps_unref(caps);
-  if (!known) return GST_PAD_PROBE_DROP;
+  if (!caps_uint(pad, "ssrc", &ssrc)) return GST_PAD_PROBE_DROP;
   ev = GST_EVENT(gst_mini_object_make_writable(GST_MINI_OBJECT(ev)));
   gst_structure_set(gst_event_writable_structure(ev), "ssrc", G_TYPE_UINT, ssrc, nullptr);
   GST_PAD_PROBE_INFO_DATA(info) = ev;
@@ -184,16 +202,9 @@ bool foreign_ssrc(GstBuffer* buf, guint ssrc, guint rtx_ssrc) {
   return s != ssrc && s != rtx_ssrc;
 }
 GstPadProbeReturn only_own_ssrc(GstPad* pad, GstPadProbeInfo* info, gpointer) {
-  GstCaps* caps = gst_pad_get_current_caps(pad);
   guint ssrc = 0, rtx = 0;
-  bool known = caps && gst_caps_get_size(caps) > 0;
-  if (known) {
-    const GstStructure* s = gst_caps_get_structure(caps, 0);
-    known = gst_structure_get_uint(s, "ssrc", &ssrc);
-    if (!gst_structure_get_uint(s, "rtx-ssrc", &rtx)) rtx = ssrc;
-  }
-  if (caps) gst_caps_unref(caps);
-  if (!known) return GST_PAD_PROBE_OK;
+  if (!caps_uint(pad, "ssrc", &ssrc)) return GST_PAD_PROBE_OK;
+  if (!caps_uint(pad, "rtx-ssrc", &rtx)) rtx = ssrc;
   if (GST_PAD_PROBE_INFO_TYPE(info) & GST_PAD_PROBE_TYPE_BUFFER)
     return foreign_ssrc(GST_PAD_PROBE_INFO_BUFFER(info), ssrc, rtx) ? GST_PAD_PROBE_DROP
                                                                     : GST_PAD_PROBE_OK;
@@ -204,55 +215,39 @@ GstPadProbeReturn only_own_ssrc(GstPad* pad, GstPadProbeInfo* info, gpointer) {
   return gst_buffer_list_length(list) ? GST_PAD_PROBE_OK : GST_PAD_PROBE_DROP;
 }
 
-// The probes above on every rtprtxreceive, every sending rtpsession and
-// every rtpjitterbuffer.
-void guard_retransmission(GstElement* pipeline, double budget_percent) {
-  GstIterator* it = gst_bin_iterate_recurse(GST_BIN(pipeline));
-  GValue v = G_VALUE_INIT;
-  while (gst_iterator_next(it, &v) == GST_ITERATOR_OK) {
-    GstElement* e = GST_ELEMENT(g_value_get_object(&v));
-    GstElementFactory* f = gst_element_get_factory(e);
-    const char* kind = f ? GST_OBJECT_NAME(f) : "";
-    if (g_str_equal(kind, "rtpjitterbuffer") || g_str_equal(kind, "rtpgstdepay") ||
-        g_str_equal(kind, "rtpjpegdepay")) {
-      GstPad* sink = gst_element_get_static_pad(e, "sink");
-      gst_pad_add_probe(
-          sink,
-          static_cast<GstPadProbeType>(GST_PAD_PROBE_TYPE_BUFFER | GST_PAD_PROBE_TYPE_BUFFER_LIST),
-          only_own_ssrc, nullptr, nullptr);
-      gst_object_unref(sink);
-    } else if (g_str_equal(kind, "rtprtxreceive")) {
+// The probes above: before every rtpjitterbuffer, depayloader and
+// rtpsession's RTP input (only_own_ssrc), on every rtprtxreceive (add_ssrc)
+// and on every sending rtpsession (its budget).
+void guard_rtp(GstElement* pipeline, double budget_percent) {
+  for_each_element(pipeline, [budget_percent](GstElement* e, const char* kind) {
+    // rtpsession's pads are request pads, made while the description was parsed.
+    const char* rtp_in = g_str_equal(kind, "rtpjitterbuffer") || g_str_equal(kind, "rtpgstdepay") ||
+                                 g_str_equal(kind, "rtpjpegdepay")
+                             ? "sink"
+                         : g_str_equal(kind, "rtpsession") ? "recv_rtp_sink"
+                                                           : nullptr;
+    if (GstPad* in = rtp_in ? gst_element_get_static_pad(e, rtp_in) : nullptr) {
+      gst_pad_add_probe(in, kBufferProbes, only_own_ssrc, nullptr, nullptr);
+      gst_object_unref(in);
+    }
+    if (g_str_equal(kind, "rtprtxreceive")) {
       GstPad* src = gst_element_get_static_pad(e, "src");
       gst_pad_add_probe(src, GST_PAD_PROBE_TYPE_EVENT_UPSTREAM, add_ssrc, nullptr, nullptr);
       gst_object_unref(src);
     } else if (g_str_equal(kind, "rtpsession")) {
-      // Request pads, made while the description was parsed.
-      if (GstPad* in = gst_element_get_static_pad(e, "recv_rtp_sink")) {
-        gst_pad_add_probe(in,
-                          static_cast<GstPadProbeType>(GST_PAD_PROBE_TYPE_BUFFER |
-                                                       GST_PAD_PROBE_TYPE_BUFFER_LIST),
-                          only_own_ssrc, nullptr, nullptr);
-        gst_object_unref(in);
-      }
       GstPad* rtp = gst_element_get_static_pad(e, "send_rtp_sink");
       GstPad* rtcp = gst_element_get_static_pad(e, "recv_rtcp_sink");
       if (rtp && rtcp) {
         auto* b = new RtxBudget;
         b->percent = budget_percent;
-        gst_pad_add_probe(rtp,
-                          static_cast<GstPadProbeType>(GST_PAD_PROBE_TYPE_BUFFER |
-                                                       GST_PAD_PROBE_TYPE_BUFFER_LIST),
-                          count_packet, b, nullptr);
+        gst_pad_add_probe(rtp, kBufferProbes, count_packet, b, nullptr);
         gst_pad_add_probe(rtcp, GST_PAD_PROBE_TYPE_BUFFER, spend_tokens, b,
                           [](gpointer d) { delete static_cast<RtxBudget*>(d); });
       }
       if (rtp) gst_object_unref(rtp);
       if (rtcp) gst_object_unref(rtcp);
     }
-    g_value_reset(&v);
-  }
-  g_value_unset(&v);
-  gst_iterator_free(it);
+  });
 }
 
 }  // namespace
@@ -363,7 +358,7 @@ int main(int argc, char** argv) {
       return nullptr;
     }
     if (pt_clock.rate > 0) answer_pt_maps(p, &pt_clock);
-    guard_retransmission(p, rtx_budget);
+    guard_rtp(p, rtx_budget);
     // A failure here is posted on the bus and reported below.
     gst_element_set_state(p, GST_STATE_PAUSED);
     return p;

@@ -137,18 +137,16 @@ sample_rss &
 sampler=$!
 if [ "$scenario" = hostile ]; then
   targets=(--fragments "${ip[view]}:${VIDEO_PORT:-5100}")
-  if [[ "${REQUESTS:-239.255.42.1}" =~ ^2(2[4-9]|3[0-9])\. ]]; then
-    targets+=(--requests "${REQUESTS:-239.255.42.1}:${REQUEST_PORT:-5000}")
-  fi
+  group=""  # the multicast group of the view requests, if they use one
+  if [[ "${REQUESTS:-239.255.42.1}" =~ ^2(2[4-9]|3[0-9])\. ]]; then group="${REQUESTS:-239.255.42.1}"; fi
+  if [ -n "$group" ]; then targets+=(--requests "$group:${REQUEST_PORT:-5000}"); fi
   for ((k = 0; k < HOSTS; k++)); do
     targets+=(--requests "${ip[cam$k]}:${REQUEST_PORT:-5000}")
     targets+=(--fragments "${ip[comp]}:$((${FRAGMENT_PORT:-5200} + k))")
     # RTX=1: forged NACKs for each camera host's stream (SSRC 8192 + K),
     # where it reads them (the request group, or its own address).
     if [ "${RTX:-0}" = 1 ]; then
-      nack_at="${ip[cam$k]}"
-      if [[ "${REQUESTS:-239.255.42.1}" =~ ^2(2[4-9]|3[0-9])\. ]]; then nack_at="${REQUESTS:-239.255.42.1}"; fi
-      targets+=(--nacks "$nack_at:$((${NACK_PORT:-5400} + k)):$((8192 + k))")
+      targets+=(--nacks "${group:-${ip[cam$k]}}:$((${NACK_PORT:-5400} + k)):$((8192 + k))")
     fi
   done
   # The attacker forges the rig's real camera ids too.

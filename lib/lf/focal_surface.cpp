@@ -30,6 +30,15 @@ void validate(const SurfaceOptions& opt) {
     bad("thin structure votes: ratio 0..1, margin >= 0, fraction 0..1, neighbours 0..8");
 }
 
+std::vector<int> analysis_bins(int samples, int extent, int bin) {
+  if (samples <= 0 || bin <= 0) return {};
+  std::vector<int> out(samples);
+  const int last = (extent + bin - 1) / bin - 1;
+  for (int i = 0; i < samples; ++i)
+    out[i] = std::min(last, static_cast<int>((i + 0.5) * extent / samples) / bin);
+  return out;
+}
+
 int thin_cell(int tile, int analysis_width, int width) {
   const int samples = tile * analysis_width / std::max(1, width);  // analysis pixels per tile side
   int per = 1;
@@ -76,17 +85,8 @@ void sweep(const AnalysisImages& an, const ViewRequest& req, int W, int H, int T
     c.cell_count.assign(c.cell_sum.size(), 0.0);
   }
   // Tile (and cell) of each analysis column and row.
-  std::vector<int> tx(aw), ty(ah), cx(C ? aw : 0), cy(C ? ah : 0);
-  for (int x = 0; x < aw; ++x) {
-    const int ox = static_cast<int>((x + 0.5) * W / aw);
-    tx[x] = std::min(cols - 1, ox / T);
-    if (C) cx[x] = std::min(ccols - 1, ox / C);
-  }
-  for (int y = 0; y < ah; ++y) {
-    const int oy = static_cast<int>((y + 0.5) * H / ah);
-    ty[y] = std::min(rows - 1, oy / T);
-    if (C) cy[y] = std::min(crows - 1, oy / C);
-  }
+  const std::vector<int> tx = analysis_bins(aw, W, T), ty = analysis_bins(ah, H, T);
+  const std::vector<int> cx = analysis_bins(C ? aw : 0, W, C), cy = analysis_bins(C ? ah : 0, H, C);
   cv::Mat cost;
   for (int k = 0; k < n; ++k) {
     if (c.have[k] && k % stride != phase) continue;
@@ -247,10 +247,11 @@ SurfaceEstimate FocalSurfaceEstimator::estimate(const ViewRequest& req, SurfaceC
 
   // Pass 1: the whole range of depths, coarsely; with second planes, also
   // per cell of about 2 x 2 analysis pixels (a whole fraction of a tile).
-  if (opt_.second_planes && c.coarse.cell != thin_cell(T, std::min(coarse_.width, W), W)) {
+  const int cell = opt_.second_planes ? thin_cell(T, std::min(coarse_.width, W), W) : 0;
+  if (c.coarse.cell != cell) {
     SweepCosts fresh;
     fresh.qs = c.coarse.qs;
-    fresh.cell = thin_cell(T, std::min(coarse_.width, W), W);
+    fresh.cell = cell;
     c.coarse = std::move(fresh);
   }
   sweep(coarse_, req, W, H, T, opt_.truncate, opt_.stride, c.phase, c.coarse,

@@ -91,7 +91,7 @@ struct SweepCosts {
   std::vector<double> qs;          // inverse depths of the planes
   std::vector<double> sum, count;  // [plane * tiles + tile]
   std::vector<bool> have;          // per plane: evaluated at least once
-  // Per cell of `cell` output pixels (0: none; the estimator's last pass
+  // Per cell of `cell` output pixels (0: none; pass 1 and surface probes
   // with second planes): cell_cols x cell_rows cells, [plane * cells + cell].
   int cell = 0, cell_cols = 0, cell_rows = 0;
   std::vector<double> cell_sum, cell_count;
@@ -130,6 +130,10 @@ double sweep_q_max(const Rig& rig, const SurfaceOptions& opt);
 // about 2 analysis pixels wide, for an analysis `analysis_width` pixels
 // wide of a view `width` wide; `tile` itself when a tile has under 4.
 int thin_cell(int tile, int analysis_width, int width);
+// The bin of `bin` output pixels that each of `samples` analysis pixels
+// across an output `extent` pixels long falls in (its centre, clamped to the
+// last bin): the tiles or cells of an analysis view's columns or rows.
+std::vector<int> analysis_bins(int samples, int extent, int bin);
 
 class FocalSurfaceEstimator {
  public:
@@ -160,8 +164,9 @@ class FocalSurfaceEstimator {
 // fewer than `min_count` samples at some plane, or too little texture, keep
 // the single plane; the others are labelled by semi-global matching. With
 // opt.second_planes, tiles at depth edges get second planes, and so do
-// tiles with thin structures where `c` has per-cell costs (c.cell > 0,
-// cell_cols x cell_rows cells covering the tiles' grid). Used
+// tiles with thin structures when `cells` has per-cell costs (cells->cell > 0,
+// a whole fraction of opt.tile, cell_cols x cell_rows cells covering the
+// tiles' grid; its planes may differ from c's). Used
 // by FocalSurfaceEstimator and by surface probes (lf/surface_probe.h), which
 // measure the costs from the cameras' fragments. planes_evaluated is left
 // 0. Throws std::invalid_argument if the costs do not fit the grid.

@@ -81,17 +81,9 @@ SurfaceEstimate SurfaceProbeAnswers::estimate(const Rig& rig, bool* ok) const {
     c.cell_count.assign(c.cell_sum.size(), 0.0);
   }
   // Tile (and cell) of each probe column and row (as the estimator's sweep).
-  std::vector<int> tx(aw_), ty(ah_), cx(aw_), cy(ah_);
-  for (int x = 0; x < aw_; ++x) {
-    const int ox = static_cast<int>((x + 0.5) * width_ / aw_);
-    tx[x] = std::min(cols - 1, ox / T);
-    if (C) cx[x] = std::min(c.cell_cols - 1, ox / C);
-  }
-  for (int y = 0; y < ah_; ++y) {
-    const int oy = static_cast<int>((y + 0.5) * height_ / ah_);
-    ty[y] = std::min(rows - 1, oy / T);
-    if (C) cy[y] = std::min(c.cell_rows - 1, oy / C);
-  }
+  const std::vector<int> tx = analysis_bins(aw_, width_, T), ty = analysis_bins(ah_, height_, T);
+  const std::vector<int> cx = analysis_bins(C ? aw_ : 0, width_, C),
+                         cy = analysis_bins(C ? ah_ : 0, height_, C);
   // Per probe pixel: sum w, sum w g, sum w g^2 (g: grey level of the
   // un-premultiplied colour, (c0 + 2 c1 + c2) / 4, the same for RGBA and
   // BGRA), one step at a time.
