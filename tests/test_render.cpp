@@ -14,6 +14,7 @@
 #include "lf/render_view.h"
 #include "lf/synthetic.h"
 #include "lf/view_builder.h"
+#include "lf/wire.h"
 
 namespace {
 
@@ -603,6 +604,179 @@ TEST(Composite, FusedCompositeEqualsAddAndResolve) {
   lf::Compositor c;
   cv::Mat out;
   EXPECT_THROW(c.composite(0, 10, in, out), std::invalid_argument);
+}
+
+// Partial sums (issue 15's bandwidth point): a host's cameras summed into
+// one fragment give the frame of their separate fragments (bit for bit
+// where the sums fit 8 bits, within a level where they need a shift), in
+// fewer pixels when the host's cameras are a contiguous block of the grid;
+// the same comparison says what a dead host costs with blocks (a hole) and
+// with interleaved hosts (none).
+TEST(Composite, PartialSumsOfBlocksComposeTheSameFrame) {
+  // The deployment's layout: 8x8 cameras, 4 hosts of 4x4 (net-host.sh).
+  const lf::Rig rig = lf::synthetic_grid_rig(8, 8, 0.25, 240, 180, 50);
+  const auto images = images_of(rig);
+  const int kHosts = 4;
+  auto block_of = [](int i) { return (i / 8) / 4 * 2 + (i % 8) / 4; };
+  auto interleaved = [](int i) { return i % 4; };
+  for (const double scale : {1.0, 3.0}) {
+    lf::ViewRequest req = view_at({0.3, 0.2, -1.0}, {0.1, 0.0, kDepth});
+    req.aperture_scale = scale;
+    const lf::ViewGeometry g(rig, req);
+    std::vector<lf::Fragment> frags(rig.cameras.size());
+    size_t camera_pixels = 0;
+    for (size_t i = 0; i < frags.size(); ++i) {
+      lf::render_fragment(lf::plan_fragment(g, static_cast<int>(i)), rig.cameras[i], images[i],
+                          frags[i]);
+      camera_pixels += frags[i].pixel_count();
+    }
+    auto composite = [&](const std::vector<const lf::Fragment*>& fs) {
+      std::vector<lf::FragmentPixels> in;
+      for (const lf::Fragment* f : fs) in.push_back({f, f->pixels.data()});
+      lf::Compositor c;
+      cv::Mat out;
+      c.composite(req.view.width, req.view.height, in, out);
+      return out;
+    };
+    std::vector<const lf::Fragment*> all;
+    for (const auto& f : frags) all.push_back(&f);
+    const cv::Mat want = composite(all);
+    // The sums per host, for both assignments.
+    auto sums_of = [&](auto host_of) {
+      std::vector<lf::Fragment> sums;
+      for (int h = 0; h < kHosts; ++h) {
+        std::vector<lf::FragmentPixels> in;
+        for (size_t i = 0; i < frags.size(); ++i)
+          if (host_of(static_cast<int>(i)) == h) in.push_back({&frags[i], frags[i].pixels.data()});
+        sums.push_back(lf::sum_fragments(in));
+        EXPECT_EQ(sums.back().cameras, 16);
+        EXPECT_NO_THROW(lf::check_fragment(sums.back()));
+      }
+      return sums;
+    };
+    const auto blocks = sums_of(block_of), mixed = sums_of(interleaved);
+    size_t block_pixels = 0, mixed_pixels = 0;
+    int top_shift = 0;
+    for (const auto& s : blocks)
+      block_pixels += s.pixel_count(), top_shift = std::max<int>(top_shift, s.weight_shift);
+    for (const auto& s : mixed) mixed_pixels += s.pixel_count();
+    std::vector<const lf::Fragment*> b;
+    for (const auto& s : blocks) b.push_back(&s);
+    const cv::Mat got = composite(b);
+    const double diff = cv::norm(got, want, cv::NORM_L1) / (got.total() * 3.0);  // alpha equal
+    const double worst = cv::norm(got, want, cv::NORM_INF);
+    const double psnr = covered_psnr(got, want);
+    // Through the wire (version 2 header), raw: the same frame again.
+    std::vector<lf::Fragment> wired;
+    for (const auto& s : blocks) {
+      const auto bytes = lf::serialize_fragment(s, lf::Encoding::kRaw);
+      wired.push_back(lf::parse_fragment(bytes.data(), bytes.size()));
+      EXPECT_EQ(wired.back().cameras, s.cameras);
+      EXPECT_EQ(wired.back().weight_shift, s.weight_shift);
+    }
+    std::vector<const lf::Fragment*> w;
+    for (const auto& s : wired) w.push_back(&s);
+    EXPECT_EQ(cv::norm(composite(w), got, cv::NORM_INF), 0);
+    // A dead host: the frame without its sum, against the full frame.
+    auto dead_cost = [&](const std::vector<lf::Fragment>& sums, size_t* holes) {
+      double worst_psnr = 1e9;
+      *holes = 0;
+      for (int dead = 0; dead < kHosts; ++dead) {
+        std::vector<const lf::Fragment*> live;
+        for (int h = 0; h < kHosts; ++h)
+          if (h != dead) live.push_back(&sums[h]);
+        const cv::Mat out = composite(live);
+        size_t hole = 0;
+        for (int y = 0; y < out.rows; ++y)
+          for (int x = 0; x < out.cols; ++x)
+            hole += want.at<cv::Vec4b>(y, x)[3] == 255 && out.at<cv::Vec4b>(y, x)[3] == 0;
+        *holes = std::max(*holes, hole);
+        worst_psnr = std::min(worst_psnr, covered_psnr(out, want));
+      }
+      return worst_psnr;
+    };
+    size_t block_holes = 0, mixed_holes = 0;
+    const double block_psnr = dead_cost(blocks, &block_holes);
+    const double mixed_psnr = dead_cost(mixed, &mixed_holes);
+    std::printf(
+        "aperture %.0f: %zu camera pixels, sums of 4x4 blocks %zu (%.2fx fewer), interleaved "
+        "%zu; largest weight shift %d; against the cameras' frame: mean %.3f, max %.0f levels, "
+        "%.1f dB; "
+        "a dead host: blocks leave up to %zu of %zu pixels a hole (%.1f dB elsewhere), "
+        "interleaved %zu (%.1f dB)\n",
+        scale, camera_pixels, block_pixels, double(camera_pixels) / block_pixels, mixed_pixels,
+        top_shift, diff, worst, psnr, block_holes, want.total(), block_psnr, mixed_holes,
+        mixed_psnr);
+    if (top_shift == 0) {
+      EXPECT_EQ(worst, 0) << "sums within 8 bits composite bit for bit";
+    }
+    // Each bit of shift loses one bit of the sums (about 255 at a pixel).
+    EXPECT_LE(worst, 3);
+    EXPECT_LT(diff, 0.5);
+    EXPECT_GT(psnr, 50);
+    if (scale == 1.0) {
+      EXPECT_LT(block_pixels * 3 / 2, camera_pixels) << "a block's fragments overlap";
+      EXPECT_GT(mixed_pixels, block_pixels * 3 / 2) << "interleaved cameras' fragments do not";
+      // The tent weights a pixel from the 3 cameras of its triangle only.
+      EXPECT_GT(block_holes, want.total() / 20) << "a dead block leaves a hole";
+      EXPECT_LT(mixed_holes, want.total() / 100) << "interleaved hosts leave almost none";
+    } else {
+      EXPECT_LE(block_holes, want.total() / 20) << "a wide aperture covers most of a block";
+    }
+  }
+}
+
+TEST(Composite, PartialSumsRefuseMismatchesAndShiftLargeSums) {
+  lf::Fragment a;
+  a.out_width = 8, a.out_height = 4, a.sequence = 7, a.camera_id = 3;
+  a.rect = cv::Rect(1, 1, 3, 2);
+  a.spans = {{{1, 4}}, {{2, 3}}};
+  a.pixels.assign(4 * 4, 200);
+  lf::Fragment b = a;
+  b.camera_id = 4;
+  b.rect = cv::Rect(2, 2, 5, 1);
+  b.spans = {{{2, 7}}};
+  b.pixels.assign(4 * 5, 100);
+  const lf::Fragment s = lf::sum_fragments({{&a, a.pixels.data()}, {&b, b.pixels.data()}});
+  EXPECT_EQ(s.rect, cv::Rect(1, 1, 6, 2));
+  EXPECT_EQ(s.camera_id, 3u);
+  EXPECT_EQ(s.cameras, 2);
+  ASSERT_EQ(s.spans.size(), 2u);
+  EXPECT_EQ(s.spans[0][0], 1);  // row 1: a's [1, 4)
+  EXPECT_EQ(s.spans[0][1], 4);
+  EXPECT_EQ(s.spans[1][0], 2);  // row 2: the hull of [2, 3) and [2, 7)
+  EXPECT_EQ(s.spans[1][1], 7);
+  // 200 + 100 = 300 at (2, 2): one bit of shift.
+  EXPECT_EQ(s.weight_shift, 1);
+  lf::Compositor c;
+  c.reset(8, 4);
+  c.add(s);
+  EXPECT_EQ(c.weight_at(2, 2), 300u);
+  EXPECT_EQ(c.weight_at(5, 2), 100u);
+  EXPECT_EQ(c.weight_at(1, 1), 200u);
+  EXPECT_EQ(c.weight_at(0, 0), 0u);
+  lf::Fragment other = b;
+  other.sequence = 8;
+  EXPECT_THROW(lf::sum_fragments({{&a, a.pixels.data()}, {&other, other.pixels.data()}}),
+               std::invalid_argument);
+  other = b;
+  other.layer = 1;
+  EXPECT_THROW(lf::sum_fragments({{&a, a.pixels.data()}, {&other, other.pixels.data()}}),
+               std::invalid_argument);
+  other = b;
+  other.out_width = 9;
+  EXPECT_THROW(lf::sum_fragments({{&a, a.pixels.data()}, {&other, other.pixels.data()}}),
+               std::invalid_argument);
+  EXPECT_THROW(lf::sum_fragments({}), std::invalid_argument);
+  // Empty fragments count their cameras only.
+  lf::Fragment e;
+  e.out_width = 8, e.out_height = 4, e.sequence = 7;
+  const lf::Fragment se = lf::sum_fragments({{&e, nullptr}, {&e, nullptr}});
+  EXPECT_TRUE(se.empty());
+  EXPECT_EQ(se.cameras, 2);
+  const auto bytes = lf::serialize_fragment(se, lf::Encoding::kRaw);
+  EXPECT_EQ(bytes.size(), lf::kSumFragmentHeaderSize);
+  EXPECT_EQ(lf::parse_fragment(bytes.data(), bytes.size()).cameras, 2);
 }
 
 TEST(Render, RejectsWrongImages) {

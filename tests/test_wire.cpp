@@ -580,6 +580,91 @@ TEST(Wire, InconsistentFragmentsAreRejected) {
 // A probe's steps in one buffer each way (lib/lf/probe_bundle.h): the
 // requests come back as they went; anything but distinct steps of one probe
 // and viewer is refused, and so is a size that is not whole requests.
+// Partial sums (version 2): cameras and weight shift survive the wire, the
+// spans are deflated and come back exactly, raw and JPEG; bad version-2
+// headers and spans that do not inflate to their rows are refused.
+TEST(Wire, PartialSumsRoundTripWithDeflatedSpans) {
+  lf::Fragment f = sample_fragment();
+  f.cameras = 16;
+  f.weight_shift = 2;
+  for (const lf::Encoding enc : {lf::Encoding::kRaw, lf::Encoding::kJpeg}) {
+    const auto b = lf::serialize_fragment(f, enc);
+    ASSERT_GT(b.size(), lf::kSumFragmentHeaderSize);
+    EXPECT_EQ(b[5], 2);   // version 2
+    EXPECT_EQ(b[55], 1);  // spans deflated
+    const lf::FragmentHeader h = lf::peek_fragment_header(b.data(), b.size());
+    EXPECT_EQ(h.header_size, lf::kSumFragmentHeaderSize);
+    EXPECT_EQ(h.size(), b.size());
+    EXPECT_EQ(h.cameras, 16);
+    const lf::Fragment g = lf::parse_fragment(b.data(), b.size());
+    EXPECT_EQ(g.cameras, 16);
+    EXPECT_EQ(g.weight_shift, 2);
+    EXPECT_EQ(g.rect, f.rect);
+    EXPECT_EQ(g.spans, f.spans);
+    if (enc == lf::Encoding::kRaw) {
+      EXPECT_EQ(g.pixels, f.pixels);
+      // 4 bytes a row of plain spans, against the deflated ones.
+      lf::Fragment one = f;
+      one.cameras = 1, one.weight_shift = 0;
+      const auto plain = lf::serialize_fragment(one, enc);
+      EXPECT_LT(b.size() - lf::kSumFragmentHeaderSize + 2 * f.spans.size(),
+                plain.size() - lf::kFragmentHeaderSize)
+          << "deflated spans take less than half of the plain ones";
+    }
+  }
+  // In place: the same, pixels pointing into the buffer.
+  const auto b = lf::serialize_fragment(f, lf::Encoding::kRaw);
+  const uint8_t* px = nullptr;
+  const lf::Fragment g = lf::parse_fragment_in_place(b.data(), b.size(), &px);
+  ASSERT_NE(px, nullptr);
+  EXPECT_EQ(std::memcmp(px, f.pixels.data(), f.pixels.size()), 0);
+  // Hostile version-2 headers and spans (CRC rewritten: the checks must
+  // catch them).
+  auto reseal = [](std::vector<uint8_t> c) {
+    uLong s = crc32(0L, Z_NULL, 0);
+    s = crc32(s, c.data(), 56);
+    s = crc32(s, c.data() + 60, static_cast<uInt>(c.size() - 60));
+    for (int i = 0; i < 4; ++i) c[56 + i] = static_cast<uint8_t>(s >> (24 - 8 * i));
+    return c;
+  };
+  auto expect_error = [&](std::vector<uint8_t> c, const std::string& word) {
+    c = reseal(c);
+    expect_wire_error([&] { lf::parse_fragment(c.data(), c.size()); }, word);
+  };
+  EXPECT_NO_THROW(lf::parse_fragment(reseal(b).data(), b.size()));
+  auto c = b;
+  put16(c, 52, 0);
+  expect_error(c, "cameras");
+  c = b;
+  put16(c, 52, lf::kMaxSummedCameras + 1);
+  expect_error(c, "cameras");
+  c = b;
+  c[54] = lf::kMaxWeightShift + 1;
+  expect_error(c, "weight shift");
+  c = b;
+  c[55] = 3;
+  expect_error(c, "flags");
+  c = b;
+  c[6] = 0, c[7] = 56;  // version 2 with version 1's header size
+  expect_error(c, "header size");
+  c = b;
+  c[60] = 0x7f;  // deflated size beyond the payload
+  expect_error(c, "exceed the payload");
+  c = b;
+  c[60 + 4] ^= 0x55;  // the DEFLATE stream itself
+  expect_error(c, "span");
+  // Spans that inflate to more rows than the rectangle has.
+  c = b;
+  put16(c, 42, static_cast<uint16_t>(f.rect.height - 1));  // header: one row fewer
+  expect_error(c, "inflate");
+  // A single camera's fragment is still version 1, byte for byte.
+  lf::Fragment one = f;
+  one.cameras = 1, one.weight_shift = 0;
+  const auto v1 = lf::serialize_fragment(one, lf::Encoding::kRaw);
+  EXPECT_EQ(v1, lf::serialize_fragment(sample_fragment(), lf::Encoding::kRaw));
+  EXPECT_EQ(v1[5], 1);
+}
+
 TEST(Wire, ProbeBundlesRoundTripAndRefuseStrangers) {
   const lf::Rig rig = lf::synthetic_grid_rig(3, 3, 0.5, 160, 120, 50);
   lf::ViewRequest view = sample_request();

@@ -1,6 +1,7 @@
 #include "lf/composite.h"
 
 #include <algorithm>
+#include <array>
 #include <cstring>
 #include <opencv2/core/utility.hpp>
 #include <stdexcept>
@@ -49,11 +50,15 @@ void Compositor::add(const Fragment& f, const uint8_t* pixels) {
 // row r0's first pixel.
 void Compositor::add_rows(const Fragment& f, const uint8_t* pixels, int r0, int r1) {
   const uint8_t* px = pixels;
+  const int shift = f.weight_shift;  // a partial sum's pixels are sums >> shift
   for (int r = r0; r < r1; ++r) {
     const int b = f.spans[r][0], e = f.spans[r][1];
     uint32_t* acc = acc_.data() + (static_cast<size_t>(f.rect.y + r) * w_ + b) * 4;
     const int n = 4 * (e - b);
-    for (int i = 0; i < n; ++i) acc[i] += px[i];
+    if (shift == 0)
+      for (int i = 0; i < n; ++i) acc[i] += px[i];
+    else
+      for (int i = 0; i < n; ++i) acc[i] += static_cast<uint32_t>(px[i]) << shift;
     px += n;
   }
 }
@@ -240,6 +245,139 @@ void add_squares(const std::vector<FragmentPixels>& fragments, const std::vector
                     });
 }
 }  // namespace
+
+Fragment sum_fragments(const std::vector<FragmentPixels>& fragments) {
+  if (fragments.empty()) throw std::invalid_argument("sum_fragments: no fragments");
+  const Fragment* first = fragments[0].fragment;
+  if (!first) throw std::invalid_argument("sum_fragments: null fragment");
+  Fragment out;
+  out.viewer_id = first->viewer_id, out.sequence = first->sequence;
+  out.camera_id = first->camera_id, out.capture_time_ns = first->capture_time_ns;
+  out.layer = first->layer;
+  out.out_width = first->out_width, out.out_height = first->out_height;
+  out.cameras = 0;
+  size_t cameras = 0;
+  cv::Rect rect;
+  for (const FragmentPixels& fp : fragments) {
+    if (!fp.fragment) throw std::invalid_argument("sum_fragments: null fragment");
+    const Fragment& f = *fp.fragment;
+    Compositor::check(f, fp.pixels, out.out_width, out.out_height);
+    if (f.viewer_id != out.viewer_id || f.sequence != out.sequence || f.layer != out.layer)
+      throw std::invalid_argument("sum_fragments: camera " + std::to_string(f.camera_id) +
+                                  "'s fragment is of another request or layer");
+    cameras += f.cameras;
+    if (!f.empty()) rect = rect.area() ? (rect | f.rect) : f.rect;
+  }
+  if (cameras > static_cast<size_t>(kMaxSummedCameras))
+    throw std::invalid_argument("sum_fragments: more than " + std::to_string(kMaxSummedCameras) +
+                                " cameras");
+  out.cameras = static_cast<uint16_t>(cameras);
+  if (rect.area() == 0) return out;
+  // Each row's hull of the spans, then the sums in a rect-sized buffer.
+  out.rect = rect;
+  out.spans.assign(rect.height,
+                   {static_cast<uint16_t>(rect.x + rect.width), static_cast<uint16_t>(rect.x)});
+  for (const FragmentPixels& fp : fragments) {
+    const Fragment& f = *fp.fragment;
+    for (int r = 0; r < f.rect.height; ++r) {
+      const auto& s = f.spans[r];
+      if (s[0] == s[1]) continue;
+      auto& o = out.spans[f.rect.y - rect.y + r];
+      o[0] = std::min(o[0], s[0]), o[1] = std::max(o[1], s[1]);
+    }
+  }
+  std::vector<size_t> row_start(rect.height + 1, 0);
+  for (int r = 0; r < rect.height; ++r) {
+    auto& o = out.spans[r];
+    if (o[0] > o[1]) o = {o[1], o[1]};  // a row no fragment covers
+    row_start[r + 1] = row_start[r] + 4 * (o[1] - o[0]);
+  }
+  // Kept between calls: a fresh buffer of a frame's sums is page faults
+  // of several MB each time (most of the time on a virtual machine).
+  thread_local std::vector<uint32_t> acc;
+  acc.assign(row_start.back(), 0);
+  for (const FragmentPixels& fp : fragments) {
+    const Fragment& f = *fp.fragment;
+    const uint8_t* px = fp.pixels;
+    for (int r = 0; r < f.rect.height; ++r) {
+      const auto& s = f.spans[r];
+      const int n = 4 * (s[1] - s[0]);
+      const int orow = f.rect.y - rect.y + r;
+      uint32_t* a = acc.data() + row_start[orow] + 4 * (s[0] - out.spans[orow][0]);
+      if (f.weight_shift == 0)
+        for (int i = 0; i < n; ++i) a[i] += px[i];
+      else
+        for (int i = 0; i < n; ++i) a[i] += static_cast<uint32_t>(px[i]) << f.weight_shift;
+      px += n;
+    }
+  }
+  // Pixels where every sum is 0 (gaps between the fragments' spans, and
+  // their own pixels of weight 0, e.g. beyond a camera's image) add
+  // nothing: each row's span is trimmed to its first and last pixel with
+  // a sum, and the rect to the rows and columns left (the weight's JPEG
+  // then sees no step down to 0 inside the spans, and can go at half
+  // resolution, lf/wire.h).
+  {
+    auto zero = [&](int r, int x) {
+      const uint32_t* a = acc.data() + row_start[r] + 4 * (x - out.spans[r][0]);
+      return (a[0] | a[1] | a[2] | a[3]) == 0;
+    };
+    int r0 = rect.height, r1 = -1, x0 = rect.x + rect.width, x1 = rect.x;
+    std::vector<std::array<uint16_t, 2>> trimmed(rect.height);
+    for (int r = 0; r < rect.height; ++r) {
+      int b = out.spans[r][0], e = out.spans[r][1];
+      while (b < e && zero(r, b)) ++b;
+      while (e > b && zero(r, e - 1)) --e;
+      trimmed[r] = {static_cast<uint16_t>(b), static_cast<uint16_t>(e)};
+      if (b < e) r0 = std::min(r0, r), r1 = r, x0 = std::min(x0, b), x1 = std::max(x1, e);
+    }
+    if (r1 < 0) {  // nothing but zeros: an empty sum
+      out.rect = cv::Rect();
+      out.spans.clear();
+      return out;
+    }
+    // Where each kept row's sums start in acc.
+    std::vector<std::array<uint16_t, 2>> spans;
+    std::vector<size_t> starts;
+    for (int r = r0; r <= r1; ++r) {
+      auto t = trimmed[r];
+      if (t[0] >= t[1]) t = {static_cast<uint16_t>(x0), static_cast<uint16_t>(x0)};
+      starts.push_back(row_start[r] + 4 * (t[0] - out.spans[r][0]));
+      spans.push_back(t);
+    }
+    out.rect = cv::Rect(x0, rect.y + r0, x1 - x0, r1 - r0 + 1);
+    out.spans = std::move(spans);
+    row_start = std::move(starts);
+  }
+  // The shift: sums over 255 by no more than the cameras' rounding (each
+  // camera's 8-bit weight is off by up to half a level: weights that add
+  // up to 1 give 255 + cameras / 2 at most) need none; those pixels are
+  // scaled to 255 instead, their colour-to-weight ratios kept.
+  const uint32_t top = acc.empty() ? 0 : *std::max_element(acc.begin(), acc.end());
+  const uint32_t slack = static_cast<uint32_t>(cameras) / 2;
+  auto shifted = [](uint32_t v, int s) { return (v + ((1u << s) >> 1)) >> s; };
+  int shift = 0;
+  while (shift < kMaxWeightShift && shifted(top, shift) > 255 + slack) ++shift;
+  if (shifted(top, shift) > 255 + slack)
+    throw std::invalid_argument("sum_fragments: sums over 255 << " +
+                                std::to_string(kMaxWeightShift));
+  out.weight_shift = static_cast<uint8_t>(shift);
+  size_t n = 0;
+  for (const auto& sp : out.spans) n += sp[1] - sp[0];
+  out.pixels.resize(4 * n);
+  uint8_t* o = out.pixels.data();
+  for (size_t r = 0; r < out.spans.size(); ++r) {
+    const uint32_t* a = acc.data() + row_start[r];
+    for (int x = out.spans[r][0]; x < out.spans[r][1]; ++x, a += 4, o += 4) {
+      uint32_t v[4], m = 0;
+      for (int k = 0; k < 4; ++k) v[k] = shifted(a[k], shift), m = std::max(m, v[k]);
+      if (m > 255)
+        for (int k = 0; k < 4; ++k) v[k] = (v[k] * 255 + m / 2) / m;
+      for (int k = 0; k < 4; ++k) o[k] = static_cast<uint8_t>(v[k]);
+    }
+  }
+  return out;
+}
 
 std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
     int width, int height, const std::vector<FragmentPixels>& fragments, cv::Mat& out,

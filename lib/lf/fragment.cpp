@@ -15,6 +15,12 @@ size_t check_fragment_geometry(const Fragment& f) {
   auto bad = [&](const std::string& what) { bad_fragment(f, what); };
   if (f.out_width < 1 || f.out_height < 1 || f.out_width > 16384 || f.out_height > 16384)
     bad("output size out of range");
+  if (f.cameras < 1 || f.cameras > kMaxSummedCameras)
+    bad("sums " + std::to_string(f.cameras) + " cameras (1.." + std::to_string(kMaxSummedCameras) +
+        ")");
+  if (f.weight_shift > kMaxWeightShift)
+    bad("weight shift " + std::to_string(f.weight_shift) + " over " +
+        std::to_string(kMaxWeightShift));
   if (f.empty()) {
     if (!f.spans.empty()) bad("empty fragment carries data");
     return 0;

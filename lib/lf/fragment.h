@@ -18,6 +18,12 @@
 
 namespace lf {
 
+// Largest Fragment::weight_shift: sums up to 255 << 8 (an aperture that
+// blends 256 full weights at a pixel, lf/view.h kMaxApertureScale).
+constexpr int kMaxWeightShift = 8;
+// Largest Fragment::cameras.
+constexpr int kMaxSummedCameras = 4096;
+
 struct Fragment {
   uint32_t viewer_id = 0;
   uint64_t sequence = 0;
@@ -26,6 +32,13 @@ struct Fragment {
   // 0, or 1 for the second planes of a focal surface's two-plane tiles
   // (lf/view.h FocalSurface::second_of, lf/plan.h plan_fragment's layer).
   uint8_t layer = 0;
+  // A partial sum (lf/composite.h sum_fragments: a camera host adds up its
+  // own cameras' fragments before sending) holds the sums of `cameras`
+  // cameras' premultiplied pixels, each stored as (sum + 2^(s-1)) >> s
+  // with s = weight_shift, so that sums over 255 fit 8 bits; the compositor
+  // adds pixel << s. A single camera's fragment: 1 and 0.
+  uint16_t cameras = 1;
+  uint8_t weight_shift = 0;
   int out_width = 0, out_height = 0;  // size of the output frame it belongs to
   cv::Rect rect;                      // bounding box in output pixels (empty: no contribution)
   // Per row of rect: [begin, end) in output x. Pixels are stored row after

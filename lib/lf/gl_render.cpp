@@ -405,8 +405,10 @@ void main() {
 
 // Compositing a received fragment: u_spans holds, per row of its rect,
 // (index of the row's first pixel in u_pixels, span begin x, span end x);
-// u_pixels the fragments' pixels, one after another. Sums as lf::Compositor
-// (whole numbers: exact in the float target).
+// u_pixels the fragments' pixels, one after another; a span's fourth
+// value is its fragment's weight shift (a partial sum's pixels are added
+// times 2^shift). Sums as lf::Compositor (whole numbers: exact in the
+// float target).
 const char* kAddFragment = R"(#version 300 es
 precision highp float;
 precision highp int;
@@ -422,7 +424,7 @@ void main() {
   int xi = int(gl_FragCoord.x), yi = int(gl_FragCoord.y);
   ivec4 row = texelFetch(u_spans, at(u_rect.y + yi - u_rect.x), 0);
   if (xi < row.y || xi >= row.z) discard;
-  o = vec4(texelFetch(u_pixels, at(row.x + xi - row.y), 0));
+  o = vec4(texelFetch(u_pixels, at(row.x + xi - row.y), 0) << uint(row.w));
 }
 )";
 
@@ -977,7 +979,7 @@ std::vector<std::pair<size_t, std::string>> GlRenderer::composite(
     first_row.push_back(static_cast<int>(m.span_data.size()));
     size_t start = m.pixel_data.size();
     for (const auto& sp : f.spans) {
-      m.span_data.push_back({static_cast<int>(start), sp[0], sp[1], 0});
+      m.span_data.push_back({static_cast<int>(start), sp[0], sp[1], f.weight_shift});
       start += sp[1] - sp[0];
     }
     const size_t at = m.pixel_data.size();

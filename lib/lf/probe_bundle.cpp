@@ -73,7 +73,7 @@ std::vector<FragmentSpan> split_fragments(const uint8_t* data, size_t size, size
     FragmentSpan s;
     s.offset = at;
     s.head = peek_fragment_header(data + at, size - at);
-    const size_t whole = kFragmentHeaderSize + size_t{s.head.payload_size};
+    const size_t whole = s.head.size();
     if (whole > size - at)
       throw WireError("fragment buffer: fragment " + std::to_string(out.size()) + " of " +
                       std::to_string(whole) + " bytes, " + std::to_string(size - at) + " left");

@@ -61,4 +61,38 @@ Rig scale_rig(const Rig& rig, double scale) {
   return out;
 }
 
+std::vector<int> host_blocks(const Rig& rig, int hosts) {
+  const int n = static_cast<int>(rig.cameras.size());
+  if (hosts < 1 || hosts > n)
+    throw std::invalid_argument("host_blocks: " + std::to_string(hosts) + " hosts for " +
+                                std::to_string(n) + " cameras");
+  std::vector<int> host(n, -1);
+  if (rig.grid.empty()) {
+    for (int i = 0; i < n; ++i) host[i] = static_cast<int>(static_cast<int64_t>(i) * hosts / n);
+    return host;
+  }
+  const int R = rig.grid.rows, C = rig.grid.cols;
+  int br = 1;
+  double best = -1;
+  for (int r = 1; r <= hosts; ++r) {
+    if (hosts % r != 0 || r > R || hosts / r > C) continue;
+    const double h = static_cast<double>(R) / r, w = static_cast<double>(C) / (hosts / r);
+    const double squareness = std::min(h, w) / std::max(h, w);
+    if (squareness > best) best = squareness, br = r;
+  }
+  if (best < 0)
+    throw std::invalid_argument("host_blocks: a " + std::to_string(R) + "x" + std::to_string(C) +
+                                " grid cannot be cut into " + std::to_string(hosts) + " blocks");
+  const int bc = hosts / br;
+  for (int r = 0; r < R; ++r)
+    for (int c = 0; c < C; ++c) {
+      const int i = rig.grid.at(r, c);
+      if (i >= 0) host[i] = (r * br / R) * bc + c * bc / C;
+    }
+  // Cameras outside the grid (none in a gridded rig): the last host.
+  for (int& h : host)
+    if (h < 0) h = hosts - 1;
+  return host;
+}
+
 }  // namespace lf

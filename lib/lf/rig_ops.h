@@ -14,6 +14,16 @@ Rig grid_block(const Rig& rig, int r0, int c0, int rows, int cols);
 // has fewer than k rows or columns.
 Rig grid_spread(const Rig& rig, int k);
 
+// Cameras dealt to `hosts` camera hosts in contiguous blocks of the grid,
+// for partial sums (lf/composite.h sum_fragments: neighbours' fragments
+// overlap, so a block's sum is small): the grid is cut into br x bc blocks
+// (br * bc = hosts, the factorisation whose blocks are the most square),
+// rows and columns split as evenly as they go. Returns each camera's host
+// (0..hosts-1) in rig order. A rig without a grid is cut into runs of rig
+// order. Throws std::invalid_argument for hosts < 1 or more hosts than
+// cameras.
+std::vector<int> host_blocks(const Rig& rig, int hosts);
+
 // Same rig with every image resized by `scale` (image sizes rounded, intrinsics
 // rescaled per axis).
 Rig scale_rig(const Rig& rig, double scale);

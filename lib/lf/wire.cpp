@@ -271,12 +271,24 @@ void decompress(const uint8_t* j, size_t n, int w, int h, JpegKind kind, std::ve
 
 namespace {
 // The fragment header up to (not including) its CRC, bytes 0..51.
+bool is_sum(const Fragment& f) {
+  return f.cameras != 1 || f.weight_shift != 0;
+}
+size_t header_size(const Fragment& f) {
+  return is_sum(f) ? kSumFragmentHeaderSize : kFragmentHeaderSize;
+}
+
+// The header up to (not including) its CRC: bytes 0..51, or 0..55 for a
+// partial sum (version 2).
+// Version 2's flags (byte 55).
+constexpr uint8_t kSpansDeflated = 1;
+
 void write_header(const Fragment& f, Encoding enc, int quality, size_t payload_size,
-                  std::vector<uint8_t>& out) {
+                  std::vector<uint8_t>& out, bool deflated_spans = false) {
   Writer w(out);
   w.bytes("LFFR", 4);
-  w.u16(1);
-  w.u16(kFragmentHeaderSize);
+  w.u16(is_sum(f) ? 2 : 1);
+  w.u16(static_cast<uint16_t>(header_size(f)));
   w.u32(f.viewer_id);
   w.u64(f.sequence);
   w.u32(f.camera_id);
@@ -291,6 +303,11 @@ void write_header(const Fragment& f, Encoding enc, int quality, size_t payload_s
   w.u8(f.layer);
   w.u8(0);
   w.u32(static_cast<uint32_t>(payload_size));
+  if (is_sum(f)) {
+    w.u16(f.cameras);
+    w.u8(f.weight_shift);
+    w.u8(deflated_spans ? kSpansDeflated : 0);
+  }
 }
 
 // The row spans of a non-empty fragment, relative to its rect.x.
@@ -300,6 +317,33 @@ void write_spans(const Fragment& f, Writer& w) {
     w.u16(static_cast<uint16_t>(s[1] - f.rect.x));
   }
 }
+
+// A partial sum's spans (version 2, flag kSpansDeflated): each row's begin
+// and end minus the row before's (mod 2^16; the first row's minus 0),
+// big-endian u16 pairs, as one raw DEFLATE stream (RFC 1951, libdeflate)
+// after its size (u32). A sum's edges are nearly straight, so its spans
+// shrink from 4 bytes a row to a few bytes in all.
+void write_deflated_spans(const Fragment& f, Writer& w) {
+  std::vector<uint8_t> deltas;
+  Writer d(deltas);
+  int b0 = 0, e0 = 0;
+  for (const auto& s : f.spans) {
+    const int b = s[0] - f.rect.x, e = s[1] - f.rect.x;
+    d.u16(static_cast<uint16_t>(b - b0)), d.u16(static_cast<uint16_t>(e - e0));
+    b0 = b, e0 = e;
+  }
+  struct Deleter {
+    void operator()(libdeflate_compressor* c) const { libdeflate_free_compressor(c); }
+  };
+  thread_local std::unique_ptr<libdeflate_compressor, Deleter> c(libdeflate_alloc_compressor(9));
+  if (!c) throw std::runtime_error("libdeflate: cannot make a compressor");
+  std::vector<uint8_t> out(libdeflate_deflate_compress_bound(c.get(), deltas.size()));
+  const size_t n =
+      libdeflate_deflate_compress(c.get(), deltas.data(), deltas.size(), out.data(), out.size());
+  if (n == 0) throw std::runtime_error("libdeflate: the spans do not compress");
+  w.u32(static_cast<uint32_t>(n));
+  w.bytes(out.data(), n);
+}
 }  // namespace
 
 std::vector<uint8_t> serialize_fragment(const Fragment& f, Encoding enc, int quality) {
@@ -308,9 +352,13 @@ std::vector<uint8_t> serialize_fragment(const Fragment& f, Encoding enc, int qua
     throw std::invalid_argument("serialize_fragment: JPEG quality must be 1..100");
   if (f.empty()) enc = Encoding::kEmpty;
   std::vector<uint8_t> payload;
+  const bool deflated = is_sum(f) && enc != Encoding::kEmpty;
   if (enc != Encoding::kEmpty) {
     Writer p(payload);
-    write_spans(f, p);
+    if (deflated)
+      write_deflated_spans(f, p);
+    else
+      write_spans(f, p);
     if (enc == Encoding::kRaw) {
       p.bytes(f.pixels.data(), f.pixels.size());
     } else if (enc == Encoding::kJpeg) {
@@ -351,9 +399,9 @@ std::vector<uint8_t> serialize_fragment(const Fragment& f, Encoding enc, int qua
   if (payload.size() > kMaxPayload)
     throw std::invalid_argument("serialize_fragment: payload exceeds 64 MiB");
   std::vector<uint8_t> out;
-  out.reserve(kFragmentHeaderSize + payload.size());
-  write_header(f, enc, quality, payload.size(), out);
-  const uint32_t sum = crc(out.data(), kFragmentHeaderSize - 4, payload.data(), payload.size());
+  out.reserve(header_size(f) + payload.size());
+  write_header(f, enc, quality, payload.size(), out, deflated);
+  const uint32_t sum = crc(out.data(), out.size(), payload.data(), payload.size());
   Writer(out).u32(sum);
   out.insert(out.end(), payload.begin(), payload.end());
   return out;
@@ -361,11 +409,11 @@ std::vector<uint8_t> serialize_fragment(const Fragment& f, Encoding enc, int qua
 
 size_t raw_fragment_size(const Fragment& f) {
   const size_t n = check_fragment_geometry(f);
-  if (f.empty()) return kFragmentHeaderSize;
+  if (f.empty()) return header_size(f);
   const size_t payload = 4 * f.spans.size() + 4 * n;
   if (payload > kMaxPayload)
     throw std::invalid_argument("raw_fragment_size: payload exceeds 64 MiB");
-  return kFragmentHeaderSize + payload;
+  return header_size(f) + payload;
 }
 
 uint8_t* write_raw_fragment(const Fragment& f, uint8_t* out, size_t size) {
@@ -374,9 +422,9 @@ uint8_t* write_raw_fragment(const Fragment& f, uint8_t* out, size_t size) {
     throw std::invalid_argument("write_raw_fragment: buffer is " + std::to_string(size) +
                                 " bytes, the fragment takes " + std::to_string(need));
   std::vector<uint8_t> head;
-  head.reserve(kFragmentHeaderSize + 4 * f.spans.size());
+  head.reserve(header_size(f) + 4 * f.spans.size());
   const Encoding enc = f.empty() ? Encoding::kEmpty : Encoding::kRaw;
-  write_header(f, enc, 0, size - kFragmentHeaderSize, head);
+  write_header(f, enc, 0, size - header_size(f), head);
   Writer w(head);
   w.u32(0);  // the CRC: seal_fragment()
   write_spans(f, w);
@@ -385,11 +433,9 @@ uint8_t* write_raw_fragment(const Fragment& f, uint8_t* out, size_t size) {
 }
 
 void seal_fragment(uint8_t* out, size_t size) {
-  if (size < kFragmentHeaderSize) bad_fragment("seal: truncated header");
-  const uint32_t sum =
-      crc(out, kFragmentHeaderSize - 4, out + kFragmentHeaderSize, size - kFragmentHeaderSize);
-  for (int i = 0; i < 4; ++i)
-    out[kFragmentHeaderSize - 4 + i] = static_cast<uint8_t>(sum >> (24 - 8 * i));
+  const size_t hs = peek_fragment_header(out, size).header_size;
+  const uint32_t sum = crc(out, hs - 4, out + hs, size - hs);
+  for (int i = 0; i < 4; ++i) out[hs - 4 + i] = static_cast<uint8_t>(sum >> (24 - 8 * i));
 }
 
 FragmentHeader peek_fragment_header(const uint8_t* data, size_t size) {
@@ -401,10 +447,28 @@ FragmentHeader peek_fragment_header(const uint8_t* data, size_t size) {
   if (std::memcmp(data, "LFFR", 4) != 0) bad_fragment("bad magic (not an lf fragment)");
   for (int i = 0; i < 4; ++i) r.u8();
   const uint16_t version = r.u16();
-  if (version != 1) bad_fragment("unsupported version " + std::to_string(version));
+  if (version != 1 && version != 2) bad_fragment("unsupported version " + std::to_string(version));
   const uint16_t hsize = r.u16();
-  if (hsize != kFragmentHeaderSize) bad_fragment("bad header size " + std::to_string(hsize));
+  if (hsize != (version == 1 ? kFragmentHeaderSize : kSumFragmentHeaderSize))
+    bad_fragment("bad header size " + std::to_string(hsize) + " for version " +
+                 std::to_string(version));
+  if (size < hsize)
+    bad_fragment("truncated header (" + std::to_string(size) + " of " + std::to_string(hsize) +
+                 " bytes)");
   FragmentHeader h;
+  h.header_size = hsize;
+  if (version == 2) {
+    h.cameras = static_cast<uint16_t>((data[52] << 8) | data[53]);
+    h.weight_shift = data[54];
+    if (h.cameras < 1 || h.cameras > kMaxSummedCameras)
+      bad_fragment("a sum of " + std::to_string(h.cameras) + " cameras (1.." +
+                   std::to_string(kMaxSummedCameras) + ")");
+    if (h.weight_shift > kMaxWeightShift)
+      bad_fragment("weight shift " + std::to_string(h.weight_shift) + " over " +
+                   std::to_string(kMaxWeightShift));
+    h.deflated_spans = data[55] & kSpansDeflated;
+    if (data[55] & ~kSpansDeflated) bad_fragment("unknown flags " + std::to_string(data[55]));
+  }
   h.viewer_id = r.u32();
   h.sequence = r.u64();
   h.camera_id = r.u32();
@@ -428,6 +492,9 @@ Fragment parse_fragment_impl(const uint8_t* data, size_t size, Encoding* enc_out
   f.sequence = head.sequence;
   f.camera_id = head.camera_id;
   f.capture_time_ns = head.capture_time_ns;
+  f.cameras = head.cameras;
+  f.weight_shift = head.weight_shift;
+  const size_t hs = head.header_size;
   f.out_width = r.u16();
   f.out_height = r.u16();
   const int x = r.u16(), y = r.u16(), w = r.u16(), h = r.u16();
@@ -436,7 +503,7 @@ Fragment parse_fragment_impl(const uint8_t* data, size_t size, Encoding* enc_out
   f.layer = r.u8();
   const uint8_t reserved = r.u8();
   const uint32_t psize = r.u32();
-  const uint32_t sum = r.u32();
+  const uint32_t sum = Reader(data + hs - 4, 4, "fragment").u32();
   if (f.layer > 1) bad_fragment("layer " + std::to_string(f.layer) + " is not 0 or 1");
   if (reserved != 0) bad_fragment("reserved field is not zero");
   if (f.out_width < 1 || f.out_height < 1 || f.out_width > 16384 || f.out_height > 16384)
@@ -444,12 +511,12 @@ Fragment parse_fragment_impl(const uint8_t* data, size_t size, Encoding* enc_out
                  " out of range 1..16384");
   if (psize > kMaxPayload)
     bad_fragment("payload size " + std::to_string(psize) + " exceeds 64 MiB");
-  if (size != kFragmentHeaderSize + psize)
+  if (size != hs + psize)
     bad_fragment("buffer is " + std::to_string(size) + " bytes, header announces " +
-                 std::to_string(kFragmentHeaderSize + psize) +
-                 (size < kFragmentHeaderSize + psize ? " (truncated)" : " (trailing bytes)"));
-  const uint8_t* payload = data + kFragmentHeaderSize;
-  if (check_crc && crc(data, kFragmentHeaderSize - 4, payload, psize) != sum)
+                 std::to_string(hs + psize) +
+                 (size < hs + psize ? " (truncated)" : " (trailing bytes)"));
+  const uint8_t* payload = data + hs;
+  if (check_crc && crc(data, hs - 4, payload, psize) != sum)
     bad_fragment("CRC mismatch (corrupt data)");
   if (enc > 2) bad_fragment("unknown encoding " + std::to_string(enc));
   if (enc == 2 && (quality < 1 || quality > 100))
@@ -471,8 +538,39 @@ Fragment parse_fragment_impl(const uint8_t* data, size_t size, Encoding* enc_out
   Reader p(payload, psize, "fragment payload");
   size_t npix = 0;
   f.spans.resize(h);
+  // Deflated spans (a partial sum) are inflated to exactly 4 bytes a row,
+  // no more, then read as the plain ones, their deltas added up.
+  std::vector<uint8_t> inflated;
+  if (head.deflated_spans) {
+    const uint32_t n = p.u32();
+    if (n > psize - p.pos())
+      bad_fragment("deflated spans of " + std::to_string(n) + " bytes exceed the payload");
+    std::vector<uint8_t> packed(n);
+    p.bytes(packed.data(), n);
+    inflated.resize(4 * static_cast<size_t>(h));
+    struct Deleter {
+      void operator()(libdeflate_decompressor* d) const { libdeflate_free_decompressor(d); }
+    };
+    thread_local std::unique_ptr<libdeflate_decompressor, Deleter> d(
+        libdeflate_alloc_decompressor());
+    if (!d) throw std::runtime_error("libdeflate: cannot make a decompressor");
+    size_t got = 0;
+    if (libdeflate_deflate_decompress(d.get(), packed.data(), n, inflated.data(), inflated.size(),
+                                      &got) != LIBDEFLATE_SUCCESS ||
+        got != inflated.size())
+      bad_fragment("deflated spans do not inflate to " + std::to_string(inflated.size()) +
+                   " bytes");
+  }
+  Reader sp(head.deflated_spans ? inflated.data() : payload,
+            head.deflated_spans ? inflated.size() : psize, "fragment spans");
+  Reader& spans_in = head.deflated_spans ? sp : p;
+  int b_prev = 0, e_prev = 0;
   for (int row = 0; row < h; ++row) {
-    const int b = p.u16(), e = p.u16();
+    int b = spans_in.u16(), e = spans_in.u16();
+    if (head.deflated_spans) {
+      b = (b + b_prev) & 0xFFFF, e = (e + e_prev) & 0xFFFF;
+      b_prev = b, e_prev = e;
+    }
     if (b > e || e > w)
       bad_fragment("row " + std::to_string(row) + " span [" + std::to_string(b) + ", " +
                    std::to_string(e) + ") outside width " + std::to_string(w));

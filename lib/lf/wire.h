@@ -24,6 +24,20 @@
 //      jpeg, else 0), 46 layer u8 (0, or 1: the second planes of a focal
 //      surface's two-plane tiles, fragment.h), 47 reserved u8 (0)
 //  48  payload_size u32 (<= 64 MiB), 52 crc32 u32 (bytes 0..51, then payload)
+// Fragment, version 2: a partial sum (fragment.h Fragment::cameras and
+// weight_shift; lf/composite.h sum_fragments), 60-byte header: bytes 0..51
+// as version 1 (version = 2, header = 60), then 52 cameras u16 (1..4096,
+// the cameras whose pixels it sums; the compositor counts them towards a
+// complete request), 54 weight_shift u8 (0..8: each pixel value is the
+// sum >> shift, rounded), 55 flags u8 (1: the spans are deflated), 56
+// crc32 u32 (bytes 0..55, then payload). With flag 1 the payload's row
+// spans are replaced by: size N u32, then N bytes of raw DEFLATE (RFC 1951)
+// that inflate to exactly 4 * rect.h bytes: per row the begin and end
+// minus the row before's (u16 mod 2^16, the first row's minus 0); the
+// rest of the payload follows as in version 1. serialize_fragment writes
+// version 1 whenever cameras is 1 and the shift 0, so single cameras'
+// bytes are as before, and deflates a sum's spans (a sum's edges are
+// nearly straight: 4 bytes a row become a few bytes in all).
 // Payload: rect.h row spans (u16 begin, u16 end, relative to rect.x, begin <=
 // end <= w), then
 //   raw:  the span pixels, 4 bytes each, row after row;
@@ -80,8 +94,9 @@ struct WireError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-constexpr size_t kFragmentHeaderSize = 56;
-constexpr size_t kRequestSize = 152;  // version 2 (no focal surface)
+constexpr size_t kFragmentHeaderSize = 56;     // version 1
+constexpr size_t kSumFragmentHeaderSize = 60;  // version 2 (a partial sum)
+constexpr size_t kRequestSize = 152;           // version 2 (no focal surface)
 // Version 3's surface block: 16384 x 16384 pixels in tiles of 16, or
 // 4096 x 4096 in tiles of 4 (1 MiB).
 constexpr size_t kMaxSurfaceBytes = 8 + 32 * 64 + (size_t{1} << 20);
@@ -133,7 +148,8 @@ void seal_fragment(uint8_t* out, size_t size);
 
 // The identifying header fields of a serialized fragment, read without
 // checking the CRC or decoding the payload (for routing and tracing).
-// Throws WireError on a truncated buffer, bad magic, version or header size.
+// Throws WireError on a truncated buffer, bad magic, version or header size,
+// and (version 2) a camera count or weight shift out of range.
 struct FragmentHeader {
   uint32_t viewer_id = 0;
   uint64_t sequence = 0;
@@ -142,6 +158,12 @@ struct FragmentHeader {
   Encoding encoding = Encoding::kEmpty;
   uint8_t layer = 0;
   uint32_t payload_size = 0;
+  uint16_t header_size = kFragmentHeaderSize;  // 56, or 60 for a partial sum
+  uint16_t cameras = 1;
+  uint8_t weight_shift = 0;
+  bool deflated_spans = false;  // version 2: the spans are deflated
+  // The whole fragment's bytes: header and payload.
+  size_t size() const { return size_t{header_size} + payload_size; }
 };
 FragmentHeader peek_fragment_header(const uint8_t* data, size_t size);
 

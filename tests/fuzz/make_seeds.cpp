@@ -4,6 +4,7 @@
 #include <fstream>
 #include <iostream>
 
+#include "lf/composite.h"
 #include "lf/focus.h"
 #include "lf/plan.h"
 #include "lf/probe_bundle.h"
@@ -52,6 +53,7 @@ int main(int argc, char** argv) {
     write(out / "request", 8 + v,
           str(lf::serialize_probe_bundle(lf::surface_probe_requests(rig, req, 1 + v))));
     const lf::ViewGeometry g(rig, req);
+    std::vector<lf::Fragment> block;  // cameras 0, 4, 8, ... summed (version 2)
     for (int i = 0; i < static_cast<int>(rig.cameras.size()); i += 4) {
       lf::Fragment f;
       f.sequence = v;
@@ -69,7 +71,15 @@ int main(int argc, char** argv) {
       if (!f.empty())
         write(out / "fragment", k++,
               str(lf::serialize_fragment(f, lf::Encoding::kJpeg, 50 + 10 * v)));
+      block.push_back(f);
     }
+    // A partial sum (lib/lf/composite.h sum_fragments), raw and JPEG.
+    std::vector<lf::FragmentPixels> parts;
+    for (const lf::Fragment& f : block) parts.push_back({&f, f.pixels.data()});
+    const lf::Fragment sum = lf::sum_fragments(parts);
+    write(out / "fragment", k++, str(lf::serialize_fragment(sum, lf::Encoding::kRaw)));
+    if (!sum.empty())
+      write(out / "fragment", k++, str(lf::serialize_fragment(sum, lf::Encoding::kJpeg, 90)));
   }
   write(out / "rig", 0, lf::rig_to_json(rig));
   write(out / "rig", 1, lf::rig_to_json(lf::synthetic_grid_rig(1, 4, 0.1, 32, 24)));
