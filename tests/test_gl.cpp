@@ -326,6 +326,18 @@ TEST(GlBackend, CompositingMatchesTheCpuCompositor) {
     std::vector<lf::FragmentPixels> in;
     for (const auto& f : frags) in.push_back({&f, f.pixels.data()});
     if (!frags[6].empty()) in.push_back({&frags[6], nullptr});
+    // A partial sum with a weight shift (lib/lf/composite.h
+    // sum_fragments): every camera's fragment twice, so the sums pass 255
+    // (shift 1), added by both compositors the same way.
+    std::vector<lf::FragmentPixels> twice;
+    for (int k = 0; k < 2; ++k)
+      for (size_t i = 0; i < rig.cameras.size(); ++i)
+        twice.push_back({&frags[i], frags[i].pixels.data()});
+    const lf::Fragment sum = lf::sum_fragments(twice);
+    if (!sum.empty()) {
+      EXPECT_GE(sum.weight_shift, 1);
+      in.push_back({&sum, sum.pixels.data()});
+    }
     cv::Mat cpu, out;
     lf::Compositor comp;
     const auto cpu_refused = comp.composite(req.view.width, req.view.height, in, cpu);
@@ -341,6 +353,31 @@ TEST(GlBackend, CompositingMatchesTheCpuCompositor) {
     all.add(d);
   }
   expect_close(all, "composited views", 50000);
+  // A shifted sum against a fragment of another colour: the shift weighs
+  // it (red counted twice: 2/3 red), not only the renormalisation.
+  lf::Fragment red, blue;
+  for (lf::Fragment* f : {&red, &blue}) {
+    f->out_width = 16, f->out_height = 8;
+    f->rect = cv::Rect(2, 1, 10, 5);
+    f->spans.assign(5, {2, 12});
+    f->pixels.resize(4 * 50);
+    for (int p = 0; p < 50; ++p) {
+      const bool r = f == &red;
+      f->pixels[4 * p] = r ? 200 : 0, f->pixels[4 * p + 2] = r ? 0 : 200;
+      f->pixels[4 * p + 1] = 0, f->pixels[4 * p + 3] = 200;
+    }
+  }
+  const lf::Fragment reds =
+      lf::sum_fragments({{&red, red.pixels.data()}, {&red, red.pixels.data()}});
+  ASSERT_EQ(reds.weight_shift, 1);
+  cv::Mat cpu_mix, gl_mix;
+  const std::vector<lf::FragmentPixels> mix{{&reds, reds.pixels.data()},
+                                            {&blue, blue.pixels.data()}};
+  lf::Compositor comp;
+  comp.composite(16, 8, mix, cpu_mix);
+  gl.composite(16, 8, mix, gl_mix);
+  EXPECT_EQ(cpu_mix.at<cv::Vec4b>(3, 5), cv::Vec4b(170, 0, 85, 255));
+  EXPECT_EQ(cv::norm(cpu_mix, gl_mix, cv::NORM_INF), 0);
   std::cout << "composited: " << all.both << " pixels, " << all.differ << " differ, max "
             << all.max_abs << "\n";
   cv::Mat out;
