@@ -1,5 +1,6 @@
 // The `backend` property of lffragment and lfcompositor (lib/lf/gl_render.h):
-// its enum type and the renderer it opens at start.
+// its enum type and the renderer it opens at start; and the enum type of
+// the fragment encodings.
 #pragma once
 
 #include <gst/gst.h>
@@ -8,10 +9,27 @@
 #include <string>
 
 #include "lf/gl_render.h"
+#include "lf/wire.h"
 #include "lfguard.h"
 #include "lfprops.h"
 
 namespace lfgst {
+
+// The fragment encodings (lffragment, lfpartialsum `encoding`), and on the
+// wire (lib/lf/wire.h).
+enum class FragmentEncoding { kRaw = 0, kJpeg = 1 };
+inline lf::Encoding wire_encoding(FragmentEncoding e) {
+  return e == FragmentEncoding::kJpeg ? lf::Encoding::kJpeg : lf::Encoding::kRaw;
+}
+inline GType fragment_encoding_type() {
+  static GType type = 0;
+  static const GEnumValue values[] = {
+      {static_cast<gint>(FragmentEncoding::kRaw), "Raw premultiplied RGBA row spans", "raw"},
+      {static_cast<gint>(FragmentEncoding::kJpeg),
+       "JPEG: colour (YCbCr 4:2:0) and weight (greyscale) JPEGs, TurboJPEG", "jpeg"},
+      {0, nullptr, nullptr}};
+  return enum_type(&type, "LfFragmentEncoding", values);
+}
 
 inline GType backend_type() {
   static GType type = 0;

@@ -13,6 +13,14 @@
  * camera's `lfcamsrc` or `lffragment` (their documentation is theirs). The
  * graph is built when the bin goes to READY, from the rig as it is then.
  *
+ * Partial sums: with `partial-sums=true` the cameras' fragments (raw, in
+ * process) go to an `lfpartialsum`, which adds up each request's into one
+ * fragment and encodes it (`encoding`, `jpeg-quality`); `lfcompositor`
+ * gives the same frame. It pays when the host's cameras are a contiguous
+ * block of the grid (`lf-rig --hosts N` deals them so): about half the
+ * bytes of per-camera JPEG fragments at 64 cameras and 4 hosts
+ * (tools/lf-baseline).
+ *
  * Recording and playback: `record=rec/cam%02d.mkv` also writes every
  * camera's frames with their capture times (PTS) to one Matroska file per
  * camera (`record-quality=0`: lossless raw RGB; 1..100: JPEG), with
@@ -85,10 +93,13 @@ enum {
   PROP_RECORD_QUALITY,
   PROP_PLAYBACK,
   PROP_REQUEST_MAX_AGE,
+  PROP_PARTIAL_SUMS,
+  PROP_SUM_LATENCY,
   PROP_FIRST_FORWARD
 };
 #define DEFAULT_RECORD_QUALITY 0
 #define DEFAULT_REQUEST_MAX_AGE (200 * GST_MSECOND)
+#define DEFAULT_SUM_LATENCY (20 * GST_MSECOND)
 
 // A bin property that is set on each child of one kind.
 struct Forward {
@@ -120,6 +131,8 @@ struct Priv {
   std::string record, playback;  // file name patterns (camera_file_name), object lock
   gint record_quality = DEFAULT_RECORD_QUALITY;
   guint64 request_max_age = DEFAULT_REQUEST_MAX_AGE;  // ns, object lock
+  bool partial_sums = false;                          // object lock
+  guint64 sum_latency = DEFAULT_SUM_LATENCY;          // ns, object lock
   std::vector<GValue> values;                         // forwarded property values (only those set)
   std::vector<bool> set;
   GstPad* sink = nullptr;  // ghost pads, targets set when built
@@ -184,6 +197,10 @@ static void lf_camera_host_set_property(GObject* obj, guint id, const GValue* v,
     p->record_quality = g_value_get_int(v);
   } else if (id == PROP_REQUEST_MAX_AGE) {
     p->request_max_age = g_value_get_uint64(v);
+  } else if (id == PROP_PARTIAL_SUMS) {
+    p->partial_sums = g_value_get_boolean(v);
+  } else if (id == PROP_SUM_LATENCY) {
+    p->sum_latency = g_value_get_uint64(v);
   } else if (id - PROP_FIRST_FORWARD < p->values.size()) {
     GValue& dst = p->values[id - PROP_FIRST_FORWARD];
     if (G_IS_VALUE(&dst)) g_value_unset(&dst);
@@ -206,6 +223,10 @@ static void lf_camera_host_get_property(GObject* obj, guint id, GValue* v, GPara
     g_value_set_int(v, p->record_quality);
   } else if (id == PROP_REQUEST_MAX_AGE) {
     g_value_set_uint64(v, p->request_max_age);
+  } else if (id == PROP_PARTIAL_SUMS) {
+    g_value_set_boolean(v, p->partial_sums);
+  } else if (id == PROP_SUM_LATENCY) {
+    g_value_set_uint64(v, p->sum_latency);
   } else if (id - PROP_FIRST_FORWARD < p->values.size()) {
     if (p->set[id - PROP_FIRST_FORWARD])
       g_value_copy(&p->values[id - PROP_FIRST_FORWARD], v);
@@ -307,6 +328,8 @@ static bool build(LfCameraHost* self) {
   const std::string record = p->record, playback = p->playback;
   const gint record_quality = p->record_quality;
   guint64 max_age = p->request_max_age;
+  const bool sums = p->partial_sums;
+  const guint64 sum_latency = p->sum_latency;
   const std::vector<Forward> fw = forwards(composite_of(self));
   std::vector<std::pair<Forward, GValue>> values;
   for (size_t i = 0; i < fw.size(); ++i) {
@@ -339,9 +362,25 @@ static bool build(LfCameraHost* self) {
                   GstElement* tee = make("tee", "requests");
                   g_object_set(tee, "allow-not-linked", TRUE, nullptr);
                   GstElement* out = composite_of(self) ? make("lfcompositor", "compositor")
+                                    : sums             ? make("lfpartialsum", "sums")
                                                        : make("funnel", "fragments");
                   gst_bin_add_many(GST_BIN(self), tee, out, nullptr);
                   p->children = {tee, out};
+                  // Partial sums: the cameras' raw fragments are added up,
+                  // and the sum encoded, in `sum`.
+                  GstElement* sum = nullptr;
+                  if (sums && composite_of(self)) {
+                    sum = adopt(GST_BIN(self), p, make("lfpartialsum", "sums"));
+                    if (!gst_element_link_pads(sum, "src", out, "sink_%u"))
+                      throw std::runtime_error("cannot link the partial sums");
+                  } else if (sums) {
+                    sum = out;
+                  }
+                  if (sum) g_object_set(sum, "latency", sum_latency, nullptr);
+                  if (sum)
+                    for (auto& [f, v] : values)
+                      if (g_str_equal(f.name, "encoding") || g_str_equal(f.name, "jpeg-quality"))
+                        g_object_set_property(G_OBJECT(sum), f.name, &v);
                   auto apply = [&](GstElement* e, GType type) {
                     // `backend` is the fragments' and, in lfarray, the compositor's.
                     for (auto& [f, v] : values)
@@ -360,6 +399,7 @@ static bool build(LfCameraHost* self) {
                     GstElement* frag = adopt(GST_BIN(self), p, make("lffragment", "fragment" + id));
                     g_object_set(frag, "rig", rig_path.c_str(), "camera-id", cam_id, nullptr);
                     apply(frag, lf_fragment_get_type());
+                    if (sum) gst_util_set_object_arg(G_OBJECT(frag), "encoding", "raw");
                     // A recording pairs frames with requests by capture time, live
                     // and played back alike.
                     if ((!record.empty() || !playback.empty()) && !frame_select_set)
@@ -394,7 +434,7 @@ static bool build(LfCameraHost* self) {
                     if (!gst_element_link_pads(tee, "src_%u", q, "sink") ||
                         !gst_element_link_pads(q, "src", frag, "request") ||
                         !gst_element_link_pads(cam, nullptr, frag, "sink") ||
-                        !gst_element_link_pads(frag, "src", out, "sink_%u"))
+                        !gst_element_link_pads(frag, "src", sum ? sum : out, "sink_%u"))
                       throw std::runtime_error("cannot link the graph of camera " + id);
                   }
                   GstPad* tsink = gst_element_get_static_pad(tee, "sink");
@@ -570,6 +610,24 @@ static void install_properties(GObjectClass* oc) {
           "lfarray uses at least its latency (a request its compositor still waits for is not "
           "stale). 0: only the count bound",
           0, G_MAXUINT64, DEFAULT_REQUEST_MAX_AGE, rw));
+  g_object_class_install_property(
+      oc, PROP_PARTIAL_SUMS,
+      g_param_spec_boolean(
+          "partial-sums", "Partial sums",
+          "Add up this host's fragments of each request into one (lfpartialsum: premultiplied "
+          "colour and weight, encoded once with encoding and jpeg-quality; the compositor's "
+          "renormalisation keeps the frame). Pays when the cameras are a contiguous block of "
+          "the grid (their fragments overlap); a dead host then leaves a hole where only its "
+          "block sees",
+          FALSE, rw));
+  g_object_class_install_property(
+      oc, PROP_SUM_LATENCY,
+      g_param_spec_uint64(
+          "sum-latency", "Partial sum latency",
+          "Live, with partial-sums: how long after a request's time (ns, its PTS) the sum "
+          "leaves with the cameras that answered when one of them has not (lfpartialsum's "
+          "latency); keep it inside the compositor's deadline",
+          0, G_MAXUINT64, DEFAULT_SUM_LATENCY, rw));
   install_forwards(oc, PROP_FIRST_FORWARD, std::begin(kCameraHostForwards),
                    std::end(kCameraHostForwards));
 }

@@ -6,8 +6,10 @@
  * frame (Yang et al. 2002, Section 4.3), renormalised by the accumulated
  * weight (lib/lf/composite.h). A GstAggregator: it composites a request when
  * all of its fragments are in, or at the deadline in live pipelines with
- * whatever arrived, so a dead camera never stops the output. Output: ordinary
- * raw video (RGBA, RGBx or I420), from a buffer pool of its own.
+ * whatever arrived, so a dead camera never stops the output. A partial sum
+ * (`lfpartialsum`: one camera host's cameras added up, lib/lf/wire.h
+ * version 2) counts as the cameras it holds (at most the rig's). Output:
+ * ordinary raw video (RGBA, RGBx or I420), from a buffer pool of its own.
  *
  * Raw fragments are not copied: their pixels are added straight from the
  * received buffers, which it holds until their frame is composited. Every
@@ -130,7 +132,8 @@ struct Piece {
 };
 struct Group {
   std::vector<Piece> fragments;
-  std::set<uint64_t> cameras;  // (viewer << 32) | camera
+  std::set<uint64_t> cameras;  // (viewer << 32) | camera: each fragment (or partial sum) once
+  size_t count = 0;            // cameras in them: a partial sum counts its cameras
   GstClockTime pts = GST_CLOCK_TIME_NONE, duration = GST_CLOCK_TIME_NONE;
   GstClockTime running_time = GST_CLOCK_TIME_NONE;  // of its first fragment
 };
@@ -536,9 +539,8 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
   gst_video_frame_unmap(&vf);
   if (lfgst::trace_enabled()) {
     const uint32_t sum = libdeflate_crc32(0, rgba.data, rgba.total() * rgba.elemSize());
-    lfgst::trace(GST_ELEMENT(self), "composited", left_id, seq, -1,
-                 static_cast<gint64>(g.fragments.size()), static_cast<gint64>(sum),
-                 (g_get_monotonic_time() - t0) * 1000);
+    lfgst::trace(GST_ELEMENT(self), "composited", left_id, seq, -1, static_cast<gint64>(g.count),
+                 static_cast<gint64>(sum), (g_get_monotonic_time() - t0) * 1000);
     if (filled)
       lfgst::trace(GST_ELEMENT(self), "filled", left_id, seq, -1, static_cast<gint64>(filled));
   }
@@ -549,7 +551,7 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
   st->stale_since_us = -1;
   GST_OBJECT_LOCK(self);
   self->priv->settings.frames++;
-  self->priv->settings.last_cameras = static_cast<guint>(g.cameras.size());
+  self->priv->settings.last_cameras = static_cast<guint>(g.count);
   GST_OBJECT_UNLOCK(self);
   GstAggregator* agg = GST_AGGREGATOR(self);
   if (GST_CLOCK_TIME_IS_VALID(g.pts)) {
@@ -837,7 +839,7 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
                    // says where it ends.
                    const size_t pixel_limit = static_cast<size_t>(w) * static_cast<size_t>(h);
                    const bool sealed = lfgst::has_sealed_meta(buf);
-                   const size_t first = lf::kFragmentHeaderSize + head.payload_size;
+                   const size_t first = head.size();
                    f = lf::parse_fragment_in_place(data, std::min(first, size), &pixels, &enc,
                                                    pixel_limit, !sealed);
                    if (first < size) {
@@ -855,6 +857,10 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
     LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE, ("Dropping a malformed fragment"),
                                "%s", err->message);
     g_error_free(err);
+  } else if (f.cameras > 1 && st->rig && f.cameras > st->rig->cameras.size()) {
+    LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE, ("Dropping a malformed fragment"),
+                               "camera %u: a partial sum of %u cameras, the rig has %zu",
+                               f.camera_id, f.cameras, st->rig->cameras.size());
   } else if (f.out_width != w || f.out_height != h ||
              (second && (second->out_width != w || second->out_height != h))) {
     LF_ELEMENT_WARNING_LIMITED(self, st->wrong_size, STREAM, DECODE,
@@ -872,6 +878,7 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
     Group& g = st->pending[f.sequence];
     const uint64_t key = (static_cast<uint64_t>(f.viewer_id) << 32) | f.camera_id;
     if (g.cameras.insert(key).second) {
+      g.count += f.cameras;
       if (!GST_CLOCK_TIME_IS_VALID(g.pts)) {
         g.pts = GST_BUFFER_PTS(buf);
         g.duration = GST_BUFFER_DURATION(buf);
@@ -1000,15 +1007,14 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
   // still in time, with it (their fragments are on their way).
   while (!st->pending.empty() && ret == GST_FLOW_OK) {
     auto it = st->pending.begin();
-    const bool complete = it->second.cameras.size() >= expected;
+    const bool complete = it->second.count >= expected;
     const bool due = past_deadline(it->second.running_time);
     if (!(complete || due || all_eos || st->pending.size() > kMaxPending)) break;
     if (!complete)
       GST_DEBUG_OBJECT(self,
                        "request %" G_GUINT64_FORMAT
                        " incomplete: %zu of %zu fragments (deadline %d, eos %d, pending %zu)",
-                       it->first, it->second.cameras.size(), expected, due, all_eos,
-                       st->pending.size());
+                       it->first, it->second.count, expected, due, all_eos, st->pending.size());
     ret = emit(self, it->first, it->second, complete);
     st->pending.erase(it);
   }

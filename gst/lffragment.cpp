@@ -74,7 +74,7 @@ G_DECLARE_FINAL_TYPE(LfFragment, lf_fragment, LF, FRAGMENT, GstElement)
 G_END_DECLS
 
 namespace {
-enum class Encoding { kRaw = 0, kJpeg = 1 };
+using Encoding = lfgst::FragmentEncoding;
 enum class FrameSelect { kNewest = 0, kCaptureTime = 1 };
 // Frames kept for frame-select=capture-time (a request may be up to this many
 // frames behind the camera).
@@ -89,16 +89,7 @@ constexpr size_t kFrameRing = 8;
 #define DEFAULT_FRAME_SELECT FrameSelect::kNewest
 #define DEFAULT_BACKEND lf::Backend::kAuto
 
-#define LF_TYPE_FRAGMENT_ENCODING (lf_fragment_encoding_get_type())
-static GType lf_fragment_encoding_get_type() {
-  static GType type = 0;
-  static const GEnumValue values[] = {
-      {static_cast<gint>(Encoding::kRaw), "Raw premultiplied RGBA row spans", "raw"},
-      {static_cast<gint>(Encoding::kJpeg),
-       "JPEG: colour (YCbCr 4:2:0) and weight (greyscale) JPEGs, TurboJPEG", "jpeg"},
-      {0, nullptr, nullptr}};
-  return lfgst::enum_type(&type, "LfFragmentEncoding", values);
-}
+#define LF_TYPE_FRAGMENT_ENCODING (lfgst::fragment_encoding_type())
 
 #define LF_TYPE_FRAGMENT_FRAME_SELECT (lf_fragment_frame_select_get_type())
 static GType lf_fragment_frame_select_get_type() {

@@ -1,6 +1,7 @@
 // The lightfield plugin: lfcamsrc, lffragment, lfcompositor, lfviewrequest,
-// the bins built from a rig, lfcamerahost and lfarray, and lffragmentdemux
-// (fragments routed to one pad per viewer).
+// the bins built from a rig, lfcamerahost and lfarray, lffragmentdemux
+// (fragments routed to one pad per viewer) and lfpartialsum (a camera
+// host's fragments added up).
 // Package, version and origin come from the build (meson.build,
 // meson_options.txt: package-name, package-origin) through config.h.
 #include <gst/gst.h>
@@ -14,6 +15,7 @@ GST_ELEMENT_REGISTER_DECLARE(lfviewrequest);
 GST_ELEMENT_REGISTER_DECLARE(lfcamerahost);
 GST_ELEMENT_REGISTER_DECLARE(lfarray);
 GST_ELEMENT_REGISTER_DECLARE(lffragmentdemux);
+GST_ELEMENT_REGISTER_DECLARE(lfpartialsum);
 
 static gboolean plugin_init(GstPlugin* plugin) {
   gboolean ok = FALSE;
@@ -24,6 +26,7 @@ static gboolean plugin_init(GstPlugin* plugin) {
   ok |= GST_ELEMENT_REGISTER(lfcamerahost, plugin);
   ok |= GST_ELEMENT_REGISTER(lfarray, plugin);
   ok |= GST_ELEMENT_REGISTER(lffragmentdemux, plugin);
+  ok |= GST_ELEMENT_REGISTER(lfpartialsum, plugin);
   return ok;
 }
 

@@ -10,7 +10,7 @@
 # Settings (environment; defaults in brackets):
 #   RIG          rig file, the same on every host (tools/lf-rig makes one)   [required]
 #   HOSTS        number of camera hosts; camera i of the rig (rig order) is
-#                served by camera host i % HOSTS                             [4]
+#                served by camera host i % HOSTS (PARTIAL_SUMS=1: blocks)    [4]
 #   COMPOSITOR   compositor host's address (fragments, clock)               [127.0.0.1]
 #   VIEWER       viewer's address (output video)                            [127.0.0.1]
 #   REQUESTS     where view requests go: a multicast group (224-239.x.x.x),
@@ -106,6 +106,19 @@
 #                bytes missed the frame                                     [60]
 #   RTX_KEEP_MS  how long a camera host keeps its packets for resending  [200]
 #   NACK_PORT    RTX: camera host K reads NACKs on UDP port NACK_PORT + K [5400]
+#   PARTIAL_SUMS=1  camera hosts serve contiguous blocks of the grid
+#                (lf-rig --hosts HOSTS) instead of every HOSTS-th camera, and
+#                each adds up its cameras' fragments of a request before
+#                sending one (lfcamerahost partial-sums=true: lfpartialsum;
+#                premultiplied colour and weight, so the compositor's
+#                renormalisation gives the same frame). Fewer bytes (the
+#                block's part of the view once, not about three times:
+#                tools/lf-baseline), but a dead host leaves a hole where only
+#                its block sees (with interleaved hosts the neighbours cover
+#                it)                                                         [0]
+#   SUM_LATENCY_MS  PARTIAL_SUMS: a sum leaves this long after its request's
+#                time with the cameras that answered, when one has not
+#                (inside the compositor's LATENCY_MS)            [LATENCY_MS/2]
 #   PRINT=1      print the lf-launch command instead of running it
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -217,6 +230,13 @@ multicast=0
 if [[ "$REQUESTS" =~ ^2(2[4-9]|3[0-9])\. ]]; then multicast=1; fi
 
 BASELINE_PORT="${BASELINE_PORT:-6000}"
+PARTIAL_SUMS="${PARTIAL_SUMS:-0}"; SUM_LATENCY_MS="${SUM_LATENCY_MS:-$((LATENCY_MS / 2))}"
+if [ "$PARTIAL_SUMS" != 0 ] && [ "$PARTIAL_SUMS" != 1 ]; then
+  echo "net-host.sh: PARTIAL_SUMS must be 0 or 1" >&2; exit 2
+fi
+if ! [[ "$SUM_LATENCY_MS" =~ ^[0-9]+$ ]]; then
+  echo "net-host.sh: SUM_LATENCY_MS must be a whole number of ms" >&2; exit 2
+fi
 ids=$("$build/tools/lf-rig" --input "$RIG" --ids)
 case "$role" in
   compositor)
@@ -266,12 +286,22 @@ case "$role" in
     else
       src="udpsrc port=$REQUEST_PORT"
     fi
-    # The cameras of this host: rig order i with i % HOSTS == K.
+    # The cameras of this host: rig order i with i % HOSTS == K, or with
+    # partial sums the K-th block of the grid.
+    if [ "$PARTIAL_SUMS" = 1 ]; then
+      owner=($("$build/tools/lf-rig" --input "$RIG" --hosts "$HOSTS"))
+    fi
     mine=""; i=0; n=0
     for id in $ids; do
-      if [ $((i % HOSTS)) = "$host" ]; then mine+="${mine:+,}$i"; n=$((n + 1)); fi
+      k=$((i % HOSTS))
+      if [ "$PARTIAL_SUMS" = 1 ]; then k=${owner[$i]}; fi
+      if [ "$k" = "$host" ]; then mine+="${mine:+,}$i"; n=$((n + 1)); fi
       i=$((i + 1))
     done
+    sums=""
+    if [ "$PARTIAL_SUMS" = 1 ]; then
+      sums=" partial-sums=true sum-latency=$((SUM_LATENCY_MS * 1000000))"
+    fi
     # The requests' caps, as the viewer's lfviewrequest sets them, in the RTP
     # caps (base64, rtpgstpay's first caps version): rtpgstdepay starts from
     # them instead of dropping requests until the viewer's next in-band copy
@@ -286,7 +316,7 @@ case "$role" in
     # One request stream in, one fragment stream out (the lfcamerahost bin).
     desc="$src $(receive_ssrc "$req_caps" $SSRC_REQUESTS)$(fec_receive "$REQ_FEC" "$REQUEST_FEC_LATENCY_MS") ! rtpgstdepay"
     desc+=" ! lfcamerahost rig=$RIG cameras=$mine is-live=true framerate=$FPS/1 phase=$PHASE_NS frame-select=capture-time"
-    desc+=" encoding=$ENCODING jpeg-quality=$QUALITY"
+    desc+=" encoding=$ENCODING jpeg-quality=$QUALITY$sums"
     desc+=" ! rtpgstpay config-interval=1 ssrc=$((SSRC_FRAGMENTS + host)) ! $(fec_send "$FEC")"
     if [ "$RTX" = 1 ]; then
       desc+="rtprtxsend payload-type-map=\"application/x-rtp-pt-map,96=(uint)$RTX_PT\""

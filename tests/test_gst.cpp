@@ -143,6 +143,7 @@ TEST_F(Gst, ElementsAreDocumented) {
             {"rig", "camera-id", "encoding", "jpeg-quality"},
             {"sink", "request", "src"}},
            {"lfcompositor", {"rig", "viewer-id", "framerate", "latency"}, {"sink_%u", "src"}},
+           {"lfpartialsum", {"encoding", "jpeg-quality", "latency"}, {"sink_%u", "src"}},
            {"lfviewrequest",
             {"rig", "viewer-id", "width", "height", "position", "look-at", "vfov", "focal-plane",
              "path", "orbit", "dolly", "framerate", "is-live"},
@@ -448,6 +449,68 @@ TEST_F(Gst, CameraFromImageSequenceAndVideoFile) {
       10, nullptr, &err);
   EXPECT_FALSE(err.empty());
   std::filesystem::remove_all(dir);
+}
+
+// Partial sums (lfpartialsum, lfcamerahost partial-sums): a host's cameras
+// added up before they leave give the frames of their separate fragments:
+// in lfarray, and from two camera hosts of two cameras each into one
+// compositor, which counts a sum's cameras towards a complete request.
+TEST_F(Gst, PartialSumsGiveTheFramesOfTheCameras) {
+  const std::string req = "lfviewrequest rig=" + rig_path_ +
+                          " num-buffers=3 width=320 height=240 focal-plane=param:-0.2 orbit=0.5";
+  const std::string out = " ! video/x-raw,format=RGBA ! appsink name=out sync=false";
+  auto array = [&](const std::string& props) {
+    std::string err;
+    const auto frames = run(req + " ! lfarray rig=" + rig_path_ + " num-buffers=1 " + props + out,
+                            100, nullptr, &err);
+    EXPECT_EQ(frames.size(), 3u) << err;
+    return frames;
+  };
+  const auto want = array("");
+  const auto summed = array("partial-sums=true");
+  const auto jpeg = array("partial-sums=true encoding=jpeg jpeg-quality=90");
+  std::string err;
+  const auto hosts = run(req + " ! tee name=t lfcompositor name=c rig=" + rig_path_ + out +
+                             " t. ! queue ! lfcamerahost rig=" + rig_path_ +
+                             " cameras=0-1 num-buffers=1 partial-sums=true ! c.sink_0"
+                             " t. ! queue ! lfcamerahost rig=" +
+                             rig_path_ + " cameras=2-3 num-buffers=1 partial-sums=true ! c.sink_1",
+                         100, nullptr, &err);
+  ASSERT_EQ(hosts.size(), 3u) << err;
+  // A host sends one buffer per request: the sum.
+  for (const bool sums : {false, true}) {
+    GstElement* p = gst_parse_launch(
+        (req + " ! lfcamerahost rig=" + rig_path_ + " cameras=0-1 num-buffers=1 partial-sums=" +
+         (sums ? "true" : "false") + " ! appsink name=out sync=false")
+            .c_str(),
+        nullptr);
+    ASSERT_NE(p, nullptr);
+    GstElement* sink = gst_bin_get_by_name(GST_BIN(p), "out");
+    gst_element_set_state(p, GST_STATE_PLAYING);
+    size_t buffers = 0;
+    while (GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 10 * GST_SECOND)) {
+      ++buffers;
+      gst_sample_unref(s);
+    }
+    gst_element_set_state(p, GST_STATE_NULL);
+    gst_object_unref(sink);
+    gst_object_unref(p);
+    EXPECT_EQ(buffers, sums ? 3u : 6u);
+  }
+  ASSERT_EQ(want.size(), 3u);
+  ASSERT_EQ(summed.size(), 3u);
+  ASSERT_EQ(jpeg.size(), 3u);
+  for (size_t i = 0; i < want.size(); ++i) {
+    // Sums over 255 only by the cameras' rounding are scaled at that pixel:
+    // a level at most there.
+    EXPECT_LE(cv::norm(summed[i], want[i], cv::NORM_INF), 1) << "frame " << i;
+    EXPECT_LT(cv::norm(summed[i], want[i], cv::NORM_L1) / want[i].total(), 0.01) << "frame " << i;
+    EXPECT_LE(cv::norm(hosts[i], want[i], cv::NORM_INF), 1) << "frame " << i;
+    cv::Mat a, b;
+    cv::cvtColor(want[i], a, cv::COLOR_RGBA2RGB);
+    cv::cvtColor(jpeg[i], b, cv::COLOR_RGBA2RGB);
+    EXPECT_GT(cv::PSNR(a, b), 36.0) << "frame " << i;
+  }
 }
 
 TEST_F(Gst, JpegFragmentsStayClose) {

@@ -23,12 +23,14 @@ usage: lf-rig (--input PATH | --synthetic RxC) [options] [--out RIG.json] [--ids
   --input-scale S  cameras' images resized by S (intrinsics scaled)
   --out FILE       write the rig file (image paths relative to it)
   --ids            print the camera ids, one per line (for scripts)
+  --hosts N        print each camera's host (0..N-1), one per line in rig order: the grid
+                   cut into N contiguous blocks, for partial sums (pipelines/net-host.sh)
 )";
   if (cli::help_requested(argc, argv, help)) return 0;
   try {
     cli::Args args(argc, argv,
                    {"--input", "--synthetic", "--spacing", "--size", "--vfov", "--block",
-                    "--spread", "--input-scale", "--out"},
+                    "--spread", "--input-scale", "--out", "--hosts"},
                    {"--ids"});
     lf::Rig rig;
     if (args.has("--synthetic")) {
@@ -46,6 +48,9 @@ usage: lf-rig (--input PATH | --synthetic RxC) [options] [--out RIG.json] [--ids
     if (args.has("--out")) lf::save_rig(rig, args.get("--out"));
     if (args.has("--ids"))
       for (const auto& c : rig.cameras) std::printf("%d\n", c.id);
+    if (args.has("--hosts"))
+      for (int h : lf::host_blocks(rig, static_cast<int>(args.number("--hosts", 1))))
+        std::printf("%d\n", h);
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "lf-rig: error: %s\n", e.what());

@@ -1,0 +1,360 @@
+/**
+ * SECTION:element-lfpartialsum
+ * @title: lfpartialsum
+ *
+ * Adds up the fragments of one camera host's cameras for each view request
+ * and sends one fragment, their partial sum (premultiplied colour and
+ * weight summed per output pixel: lib/lf/composite.h sum_fragments; a
+ * version-2 fragment, lib/lf/wire.h, that tells the compositor how many
+ * cameras it holds). `lfcompositor` adds it like any fragment and
+ * renormalises by the total weight, so the frame is the same (bit for bit
+ * where the sums fit 8 bits). It pays when the host's cameras are
+ * neighbours, a contiguous block of the grid: their fragments overlap, and
+ * the sum covers the block's part of the view once instead of about three
+ * times (the tent weights every pixel from three cameras). The price: a
+ * dead host leaves a hole where only its block sees (interleaved hosts do
+ * not, but their fragments barely overlap). `lfcamerahost partial-sums=true`
+ * puts one after its cameras.
+ *
+ * One sink pad per camera. A request's sum leaves when every pad has
+ * answered it, or, live, at its deadline: the request's running time plus
+ * the `latency` property (GstAggregator's; 20 ms by default here) with the
+ * fragments that came; not live, pads are taken in step. The fragments
+ * come raw from the cameras (in process: sealed, so no CRC is computed
+ * twice) and the sum is encoded here (`encoding`, `jpeg-quality`), once.
+ * Passed on unchanged, not summed: probe answers (lfcompositor scores each
+ * camera's), and the requests some camera answered with two layers (a
+ * focal surface's second planes: the compositor's per-pixel choice needs
+ * each camera's colours). A malformed fragment is dropped with a
+ * rate-limited warning.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 udpsrc port=5000 caps=... ! rtpgstdepay ! \
+ *   lfcamerahost rig=rig.json cameras=0-3,8-11,16-19,24-27 partial-sums=true \
+ *   encoding=jpeg is-live=true ! rtpgstpay ! udpsink host=compositor port=5200
+ * ]|
+ */
+#include <gst/base/gstaggregator.h>
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <utility>
+#include <vector>
+
+#include "lf/composite.h"
+#include "lf/probe_bundle.h"
+#include "lf/wire.h"
+#include "lfbackend.h"
+#include "lfcaps.h"
+#include "lfguard.h"
+#include "lfmeta.h"
+#include "lfprops.h"
+#include "lftrace.h"
+#include "lfwarn.h"
+
+GST_DEBUG_CATEGORY_STATIC(lf_partial_sum_debug);
+#define GST_CAT_DEFAULT lf_partial_sum_debug
+
+G_BEGIN_DECLS
+#define LF_TYPE_PARTIAL_SUM (lf_partial_sum_get_type())
+G_DECLARE_FINAL_TYPE(LfPartialSum, lf_partial_sum, LF, PARTIAL_SUM, GstAggregator)
+G_END_DECLS
+
+#define DEFAULT_ENCODING lfgst::FragmentEncoding::kRaw
+#define DEFAULT_JPEG_QUALITY 90
+#define DEFAULT_LATENCY (20 * GST_MSECOND)
+
+namespace {
+struct Settings {
+  lfgst::FragmentEncoding encoding = DEFAULT_ENCODING;
+  gint quality = DEFAULT_JPEG_QUALITY;
+  guint64 sums = 0;  // read-only: sums sent
+};
+// A request's fragments so far (their buffers, kept until it leaves).
+struct Group {
+  std::vector<GstBuffer*> buffers;
+  std::set<uint32_t> cameras;
+  bool layered = false;  // some camera answered with two layers: passed on
+  GstClockTime running_time = GST_CLOCK_TIME_NONE;
+  ~Group() {
+    for (GstBuffer* b : buffers) gst_buffer_unref(b);
+  }
+  Group() = default;
+  Group(const Group&) = delete;
+  Group& operator=(const Group&) = delete;
+};
+// At most this many requests wait; beyond, the oldest leaves as it is.
+constexpr size_t kMaxPending = 16;
+struct State {
+  Settings s;
+  std::map<std::pair<uint64_t, uint32_t>, std::unique_ptr<Group>> pending;  // (sequence, viewer)
+  lfgst::WarnLimiter bad;
+};
+struct Priv {
+  Settings settings;
+  std::unique_ptr<State> state;
+};
+lfgst::Properties<Settings> props;
+}  // namespace
+
+struct _LfPartialSum {
+  GstAggregator parent;
+  Priv* priv;
+};
+
+G_DEFINE_TYPE(LfPartialSum, lf_partial_sum, GST_TYPE_AGGREGATOR)
+GST_ELEMENT_REGISTER_DEFINE(lfpartialsum, "lfpartialsum", GST_RANK_NONE, LF_TYPE_PARTIAL_SUM)
+
+static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE(
+    "sink_%u", GST_PAD_SINK, GST_PAD_REQUEST, GST_STATIC_CAPS(LF_FRAGMENT_CAPS));
+static GstStaticPadTemplate src_template =
+    GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(LF_FRAGMENT_CAPS));
+
+static void lf_partial_sum_property_set(GObject*, GParamSpec*, const GValue*) {}
+LF_DEFINE_ELEMENT_GLUE(lf_partial_sum, LF_PARTIAL_SUM)
+
+static gboolean lf_partial_sum_start(GstAggregator* agg) {
+  LfPartialSum* self = LF_PARTIAL_SUM(agg);
+  auto st = std::make_unique<State>();
+  GST_OBJECT_LOCK(self);
+  self->priv->settings.sums = 0;
+  GST_OBJECT_UNLOCK(self);
+  st->s = lfgst::snapshot(GST_OBJECT(self), self->priv->settings);
+  self->priv->state = std::move(st);
+  return TRUE;
+}
+
+static gboolean lf_partial_sum_stop(GstAggregator* agg) {
+  LF_PARTIAL_SUM(agg)->priv->state.reset();
+  return TRUE;
+}
+
+// The cameras' caps, with this element's encoding, go downstream.
+static gboolean lf_partial_sum_sink_event(GstAggregator* agg, GstAggregatorPad* pad,
+                                          GstEvent* event) {
+  LfPartialSum* self = LF_PARTIAL_SUM(agg);
+  GstCaps* in = nullptr;
+  if (GST_EVENT_TYPE(event) == GST_EVENT_CAPS) gst_event_parse_caps(event, &in);
+  // Caps that carry the view's size and rate (lffragment's once requests
+  // came), or the first caps.
+  if (in && (gst_structure_has_field(gst_caps_get_structure(in, 0), "width") ||
+             !gst_pad_has_current_caps(GST_AGGREGATOR_SRC_PAD(agg)))) {
+    const lfgst::FragmentEncoding enc =
+        lfgst::read_setting(GST_OBJECT(self), self->priv->settings, &Settings::encoding);
+    GstCaps* caps =
+        gst_caps_new_simple("application/x-lf-fragment", "encoding", G_TYPE_STRING,
+                            enc == lfgst::FragmentEncoding::kJpeg ? "jpeg" : "raw", nullptr);
+    lfgst::copy_stream_facts(in, caps);
+    gst_aggregator_set_src_caps(agg, caps);
+    gst_caps_unref(caps);
+  }
+  return GST_AGGREGATOR_CLASS(lf_partial_sum_parent_class)->sink_event(agg, pad, event);
+}
+
+static GstFlowReturn forward(LfPartialSum* self, GstBuffer* buf) {
+  return gst_aggregator_finish_buffer(GST_AGGREGATOR(self), gst_buffer_ref(buf));
+}
+
+// Files one buffer under its request, or passes it on (probe answers).
+static GstFlowReturn absorb(LfPartialSum* self, GstAggregatorPad* pad, GstBuffer* buf) {
+  State* st = self->priv->state.get();
+  lf::FragmentHeader head;
+  GError* err = nullptr;
+  size_t size = 0;
+  if (!lfgst::guard(
+          [&] {
+            lfgst::MappedBuffer m(buf, GST_MAP_READ);
+            size = m.size();
+            head = lf::peek_fragment_header(m.data(), m.size());
+          },
+          &err)) {
+    LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE, ("Dropping a malformed fragment"),
+                               "%s", err->message);
+    g_error_free(err);
+    return GST_FLOW_OK;
+  }
+  if (lf::is_focus_probe(head.sequence) || lf::is_surface_probe(head.sequence))
+    return forward(self, buf);
+  auto& slot = st->pending[{head.sequence, head.viewer_id}];
+  if (!slot) slot = std::make_unique<Group>();
+  Group& g = *slot;
+  if (!g.cameras.insert(head.camera_id).second) return GST_FLOW_OK;  // a duplicate
+  g.buffers.push_back(gst_buffer_ref(buf));
+  g.layered |= head.size() < size;
+  if (!GST_CLOCK_TIME_IS_VALID(g.running_time) && GST_BUFFER_PTS_IS_VALID(buf))
+    g.running_time =
+        gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, GST_BUFFER_PTS(buf));
+  return GST_FLOW_OK;
+}
+
+// Sends a request's sum (or its buffers as they are).
+static GstFlowReturn emit(LfPartialSum* self, Group& g) {
+  State* st = self->priv->state.get();
+  if (g.layered) {
+    GstFlowReturn ret = GST_FLOW_OK;
+    for (GstBuffer* b : g.buffers)
+      if (ret == GST_FLOW_OK) ret = forward(self, b);
+    return ret;
+  }
+  const gint64 t0 = g_get_monotonic_time();
+  std::vector<lfgst::MappedBuffer> maps;
+  std::vector<lf::Fragment> parts(g.buffers.size());
+  std::vector<lf::FragmentPixels> in;
+  std::vector<uint8_t> bytes;
+  lf::Fragment sum;
+  GError* err = nullptr;
+  if (!lfgst::guard(
+          [&] {
+            maps.reserve(g.buffers.size());
+            for (size_t i = 0; i < g.buffers.size(); ++i) {
+              maps.emplace_back(g.buffers[i], GST_MAP_READ);
+              const uint8_t* px = nullptr;
+              parts[i] = lf::parse_fragment_in_place(maps[i].data(), maps[i].size(), &px, nullptr,
+                                                     lf::kMaxFragmentPixels,
+                                                     !lfgst::has_sealed_meta(g.buffers[i]));
+              in.push_back({&parts[i], px});
+            }
+            sum = lf::sum_fragments(in);
+            bytes =
+                lf::serialize_fragment(sum, lfgst::wire_encoding(st->s.encoding), st->s.quality);
+          },
+          &err)) {
+    LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE,
+                               ("Dropping a request's fragments that cannot be summed"), "%s",
+                               err->message);
+    g_error_free(err);
+    return GST_FLOW_OK;
+  }
+  GstBuffer* first = g.buffers.front();
+  GstBuffer* out = gst_buffer_new_memdup(bytes.data(), bytes.size());
+  GST_BUFFER_PTS(out) = GST_BUFFER_PTS(first);
+  GST_BUFFER_DURATION(out) = GST_BUFFER_DURATION(first);
+  GST_BUFFER_OFFSET(out) = sum.sequence;
+  lfgst::trace(GST_ELEMENT(self), "summed", sum.viewer_id, sum.sequence,
+               static_cast<gint>(sum.camera_id), static_cast<gint64>(sum.cameras),
+               (g_get_monotonic_time() - t0) * 1000);
+  GST_OBJECT_LOCK(self);
+  self->priv->settings.sums++;
+  GST_OBJECT_UNLOCK(self);
+  return gst_aggregator_finish_buffer(GST_AGGREGATOR(self), out);
+}
+
+// The running time now on the element's clock, or GST_CLOCK_TIME_NONE.
+static GstClockTime running_now(GstElement* e) {
+  GstClock* clock = gst_element_get_clock(e);
+  if (!clock) return GST_CLOCK_TIME_NONE;
+  const GstClockTime now = gst_clock_get_time(clock);
+  gst_object_unref(clock);
+  const GstClockTime base = gst_element_get_base_time(e);
+  return now > base ? now - base : 0;
+}
+
+static GstFlowReturn lf_partial_sum_aggregate(GstAggregator* agg, gboolean timeout) {
+  LfPartialSum* self = LF_PARTIAL_SUM(agg);
+  State* st = self->priv->state.get();
+  GstFlowReturn ret = GST_FLOW_OK;
+  const GstClockTime latency = gst_aggregator_get_latency(agg);
+  const bool live = GST_CLOCK_TIME_IS_VALID(latency);
+  GList* pads;
+  GST_OBJECT_LOCK(self);
+  pads = g_list_copy_deep(
+      GST_ELEMENT(self)->sinkpads,
+      [](gconstpointer p, gpointer) -> gpointer { return gst_object_ref(const_cast<gpointer>(p)); },
+      nullptr);
+  const size_t npads = GST_ELEMENT(self)->numsinkpads;
+  GST_OBJECT_UNLOCK(self);
+  // Not live: a buffer per pad per call, the pads in step. Live: every
+  // buffer queued (each pad is one camera; the deadline paces them).
+  bool all_eos = true;
+  for (GList* l = pads; l && ret == GST_FLOW_OK; l = l->next) {
+    GstAggregatorPad* pad = GST_AGGREGATOR_PAD(l->data);
+    while (GstBuffer* buf = gst_aggregator_pad_pop_buffer(pad)) {
+      ret = absorb(self, pad, buf);
+      gst_buffer_unref(buf);
+      if (!live || ret != GST_FLOW_OK) break;
+    }
+    if (!gst_aggregator_pad_is_eos(pad)) all_eos = false;
+  }
+  g_list_free_full(pads, gst_object_unref);
+  const GstClockTime now = timeout && live ? running_now(GST_ELEMENT(agg)) : GST_CLOCK_TIME_NONE;
+  // Requests in order: complete ones, and at its deadline (or at the end,
+  // or with too many waiting) an incomplete one, summed from what came.
+  while (!st->pending.empty() && ret == GST_FLOW_OK) {
+    auto it = st->pending.begin();
+    Group& g = *it->second;
+    const bool complete = g.cameras.size() >= npads;
+    const bool due =
+        timeout && (!live || !GST_CLOCK_TIME_IS_VALID(now) ||
+                    !GST_CLOCK_TIME_IS_VALID(g.running_time) || now >= g.running_time + latency);
+    if (!(complete || due || all_eos || st->pending.size() > kMaxPending)) break;
+    if (!complete)
+      GST_DEBUG_OBJECT(self, "request %" G_GUINT64_FORMAT ": %zu of %zu cameras", it->first.first,
+                       g.cameras.size(), npads);
+    ret = emit(self, g);
+    st->pending.erase(it);
+  }
+  if (ret == GST_FLOW_OK && all_eos && st->pending.empty()) return GST_FLOW_EOS;
+  return ret;
+}
+
+// Live: aggregate() at once when a pad holds a buffer, else at the oldest
+// request's deadline (the aggregator adds its latency), else on data.
+static GstClockTime lf_partial_sum_get_next_time(GstAggregator* agg) {
+  LfPartialSum* self = LF_PARTIAL_SUM(agg);
+  bool queued = false;
+  GST_OBJECT_LOCK(self);
+  for (GList* l = GST_ELEMENT(self)->sinkpads; l && !queued; l = l->next)
+    queued = gst_aggregator_pad_has_buffer(GST_AGGREGATOR_PAD(l->data));
+  GST_OBJECT_UNLOCK(self);
+  if (queued) return 0;
+  GstClockTime t = GST_CLOCK_TIME_NONE;
+  if (State* st = self->priv->state.get())
+    for (const auto& entry : st->pending) {
+      const GstClockTime rt = entry.second->running_time;
+      if (GST_CLOCK_TIME_IS_VALID(rt) && (t == GST_CLOCK_TIME_NONE || rt < t)) t = rt;
+    }
+  return t;
+}
+
+static void lf_partial_sum_init(LfPartialSum* self) {
+  self->priv = new Priv();
+  g_object_set(self, "latency", static_cast<GstClockTime>(DEFAULT_LATENCY), nullptr);
+}
+
+static void lf_partial_sum_class_init(LfPartialSumClass* klass) {
+  GObjectClass* oc = G_OBJECT_CLASS(klass);
+  GstElementClass* ec = GST_ELEMENT_CLASS(klass);
+  GstAggregatorClass* ac = GST_AGGREGATOR_CLASS(klass);
+  oc->set_property = lf_partial_sum_set_property;
+  oc->get_property = lf_partial_sum_get_property;
+  oc->finalize = lf_partial_sum_finalize;
+  props.add(oc, &Settings::encoding,
+            g_param_spec_enum("encoding", "Encoding", "Encoding of the sums sent",
+                              lfgst::fragment_encoding_type(), static_cast<gint>(DEFAULT_ENCODING),
+                              lfgst::kReadWriteReady));
+  props.add(oc, &Settings::quality,
+            g_param_spec_int("jpeg-quality", "JPEG quality",
+                             "JPEG quality of the sums (encoding=jpeg), 1..100", 1, 100,
+                             DEFAULT_JPEG_QUALITY, lfgst::kReadWriteReady));
+  props.add(oc, &Settings::sums,
+            g_param_spec_uint64(
+                "sums", "Sums", "Partial sums sent since the element started", 0, G_MAXUINT64, 0,
+                static_cast<GParamFlags>(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
+  gst_element_class_add_static_pad_template_with_gtype(ec, &sink_template, GST_TYPE_AGGREGATOR_PAD);
+  gst_element_class_add_static_pad_template_with_gtype(ec, &src_template, GST_TYPE_AGGREGATOR_PAD);
+  gst_element_class_set_static_metadata(
+      ec, "Light field partial sum", "Filter/Editor/Video/Compositor",
+      "Adds up a camera host's fragments of each view request into one fragment (premultiplied "
+      "colour and weight), for lfcompositor; sends incomplete sums at the deadline ('latency', "
+      "ns) in live pipelines",
+      "lightfield-gst");
+  ac->start = lf_partial_sum_start;
+  ac->stop = lf_partial_sum_stop;
+  ac->aggregate = lf_partial_sum_aggregate;
+  ac->sink_event = lf_partial_sum_sink_event;
+  ac->get_next_time = lf_partial_sum_get_next_time;
+  GST_DEBUG_CATEGORY_INIT(lf_partial_sum_debug, "lfpartialsum", 0, "light field partial sums");
+}
