@@ -648,6 +648,9 @@ TEST(Wire, PartialSumsRoundTripWithDeflatedSpans) {
   c[6] = 0, c[7] = 56;  // version 2 with version 1's header size
   expect_error(c, "header size");
   c = b;
+  c[60] = c[61] = c[62] = c[63] = 0;  // no deflated spans at all (the fuzzer's find)
+  expect_error(c, "inflate");
+  c = b;
   c[60] = 0x7f;  // deflated size beyond the payload
   expect_error(c, "exceed the payload");
   c = b;

@@ -63,7 +63,7 @@ class Reader {
   }
   void bytes(uint8_t* to, size_t k) {
     need(k);
-    std::memcpy(to, p_ + pos_, k);
+    if (k) std::memcpy(to, p_ + pos_, k);  // an empty vector's data() may be null
     pos_ += k;
   }
   size_t pos() const { return pos_; }
