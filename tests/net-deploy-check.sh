@@ -19,7 +19,11 @@
 #  5. an attacker (tools/lf-hostile) sending forged packets to every host,
 #     with FEC and with RTX (then forged NACKs too): every host keeps
 #     running (forged payload types once stopped every camera host) and the
-#     frames stay complete (forged SSRCs once kept a stream out for good).
+#     frames stay complete (forged SSRCs once kept a stream out for good);
+#  6. partial sums (net-host.sh PARTIAL_SUMS=1: each host a 4x4 block of the
+#     grid, its fragments added up before they leave): every request
+#     composited, complete (the compositor counts a sum's cameras), in
+#     fewer bytes than per-camera fragments.
 # Requests issued before every camera had captured its first frame (hosts
 # start at their own pace) are startup; lf-trace leaves them out.
 # usage: net-deploy-check.sh BUILD_DIR SHARED_DATA_DIR
@@ -163,4 +167,17 @@ for mode in FEC=25 RTX=1; do
   check "$work/hostile-$mode.txt" "frames stay complete beside the attacker with $mode" \
     'v["composited"] >= 0.85 * v["issued"] && v["complete"] >= 0.9 * v["composited"]'
 done
+
+echo "== 6. partial sums (PARTIAL_SUMS=1)"
+PARTIAL_SUMS=1 "$root/tools/lf-netem.sh" run "$work/sums" $normal_s normal
+"$build/tools/lf-trace" --cameras 64 --fps $FPS "$work"/sums/*.trace > "$work/sums.txt"
+summary "$work/sums.txt"
+echo "fragment bytes per frame: per camera $normal_bytes, partial sums $(bytes "$work/sums.txt")"
+check "$work/sums.txt" "every request composited with partial sums" \
+  'v["composited"] >= v["issued"] - 1 && v["issued"] >= 0.7 * '"$FPS * $normal_s"
+check "$work/sums.txt" "frames complete with partial sums (the sums count 64 cameras)" \
+  'v["complete"] >= 0.95 * v["composited"]'
+# Measured at 640x480 (tools/lf-baseline, 64 cameras): 0.47x.
+check "$work/sums.txt" "partial sums take under 0.7x the bytes of per-camera fragments" \
+  'v["composited-bytes-per-frame"] < 0.7 * '"$normal_bytes"
 exit $fail

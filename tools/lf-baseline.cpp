@@ -6,6 +6,15 @@
 //  * fragments: lfviewrequest ! lfcamerahost encoding=jpeg (not live; each
 //    request answered from the frames captured at its time), fragment
 //    bytes per request;
+//  * partial sums: the cameras dealt to --hosts camera hosts in contiguous
+//    blocks of the grid (lf/rig_ops.h host_blocks), each host's fragments
+//    added up before they leave (lfcamerahost partial-sums=true, JPEG at
+//    the same quality): bytes per request; and the composited frames'
+//    PSNR against those of raw per-camera fragments, beside that of
+//    per-camera JPEG fragments, on the rig's own images without noise
+//    (lfcamsrc mode=dataset: stills, so the frames compared are the same
+//    whatever the cameras' pace; the synthetic cameras, not live, run
+//    ahead of the requests by a varying number of frames);
 //  * all-viewpoints JPEG: every camera's frames through stock jpegenc at the
 //    same quality; bytes per frame and PSNR of the decoded frames against
 //    the camera's (noisy) frames;
@@ -33,6 +42,7 @@
 
 #include "cli.h"
 #include "lf/datasets.h"
+#include "lf/rig_ops.h"
 
 namespace {
 
@@ -86,7 +96,12 @@ Run run(const std::string& desc) {
     throw std::runtime_error("pipeline: " + why + "\n  " + desc);
   }
   Run r;
-  if (GstElement* e = gst_bin_get_by_name(GST_BIN(p), "bytes")) {
+  // "bytes", or "bytes0", "bytes1", ... (one per camera host).
+  for (int k = -1;; ++k) {
+    GstElement* e =
+        gst_bin_get_by_name(GST_BIN(p), ("bytes" + (k < 0 ? "" : std::to_string(k))).c_str());
+    if (!e && k >= 0) break;
+    if (!e) continue;
     GstPad* pad = gst_element_get_static_pad(e, "src");
     gst_pad_add_probe(pad, GST_PAD_PROBE_TYPE_BUFFER, count_bytes, &r, nullptr);
     gst_object_unref(pad);
@@ -145,7 +160,7 @@ struct Point {
 
 int main(int argc, char** argv) {
   gchar *rig_opt = nullptr, *qp_opt = nullptr, *size_opt = nullptr;
-  gint frames = 45, quality = 90, sample = 8, fps = 15;
+  gint frames = 45, quality = 90, sample = 8, fps = 15, hosts = 4;
   gdouble noise = 2.0;
   GOptionEntry entries[] = {
       {"rig", 0, 0, G_OPTION_ARG_STRING, &rig_opt, "Rig file (.json) or dataset folder", "PATH"},
@@ -161,6 +176,9 @@ int main(int argc, char** argv) {
       {"qp", 0, 0, G_OPTION_ARG_STRING, &qp_opt,
        "H.264 constant quantisers to sweep, 0..51 (default 8,11,14,18,22,26)", "LIST"},
       {"size", 0, 0, G_OPTION_ARG_STRING, &size_opt, "Output view size (default 640x480)", "WxH"},
+      {"hosts", 0, 0, G_OPTION_ARG_INT, &hosts,
+       "Camera hosts for the partial sums, contiguous blocks of the grid (default 4; 0: none)",
+       "N"},
       {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
   GOptionContext* ctx = g_option_context_new(nullptr);
   g_option_context_set_summary(
@@ -205,6 +223,54 @@ int main(int argc, char** argv) {
       throw std::runtime_error("fragments: " + std::to_string(fr.buffers) + " of " +
                                std::to_string(frames * n) + " expected");
     const double fragment_bytes = static_cast<double>(fr.bytes) / frames;
+
+    // Partial sums: one camera host per block; then, on the rig's stills,
+    // into one compositor, the frames against those of raw per-camera
+    // fragments, beside per-camera JPEG's.
+    double sum_bytes = -1, sum_psnr = -1, camera_psnr = -1;
+    if (hosts > 0) {
+      if (hosts > n) throw std::invalid_argument("--hosts: at most the rig's cameras");
+      const std::vector<int> host = lf::host_blocks(rig, hosts);
+      const std::string req = "lfviewrequest rig=" + rig_path +
+                              " framerate=" + std::to_string(fps) +
+                              "/1 num-buffers=" + std::to_string(frames) +
+                              " orbit=0.6 dolly=15 path-frames=120 width=" + std::to_string(W) +
+                              " height=" + std::to_string(H);
+      const std::string to_i420 =
+          " ! videoconvert ! video/x-raw,format=I420 ! appsink sync=false name=";
+      const std::string opts = " frame-select=capture-time jpeg-quality=" + std::to_string(quality);
+      // The hosts: "! identity name=bytesK ! SINK" after each.
+      auto hosts_into = [&](const std::string& camera, const std::string& sink) {
+        std::string d;
+        for (int k = 0; k < hosts; ++k) {
+          std::string list;
+          for (int i = 0; i < n; ++i)
+            if (host[i] == k) list += (list.empty() ? "" : ",") + std::to_string(i);
+          const std::string kk = std::to_string(k);
+          d += " t. ! queue ! lfcamerahost rig=" + rig_path + " cameras=" + list +
+               " partial-sums=true encoding=jpeg" + opts + camera + " ! identity name=bytes" + kk +
+               " ! " + (sink.empty() ? "fakesink sync=false async=false" : sink + kk);
+        }
+        return d;
+      };
+      std::fprintf(stderr, "lf-baseline: partial sums of %d camera hosts\n", hosts);
+      const Run sums = run(req + " ! tee name=t" + hosts_into(cam, ""));
+      if (sums.buffers != static_cast<guint64>(frames) * hosts)
+        throw std::runtime_error("partial sums: " + std::to_string(sums.buffers) + " of " +
+                                 std::to_string(frames * hosts) + " expected");
+      sum_bytes = static_cast<double>(sums.bytes) / frames;
+      std::fprintf(stderr,
+                   "lf-baseline: frames from the rig's images: partial sums, per-camera "
+                   "fragments raw and JPEG\n");
+      const std::string still = " mode=dataset";
+      const Run composited = run(req + " ! tee name=t lfcompositor name=c rig=" + rig_path +
+                                 to_i420 + "dec" + hosts_into(still, "c.sink_"));
+      const Run raw = run(req + " ! lfarray rig=" + rig_path + opts + still + to_i420 + "orig");
+      const Run jpg =
+          run(req + " ! lfarray encoding=jpeg rig=" + rig_path + opts + still + to_i420 + "dec");
+      sum_psnr = psnr(raw.orig, composited.dec);
+      camera_psnr = psnr(raw.orig, jpg.dec);
+    }
 
     // The codecs on a sample of the cameras.
     std::vector<int> picks;
@@ -262,6 +328,11 @@ int main(int argc, char** argv) {
     std::printf("\n| design | bytes per output frame | PSNR of the camera images (I420) dB |\n");
     std::printf("|---|---|---|\n");
     std::printf("| fragments, JPEG q%d | %.0f | (the JPEG's) |\n", quality, fragment_bytes);
+    if (hosts > 0)
+      std::printf(
+          "| partial sums of %d hosts (contiguous blocks), JPEG q%d | %.0f (%.2fx the "
+          "fragments) | (the JPEG's) |\n",
+          hosts, quality, sum_bytes, sum_bytes / fragment_bytes);
     std::printf("| all-viewpoints, JPEG q%d | %.0f (%.1fx the fragments) | %.2f |\n", quality,
                 jpeg.bytes_per_frame * n, jpeg.bytes_per_frame * n / fragment_bytes, jpeg.psnr);
     if (h264_bytes > 0)
@@ -274,9 +345,18 @@ int main(int argc, char** argv) {
           "| all-viewpoints, H.264 | the JPEG's PSNR %.2f dB is outside the sweep "
           "(%.2f..%.2f dB) | - |\n",
           jpeg.psnr, h264.front().psnr, h264.back().psnr);
+    if (hosts > 0)
+      std::printf(
+          "\nComposited frames of the rig's own images (no noise) against those of raw "
+          "per-camera fragments (PSNR of I420): per-camera JPEG fragments %.2f dB, partial sums "
+          "%.2f dB.\n",
+          camera_psnr, sum_psnr);
     std::printf("\n## summary\ncameras %d\nfragment-bytes %.0f\njpeg-bytes %.0f\njpeg-psnr %.3f\n",
                 n, fragment_bytes, jpeg.bytes_per_frame * n, jpeg.psnr);
     std::printf("h264-bytes %.0f\n", h264_bytes > 0 ? h264_bytes * n : -1.0);
+    if (hosts > 0)
+      std::printf("sum-hosts %d\nsum-bytes %.0f\nsum-frame-psnr %.3f\ncamera-frame-psnr %.3f\n",
+                  hosts, sum_bytes, sum_psnr, camera_psnr);
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "lf-baseline: error: %s\n", e.what());

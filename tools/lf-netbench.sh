@@ -18,9 +18,14 @@
 #      bytes into the compositor's link against (c)'s, complete frames,
 #      frames identical to (c)'s for the same requests, round trip;
 #  (f) stronger all-viewpoints baselines (tools/lf-baseline, in process): on
-#      the synthetic dynamic scene with sensor noise, fragments (JPEG) against
-#      every camera streaming JPEG or H.264 video at the same PSNR, 4, 16 and
-#      64 cameras.
+#      the synthetic dynamic scene with sensor noise, fragments (JPEG) and
+#      partial sums of 4 hosts (contiguous blocks) against every camera
+#      streaming JPEG or H.264 video at the same PSNR, 4, 16 and 64 cameras;
+#  (g) partial sums in the deployment (net-host.sh PARTIAL_SUMS=1): the
+#      64-camera JPEG run of (c) with each host's fragments added up, and a
+#      camera host killed and restarted, with blocks and with (c)'s
+#      interleaved hosts: bytes, round trip, the pixels a dead host leaves
+#      uncovered.
 # usage: lf-netbench.sh [OUTDIR] [SECONDS per run]   (default out/netbench, 8)
 # Environment: FPS [15], QUALITY [90], WIDTH x HEIGHT [640x480], INPUT_SCALE
 # of the camera images [0.5: 700x400], DATA [../shared/data].
@@ -71,6 +76,14 @@ for f in 0 25 50; do recovery "loss-fec$f" loss FEC=$f; done
 recovery loss-rtx loss RTX=1
 recovery fec25 normal FEC=25
 recovery rtx normal RTX=1
+
+echo "== partial sums, 64 cameras, jpeg ($seconds s; then a host killed, blocks and interleaved)" >&2
+RIG="$out/rig64.json" HOSTS=4 ENCODING=jpeg PARTIAL_SUMS=1 "$root/tools/lf-netem.sh" run "$out/sums64" "$seconds" normal
+"$trace" --cameras 64 --fps "$FPS" "$out"/sums64/*.trace > "$out/sums64.txt"
+for p in 1 0; do
+  RIG="$out/rig64.json" HOSTS=4 ENCODING=jpeg PARTIAL_SUMS=$p "$root/tools/lf-netem.sh" run "$out/kill-sums$p" "$seconds" kill
+  "$trace" --cameras 64 --fps "$FPS" "$out"/kill-sums$p/*.trace > "$out/kill-sums$p.txt"
+done
 
 for n in 4 16 64; do
   echo "== all-viewpoints JPEG and H.264 against fragments, synthetic scene with noise, $n cameras" >&2
@@ -174,15 +187,42 @@ base_bytes=${base% *}; base_cams=${base#* }
   echo "JPEG q$QUALITY; every camera's video through jpegenc q$QUALITY, or openh264enc at the"
   echo "constant quantiser that gives the JPEG's PSNR of the camera images (I420; interpolated"
   echo "between the two nearest QPs of a sweep, keyframe every 2 s), measured on up to 8 cameras"
-  echo "and scaled to all."
+  echo "and scaled to all. Partial sums: 4 camera hosts, each a contiguous block of the grid"
+  echo "(lf-rig --hosts 4), its fragments added up (lfcamerahost partial-sums=true) and sent as one"
+  echo "JPEG q$QUALITY. Frame PSNR: the composited frames of the Chess images (no noise) against"
+  echo "those of raw per-camera fragments, for per-camera JPEG fragments / partial sums."
   echo
-  echo "| cameras | fragments bytes/frame | all-viewpoints JPEG | all-viewpoints H.264, same PSNR | PSNR dB |"
-  echo "|---|---|---|---|---|"
+  echo "| cameras | fragments bytes/frame | partial sums of 4 hosts | all-viewpoints JPEG | all-viewpoints H.264, same PSNR | PSNR dB | frame PSNR dB, per camera / sums |"
+  echo "|---|---|---|---|---|---|---|"
   for n in 4 16 64; do
-    awk -v n=$n -v f="$(key "$out/codec$n.txt" fragment-bytes)" -v j="$(key "$out/codec$n.txt" jpeg-bytes)" \
-      -v h="$(key "$out/codec$n.txt" h264-bytes)" -v p="$(key "$out/codec$n.txt" jpeg-psnr)" \
-      'BEGIN{printf "| %d | %.0f | %.0f (%.1fx the fragments) | %s | %.2f |\n", n, f, j, j / f,
-        (h > 0 ? sprintf("%.0f (%.2fx the fragments)", h, h / f) : "outside the QP sweep"), p}'
+    c="$out/codec$n.txt"
+    awk -v n=$n -v f="$(key "$c" fragment-bytes)" -v j="$(key "$c" jpeg-bytes)" \
+      -v h="$(key "$c" h264-bytes)" -v p="$(key "$c" jpeg-psnr)" -v s="$(key "$c" sum-bytes)" \
+      -v fc="$(key "$c" camera-frame-psnr)" -v fs="$(key "$c" sum-frame-psnr)" \
+      'BEGIN{printf "| %d | %.0f | %.0f (%.2fx the fragments; all-viewpoints JPEG / it: %.1fx) | %.0f (%.1fx the fragments) | %s | %.2f | %.2f / %.2f |\n",
+        n, f, s, s / f, j / s, j, j / f,
+        (h > 0 ? sprintf("%.0f (%.2fx the fragments)", h, h / f) : "outside the QP sweep"), p, fc, fs}'
+  done
+  echo
+  echo "## (g) Partial sums in the deployment, 64 cameras, JPEG"
+  echo
+  echo "net-host.sh PARTIAL_SUMS=1: camera host K serves the K-th 4x4 block of the grid and sends"
+  echo "one sum per request. Kill: camera host 1 killed at 1/3 of the run, restarted at 2/3; filled"
+  echo "pixels: those no fragment covered, taken from the frame before (mean over all frames)."
+  echo
+  echo "| run | fragment bytes in the frames | complete frames | round trip median ms | p95 ms | filled pixels per frame |"
+  echo "|---|---|---|---|---|---|"
+  for r in jpeg64 sums64 kill-sums0 kill-sums1; do
+    case $r in
+      jpeg64) label="per camera, interleaved hosts ((c) above)" ;;
+      sums64) label="partial sums, blocks" ;;
+      kill-sums0) label="per camera, interleaved hosts, a host killed" ;;
+      kill-sums1) label="partial sums, blocks, a host killed" ;;
+    esac
+    echo "| $label | $(key "$out/$r.txt" composited-bytes-per-frame) |" \
+      "$(key "$out/$r.txt" complete) / $(key "$out/$r.txt" composited) |" \
+      "$(key "$out/$r.txt" round-trip-median-ms) | $(key "$out/$r.txt" round-trip-p95-ms) |" \
+      "$(key "$out/$r.txt" filled-pixels-per-frame) |"
   done
 } > "$out/report.md"
 "$trace" --bandwidth-plot "$out/figure6.png" \

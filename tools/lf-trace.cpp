@@ -1,7 +1,9 @@
 // lf-trace: reads the event traces the elements write under LF_TRACE (see
 // gst/lftrace.h for the format) on one or many hosts and prints
-//  * output: requests issued and composited, complete and incomplete, the
-//    longest gap between output frames, a per-second timeline;
+//  * output: requests issued and composited, complete and incomplete (a
+//    partial sum counts its cameras), the longest gap between output
+//    frames, a per-second timeline, the pixels per frame that no fragment
+//    covered (taken from the frame before: filled-pixels-per-frame);
 //  * bandwidth: fragment bytes entering the compositor per output frame
 //    (the paper's Figure 6 quantity);
 //  * latency: round trip (request issued by the viewer -> frame composited)
@@ -99,6 +101,7 @@ struct Fragment {
 };
 struct Request {
   int64_t issued = -1, composited = -1, composite_ns = 0;
+  int64_t filled = 0;  // pixels the compositor took from the last frame (no weight came)
   int fragments = 0;
   uint32_t crc = 0;
   std::map<int, Fragment> cams;
@@ -117,6 +120,8 @@ std::map<Key, Request> collect(const std::vector<Event>& events) {
       r.fragments = static_cast<int>(e.a);
       r.crc = static_cast<uint32_t>(e.b);
       r.composite_ns = e.c;
+    } else if (e.name == "filled") {
+      r.filled = e.a;
     } else if (e.camera >= 0) {
       Fragment& f = r.cams[e.camera];
       if (e.name == "request-in") f.request_in = e.t;
@@ -272,11 +277,13 @@ int main(int argc, char** argv) {
 
     // ---- output -----------------------------------------------------------
     size_t issued = 0, composited = 0, complete = 0;
+    double filled = 0;
     std::vector<int64_t> out_times;
     for (const auto& [k, r] : req) {
       if (r.issued >= 0) ++issued;
       if (r.composited >= 0) {
         ++composited;
+        filled += static_cast<double>(r.filled);
         out_times.push_back(r.composited);
         if (r.fragments >= expected) ++complete;
       }
@@ -480,6 +487,7 @@ int main(int argc, char** argv) {
     std::printf("startup-left-out %zu\n", startup);
     std::printf("max-gap-ms %.2f\nbytes-per-frame %.0f\n", max_gap, mean_bytes);
     std::printf("composited-bytes-per-frame %.0f\n", composited_bytes);
+    std::printf("filled-pixels-per-frame %.0f\n", composited ? filled / composited : 0.0);
     std::printf("round-trip-median-ms %.2f\nround-trip-p95-ms %.2f\n", quantile(rt, 0.5),
                 quantile(rt, 0.95));
     std::printf("capture-spread-max-ms %.3f\ncapture-spread-p95-ms %.3f\nperiod-ms %.3f\n",
