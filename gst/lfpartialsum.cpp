@@ -25,8 +25,10 @@
  * Passed on unchanged, not summed: probe answers (lfcompositor scores each
  * camera's), and the requests some camera answered with two layers (a
  * focal surface's second planes: the compositor's per-pixel choice needs
- * each camera's colours). A malformed fragment is dropped with a
- * rate-limited warning.
+ * each camera's colours). A malformed fragment, a fragment for a frame
+ * larger than the view (the caps' width x height, else 3840 x 2160), and
+ * more fragments for one request than there are sink pads are dropped
+ * with a rate-limited warning; the request is summed from the rest.
  *
  * ## Example launch line
  * |[
@@ -88,8 +90,12 @@ struct Group {
 };
 // At most this many requests wait; beyond, the oldest leaves as it is.
 constexpr size_t kMaxPending = 16;
+// The largest output frame summed before the caps give the view's size
+// (lffragment's default max-pixels): the sums' buffer grows with it.
+constexpr size_t kDefaultMaxArea = size_t{3840} * 2160;
 struct State {
   Settings s;
+  size_t max_area = kDefaultMaxArea;  // the view's area once the caps give it
   std::map<std::pair<uint64_t, uint32_t>, std::unique_ptr<Group>> pending;  // (sequence, viewer)
   lfgst::WarnLimiter bad;
 };
@@ -138,6 +144,11 @@ static gboolean lf_partial_sum_sink_event(GstAggregator* agg, GstAggregatorPad* 
   LfPartialSum* self = LF_PARTIAL_SUM(agg);
   GstCaps* in = nullptr;
   if (GST_EVENT_TYPE(event) == GST_EVENT_CAPS) gst_event_parse_caps(event, &in);
+  gint w = 0, h = 0;
+  State* st = self->priv->state.get();
+  if (in && st && gst_structure_get_int(gst_caps_get_structure(in, 0), "width", &w) &&
+      gst_structure_get_int(gst_caps_get_structure(in, 0), "height", &h) && w > 0 && h > 0)
+    st->max_area = static_cast<size_t>(w) * static_cast<size_t>(h);
   // Caps that carry the view's size and rate (lffragment's once requests
   // came), or the first caps.
   if (in && (gst_structure_has_field(gst_caps_get_structure(in, 0), "width") ||
@@ -158,8 +169,10 @@ static GstFlowReturn forward(LfPartialSum* self, GstBuffer* buf) {
   return gst_aggregator_finish_buffer(GST_AGGREGATOR(self), gst_buffer_ref(buf));
 }
 
-// Files one buffer under its request, or passes it on (probe answers).
-static GstFlowReturn absorb(LfPartialSum* self, GstAggregatorPad* pad, GstBuffer* buf) {
+// Files one buffer under its request, or passes it on (probe answers). A
+// request holds at most one fragment per camera and `npads` in all.
+static GstFlowReturn absorb(LfPartialSum* self, GstAggregatorPad* pad, GstBuffer* buf,
+                            size_t npads) {
   State* st = self->priv->state.get();
   lf::FragmentHeader head;
   GError* err = nullptr;
@@ -181,6 +194,14 @@ static GstFlowReturn absorb(LfPartialSum* self, GstAggregatorPad* pad, GstBuffer
   auto& slot = st->pending[{head.sequence, head.viewer_id}];
   if (!slot) slot = std::make_unique<Group>();
   Group& g = *slot;
+  if (g.buffers.size() >= npads) {
+    LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE, ("Dropping a fragment"),
+                               "request %" G_GUINT64_FORMAT
+                               " has %zu fragments already, one per "
+                               "sink pad (camera %u)",
+                               head.sequence, g.buffers.size(), head.camera_id);
+    return GST_FLOW_OK;
+  }
   if (!g.cameras.insert(head.camera_id).second) return GST_FLOW_OK;  // a duplicate
   g.buffers.push_back(gst_buffer_ref(buf));
   g.layered |= head.size() < size;
@@ -200,23 +221,38 @@ static GstFlowReturn emit(LfPartialSum* self, Group& g) {
     return ret;
   }
   const gint64 t0 = g_get_monotonic_time();
-  std::vector<lfgst::MappedBuffer> maps;
+  std::vector<std::unique_ptr<lfgst::MappedBuffer>> maps;
   std::vector<lf::Fragment> parts(g.buffers.size());
   std::vector<lf::FragmentPixels> in;
   std::vector<uint8_t> bytes;
   lf::Fragment sum;
   GError* err = nullptr;
+  // Each fragment checked on its own (a bad one is left out, not the
+  // request): for a frame no larger than the view's.
+  for (size_t i = 0; i < g.buffers.size(); ++i) {
+    if (!lfgst::guard(
+            [&] {
+              auto m = std::make_unique<lfgst::MappedBuffer>(g.buffers[i], GST_MAP_READ);
+              const uint8_t* px = nullptr;
+              const bool sealed = lfgst::has_sealed_meta(g.buffers[i]);
+              parts[i] = lf::parse_fragment_in_place(m->data(), m->size(), &px, nullptr,
+                                                     st->max_area, !sealed);
+              const size_t area = static_cast<size_t>(parts[i].out_width) * parts[i].out_height;
+              if (area > st->max_area)
+                throw lf::WireError("fragment: a frame of " + std::to_string(area) +
+                                    " pixels, over the view's " + std::to_string(st->max_area));
+              in.push_back({&parts[i], px});
+              maps.push_back(std::move(m));
+            },
+            &err)) {
+      LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE, ("Dropping a malformed fragment"),
+                                 "%s", err->message);
+      g_clear_error(&err);
+    }
+  }
+  if (in.empty()) return GST_FLOW_OK;
   if (!lfgst::guard(
           [&] {
-            maps.reserve(g.buffers.size());
-            for (size_t i = 0; i < g.buffers.size(); ++i) {
-              maps.emplace_back(g.buffers[i], GST_MAP_READ);
-              const uint8_t* px = nullptr;
-              parts[i] = lf::parse_fragment_in_place(maps[i].data(), maps[i].size(), &px, nullptr,
-                                                     lf::kMaxFragmentPixels,
-                                                     !lfgst::has_sealed_meta(g.buffers[i]));
-              in.push_back({&parts[i], px});
-            }
             sum = lf::sum_fragments(in);
             bytes =
                 lf::serialize_fragment(sum, lfgst::wire_encoding(st->s.encoding), st->s.quality);
@@ -272,7 +308,7 @@ static GstFlowReturn lf_partial_sum_aggregate(GstAggregator* agg, gboolean timeo
   for (GList* l = pads; l && ret == GST_FLOW_OK; l = l->next) {
     GstAggregatorPad* pad = GST_AGGREGATOR_PAD(l->data);
     while (GstBuffer* buf = gst_aggregator_pad_pop_buffer(pad)) {
-      ret = absorb(self, pad, buf);
+      ret = absorb(self, pad, buf, npads);
       gst_buffer_unref(buf);
       if (!live || ret != GST_FLOW_OK) break;
     }

@@ -657,6 +657,56 @@ TEST_F(Harness, CompositorCapsAndBadInput) {
   gst_harness_teardown(h);
 }
 
+// lfpartialsum on one camera's pad: garbage and a fragment for a frame
+// larger than the view (the caps' 80x60) are dropped with a warning, not
+// summed; a real fragment comes out as its own sum (one camera: a plain
+// version-1 fragment, the same sums), with its PTS.
+TEST_F(Harness, PartialSumDropsBadFragmentsAndSumsTheRest) {
+  GstElement* el = gst_element_factory_make("lfpartialsum", nullptr);
+  GstHarness* h = gst_harness_new_with_element(el, "sink_0", "src");
+  gst_object_unref(el);
+  gst_harness_set_live(h, FALSE);
+  gst_harness_set_src_caps_str(h, "application/x-lf-fragment,encoding=raw,width=80,height=60");
+  EXPECT_EQ(gst_harness_push(h, bytes({'L', 'F', 'F', 'R', 0, 1}, 0)), GST_FLOW_OK);
+  const lf::ViewRequest req = request(7);
+  const lf::ViewGeometry g(rig_, req);
+  lf::Fragment f;
+  f.viewer_id = req.viewer_id;
+  f.sequence = 7;
+  f.camera_id = rig_.cameras[2].id;
+  lf::render_fragment(lf::plan_fragment(g, 2), rig_.cameras[2],
+                      lf::SyntheticScene::for_rig(rig_).render(rig_.cameras[2], 0.0), f);
+  ASSERT_FALSE(f.empty());
+  lf::Fragment huge = f;  // the same pixels, claimed for a 4000x4000 frame
+  huge.sequence = 6;
+  huge.out_width = huge.out_height = 4000;
+  EXPECT_EQ(gst_harness_push(h, bytes(lf::serialize_fragment(huge, lf::Encoding::kRaw), 1)),
+            GST_FLOW_OK);
+  ASSERT_EQ(
+      gst_harness_push(h, bytes(lf::serialize_fragment(f, lf::Encoding::kRaw), 2 * GST_SECOND)),
+      GST_FLOW_OK);
+  GstBuffer* out = gst_harness_pull(h);
+  ASSERT_NE(out, nullptr);
+  EXPECT_EQ(GST_BUFFER_PTS(out), 2 * GST_SECOND);
+  const lf::Fragment sum = parsed_fragment(out);
+  EXPECT_EQ(sum.sequence, 7u);
+  EXPECT_EQ(sum.cameras, 1);
+  // Trimmed of the pixels of weight 0, else the same sums everywhere.
+  EXPECT_TRUE((sum.rect & f.rect) == sum.rect);
+  lf::Compositor a, b;
+  a.reset(80, 60), b.reset(80, 60);
+  a.add(sum), b.add(f);
+  for (int y = 0; y < 60; ++y)
+    for (int x = 0; x < 80; ++x)
+      ASSERT_EQ(std::memcmp(a.sums_at(x, y), b.sums_at(x, y), 16), 0) << x << "," << y;
+  gst_buffer_unref(out);
+  EXPECT_EQ(gst_harness_try_pull(h), nullptr) << "nothing from the bad buffers";
+  guint64 sums = 0;
+  g_object_get(h->element, "sums", &sums, nullptr);
+  EXPECT_EQ(sums, 1u);
+  gst_harness_teardown(h);
+}
+
 // Raw fragments made in this process carry LfSealedMeta; lfcompositor skips
 // their CRC (the bytes never left the process) and nothing else. The meta
 // does not survive a copy, so a copied (or received) buffer is checked in
