@@ -160,7 +160,7 @@ struct Point {
 
 int main(int argc, char** argv) {
   gchar *rig_opt = nullptr, *qp_opt = nullptr, *size_opt = nullptr;
-  gint frames = 45, quality = 90, sample = 8, fps = 15, hosts = 4;
+  gint frames = 45, quality = 90, sample = 8, fps = 15, hosts = 4, sum_quality = 0;
   gdouble noise = 2.0;
   GOptionEntry entries[] = {
       {"rig", 0, 0, G_OPTION_ARG_STRING, &rig_opt, "Rig file (.json) or dataset folder", "PATH"},
@@ -179,6 +179,8 @@ int main(int argc, char** argv) {
       {"hosts", 0, 0, G_OPTION_ARG_INT, &hosts,
        "Camera hosts for the partial sums, contiguous blocks of the grid (default 4; 0: none)",
        "N"},
+      {"sum-quality", 0, 0, G_OPTION_ARG_INT, &sum_quality,
+       "JPEG quality of the partial sums (default: --quality)", "Q"},
       {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
   GOptionContext* ctx = g_option_context_new(nullptr);
   g_option_context_set_summary(
@@ -198,6 +200,8 @@ int main(int argc, char** argv) {
     if (!rig_opt) throw std::invalid_argument("--rig is required");
     if (frames < 10 || frames > 1000) throw std::invalid_argument("--frames: 10..1000");
     if (quality < 1 || quality > 100) throw std::invalid_argument("--quality: 1..100");
+    if (sum_quality == 0) sum_quality = quality;
+    if (sum_quality < 1 || sum_quality > 100) throw std::invalid_argument("--sum-quality: 1..100");
     const std::string rig_path = rig_opt;
     const lf::Rig rig = lf::load_rig_or_dataset(rig_path);
     const int n = static_cast<int>(rig.cameras.size());
@@ -238,7 +242,12 @@ int main(int argc, char** argv) {
                               " height=" + std::to_string(H);
       const std::string to_i420 =
           " ! videoconvert ! video/x-raw,format=I420 ! appsink sync=false name=";
-      const std::string opts = " frame-select=capture-time jpeg-quality=" + std::to_string(quality);
+      // A minute for a camera's first frame: 64 cameras decoding their
+      // stills on two cores take longer than lffragment's default second,
+      // and a request dropped for want of a frame would be a frame short.
+      const std::string wait = " frame-select=capture-time frame-timeout=60000000000";
+      const std::string opts = wait + " jpeg-quality=" + std::to_string(quality);
+      const std::string sum_opts = wait + " jpeg-quality=" + std::to_string(sum_quality);
       // The hosts: "! identity name=bytesK ! SINK" after each.
       auto hosts_into = [&](const std::string& camera, const std::string& sink) {
         std::string d;
@@ -248,8 +257,8 @@ int main(int argc, char** argv) {
             if (host[i] == k) list += (list.empty() ? "" : ",") + std::to_string(i);
           const std::string kk = std::to_string(k);
           d += " t. ! queue ! lfcamerahost rig=" + rig_path + " cameras=" + list +
-               " partial-sums=true encoding=jpeg" + opts + camera + " ! identity name=bytes" + kk +
-               " ! " + (sink.empty() ? "fakesink sync=false async=false" : sink + kk);
+               " partial-sums=true encoding=jpeg" + sum_opts + camera + " ! identity name=bytes" +
+               kk + " ! " + (sink.empty() ? "fakesink sync=false async=false" : sink + kk);
         }
         return d;
       };
@@ -332,7 +341,7 @@ int main(int argc, char** argv) {
       std::printf(
           "| partial sums of %d hosts (contiguous blocks), JPEG q%d | %.0f (%.2fx the "
           "fragments) | (the JPEG's) |\n",
-          hosts, quality, sum_bytes, sum_bytes / fragment_bytes);
+          hosts, sum_quality, sum_bytes, sum_bytes / fragment_bytes);
     std::printf("| all-viewpoints, JPEG q%d | %.0f (%.1fx the fragments) | %.2f |\n", quality,
                 jpeg.bytes_per_frame * n, jpeg.bytes_per_frame * n / fragment_bytes, jpeg.psnr);
     if (h264_bytes > 0)
