@@ -76,6 +76,7 @@
 #include "lf/probe_bundle.h"
 #include "lf/surface_probe.h"
 #include "lf/wire.h"
+#include "lfaggregate.h"
 #include "lfbackend.h"
 #include "lfcaps.h"
 #include "lfguard.h"
@@ -913,28 +914,13 @@ static int64_t queued_sequence(GstBuffer* buf) {
   return seq;
 }
 
-// The running time now on the element's clock, or GST_CLOCK_TIME_NONE.
-static GstClockTime running_now(GstElement* e) {
-  GstClock* clock = gst_element_get_clock(e);
-  if (!clock) return GST_CLOCK_TIME_NONE;
-  const GstClockTime now = gst_clock_get_time(clock);
-  gst_object_unref(clock);
-  const GstClockTime base = gst_element_get_base_time(e);
-  return now > base ? now - base : 0;
-}
-
 static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeout) {
   LfCompositor* self = LF_COMPOSITOR(agg);
   State* st = self->priv->state.get();
   // `stereo` may change while playing: the requests from here on follow it.
   st->s.stereo = lfgst::read_setting(GST_OBJECT(self), self->priv->settings, &Settings::stereo);
   bool all_eos = true;
-  GList* pads;
-  GST_OBJECT_LOCK(self);
-  pads = g_list_copy(GST_ELEMENT(self)->sinkpads);
-  g_list_foreach(
-      pads, [](gpointer p, gpointer) { gst_object_ref(p); }, nullptr);
-  GST_OBJECT_UNLOCK(self);
+  GList* pads = lfgst::ref_sink_pads(GST_ELEMENT(self));
   // Not live: one buffer per pad per call, so pads stay in step (a pop
   // unblocks the upstream push, so popping in a loop would race ahead on
   // fast pads). Live: every fragment queued so far, at most one request's
@@ -954,7 +940,7 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
   }
   // `timeout` also comes when a fragment arrived (get_next_time()); the
   // deadline is the oldest pending request's running time plus the latency.
-  const GstClockTime now = timeout ? running_now(GST_ELEMENT(agg)) : GST_CLOCK_TIME_NONE;
+  const GstClockTime now = timeout ? lfgst::running_now(GST_ELEMENT(agg)) : GST_CLOCK_TIME_NONE;
   auto past_deadline = [&](GstClockTime rt) {
     return timeout && (!GST_CLOCK_TIME_IS_VALID(rt) || !GST_CLOCK_TIME_IS_VALID(now) || !live ||
                        now >= rt + latency);
@@ -1034,15 +1020,7 @@ static GstClockTime lf_compositor_get_next_time(GstAggregator* agg) {
   // A fragment waiting in a pad: running time 0, so 0 + latency, a time
   // already past once the run is that old. (gst_aggregator_get_latency()
   // would deadlock here: the caller holds the aggregator's source lock.)
-  bool queued = false;
-  GST_OBJECT_LOCK(self);
-  for (GList* l = GST_ELEMENT(self)->sinkpads; l && !queued; l = l->next)
-    if (GstBuffer* b = gst_aggregator_pad_peek_buffer(GST_AGGREGATOR_PAD(l->data))) {
-      queued = true;
-      gst_buffer_unref(b);
-    }
-  GST_OBJECT_UNLOCK(self);
-  if (queued) return 0;
+  if (lfgst::any_pad_queued(GST_ELEMENT(self))) return 0;
   // Else the oldest pending request (aggregate() runs on this same thread).
   GstClockTime t = GST_CLOCK_TIME_NONE;
   if (State* st = self->priv->state.get())

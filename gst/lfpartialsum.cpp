@@ -49,6 +49,7 @@
 #include "lf/composite.h"
 #include "lf/probe_bundle.h"
 #include "lf/wire.h"
+#include "lfaggregate.h"
 #include "lfbackend.h"
 #include "lfcaps.h"
 #include "lfguard.h"
@@ -278,30 +279,14 @@ static GstFlowReturn emit(LfPartialSum* self, Group& g) {
   return gst_aggregator_finish_buffer(GST_AGGREGATOR(self), out);
 }
 
-// The running time now on the element's clock, or GST_CLOCK_TIME_NONE.
-static GstClockTime running_now(GstElement* e) {
-  GstClock* clock = gst_element_get_clock(e);
-  if (!clock) return GST_CLOCK_TIME_NONE;
-  const GstClockTime now = gst_clock_get_time(clock);
-  gst_object_unref(clock);
-  const GstClockTime base = gst_element_get_base_time(e);
-  return now > base ? now - base : 0;
-}
-
 static GstFlowReturn lf_partial_sum_aggregate(GstAggregator* agg, gboolean timeout) {
   LfPartialSum* self = LF_PARTIAL_SUM(agg);
   State* st = self->priv->state.get();
   GstFlowReturn ret = GST_FLOW_OK;
   const GstClockTime latency = gst_aggregator_get_latency(agg);
   const bool live = GST_CLOCK_TIME_IS_VALID(latency);
-  GList* pads;
-  GST_OBJECT_LOCK(self);
-  pads = g_list_copy_deep(
-      GST_ELEMENT(self)->sinkpads,
-      [](gconstpointer p, gpointer) -> gpointer { return gst_object_ref(const_cast<gpointer>(p)); },
-      nullptr);
-  const size_t npads = GST_ELEMENT(self)->numsinkpads;
-  GST_OBJECT_UNLOCK(self);
+  size_t npads = 0;
+  GList* pads = lfgst::ref_sink_pads(GST_ELEMENT(self), &npads);
   // Not live: a buffer per pad per call, the pads in step. Live: every
   // buffer queued (each pad is one camera; the deadline paces them).
   bool all_eos = true;
@@ -315,7 +300,8 @@ static GstFlowReturn lf_partial_sum_aggregate(GstAggregator* agg, gboolean timeo
     if (!gst_aggregator_pad_is_eos(pad)) all_eos = false;
   }
   g_list_free_full(pads, gst_object_unref);
-  const GstClockTime now = timeout && live ? running_now(GST_ELEMENT(agg)) : GST_CLOCK_TIME_NONE;
+  const GstClockTime now =
+      timeout && live ? lfgst::running_now(GST_ELEMENT(agg)) : GST_CLOCK_TIME_NONE;
   // Requests in order: complete ones, and at its deadline (or at the end,
   // or with too many waiting) an incomplete one, summed from what came.
   while (!st->pending.empty() && ret == GST_FLOW_OK) {
@@ -340,12 +326,7 @@ static GstFlowReturn lf_partial_sum_aggregate(GstAggregator* agg, gboolean timeo
 // request's deadline (the aggregator adds its latency), else on data.
 static GstClockTime lf_partial_sum_get_next_time(GstAggregator* agg) {
   LfPartialSum* self = LF_PARTIAL_SUM(agg);
-  bool queued = false;
-  GST_OBJECT_LOCK(self);
-  for (GList* l = GST_ELEMENT(self)->sinkpads; l && !queued; l = l->next)
-    queued = gst_aggregator_pad_has_buffer(GST_AGGREGATOR_PAD(l->data));
-  GST_OBJECT_UNLOCK(self);
-  if (queued) return 0;
+  if (lfgst::any_pad_queued(GST_ELEMENT(self))) return 0;
   GstClockTime t = GST_CLOCK_TIME_NONE;
   if (State* st = self->priv->state.get())
     for (const auto& entry : st->pending) {

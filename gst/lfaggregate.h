@@ -1,0 +1,46 @@
+// Helpers shared by the collection's aggregators (lfcompositor,
+// lfpartialsum: GstAggregator subclasses that collect the fragments of each
+// view request and emit it when complete or at its deadline).
+#pragma once
+
+#include <gst/base/gstaggregator.h>
+#include <gst/gst.h>
+
+namespace lfgst {
+
+// The running time now on the element's clock, or GST_CLOCK_TIME_NONE
+// without a clock.
+inline GstClockTime running_now(GstElement* e) {
+  GstClock* clock = gst_element_get_clock(e);
+  if (!clock) return GST_CLOCK_TIME_NONE;
+  const GstClockTime now = gst_clock_get_time(clock);
+  gst_object_unref(clock);
+  const GstClockTime base = gst_element_get_base_time(e);
+  return now > base ? now - base : 0;
+}
+
+// Whether any sink pad of the aggregator holds a queued buffer (takes the
+// object lock; safe from get_next_time, unlike gst_aggregator_get_latency).
+inline bool any_pad_queued(GstElement* e) {
+  bool queued = false;
+  GST_OBJECT_LOCK(e);
+  for (GList* l = e->sinkpads; l && !queued; l = l->next)
+    queued = gst_aggregator_pad_has_buffer(GST_AGGREGATOR_PAD(l->data));
+  GST_OBJECT_UNLOCK(e);
+  return queued;
+}
+
+// The sink pads, each with a reference of its own (free the list with
+// g_list_free_full(list, gst_object_unref)), and their number.
+inline GList* ref_sink_pads(GstElement* e, size_t* count = nullptr) {
+  GST_OBJECT_LOCK(e);
+  GList* pads = g_list_copy_deep(
+      e->sinkpads,
+      [](gconstpointer p, gpointer) -> gpointer { return gst_object_ref(const_cast<gpointer>(p)); },
+      nullptr);
+  if (count) *count = e->numsinkpads;
+  GST_OBJECT_UNLOCK(e);
+  return pads;
+}
+
+}  // namespace lfgst
