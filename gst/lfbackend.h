@@ -10,6 +10,7 @@
 
 #include "lf/gl_render.h"
 #include "lf/wire.h"
+#include "lfcaps.h"
 #include "lfguard.h"
 #include "lfprops.h"
 
@@ -20,6 +21,14 @@ namespace lfgst {
 enum class FragmentEncoding { kRaw = 0, kJpeg = 1 };
 inline lf::Encoding wire_encoding(FragmentEncoding e) {
   return e == FragmentEncoding::kJpeg ? lf::Encoding::kJpeg : lf::Encoding::kRaw;
+}
+// Fragment caps of that encoding with the stream facts of `from` (the
+// request rate and view size, lfcaps.h).
+inline GstCaps* fragment_caps(FragmentEncoding e, const GstCaps* from) {
+  GstCaps* caps = gst_caps_new_simple("application/x-lf-fragment", "encoding", G_TYPE_STRING,
+                                      e == FragmentEncoding::kJpeg ? "jpeg" : "raw", nullptr);
+  copy_stream_facts(from, caps);
+  return caps;
 }
 inline GType fragment_encoding_type() {
   static GType type = 0;

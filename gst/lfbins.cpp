@@ -376,11 +376,12 @@ static bool build(LfCameraHost* self) {
                   } else if (sums) {
                     sum = out;
                   }
-                  if (sum) g_object_set(sum, "latency", sum_latency, nullptr);
-                  if (sum)
+                  if (sum) {
+                    g_object_set(sum, "latency", sum_latency, nullptr);
                     for (auto& [f, v] : values)
                       if (g_str_equal(f.name, "encoding") || g_str_equal(f.name, "jpeg-quality"))
                         g_object_set_property(G_OBJECT(sum), f.name, &v);
+                  }
                   auto apply = [&](GstElement* e, GType type) {
                     // `backend` is the fragments' and, in lfarray, the compositor's.
                     for (auto& [f, v] : values)

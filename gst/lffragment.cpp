@@ -303,9 +303,7 @@ static gboolean lf_fragment_request_event(GstPad* pad, GstObject* parent, GstEve
       gst_event_parse_caps(event, &in);
       const Encoding enc =
           lfgst::read_setting(GST_OBJECT(self), self->priv->settings, &Settings::encoding);
-      GstCaps* caps = gst_caps_new_simple("application/x-lf-fragment", "encoding", G_TYPE_STRING,
-                                          enc == Encoding::kJpeg ? "jpeg" : "raw", nullptr);
-      lfgst::copy_stream_facts(in, caps);
+      GstCaps* caps = lfgst::fragment_caps(enc, in);
       gst_event_unref(event);
       const gboolean ok = gst_pad_push_event(self->srcpad, gst_event_new_caps(caps));
       gst_caps_unref(caps);

@@ -41,7 +41,6 @@
 
 #include <map>
 #include <memory>
-#include <optional>
 #include <set>
 #include <utility>
 #include <vector>
@@ -145,21 +144,17 @@ static gboolean lf_partial_sum_sink_event(GstAggregator* agg, GstAggregatorPad* 
   LfPartialSum* self = LF_PARTIAL_SUM(agg);
   GstCaps* in = nullptr;
   if (GST_EVENT_TYPE(event) == GST_EVENT_CAPS) gst_event_parse_caps(event, &in);
+  const GstStructure* s = in && gst_caps_get_size(in) > 0 ? gst_caps_get_structure(in, 0) : nullptr;
   gint w = 0, h = 0;
   State* st = self->priv->state.get();
-  if (in && st && gst_structure_get_int(gst_caps_get_structure(in, 0), "width", &w) &&
-      gst_structure_get_int(gst_caps_get_structure(in, 0), "height", &h) && w > 0 && h > 0)
-    st->max_area = static_cast<size_t>(w) * static_cast<size_t>(h);
+  const bool sized = s && gst_structure_get_int(s, "width", &w) &&
+                     gst_structure_get_int(s, "height", &h) && w > 0 && h > 0;
+  if (sized && st) st->max_area = static_cast<size_t>(w) * static_cast<size_t>(h);
   // Caps that carry the view's size and rate (lffragment's once requests
   // came), or the first caps.
-  if (in && (gst_structure_has_field(gst_caps_get_structure(in, 0), "width") ||
-             !gst_pad_has_current_caps(GST_AGGREGATOR_SRC_PAD(agg)))) {
-    const lfgst::FragmentEncoding enc =
-        lfgst::read_setting(GST_OBJECT(self), self->priv->settings, &Settings::encoding);
-    GstCaps* caps =
-        gst_caps_new_simple("application/x-lf-fragment", "encoding", G_TYPE_STRING,
-                            enc == lfgst::FragmentEncoding::kJpeg ? "jpeg" : "raw", nullptr);
-    lfgst::copy_stream_facts(in, caps);
+  if (s && (sized || !gst_pad_has_current_caps(GST_AGGREGATOR_SRC_PAD(agg)))) {
+    GstCaps* caps = lfgst::fragment_caps(
+        lfgst::read_setting(GST_OBJECT(self), self->priv->settings, &Settings::encoding), in);
     gst_aggregator_set_src_caps(agg, caps);
     gst_caps_unref(caps);
   }

@@ -215,12 +215,14 @@ int main(int argc, char** argv) {
                             " framerate=" + std::to_string(fps) + "/1";
 
     // Fragments: every camera answers every request.
+    // The requests: the same orbit for every design.
+    const std::string req = "lfviewrequest rig=" + rig_path + " framerate=" + std::to_string(fps) +
+                            "/1 num-buffers=" + std::to_string(frames) +
+                            " orbit=0.6 dolly=15 path-frames=120 width=" + std::to_string(W) +
+                            " height=" + std::to_string(H);
     std::fprintf(stderr, "lf-baseline: fragments from %d cameras (%d requests)\n", n, frames);
     const Run fr =
-        run("lfviewrequest rig=" + rig_path + " framerate=" + std::to_string(fps) +
-            "/1 num-buffers=" + std::to_string(frames) +
-            " orbit=0.6 dolly=15 path-frames=120 width=" + std::to_string(W) +
-            " height=" + std::to_string(H) + " ! lfcamerahost rig=" + rig_path +
+        run(req + " ! lfcamerahost rig=" + rig_path +
             " frame-select=capture-time encoding=jpeg jpeg-quality=" + std::to_string(quality) +
             cam + " ! identity name=bytes ! fakesink sync=false async=false");
     if (fr.buffers != static_cast<guint64>(frames) * n)
@@ -235,11 +237,6 @@ int main(int argc, char** argv) {
     if (hosts > 0) {
       if (hosts > n) throw std::invalid_argument("--hosts: at most the rig's cameras");
       const std::vector<int> host = lf::host_blocks(rig, hosts);
-      const std::string req = "lfviewrequest rig=" + rig_path +
-                              " framerate=" + std::to_string(fps) +
-                              "/1 num-buffers=" + std::to_string(frames) +
-                              " orbit=0.6 dolly=15 path-frames=120 width=" + std::to_string(W) +
-                              " height=" + std::to_string(H);
       const std::string to_i420 =
           " ! videoconvert ! video/x-raw,format=I420 ! appsink sync=false name=";
       // A minute for a camera's first frame: 64 cameras decoding their

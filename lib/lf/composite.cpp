@@ -48,17 +48,22 @@ void Compositor::add(const Fragment& f, const uint8_t* pixels) {
 
 // Rows [r0, r1) of the fragment (relative to its rect); `pixels` points at
 // row r0's first pixel.
+// Adds n values of a fragment into sums; a partial sum's values are its
+// sums >> shift (Fragment::weight_shift).
+static inline void accumulate(uint32_t* acc, const uint8_t* px, int n, int shift) {
+  if (shift == 0)
+    for (int i = 0; i < n; ++i) acc[i] += px[i];
+  else
+    for (int i = 0; i < n; ++i) acc[i] += static_cast<uint32_t>(px[i]) << shift;
+}
+
 void Compositor::add_rows(const Fragment& f, const uint8_t* pixels, int r0, int r1) {
   const uint8_t* px = pixels;
-  const int shift = f.weight_shift;  // a partial sum's pixels are sums >> shift
   for (int r = r0; r < r1; ++r) {
     const int b = f.spans[r][0], e = f.spans[r][1];
-    uint32_t* acc = acc_.data() + (static_cast<size_t>(f.rect.y + r) * w_ + b) * 4;
     const int n = 4 * (e - b);
-    if (shift == 0)
-      for (int i = 0; i < n; ++i) acc[i] += px[i];
-    else
-      for (int i = 0; i < n; ++i) acc[i] += static_cast<uint32_t>(px[i]) << shift;
+    accumulate(acc_.data() + (static_cast<size_t>(f.rect.y + r) * w_ + b) * 4, px, n,
+               f.weight_shift);
     px += n;
   }
 }
@@ -255,7 +260,6 @@ Fragment sum_fragments(const std::vector<FragmentPixels>& fragments) {
   out.camera_id = first->camera_id, out.capture_time_ns = first->capture_time_ns;
   out.layer = first->layer;
   out.out_width = first->out_width, out.out_height = first->out_height;
-  out.cameras = 0;
   size_t cameras = 0;
   cv::Rect rect;
   for (const FragmentPixels& fp : fragments) {
@@ -303,11 +307,8 @@ Fragment sum_fragments(const std::vector<FragmentPixels>& fragments) {
       const auto& s = f.spans[r];
       const int n = 4 * (s[1] - s[0]);
       const int orow = f.rect.y - rect.y + r;
-      uint32_t* a = acc.data() + row_start[orow] + 4 * (s[0] - out.spans[orow][0]);
-      if (f.weight_shift == 0)
-        for (int i = 0; i < n; ++i) a[i] += px[i];
-      else
-        for (int i = 0; i < n; ++i) a[i] += static_cast<uint32_t>(px[i]) << f.weight_shift;
+      accumulate(acc.data() + row_start[orow] + 4 * (s[0] - out.spans[orow][0]), px, n,
+                 f.weight_shift);
       px += n;
     }
   }

@@ -79,19 +79,20 @@ class Compositor {
 // pixel, the sums of the fragments' premultiplied colour and weight. Each
 // row's span is the hull of theirs (pixels between two fragments' spans
 // are 0, no weight), trimmed to its first and last pixel with a nonzero
-// sum, and its rect bounds those spans; `cameras` is the sum of
-// theirs, and weight_shift the least s that stores every sum as
-// (sum + 2^(s-1)) >> s within 255 (Fragment::weight_shift); each level of
-// s loses one bit of the sums (at most 2^(s-1) per value). Where every sum
-// is within 255, Compositor gives the same frame bit for bit from the sum
-// as from its parts. Tags (viewer, sequence, capture time,
-// output size, layer) come from the first fragment; camera_id is the
-// first fragment's (the sum's name). Empty fragments add cameras only.
-// Sums over 255 by no more than the cameras' rounding (each camera's 8-bit
-// weight is off by up to half a level, so weights that add up to 1 give up
-// to 255 + cameras / 2) need no shift: those pixels' four sums are scaled
-// to 255 instead (their ratio, the colour, kept within a level; their
-// weight, against other hosts' at the same pixel, within 1 %).
+// sum, and its rect bounds those spans; `cameras` is the sum of theirs.
+// Tags (viewer, sequence, capture time, output size, layer) come from the
+// first fragment; camera_id is the first fragment's (the sum's name).
+// Empty fragments add cameras only.
+// Values: where every sum is within 255, the sums themselves, and
+// Compositor gives the same frame bit for bit from the sum as from its
+// parts. Sums over 255 by no more than the cameras' rounding (each
+// camera's 8-bit weight is off by up to half a level, so weights that add
+// up to 1 give up to 255 + cameras / 2) are scaled to 255 at that pixel
+// (the ratio, the colour, kept within a level; the weight, against other
+// hosts' at the same pixel, within 1 %). Larger sums (a wide aperture)
+// take weight_shift s, the least that stores every sum as
+// (sum + 2^(s-1)) >> s within that bound (Fragment::weight_shift); each
+// level of s loses one bit of the sums (at most 2^(s-1) per value).
 // Throws std::invalid_argument for no fragments, fragments of different
 // requests, output sizes or layers, a fragment that Compositor::add()
 // refuses, or more than kMaxSummedCameras cameras.

@@ -61,6 +61,13 @@ class Reader {
     std::memcpy(&d, &v, 8);
     return d;
   }
+  // The next k bytes, in place.
+  const uint8_t* take(size_t k) {
+    need(k);
+    const uint8_t* at = p_ + pos_;
+    pos_ += k;
+    return at;
+  }
   void bytes(uint8_t* to, size_t k) {
     need(k);
     if (k) std::memcpy(to, p_ + pos_, k);  // an empty vector's data() may be null
@@ -545,8 +552,7 @@ Fragment parse_fragment_impl(const uint8_t* data, size_t size, Encoding* enc_out
     const uint32_t n = p.u32();
     if (n > psize - p.pos())
       bad_fragment("deflated spans of " + std::to_string(n) + " bytes exceed the payload");
-    std::vector<uint8_t> packed(n);
-    p.bytes(packed.data(), n);
+    const uint8_t* packed = p.take(n);
     inflated.resize(4 * static_cast<size_t>(h));
     struct Deleter {
       void operator()(libdeflate_decompressor* d) const { libdeflate_free_decompressor(d); }
@@ -555,8 +561,8 @@ Fragment parse_fragment_impl(const uint8_t* data, size_t size, Encoding* enc_out
         libdeflate_alloc_decompressor());
     if (!d) throw std::runtime_error("libdeflate: cannot make a decompressor");
     size_t got = 0;
-    if (libdeflate_deflate_decompress(d.get(), packed.data(), n, inflated.data(), inflated.size(),
-                                      &got) != LIBDEFLATE_SUCCESS ||
+    if (libdeflate_deflate_decompress(d.get(), packed, n, inflated.data(), inflated.size(), &got) !=
+            LIBDEFLATE_SUCCESS ||
         got != inflated.size())
       bad_fragment("deflated spans do not inflate to " + std::to_string(inflated.size()) +
                    " bytes");
