@@ -5,7 +5,10 @@
  * One camera of a light field rig as a video source (`video/x-raw`, RGBA, the
  * rig's image size). `mode=dataset`: the camera's still image from the rig,
  * repeated (decoded from start on, beside the other cameras' stills: a
- * missing file fails the start, one that does not decode the first frame);
+ * missing file fails the start, one that does not decode the first frame;
+ * decoded stills are kept in `still-cache`, by default
+ * $XDG_CACHE_HOME/lightfield-gst/stills, at most 1 GiB, so that a restart
+ * reads them in milliseconds instead of decoding again: lib/lf/still_cache.h);
  * `mode=synthetic`: a dynamic scene with known depths ray-cast from
  * the camera's calibration (lib/lf/synthetic.h); `mode=file`: a video file or
  * image sequence (`location`) through GStreamer's decoders; `mode=v4l2`: a
@@ -43,6 +46,7 @@
 #include <opencv2/imgproc.hpp>
 #include <thread>
 
+#include "lf/still_cache.h"
 #include "lf/synthetic.h"
 #include "lfclock.h"
 #include "lfguard.h"
@@ -71,6 +75,13 @@ enum class Mode { kDataset = 0, kSynthetic = 1, kFile = 2, kV4l2 = 3 };
 #define DEFAULT_DEVICE "/dev/video0"
 #define DEFAULT_LOOP FALSE
 #define DEFAULT_NOISE 0.0
+
+// Decoded stills (mode=dataset) are kept in $XDG_CACHE_HOME/lightfield-gst/stills.
+static std::string default_still_cache() {
+  static const std::string dir = std::string(g_get_user_cache_dir()) + G_DIR_SEPARATOR_S
+                                 "lightfield-gst" G_DIR_SEPARATOR_S "stills";
+  return dir;
+}
 
 #define LF_TYPE_CAM_SRC_MODE (lf_cam_src_mode_get_type())
 static GType lf_cam_src_mode_get_type() {
@@ -103,6 +114,7 @@ struct Settings : lfgst::CameraAddress {
   std::string device = DEFAULT_DEVICE;
   bool loop = DEFAULT_LOOP;
   double noise = DEFAULT_NOISE;  // sensor noise, standard deviation in 8-bit levels
+  std::string still_cache = default_still_cache();  // "" = off
 };
 
 // From start (READY->PAUSED) to stop (PAUSED->READY).
@@ -260,7 +272,8 @@ class DecodeSlot {
 };
 
 // Opens the camera's input for `st` (throws std::exception on failure).
-static void open_input(State* st) {
+// `self` outlives the still's decoding: State's destructor waits for it.
+static void open_input(GstElement* self, State* st) {
   const Settings& s = st->s;
   const lf::Camera& cam = st->rig->cameras[st->index];
   switch (s.mode) {
@@ -300,13 +313,26 @@ static void open_input(State* st) {
       if (!g_file_test(cam.image.c_str(), G_FILE_TEST_IS_REGULAR))
         throw std::runtime_error("image " + cam.image + ": missing or unreadable");
       st->rgba = cv::Mat(cam.height, cam.width, CV_8UC4);  // size for caps
-      st->still = std::async(std::launch::async, [cam] {
+      lf::StillCache cache;
+      cache.dir = s.still_cache;
+      st->still = std::async(std::launch::async, [cam, cache, self] {
         const DecodeSlot slot;
-        cv::Mat bgr = cv::imread(cam.image, cv::IMREAD_COLOR), rgba;
-        if (bgr.empty()) throw std::runtime_error("image " + cam.image + ": unreadable");
-        if (bgr.cols != cam.width || bgr.rows != cam.height)
-          cv::resize(bgr, bgr, cv::Size(cam.width, cam.height), 0, 0, cv::INTER_AREA);
-        cv::cvtColor(bgr, rgba, cv::COLOR_BGR2RGBA);
+        lf::StillSource from = lf::StillSource::kDecoded;
+        std::string note;
+        cv::Mat rgba = lf::cached_still(
+            cache, cam.image, cam.width, cam.height, CV_8UC4,
+            [&cam] {
+              cv::Mat bgr = cv::imread(cam.image, cv::IMREAD_COLOR), rgba;
+              if (bgr.empty()) throw std::runtime_error("image " + cam.image + ": unreadable");
+              if (bgr.cols != cam.width || bgr.rows != cam.height)
+                cv::resize(bgr, bgr, cv::Size(cam.width, cam.height), 0, 0, cv::INTER_AREA);
+              cv::cvtColor(bgr, rgba, cv::COLOR_BGR2RGBA);
+              return rgba;
+            },
+            &from, &note);
+        GST_DEBUG_OBJECT(self, "still of camera %d %s", cam.id,
+                         from == lf::StillSource::kCache ? "read from the cache" : "decoded");
+        if (!note.empty()) GST_WARNING_OBJECT(self, "still cache: %s", note.c_str());
         return rgba;
       });
       break;
@@ -323,7 +349,7 @@ static gboolean lf_cam_src_start(GstBaseSrc* src) {
   st->index = lfgst::camera_index(GST_ELEMENT(self), *st->rig, st->s);
   if (st->index < 0) return FALSE;
   GError* err = nullptr;
-  if (!lfgst::guard([&] { open_input(st.get()); }, &err)) {
+  if (!lfgst::guard([&] { open_input(GST_ELEMENT(self), st.get()); }, &err)) {
     GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("Cannot open the camera"), ("%s", err->message));
     g_error_free(err);
     return FALSE;
@@ -528,6 +554,13 @@ static void lf_cam_src_class_init(LfCamSrcClass* klass) {
                                 "modes' frames: standard deviation in 8-bit levels, per colour "
                                 "channel and pixel, seeded by camera id and frame number (0: none)",
                                 0.0, 64.0, DEFAULT_NOISE, rw));
+  props.add(oc, &Settings::still_cache,
+            g_param_spec_string(
+                "still-cache", "Still cache",
+                "mode=dataset: directory where decoded stills are kept (at most 1 GiB, the least "
+                "recently used removed first), so that a restart reads them instead of decoding "
+                "the image files again; a changed image file is decoded again. Empty: no cache",
+                default_still_cache().c_str(), rw));
   props.add(
       oc, &Settings::loop,
       g_param_spec_boolean("loop", "Loop", "mode=file: start again at the end", DEFAULT_LOOP, rw));

@@ -5,6 +5,7 @@
 #include <gst/gst.h>
 #include <gst/video/navigation.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -359,6 +360,60 @@ TEST_F(Gst, SyntheticCameraRendersTheSceneAtCaptureTime) {
   // Ground truth: the disc sits at near_depth, the background at far_depth.
   EXPECT_NEAR(scene.near_depth, 25 * 0.05, 1e-12);
   EXPECT_NEAR(scene.far_depth, 60 * 0.05, 1e-12);
+}
+
+// lfcamsrc mode=dataset keeps its decoded still in `still-cache` (one file
+// per camera and size): a second start reads it from there (its debug log
+// says so), and the frames equal those decoded without a cache.
+TEST_F(Gst, DatasetStillsAreCachedAndReadBackIdentically) {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("lf-test-still-cache-gst-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  const lf::Rig rig = lf::load_rig(rig_path_);
+  const std::string id = std::to_string(rig.cameras[1].id);
+  auto frames = [&](const std::string& cache) {
+    return run("lfcamsrc rig=" + rig_path_ + " camera-id=" + id + " num-buffers=2 still-cache=\"" +
+               cache + "\" ! appsink name=out sync=false");
+  };
+  // The camera source's debug messages, to see where the still came from.
+  static std::mutex mu;
+  static std::vector<std::string> said;
+  gst_debug_set_threshold_for_name("lfcamsrc", GST_LEVEL_DEBUG);
+  const GstLogFunction log = [](GstDebugCategory* cat, GstDebugLevel, const gchar*, const gchar*,
+                                gint, GObject*, GstDebugMessage* m, gpointer) {
+    if (std::string(gst_debug_category_get_name(cat)) != "lfcamsrc") return;
+    const std::lock_guard<std::mutex> l(mu);
+    said.emplace_back(gst_debug_message_get(m));
+  };
+  gst_debug_add_log_function(log, nullptr, nullptr);
+  auto where = [&] {
+    const std::lock_guard<std::mutex> l(mu);
+    std::string w;
+    for (const auto& m : said)
+      if (m.find("still of camera") != std::string::npos) w += m + ";";
+    said.clear();
+    return w;
+  };
+  const auto plain = frames("");
+  EXPECT_NE(where().find("decoded"), std::string::npos);
+  const auto first = frames(dir.string());
+  EXPECT_NE(where().find("decoded"), std::string::npos);
+  const auto second = frames(dir.string());
+  EXPECT_NE(where().find("read from the cache"), std::string::npos);
+  gst_debug_remove_log_function(log);
+  gst_debug_unset_threshold_for_name("lfcamsrc");
+  int stills = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir))
+    stills += e.path().extension() == ".still";
+  EXPECT_EQ(stills, 1);
+  ASSERT_EQ(plain.size(), 2u);
+  ASSERT_EQ(first.size(), 2u);
+  ASSERT_EQ(second.size(), 2u);
+  for (size_t k = 0; k < 2; ++k) {
+    EXPECT_EQ(cv::norm(plain[k], first[k], cv::NORM_INF), 0);
+    EXPECT_EQ(cv::norm(plain[k], second[k], cv::NORM_INF), 0);
+  }
+  std::filesystem::remove_all(dir);
 }
 
 // lfcamsrc noise=S: the frames differ from the noise-free ones by Gaussian

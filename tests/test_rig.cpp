@@ -1,14 +1,20 @@
-// Rigs: importers for every shared dataset, triangulation, rig file I/O.
+// Rigs: importers for every shared dataset, triangulation, rig file I/O,
+// the cache of decoded stills.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <thread>
 
 #include "helpers.h"
 #include "lf/datasets.h"
 #include "lf/rig_file.h"
 #include "lf/rig_ops.h"
+#include "lf/still_cache.h"
 #include "lf/synthetic.h"
 #include "lf/view_builder.h"
 
@@ -218,6 +224,165 @@ TEST(Rig, BadRigFilesGiveClearErrors) {
   expect_error(lf::rig_to_json(skew), "not a rotation");
   EXPECT_THROW(lf::load_rig("/nonexistent/rig.json"), std::runtime_error);
   EXPECT_THROW(lf::import_dataset("/nonexistent"), std::runtime_error);
+}
+
+// The still cache (lf/still_cache.h): a miss decodes and stores, a hit gives
+// the same pixels without decoding; a changed source, a damaged cache file,
+// another size miss; the directory stays within its byte budget; a cache
+// that cannot be written never fails a read.
+class StillCacheTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    root_ = std::filesystem::temp_directory_path() /
+            ("lf-test-still-cache-" + std::to_string(::getpid()));
+    std::filesystem::remove_all(root_);
+    std::filesystem::create_directories(root_);
+    cache_.dir = (root_ / "cache").string();
+    image_ = (root_ / "camera.png").string();
+    write_source("first contents");
+  }
+  void TearDown() override { std::filesystem::remove_all(root_); }
+  void write_source(const std::string& bytes) { std::ofstream(image_, std::ios::binary) << bytes; }
+  // A still whose pixels depend on `seed`, counting the decodes.
+  cv::Mat get(int w, int h, int seed, lf::StillSource* from, std::string* note = nullptr) {
+    return lf::cached_still(
+        cache_, image_, w, h, CV_8UC4,
+        [&] {
+          ++decodes_;
+          cv::Mat m(h, w, CV_8UC4);
+          cv::RNG rng(static_cast<uint64_t>(seed));
+          rng.fill(m, cv::RNG::UNIFORM, 0, 256);
+          return m;
+        },
+        from, note);
+  }
+  std::vector<std::filesystem::path> files(const std::string& ext) const {
+    std::vector<std::filesystem::path> out;
+    for (const auto& e : std::filesystem::directory_iterator(cache_.dir))
+      if (e.path().extension() == ext) out.push_back(e.path());
+    return out;
+  }
+  std::filesystem::path root_;
+  lf::StillCache cache_;
+  std::string image_;
+  int decodes_ = 0;
+};
+
+TEST_F(StillCacheTest, MissDecodesAndStoresHitReadsTheSamePixels) {
+  lf::StillSource from;
+  std::string note = "x";
+  const cv::Mat a = get(70, 40, 10, &from, &note);
+  EXPECT_EQ(from, lf::StillSource::kDecoded);
+  EXPECT_EQ(note, "");
+  ASSERT_EQ(files(".still").size(), 1u);
+  EXPECT_EQ(
+      std::filesystem::file_size(files(".still")[0]),
+      56 + std::filesystem::absolute(image_).lexically_normal().string().size() + 70 * 40 * 4);
+  const cv::Mat b = get(70, 40, 99, &from);  // a decode would give other pixels
+  EXPECT_EQ(from, lf::StillSource::kCache);
+  EXPECT_EQ(decodes_, 1);
+  ASSERT_EQ(b.size(), a.size());
+  ASSERT_EQ(b.type(), CV_8UC4);
+  EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0);
+  EXPECT_TRUE(files(".tmp").empty());
+}
+
+TEST_F(StillCacheTest, ChangedSourceOtherSizeAndDamageMiss) {
+  lf::StillSource from;
+  get(70, 40, 10, &from);
+  // Another size of the same image: a second entry.
+  get(35, 20, 10, &from);
+  EXPECT_EQ(from, lf::StillSource::kDecoded);
+  EXPECT_EQ(files(".still").size(), 2u);
+  // The source rewritten (another size, another time): decoded again.
+  const auto before = files(".still");
+  write_source("second, longer contents");
+  const cv::Mat fresh = get(70, 40, 50, &from);
+  EXPECT_EQ(from, lf::StillSource::kDecoded);
+  EXPECT_EQ(decodes_, 3);
+  // One pixel byte of the stored file flipped: the CRC misses, the file is
+  // replaced by a good one.
+  std::filesystem::path newest;
+  for (const auto& f : files(".still"))
+    if (std::find(before.begin(), before.end(), f) == before.end()) newest = f;
+  ASSERT_FALSE(newest.empty());
+  {
+    std::fstream f(newest, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(-7, std::ios::end);
+    char c = 0;
+    f.read(&c, 1);
+    f.seekp(-7, std::ios::end);
+    c = static_cast<char>(c ^ 0x5a);
+    f.write(&c, 1);
+  }
+  const cv::Mat again = get(70, 40, 50, &from);
+  EXPECT_EQ(from, lf::StillSource::kDecoded);
+  EXPECT_EQ(cv::norm(fresh, again, cv::NORM_INF), 0);
+  get(70, 40, 77, &from);
+  EXPECT_EQ(from, lf::StillSource::kCache);
+  // Truncated: a miss too.
+  std::filesystem::resize_file(newest, std::filesystem::file_size(newest) - 1);
+  get(70, 40, 50, &from);
+  EXPECT_EQ(from, lf::StillSource::kDecoded);
+  EXPECT_EQ(decodes_, 5);
+}
+
+TEST_F(StillCacheTest, StaysWithinItsBudgetLeastRecentlyUsedFirst) {
+  // Three images of one size; room for two. File times have a coarse clock
+  // (a few ms): the steps are 20 ms apart.
+  std::vector<std::string> images;
+  for (const char* name : {"a.png", "b.png", "c.png"}) {
+    images.push_back((root_ / name).string());
+    std::ofstream(images.back(), std::ios::binary) << name;
+  }
+  const std::uintmax_t one = 56 + images[0].size() + 50 * 50 * 4;
+  cache_.max_bytes = 2 * one + one / 2;
+  auto use = [&](int k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    image_ = images[k];
+    lf::StillSource from;
+    get(50, 50, k, &from);
+    return from;
+  };
+  EXPECT_EQ(use(0), lf::StillSource::kDecoded);
+  EXPECT_EQ(use(1), lf::StillSource::kDecoded);
+  EXPECT_EQ(use(0), lf::StillSource::kCache);    // a is used again: b is the oldest
+  EXPECT_EQ(use(2), lf::StillSource::kDecoded);  // over budget: b goes
+  std::uintmax_t total = 0;
+  for (const auto& f : files(".still")) total += std::filesystem::file_size(f);
+  EXPECT_LE(total, cache_.max_bytes);
+  EXPECT_EQ(files(".still").size(), 2u);
+  EXPECT_EQ(use(0), lf::StillSource::kCache);
+  EXPECT_EQ(use(2), lf::StillSource::kCache);
+  EXPECT_EQ(use(1), lf::StillSource::kDecoded);
+  EXPECT_EQ(decodes_, 4);
+}
+
+TEST_F(StillCacheTest, ACacheThatCannotBeWrittenNeverFailsARead) {
+  cache_.dir = (root_ / "camera.png" / "cache").string();  // under a regular file
+  lf::StillSource from;
+  std::string note;
+  const cv::Mat m = get(30, 20, 5, &from, &note);
+  EXPECT_EQ(from, lf::StillSource::kDecoded);
+  EXPECT_EQ(m.size(), cv::Size(30, 20));
+  EXPECT_NE(note.find("cannot create"), std::string::npos) << note;
+  // No cache at all: decoded every time.
+  cache_.dir.clear();
+  get(30, 20, 5, &from);
+  get(30, 20, 5, &from);
+  EXPECT_EQ(decodes_, 3);
+  // A missing source is decode()'s to report.
+  std::filesystem::remove(image_);
+  cache_.dir = (root_ / "cache").string();
+  EXPECT_THROW(lf::cached_still(
+                   cache_, image_, 30, 20, CV_8UC4,
+                   []() -> cv::Mat { throw std::runtime_error("image camera.png: unreadable"); }),
+               std::runtime_error);
+  // decode() of the wrong size is a programming error.
+  write_source("x");
+  EXPECT_THROW(lf::cached_still(cache_, image_, 30, 20, CV_8UC4,
+                                [] { return cv::Mat(20, 31, CV_8UC4, cv::Scalar::all(0)); }),
+               std::logic_error);
 }
 
 }  // namespace

@@ -256,7 +256,7 @@ int main(int argc, char** argv) {
   gint port = 0;
   gchar* client_opt = nullptr;
   gchar* base_opt = nullptr;
-  gdouble sync_timeout = 10, duration = -1, max_round_trip_ms = 0, settle = 0;
+  gdouble sync_timeout = 10, duration = -1, max_round_trip_ms = 0, settle = 0, poll_ms = 10;
   gboolean check = FALSE;
   gdouble rtx_budget = 25;
   gchar* pt_clock_opt = nullptr;
@@ -281,6 +281,12 @@ int main(int argc, char** argv) {
        "trip, and a clock synchronised on a delayed one corrects itself only slowly "
        "(GstNetClientClock clamps each step to a quarter of the average round trip); too small "
        "a limit on a busy host delays synchronisation",
+       "MS"},
+      {"clock-poll", 0, 0, G_OPTION_ARG_DOUBLE, &poll_ms,
+       "Client: ask the provider at most every MS milliseconds (GstNetClientClock's "
+       "minimum-update-interval; GStreamer's default is 50). The clock is synchronised after its "
+       "4th observation, so this sets how soon a (re)started host runs; once synchronised, the "
+       "clock asks about once a second (default 10)",
        "MS"},
       {"duration", 0, 0, G_OPTION_ARG_DOUBLE, &duration,
        "Stop after S seconds (default: run to end of stream)", "S"},
@@ -381,6 +387,9 @@ int main(int argc, char** argv) {
                                      std::stoi(client.substr(colon + 1)), 0);
     if (max_round_trip_ms > 0)
       g_object_set(clock, "round-trip-limit", static_cast<guint64>(max_round_trip_ms * GST_MSECOND),
+                   nullptr);
+    if (poll_ms > 0)
+      g_object_set(clock, "minimum-update-interval", static_cast<guint64>(poll_ms * GST_MSECOND),
                    nullptr);
     // While the clock synchronises, the pipeline starts up to PAUSED (a live
     // pipeline's sources open their inputs there, e.g. lfcamsrc decodes its
