@@ -42,10 +42,10 @@
 #include <future>
 #include <memory>
 #include <mutex>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <thread>
 
+#include "lf/image_io.h"
 #include "lf/still_cache.h"
 #include "lf/synthetic.h"
 #include "lfclock.h"
@@ -322,8 +322,7 @@ static void open_input(GstElement* self, State* st) {
         cv::Mat rgba = lf::cached_still(
             cache, cam.image, cam.width, cam.height, CV_8UC4,
             [&cam] {
-              cv::Mat bgr = cv::imread(cam.image, cv::IMREAD_COLOR), rgba;
-              if (bgr.empty()) throw std::runtime_error("image " + cam.image + ": unreadable");
+              cv::Mat bgr = lf::read_image(cam.image), rgba;
               if (bgr.cols != cam.width || bgr.rows != cam.height)
                 cv::resize(bgr, bgr, cv::Size(cam.width, cam.height), 0, 0, cv::INTER_AREA);
               cv::cvtColor(bgr, rgba, cv::COLOR_BGR2RGBA);

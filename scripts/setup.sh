@@ -7,7 +7,7 @@ cd "$(dirname "$0")/.."
 export LF_BUILD_DIR="${LF_BUILD_DIR:-$PWD/build}"
 build="$LF_BUILD_DIR"
 
-PACKAGES=(g++ meson ninja-build pkg-config libopencv-dev libturbojpeg0-dev
+PACKAGES=(g++ meson ninja-build pkg-config libopencv-dev libturbojpeg0-dev libpng-dev
           nlohmann-json3-dev libdeflate-dev zlib1g-dev libgtest-dev
           libgstreamer1.0-dev libgstreamer-plugins-base1.0-dev gstreamer1.0-tools
           gstreamer1.0-plugins-base gstreamer1.0-plugins-good gstreamer1.0-plugins-bad

@@ -8,10 +8,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <thread>
 
 #include "helpers.h"
 #include "lf/datasets.h"
+#include "lf/image_io.h"
 #include "lf/rig_file.h"
 #include "lf/rig_ops.h"
 #include "lf/still_cache.h"
@@ -383,6 +386,94 @@ TEST_F(StillCacheTest, ACacheThatCannotBeWrittenNeverFailsARead) {
   EXPECT_THROW(lf::cached_still(cache_, image_, 30, 20, CV_8UC4,
                                 [] { return cv::Mat(20, 31, CV_8UC4, cv::Scalar::all(0)); }),
                std::logic_error);
+}
+
+// lf::read_image (libpng, TurboJPEG) gives cv::imread(IMREAD_COLOR)'s pixels:
+// the datasets' PNG and JPEG images, and PNGs of other kinds that OpenCV
+// writes (grey, 16-bit colour and grey, alpha) and a grey JPEG.
+TEST(ImageIo, SamePixelsAsOpenCv) {
+  std::vector<std::string> files;
+  for (const char* d : {"stanford-chess", "blender-shop-9x9", "hci-cotton", "middlebury-dino"}) {
+    if (!testing_lf::have_data(d)) continue;
+    std::vector<std::string> names;
+    for (const auto& e : std::filesystem::directory_iterator(data_path(d))) {
+      const std::string ext = e.path().extension().string();
+      if (ext == ".png" || ext == ".jpg") names.push_back(e.path().string());
+    }
+    std::sort(names.begin(), names.end());
+    for (size_t i = 0; i < names.size() && i < 3; ++i) files.push_back(names[i]);
+  }
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("lf-test-image-io-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  cv::Mat colour(37, 53, CV_8UC3);
+  cv::randu(colour, cv::Scalar::all(0), cv::Scalar::all(256));
+  cv::Mat grey, alpha, deep, deep_grey;
+  cv::cvtColor(colour, grey, cv::COLOR_BGR2GRAY);
+  cv::cvtColor(colour, alpha, cv::COLOR_BGR2BGRA);
+  cv::randu(alpha.reshape(1).colRange(0, 1), 0, 256);  // not all opaque
+  colour.convertTo(deep, CV_16UC3, 257.3);
+  grey.convertTo(deep_grey, CV_16UC1, 255.7);
+  const std::vector<std::pair<std::string, cv::Mat>> made = {
+      {"grey.png", grey},           {"alpha.png", alpha}, {"deep.png", deep},
+      {"deep-grey.png", deep_grey}, {"grey.jpg", grey},   {"colour.jpg", colour}};
+  for (const auto& [name, m] : made) {
+    const std::string f = (dir / name).string();
+    ASSERT_TRUE(cv::imwrite(f, m)) << f;
+    files.push_back(f);
+  }
+  for (const auto& f : files) {
+    const cv::Mat ours = lf::read_image(f), theirs = cv::imread(f, cv::IMREAD_COLOR);
+    ASSERT_FALSE(theirs.empty()) << f;
+    ASSERT_EQ(ours.type(), CV_8UC3) << f;
+    ASSERT_EQ(ours.size(), theirs.size()) << f;
+    EXPECT_EQ(cv::norm(ours, theirs, cv::NORM_INF), 0) << f;
+    EXPECT_EQ(lf::read_image_size(f), theirs.size()) << f;
+  }
+  EXPECT_GE(files.size(), made.size() + (testing_lf::have_data("stanford-chess") ? 3u : 0u));
+  std::filesystem::remove_all(dir);
+}
+
+// Missing, foreign and damaged files: std::runtime_error naming the file.
+TEST(ImageIo, BadFilesGiveClearErrors) {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("lf-test-image-io-bad-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  cv::Mat m(40, 60, CV_8UC3);
+  cv::randu(m, cv::Scalar::all(0), cv::Scalar::all(256));
+  std::vector<uchar> png, jpg;
+  cv::imencode(".png", m, png);
+  cv::imencode(".jpg", m, jpg);
+  auto write = [&](const std::string& name, const std::vector<uchar>& bytes) {
+    const std::string f = (dir / name).string();
+    std::ofstream(f, std::ios::binary)
+        .write(reinterpret_cast<const char*>(bytes.data()),
+               static_cast<std::streamsize>(bytes.size()));
+    return f;
+  };
+  auto fails = [](const std::string& f, const std::string& why) {
+    try {
+      lf::read_image(f);
+      ADD_FAILURE() << f << " was read";
+    } catch (const std::runtime_error& e) {
+      const std::string w = e.what();
+      EXPECT_NE(w.find(f), std::string::npos) << w;
+      EXPECT_NE(w.find(why), std::string::npos) << w;
+    }
+  };
+  fails((dir / "none.png").string(), "missing or unreadable");
+  fails(write("text.png", {'h', 'e', 'l', 'l', 'o', '\n'}), "neither PNG nor JPEG");
+  fails(write("cut.png", std::vector<uchar>(png.begin(), png.begin() + png.size() / 2)),
+        "damaged PNG");
+  std::vector<uchar> flipped = png;
+  flipped[png.size() / 2] ^= 0x55;  // inside the image data: its CRC fails
+  fails(write("flipped.png", flipped), "damaged PNG");
+  fails(write("header.jpg", std::vector<uchar>(jpg.begin(), jpg.begin() + 20)), "damaged JPEG");
+  EXPECT_THROW(lf::read_image_size((dir / "none.png").string()), std::runtime_error);
+  // A JPEG cut short decodes as far as it goes (as libjpeg and cv::imread do).
+  const std::string cut = write("cut.jpg", std::vector<uchar>(jpg.begin(), jpg.end() - 200));
+  EXPECT_EQ(lf::read_image(cut).size(), m.size());
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

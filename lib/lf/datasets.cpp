@@ -7,13 +7,13 @@
 #include <fstream>
 #include <map>
 #include <opencv2/core/utility.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <regex>
 #include <set>
 #include <sstream>
 #include <stdexcept>
 
+#include "lf/image_io.h"
 #include "lf/rig_file.h"
 
 namespace fs = std::filesystem;
@@ -33,9 +33,7 @@ std::vector<std::string> list_files(const std::string& folder) {
 }
 
 cv::Size image_size(const std::string& path) {
-  const cv::Mat m = cv::imread(path, cv::IMREAD_UNCHANGED);
-  if (m.empty()) throw std::runtime_error("image " + path + ": missing or unreadable");
-  return m.size();
+  return read_image_size(path);
 }
 
 // Builds the grid from (row key, col key) pairs with row/col keys sorted.
@@ -320,9 +318,11 @@ std::vector<cv::Mat> load_images(const Rig& rig, const std::function<void(int, i
         errors[i] = "camera " + std::to_string(c.id) + " has no image file";
         continue;
       }
-      cv::Mat m = cv::imread(c.image, cv::IMREAD_COLOR);
-      if (m.empty()) {
-        errors[i] = "image " + c.image + ": missing or unreadable";
+      cv::Mat m;
+      try {
+        m = read_image(c.image);
+      } catch (const std::exception& e) {
+        errors[i] = e.what();
         continue;
       }
       cv::Mat bgra;

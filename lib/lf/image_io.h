@@ -1,0 +1,30 @@
+// Camera images read without OpenCV's imgcodecs: PNG through libpng, JPEG
+// through TurboJPEG. Debian's libopencv_imgcodecs pulls in GDAL and about
+// 140 more libraries; loading them took 100-120 ms of every start of a
+// process that links it (the GStreamer plugin, lf-rig), which a restarted
+// camera host spent before it could capture (issue 15: rejoin within 1 s).
+//
+// The pixels are those of cv::imread(path, cv::IMREAD_COLOR) for the same
+// file (tested on the datasets' PNG and JPEG images, on grey, 16-bit and
+// alpha PNGs and a grey JPEG), with one exception: a JPEG's EXIF orientation
+// is not applied (a camera's calibration is in its sensor's orientation).
+// A JPEG cut short decodes as far as it goes, as with libjpeg.
+// PNG as OpenCV 4.6 reads it: 16-bit samples keep their high byte, alpha
+// and transparency are dropped (not composited), grey is replicated.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <string>
+
+namespace lf {
+
+// The image at `path` as 8-bit BGR (CV_8UC3, rows top-down). Throws
+// std::runtime_error naming the file: missing, unreadable, not PNG or JPEG
+// (by content, not name), damaged, or larger than 32768 x 32768.
+cv::Mat read_image(const std::string& path);
+
+// The size of the image at `path` from its header alone (PNG IHDR, JPEG
+// SOF); the same errors.
+cv::Size read_image_size(const std::string& path);
+
+}  // namespace lf
