@@ -25,7 +25,7 @@
 #      64-camera JPEG run of (c) with each host's fragments added up, and a
 #      camera host killed and restarted, with blocks and with (c)'s
 #      interleaved hosts: bytes, round trip, the pixels a dead host leaves
-#      uncovered.
+#      uncovered, how soon the restarted host is back in complete frames.
 # usage: lf-netbench.sh [OUTDIR] [SECONDS per run]   (default out/netbench, 8)
 # Environment: FPS [15], QUALITY [90], WIDTH x HEIGHT [640x480], INPUT_SCALE
 # of the camera images [0.5: 700x400], DATA [../shared/data].
@@ -82,7 +82,10 @@ RIG="$out/rig64.json" HOSTS=4 ENCODING=jpeg PARTIAL_SUMS=1 "$root/tools/lf-netem
 "$trace" --cameras 64 --fps "$FPS" "$out"/sums64/*.trace > "$out/sums64.txt"
 for p in 1 0; do
   RIG="$out/rig64.json" HOSTS=4 ENCODING=jpeg PARTIAL_SUMS=$p "$root/tools/lf-netem.sh" run "$out/kill-sums$p" "$seconds" kill
-  "$trace" --cameras 64 --fps "$FPS" "$out"/kill-sums$p/*.trace > "$out/kill-sums$p.txt"
+  restart_ns=$(awk '/^restarted/{for (i = 1; i < NF; ++i) if ($i == "clock-ns") print $(i + 1)}' \
+    "$out/kill-sums$p/events")
+  "$trace" --cameras 64 --fps "$FPS" --rejoin-after "$restart_ns" "$out"/kill-sums$p/*.trace \
+    > "$out/kill-sums$p.txt"
 done
 
 for n in 4 16 64; do
@@ -208,10 +211,11 @@ base_bytes=${base% *}; base_cams=${base#* }
   echo
   echo "net-host.sh PARTIAL_SUMS=1: camera host K serves the K-th 4x4 block of the grid and sends"
   echo "one sum per request. Kill: camera host 1 killed at 1/3 of the run, restarted at 2/3; filled"
-  echo "pixels: those no fragment covered, taken from the frame before (mean over all frames)."
+  echo "pixels: those no fragment covered, taken from the frame before (mean over all frames);"
+  echo "rejoin: from the restarted host's launch to the first complete frame out (lf-trace --rejoin-after)."
   echo
-  echo "| run | fragment bytes in the frames | complete frames | round trip median ms | p95 ms | filled pixels per frame |"
-  echo "|---|---|---|---|---|---|"
+  echo "| run | fragment bytes in the frames | complete frames | round trip median ms | p95 ms | filled pixels per frame | rejoin ms |"
+  echo "|---|---|---|---|---|---|---|"
   for r in jpeg64 sums64 kill-sums0 kill-sums1; do
     case $r in
       jpeg64) label="per camera, interleaved hosts ((c) above)" ;;
@@ -222,7 +226,7 @@ base_bytes=${base% *}; base_cams=${base#* }
     echo "| $label | $(key "$out/$r.txt" composited-bytes-per-frame) |" \
       "$(key "$out/$r.txt" complete) / $(key "$out/$r.txt" composited) |" \
       "$(key "$out/$r.txt" round-trip-median-ms) | $(key "$out/$r.txt" round-trip-p95-ms) |" \
-      "$(key "$out/$r.txt" filled-pixels-per-frame) |"
+      "$(key "$out/$r.txt" filled-pixels-per-frame) | $(case $r in kill-*) key "$out/$r.txt" rejoin-ms ;; *) echo - ;; esac) |"
   done
 } > "$out/report.md"
 "$trace" --bandwidth-plot "$out/figure6.png" \
