@@ -89,7 +89,10 @@
 #                NACK_PORT + K, at REQUESTS (the multicast group, or the K-th
 #                address of the fan-out list). lf-launch gives the requests
 #                their stream's SSRC and caps each camera host's answers at
-#                --rtx-budget (25 %) of the packets it sent. The view
+#                --rtx-budget (25 %) of the packets it sent; a camera host
+#                takes NACKs only from COMPOSITOR's address (lf-launch
+#                --rtcp-from, when COMPOSITOR is an IP address), so forged
+#                NACKs from elsewhere cannot spend that budget. The view
 #                requests get FEC 100. Not with SRTP_KEY (srtpdec knows each
 #                stream's own SSRC only, not its retransmissions'); without
 #                it, forged packets with a stream's SSRC upset the jitter
@@ -103,7 +106,10 @@
 #                RTP timestamp, which a request's whole burst of fragments
 #                from one host shares (20-30 ms of packets): at 30 the last
 #                packets of a burst had a few ms, and 7-19 % of the fragment
-#                bytes missed the frame                                     [60]
+#                bytes missed the frame. On a loaded host give it more, up to
+#                the deadline: beside a busy process 60 left 3-20 of ~85
+#                frames incomplete under 5 % loss, 150 none (300 ms deadline,
+#                tests/net-deploy-check.sh)                                 [60]
 #   RTX_KEEP_MS  how long a camera host keeps its packets for resending  [200]
 #   NACK_PORT    RTX: camera host K reads NACKs on UDP port NACK_PORT + K [5400]
 #   PARTIAL_SUMS=1  camera hosts serve contiguous blocks of the grid
@@ -281,6 +287,14 @@ case "$role" in
   camera)
     host="${2:?camera needs the host index K (0..HOSTS-1)}"
     clock=(--clock-client "$COMPOSITOR:$CLOCK_PORT" --base-time "${BASE_TIME:?BASE_TIME from the compositor host}")
+    # RTX: NACKs only from the compositor host (by its sender address).
+    if [ "$RTX" = 1 ]; then
+      if [[ "$COMPOSITOR" =~ ^[0-9.]+$ || "$COMPOSITOR" == *:* ]]; then
+        clock+=(--rtcp-from "$COMPOSITOR")
+      else
+        echo "net-host.sh: warning: COMPOSITOR is not an IP address: NACKs are taken from anyone" >&2
+      fi
+    fi
     if [ "$multicast" = 1 ]; then
       src="udpsrc address=$REQUESTS port=$REQUEST_PORT auto-multicast=true $iface"
     else

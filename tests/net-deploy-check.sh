@@ -45,6 +45,14 @@ trap 'rm -rf "$work"' EXIT
 # stalls now and then for up to 150 ms (capture spread of one frame, CI),
 # and a stall must not be taken for a lost fragment.
 export RIG="$work/rig.json" FPS=10 LATENCY_MS=300 ENCODING=jpeg QUALITY=90
+# RTX: the compositor's jitter buffers wait up to 150 ms for a resent packet
+# (net-host.sh's default is 60 ms, sized for its 40 ms deadline): beside a
+# busy process in another session (meson starts each test in a session of
+# its own, and the kernel's autogroups share the CPU per session, whatever
+# the loop's nice), 60 ms left 3-20 of 84-89 frames incomplete in the RTX
+# loss run (fragment bytes 0.94-0.99 of the lossless run's; round trip p95
+# 253-361 ms), 150 ms none (p95 111-132 ms) in three runs each (2026-11-23).
+export RTX_LATENCY_MS=150
 normal_s=8 kill_s=15 loss_s=8
 export START_MS=6000  # hosts load their images before the shared base time, even when busy
 view="orbit=0.6 dolly=15 path-frames=120 width=320 height=240"  # the paper's output size
@@ -118,12 +126,15 @@ check "$work/kill.txt" "no gap longer than period + deadline + 250 ms" \
   'v["max-gap-ms"] < '"$period"' + '"$LATENCY_MS"' + 250'
 check "$work/kill.txt" "the restarted host rejoins (last frames complete)" 'v["last-15-complete"] >= 12'
 # Restart (the process launched) -> the first complete frame out: the host
-# decodes its 16 cameras' images while its clock synchronises, and answers
-# the next request (issue 15: within 1 s). Measured in 10 runs of this test
-# 0.51-0.83 s alone and 0.83-1.16 s beside a niced busy loop; 1.5 s leaves
-# room for a busier machine (CI runs other tests beside this one).
-check "$work/kill.txt" "complete frames again within 1.5 s of the restart" \
-  'v["rejoin-ms"] >= 0 && v["rejoin-ms"] < 1500 && v["rejoin-complete-after"] >= 0.8'
+# reads its 16 cameras' stills from lfcamsrc's still cache (the first run of
+# this host decoded and stored them) while its clock synchronises (lf-launch
+# --clock-poll 10 ms: 4 observations), and answers the next request (issue
+# 15: within 1 s). Measured in the kill scenario alone (2026-11-23):
+# 0.33-0.45 s, beside a niced busy loop 0.34-0.49 s; before the cache, the
+# faster clock sync and the plugin without OpenCV's imgcodecs 0.5-1.4 s and
+# 0.8-2.2 s. The 1 s bound leaves twice the worst seen.
+check "$work/kill.txt" "complete frames again within 1 s of the restart" \
+  'v["rejoin-ms"] >= 0 && v["rejoin-ms"] < 1000 && v["rejoin-complete-after"] >= 0.8'
 
 echo "== 3. 5 % packet loss (view requests by unicast fan-out)"
 LOSS=0.05 REQUESTS=unicast "$root/tools/lf-netem.sh" run "$work/loss" $loss_s loss
@@ -167,6 +178,14 @@ for mode in FEC=25 RTX=1; do
   check "$work/hostile-$mode.txt" "frames stay complete beside the attacker with $mode" \
     'v["composited"] >= 0.85 * v["issued"] && v["complete"] >= 0.9 * v["composited"]'
 done
+# The forged NACKs come from the attacker's address: the camera hosts drop
+# them by sender (lf-launch --rtcp-from), before they spend the budget that
+# the compositor's own NACKs need.
+if grep -q "RTCP from a sender not in --rtcp-from dropped" "$work"/hostile-RTX=1/cam*.log; then
+  echo "ok: forged NACKs dropped by sender address"
+else
+  echo "FAIL: no forged NACK dropped by sender address"; fail=1
+fi
 
 echo "== 6. partial sums (PARTIAL_SUMS=1)"
 PARTIAL_SUMS=1 "$root/tools/lf-netem.sh" run "$work/sums" $normal_s normal

@@ -34,6 +34,13 @@
 //    a camera host could otherwise make it resend its whole history again
 //    and again. An RTCP packet whose NACKs would go over is dropped before
 //    rtpsession turns them into a retransmission request each.
+//  * with --rtcp-from ADDR[,ADDR...], a sending rtpsession takes RTCP only
+//    from those addresses (the sender address udpsrc puts on each packet):
+//    without it, anyone's forged NACKs spend the budget, and a packet the
+//    compositor really lost is then not sent again (net_deploy's attacker
+//    beside RTX=1 left 7 of 67 frames a fragment or two short once in 11
+//    runs). A sender that forges the allowed address is still let in: on
+//    an untrusted network, authenticate (SRTP_KEY, without RTX).
 #include <gst/gst.h>
 #include <gst/net/gstnet.h>
 #include <gst/rtp/gstrtcpbuffer.h>
@@ -136,7 +143,23 @@ struct RtxBudget {
   double percent = 25;
   std::atomic<long> milli_tokens{kBurst * 1000L};
   std::atomic<long> refused{0};
+  std::vector<GInetAddress*> from;  // --rtcp-from (owned); empty: any sender
+  std::atomic<long> foreign{0};     // RTCP packets from anyone else, dropped
+  ~RtxBudget() {
+    for (GInetAddress* a : from) g_object_unref(a);
+  }
 };
+// Whether `buf` came from one of `from` (udpsrc's GstNetAddressMeta); a
+// packet without a sender address is not let in either.
+bool from_allowed(GstBuffer* buf, const std::vector<GInetAddress*>& from) {
+  if (from.empty()) return true;
+  GstNetAddressMeta* meta = gst_buffer_get_net_address_meta(buf);
+  if (!meta || !G_IS_INET_SOCKET_ADDRESS(meta->addr)) return false;
+  GInetAddress* a = g_inet_socket_address_get_address(G_INET_SOCKET_ADDRESS(meta->addr));
+  for (GInetAddress* f : from)
+    if (g_inet_address_equal(a, f)) return true;
+  return false;
+}
 GstPadProbeReturn count_packet(GstPad*, GstPadProbeInfo* info, gpointer data) {
   auto* b = static_cast<RtxBudget*>(data);
   long n = 1;
@@ -171,6 +194,14 @@ long nacked_packets(GstBuffer* buf) {
 }
 GstPadProbeReturn spend_tokens(GstPad* pad, GstPadProbeInfo* info, gpointer data) {
   auto* b = static_cast<RtxBudget*>(data);
+  if (!from_allowed(GST_PAD_PROBE_INFO_BUFFER(info), b->from)) {
+    if (b->foreign.fetch_add(1) % 1000 == 0)
+      g_printerr(
+          "lf-launch: warning: %s: RTCP from a sender not in --rtcp-from dropped (%ld so "
+          "far)\n",
+          GST_OBJECT_NAME(GST_OBJECT_PARENT(pad)), b->foreign.load());
+    return GST_PAD_PROBE_DROP;
+  }
   const long n = nacked_packets(GST_PAD_PROBE_INFO_BUFFER(info));
   if (n <= 0) return GST_PAD_PROBE_OK;  // no NACK (or not RTCP: rtpsession drops it)
   if (b->milli_tokens.fetch_sub(1000 * n) >= 1000 * n) return GST_PAD_PROBE_OK;
@@ -218,8 +249,9 @@ GstPadProbeReturn only_own_ssrc(GstPad* pad, GstPadProbeInfo* info, gpointer) {
 // The probes above: before every rtpjitterbuffer, depayloader and
 // rtpsession's RTP input (only_own_ssrc), on every rtprtxreceive (add_ssrc)
 // and on every sending rtpsession (its budget).
-void guard_rtp(GstElement* pipeline, double budget_percent) {
-  for_each_element(pipeline, [budget_percent](GstElement* e, const char* kind) {
+void guard_rtp(GstElement* pipeline, double budget_percent,
+               const std::vector<std::string>& rtcp_from) {
+  for_each_element(pipeline, [budget_percent, &rtcp_from](GstElement* e, const char* kind) {
     // rtpsession's pads are request pads, made while the description was parsed.
     const char* rtp_in = g_str_equal(kind, "rtpjitterbuffer") || g_str_equal(kind, "rtpgstdepay") ||
                                  g_str_equal(kind, "rtpjpegdepay")
@@ -240,6 +272,8 @@ void guard_rtp(GstElement* pipeline, double budget_percent) {
       if (rtp && rtcp) {
         auto* b = new RtxBudget;
         b->percent = budget_percent;
+        for (const std::string& a : rtcp_from)
+          b->from.push_back(g_inet_address_new_from_string(a.c_str()));
         gst_pad_add_probe(rtp, kBufferProbes, count_packet, b, nullptr);
         gst_pad_add_probe(rtcp, GST_PAD_PROBE_TYPE_BUFFER, spend_tokens, b,
                           [](gpointer d) { delete static_cast<RtxBudget*>(d); });
@@ -259,6 +293,7 @@ int main(int argc, char** argv) {
   gdouble sync_timeout = 10, duration = -1, max_round_trip_ms = 0, settle = 0, poll_ms = 10;
   gboolean check = FALSE;
   gdouble rtx_budget = 25;
+  gchar* rtcp_from_opt = nullptr;
   gchar* pt_clock_opt = nullptr;
   gchar** rest = nullptr;
   const GOptionEntry entries[] = {
@@ -305,6 +340,11 @@ int main(int argc, char** argv) {
        "the packets it has sent, plus a burst of 64; RTCP packets whose NACKs would go over are "
        "dropped with a warning (default 25)",
        "P"},
+      {"rtcp-from", 0, 0, G_OPTION_ARG_STRING, &rtcp_from_opt,
+       "Every rtpsession that sends RTP and reads RTCP takes RTCP (NACKs) only from these IP "
+       "addresses (the receivers'); packets from any other sender are dropped with a warning "
+       "(default: from anyone)",
+       "ADDR[,ADDR...]"},
       {G_OPTION_REMAINING, 0, 0, G_OPTION_ARG_STRING_ARRAY, &rest, nullptr, nullptr},
       {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
   GOptionContext* ctx = g_option_context_new("-- PIPELINE DESCRIPTION...");
@@ -322,6 +362,23 @@ int main(int argc, char** argv) {
   if (!(rtx_budget >= 0 && rtx_budget <= 100)) {
     std::fprintf(stderr, "lf-launch: error: --rtx-budget must be 0..100 percent\n");
     return 2;
+  }
+  std::vector<std::string> rtcp_from;
+  if (rtcp_from_opt) {
+    gchar** parts = g_strsplit(rtcp_from_opt, ",", -1);
+    for (gchar** q = parts; *q; ++q) {
+      GInetAddress* a = g_inet_address_new_from_string(*q);
+      if (!a) {
+        std::fprintf(stderr, "lf-launch: error: --rtcp-from: '%s' is not an IP address\n", *q);
+        g_strfreev(parts);
+        g_free(rtcp_from_opt);
+        return 2;
+      }
+      g_object_unref(a);
+      rtcp_from.emplace_back(*q);
+    }
+    g_strfreev(parts);
+    g_free(rtcp_from_opt);
   }
   PtClock pt_clock;
   if (pt_clock_opt) {
@@ -364,7 +421,7 @@ int main(int argc, char** argv) {
       return nullptr;
     }
     if (pt_clock.rate > 0) answer_pt_maps(p, &pt_clock);
-    guard_rtp(p, rtx_budget);
+    guard_rtp(p, rtx_budget, rtcp_from);
     // A failure here is posted on the bus and reported below.
     gst_element_set_state(p, GST_STATE_PAUSED);
     return p;
