@@ -84,10 +84,12 @@ std::string key_name(const Header& h, const std::string& path) {
   return name;
 }
 
-bool read_all(int fd, void* data, size_t n) {
-  auto* p = static_cast<char*>(data);
+// All n bytes through `io` (::read or ::write), retrying short transfers
+// and EINTR; false on an error or end of file.
+template <typename Byte, typename Io>
+bool transfer_all(int fd, Byte* p, size_t n, Io io) {
   while (n > 0) {
-    const ssize_t r = ::read(fd, p, n);
+    const ssize_t r = io(fd, p, n);
     if (r < 0 && errno == EINTR) continue;
     if (r <= 0) return false;
     p += r;
@@ -95,17 +97,11 @@ bool read_all(int fd, void* data, size_t n) {
   }
   return true;
 }
-
+bool read_all(int fd, void* data, size_t n) {
+  return transfer_all(fd, static_cast<char*>(data), n, ::read);
+}
 bool write_all(int fd, const void* data, size_t n) {
-  const auto* p = static_cast<const char*>(data);
-  while (n > 0) {
-    const ssize_t r = ::write(fd, p, n);
-    if (r < 0 && errno == EINTR) continue;
-    if (r <= 0) return false;
-    p += r;
-    n -= static_cast<size_t>(r);
-  }
-  return true;
+  return transfer_all(fd, static_cast<const char*>(data), n, ::write);
 }
 
 std::uint32_t crc_of(const cv::Mat& m) {
