@@ -130,19 +130,29 @@ tjhandle decompressor() {
 constexpr uint8_t kTablesOmitted = 1, kHalfResolutionWeight = 2;
 constexpr int kMaxHalfStep = 16;
 
+// The largest |a[c + 1] - a[c]| for c in [b, e - 1), and the largest
+// |a[c] - n[c]| for c in [lo, hi): branch-free, so the compiler vectorises.
+inline int max_step_along(const uint8_t* a, int b, int e) {
+  int m = 0;
+  for (int c = b; c + 1 < e; ++c) m = std::max(m, std::abs(a[c + 1] - a[c]));
+  return m;
+}
+inline int max_step_across(const uint8_t* a, const uint8_t* n, int lo, int hi) {
+  int m = 0;
+  for (int c = lo; c < hi; ++c) m = std::max(m, std::abs(n[c] - a[c]));
+  return m;
+}
+
 // True if no two adjacent span pixels' weights differ by more than kMaxHalfStep.
 bool weight_is_smooth(const cv::Mat& alpha, const std::vector<std::array<uint16_t, 2>>& spans,
                       int x0) {
   for (int r = 0; r < alpha.rows; ++r) {
     const int b = spans[r][0] - x0, e = spans[r][1] - x0;
     const uint8_t* a = alpha.ptr<uint8_t>(r);
-    for (int c = b; c + 1 < e; ++c)
-      if (std::abs(a[c + 1] - a[c]) > kMaxHalfStep) return false;
+    if (max_step_along(a, b, e) > kMaxHalfStep) return false;
     if (r + 1 < alpha.rows) {
-      const uint8_t* n = alpha.ptr<uint8_t>(r + 1);
       const int lo = std::max(b, spans[r + 1][0] - x0), hi = std::min(e, spans[r + 1][1] - x0);
-      for (int c = lo; c < hi; ++c)
-        if (std::abs(n[c] - a[c]) > kMaxHalfStep) return false;
+      if (max_step_across(a, alpha.ptr<uint8_t>(r + 1), lo, hi) > kMaxHalfStep) return false;
     }
   }
   return true;
@@ -150,46 +160,72 @@ bool weight_is_smooth(const cv::Mat& alpha, const std::vector<std::array<uint16_
 
 enum class JpegKind { kColour, kGrey };
 
-// Splits a JPEG into its DQT + DHT segments and everything else (SOI first).
-// False if the stream is not laid out as expected.
-bool split_tables(const uint8_t* j, size_t n, std::vector<uint8_t>& tables,
-                  std::vector<uint8_t>& rest) {
-  tables.clear();
-  rest.clear();
+// Walks a JPEG's segments up to its scan: on(table, p, n) for SOI (a
+// non-table part), each marker segment (DQT and DHT are tables), then the
+// scan to the end (a non-table part). False if the stream is not laid out as
+// expected.
+template <typename On>
+bool walk_segments(const uint8_t* j, size_t n, On&& on) {
   if (n < 4 || j[0] != 0xFF || j[1] != 0xD8) return false;
-  rest.insert(rest.end(), j, j + 2);
+  on(false, j, 2);
   size_t pos = 2;
   while (pos + 4 <= n) {
     if (j[pos] != 0xFF) return false;
     const uint8_t m = j[pos + 1];
     if (m == 0xDA) {  // start of scan: the rest is entropy-coded data
-      rest.insert(rest.end(), j + pos, j + n);
+      on(false, j + pos, n - pos);
       return true;
     }
     const size_t len = (size_t{j[pos + 2]} << 8) | j[pos + 3];
     if (len < 2 || pos + 2 + len > n) return false;
-    auto& to = (m == 0xDB || m == 0xC4) ? tables : rest;
-    to.insert(to.end(), j + pos, j + pos + 2 + len);
+    on(m == 0xDB || m == 0xC4, j + pos, 2 + len);
     pos += 2 + len;
   }
   return false;
 }
 
+// The DQT + DHT segments of a JPEG, back to back (false: not laid out as
+// expected).
+bool tables_of(const uint8_t* j, size_t n, std::vector<uint8_t>& tables) {
+  tables.clear();
+  return walk_segments(j, n, [&](bool table, const uint8_t* p, size_t k) {
+    if (table) tables.insert(tables.end(), p, p + k);
+  });
+}
+
+// A TurboJPEG output buffer, kept from call to call (TJFLAG_NOREALLOC).
+struct TjBuffer {
+  unsigned char* p = nullptr;
+  unsigned long capacity = 0;
+  TjBuffer() = default;
+  TjBuffer(const TjBuffer&) = delete;
+  TjBuffer& operator=(const TjBuffer&) = delete;
+  ~TjBuffer() { tjFree(p); }
+};
+
 // Compresses `pixels` (RGBX for kColour, 8-bit grey for kGrey) with
-// TurboJPEG; 4:2:0 for colour.
-std::vector<uint8_t> compress(const uint8_t* pixels, int w, int h, JpegKind kind, int quality) {
-  unsigned char* jpeg = nullptr;
-  unsigned long jsize = 0;
+// TurboJPEG, 4:2:0 for colour, into `out`; returns the stream's size.
+size_t compress_into(TjBuffer& out, const uint8_t* pixels, int w, int h, JpegKind kind,
+                     int quality) {
   const bool colour = kind == JpegKind::kColour;
-  if (tjCompress2(compressor(), pixels, w, w * (colour ? 4 : 1), h, colour ? TJPF_RGBX : TJPF_GRAY,
-                  &jpeg, &jsize, colour ? TJSAMP_420 : TJSAMP_GRAY, quality, 0) != 0) {
-    const std::string err = tjGetErrorStr2(compressor());
-    tjFree(jpeg);
-    throw std::runtime_error("fragment JPEG compression failed: " + err);
+  const int samp = colour ? TJSAMP_420 : TJSAMP_GRAY;
+  const unsigned long bound = tjBufSize(w, h, samp);
+  if (bound == static_cast<unsigned long>(-1))
+    throw std::runtime_error("fragment JPEG compression failed: " +
+                             std::string(tjGetErrorStr2(compressor())));
+  if (bound > out.capacity) {
+    tjFree(out.p);
+    out.p = tjAlloc(static_cast<int>(bound));
+    out.capacity = out.p ? bound : 0;
+    if (!out.p) throw std::bad_alloc();
   }
-  std::vector<uint8_t> out(jpeg, jpeg + jsize);
-  tjFree(jpeg);
-  return out;
+  unsigned char* jpeg = out.p;
+  unsigned long jsize = out.capacity;
+  if (tjCompress2(compressor(), pixels, w, w * (colour ? 4 : 1), h, colour ? TJPF_RGBX : TJPF_GRAY,
+                  &jpeg, &jsize, samp, quality, TJFLAG_NOREALLOC) != 0)
+    throw std::runtime_error("fragment JPEG compression failed: " +
+                             std::string(tjGetErrorStr2(compressor())));
+  return jsize;
 }
 
 // The DQT + DHT segments TurboJPEG writes at `quality`, from a tiny
@@ -202,33 +238,34 @@ const std::vector<uint8_t>& standard_tables(JpegKind kind, int quality) {
   auto it = cache.find(key);
   if (it != cache.end()) return it->second;
   const std::vector<uint8_t> img(16 * 16 * 4, 128);
-  const std::vector<uint8_t> j = compress(img.data(), 16, 16, kind, quality);
-  std::vector<uint8_t> tables, rest;
-  if (!split_tables(j.data(), j.size(), tables, rest) || tables.empty())
+  TjBuffer j;
+  const size_t n = compress_into(j, img.data(), 16, 16, kind, quality);
+  std::vector<uint8_t> tables;
+  if (!tables_of(j.p, n, tables) || tables.empty())
     throw std::runtime_error("TurboJPEG: unexpected reference stream");
   return cache[key] = tables;
 }
 
-// Leaves the tables out of `j` if they are the standard ones.
-bool abbreviate(std::vector<uint8_t>& j, JpegKind kind, int quality) {
-  std::vector<uint8_t> tables, rest;
-  if (!split_tables(j.data(), j.size(), tables, rest) || tables != standard_tables(kind, quality))
-    return false;
-  j.swap(rest);
-  return true;
-}
-
-// Puts the standard tables back after SOI.
-std::vector<uint8_t> complete(const uint8_t* j, size_t n, JpegKind kind, int quality) {
+// Puts the standard tables back after SOI, into `out`.
+void complete(const uint8_t* j, size_t n, JpegKind kind, int quality, std::vector<uint8_t>& out) {
   if (n < 2 || j[0] != 0xFF || j[1] != 0xD8) bad_fragment("JPEG has no SOI marker");
   const std::vector<uint8_t>& t = standard_tables(kind, quality);
-  std::vector<uint8_t> out;
+  out.clear();
   out.reserve(n + t.size());
   out.insert(out.end(), j, j + 2);
   out.insert(out.end(), t.begin(), t.end());
   out.insert(out.end(), j + 2, j + n);
-  return out;
 }
+
+// A buffer kept from call to call that only grows: no allocation, zero fill
+// or page faults once it has the size of the largest fragment.
+struct Scratch {
+  std::vector<uint8_t> v;
+  uint8_t* get(size_t n) {
+    if (v.size() < n) v.resize(n);
+    return v.data();
+  }
+};
 
 // Fills the pixels outside the spans (ignored by the receiver) by repeating
 // the nearest span pixel along the row, and empty rows from the nearest
@@ -254,8 +291,9 @@ void pad_outside_spans(uint8_t* rgba, int w, int h,
       std::memcpy(px(q, 0), px(last_full, 0), static_cast<size_t>(w) * 4);
 }
 
-// Decompresses a w x h JPEG of the given kind into `out` (RGBX or grey).
-void decompress(const uint8_t* j, size_t n, int w, int h, JpegKind kind, std::vector<uint8_t>& out,
+// Decompresses a w x h JPEG of the given kind into `out` (RGBX or grey,
+// w * h * 4 or w * h bytes).
+void decompress(const uint8_t* j, size_t n, int w, int h, JpegKind kind, uint8_t* out,
                 const char* what) {
   int jw = 0, jh = 0, sub = 0, cs = 0;
   if (tjDecompressHeader3(decompressor(), j, static_cast<unsigned long>(n), &jw, &jh, &sub, &cs) !=
@@ -267,9 +305,8 @@ void decompress(const uint8_t* j, size_t n, int w, int h, JpegKind kind, std::ve
   const bool colour = kind == JpegKind::kColour;
   if (colour ? cs != TJCS_YCbCr : cs != TJCS_GRAY)
     bad_fragment(std::string(what) + " JPEG has the wrong colour space");
-  out.resize(static_cast<size_t>(w) * h * (colour ? 4 : 1));
-  if (tjDecompress2(decompressor(), j, static_cast<unsigned long>(n), out.data(), w,
-                    w * (colour ? 4 : 1), h, colour ? TJPF_RGBX : TJPF_GRAY,
+  if (tjDecompress2(decompressor(), j, static_cast<unsigned long>(n), out, w, w * (colour ? 4 : 1),
+                    h, colour ? TJPF_RGBX : TJPF_GRAY,
                     TJFLAG_STOPONWARNING | TJFLAG_LIMITSCANS) != 0)
     bad_fragment(std::string(what) + " JPEG data: " + tjGetErrorStr2(decompressor()));
 }
@@ -369,36 +406,52 @@ std::vector<uint8_t> serialize_fragment(const Fragment& f, Encoding enc, int qua
     if (enc == Encoding::kRaw) {
       p.bytes(f.pixels.data(), f.pixels.size());
     } else if (enc == Encoding::kJpeg) {
+      // This thread's buffers, kept from fragment to fragment.
+      struct Buffers {
+        Scratch rgba, alpha, half;
+        TjBuffer colour, weight;
+        std::vector<uint8_t> ctables, wtables;
+      };
+      thread_local Buffers b;
       const int w = f.rect.width, h = f.rect.height;
-      std::vector<uint8_t> full(static_cast<size_t>(w) * h * 4, 0);
+      // Every pixel of the rectangle is written: the spans' from the
+      // fragment, the others by pad_outside_spans.
+      uint8_t* full = b.rgba.get(static_cast<size_t>(w) * h * 4);
       const uint8_t* src = f.pixels.data();
       for (int r = 0; r < h; ++r) {
         const int n = 4 * (f.spans[r][1] - f.spans[r][0]);
-        std::memcpy(full.data() + (static_cast<size_t>(r) * w + f.spans[r][0] - f.rect.x) * 4, src,
-                    n);
+        std::memcpy(full + (static_cast<size_t>(r) * w + f.spans[r][0] - f.rect.x) * 4, src, n);
         src += n;
       }
-      pad_outside_spans(full.data(), w, h, f.spans, f.rect.x);
-      std::vector<uint8_t> colour = compress(full.data(), w, h, JpegKind::kColour, quality);
-      cv::Mat alpha(h, w, CV_8U), weight_img;
-      const cv::Mat rgba(h, w, CV_8UC4, full.data());
-      cv::extractChannel(rgba, alpha, 3);
+      pad_outside_spans(full, w, h, f.spans, f.rect.x);
+      const size_t csize = compress_into(b.colour, full, w, h, JpegKind::kColour, quality);
+      cv::Mat alpha(h, w, CV_8U, b.alpha.get(static_cast<size_t>(w) * h));
+      cv::extractChannel(cv::Mat(h, w, CV_8UC4, full), alpha, 3);  // into alpha's memory
       // Spans-only check: the padding outside them repeats edge values.
       const bool half = weight_is_smooth(alpha, f.spans, f.rect.x);
-      if (half)
-        cv::resize(alpha, weight_img, cv::Size((w + 1) / 2, (h + 1) / 2), 0, 0, cv::INTER_AREA);
-      else
-        weight_img = alpha;
-      std::vector<uint8_t> weight =
-          compress(weight_img.data, weight_img.cols, weight_img.rows, JpegKind::kGrey, quality);
-      std::vector<uint8_t> c2 = colour, w2 = weight;
-      const bool omit =
-          abbreviate(c2, JpegKind::kColour, quality) && abbreviate(w2, JpegKind::kGrey, quality);
-      if (omit) colour.swap(c2), weight.swap(w2);
+      cv::Mat weight_img = alpha;
+      if (half) {
+        const int hw = (w + 1) / 2, hh = (h + 1) / 2;
+        weight_img = cv::Mat(hh, hw, CV_8U, b.half.get(static_cast<size_t>(hw) * hh));
+        cv::resize(alpha, weight_img, cv::Size(hw, hh), 0, 0, cv::INTER_AREA);
+      }
+      const size_t wsize = compress_into(b.weight, weight_img.data, weight_img.cols,
+                                         weight_img.rows, JpegKind::kGrey, quality);
+      // The tables are left out when both streams have the standard ones.
+      const bool omit = tables_of(b.colour.p, csize, b.ctables) &&
+                        b.ctables == standard_tables(JpegKind::kColour, quality) &&
+                        tables_of(b.weight.p, wsize, b.wtables) &&
+                        b.wtables == standard_tables(JpegKind::kGrey, quality);
       p.u8(static_cast<uint8_t>((omit ? kTablesOmitted : 0) | (half ? kHalfResolutionWeight : 0)));
-      p.u32(static_cast<uint32_t>(colour.size()));
-      p.bytes(colour.data(), colour.size());
-      p.bytes(weight.data(), weight.size());
+      p.u32(static_cast<uint32_t>(omit ? csize - b.ctables.size() : csize));
+      auto put = [&](const uint8_t* j, size_t n) {
+        if (!omit) return p.bytes(j, n);
+        walk_segments(j, n, [&](bool table, const uint8_t* q, size_t k) {
+          if (!table) p.bytes(q, k);
+        });
+      };
+      put(b.colour.p, csize);
+      put(b.weight.p, wsize);
     } else {
       throw std::invalid_argument("serialize_fragment: unknown encoding");
     }
@@ -606,25 +659,35 @@ Fragment parse_fragment_impl(const uint8_t* data, size_t size, Encoding* enc_out
     const uint8_t* cj = payload + p.pos();
     const uint8_t* wj = cj + csize;
     const size_t wsize = left - csize;
-    std::vector<uint8_t> c_whole, w_whole, colour, weight;
+    // This thread's buffers, kept from fragment to fragment.
+    struct Buffers {
+      std::vector<uint8_t> c_whole, w_whole;
+      Scratch colour, weight, alpha;
+    };
+    thread_local Buffers buf;
+    size_t cn = csize, wn = wsize;
     if (flags & kTablesOmitted) {
-      c_whole = complete(cj, csize, JpegKind::kColour, quality);
-      w_whole = complete(wj, wsize, JpegKind::kGrey, quality);
-      cj = c_whole.data(), wj = w_whole.data();
+      complete(cj, csize, JpegKind::kColour, quality, buf.c_whole);
+      complete(wj, wsize, JpegKind::kGrey, quality, buf.w_whole);
+      cj = buf.c_whole.data(), cn = buf.c_whole.size();
+      wj = buf.w_whole.data(), wn = buf.w_whole.size();
     }
-    decompress(cj, c_whole.empty() ? csize : c_whole.size(), w, h, JpegKind::kColour, colour,
-               "colour");
+    uint8_t* colour = buf.colour.get(static_cast<size_t>(w) * h * 4);
+    decompress(cj, cn, w, h, JpegKind::kColour, colour, "colour");
     const bool half = flags & kHalfResolutionWeight;
     const int hw = half ? (w + 1) / 2 : w, hh = half ? (h + 1) / 2 : h;
-    decompress(wj, w_whole.empty() ? wsize : w_whole.size(), hw, hh, JpegKind::kGrey, weight,
-               "weight");
-    cv::Mat alpha(hh, hw, CV_8U, weight.data());
-    if (half) cv::resize(cv::Mat(alpha), alpha, cv::Size(w, h), 0, 0, cv::INTER_LINEAR);
+    cv::Mat alpha(hh, hw, CV_8U, buf.weight.get(static_cast<size_t>(hw) * hh));
+    decompress(wj, wn, hw, hh, JpegKind::kGrey, alpha.data, "weight");
+    if (half) {
+      cv::Mat up(h, w, CV_8U, buf.alpha.get(static_cast<size_t>(w) * h));
+      cv::resize(alpha, up, cv::Size(w, h), 0, 0, cv::INTER_LINEAR);  // into up's memory
+      alpha = up;
+    }
     f.pixels.resize(4 * npix);
     uint8_t* dst = f.pixels.data();
     for (int row = 0; row < h; ++row) {
       const int b = f.spans[row][0] - x, e = f.spans[row][1] - x;
-      const uint8_t* src = colour.data() + (static_cast<size_t>(row) * w + b) * 4;
+      const uint8_t* src = colour + (static_cast<size_t>(row) * w + b) * 4;
       const uint8_t* a = alpha.ptr<uint8_t>(row);
       for (int c = b; c < e; ++c, src += 4, dst += 4) {
         dst[0] = src[0], dst[1] = src[1], dst[2] = src[2];
