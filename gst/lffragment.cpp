@@ -139,6 +139,9 @@ struct State {
   std::unique_ptr<lf::GlRenderer> gl;
   GstBuffer* uploaded_of = nullptr;
   GstClockTime uploaded_pts = GST_CLOCK_TIME_NONE;
+  // encoding=jpeg: the fragment's pixels before coding, kept from request
+  // to request (no allocation per fragment; request thread only).
+  std::vector<uint8_t> jpeg_pixels;
   // Warnings about what peers send, at most one a second each.
   lfgst::WarnLimiter bad_request, too_large, too_fast, no_frame, failed;
 };
@@ -295,6 +298,45 @@ static GstFlowReturn lf_fragment_sink_chain(GstPad*, GstObject* parent, GstBuffe
 
 // ---- view requests -------------------------------------------------------
 
+// The fragment caps event for request caps `in` and encoding `enc`: one
+// GstEvent for all the process's lffragments with equal request caps and
+// encoding (a new reference). A funnel joining cameras' fragments
+// (lfcamerahost) forwards a pad's sticky events whenever it switches pads,
+// and a sticky event only goes downstream when it is another GstEvent than
+// the one before: with an equal but distinct caps event per camera, caps
+// went down with nearly every fragment and each made rtpgstpay negotiate
+// again (15 % of a camera host's CPU in the emulated deployment, perf).
+static GstEvent* shared_caps_event(const GstCaps* in, Encoding enc) {
+  struct Entry {
+    GstCaps* in;
+    Encoding enc;
+    GstEvent* out;
+  };
+  // The newest last, at most kCaps; its references dropped at exit.
+  struct Cache {
+    std::mutex m;
+    std::deque<Entry> entries;
+    void drop_front() {
+      gst_caps_unref(entries.front().in);
+      gst_event_unref(entries.front().out);
+      entries.pop_front();
+    }
+    ~Cache() {
+      while (!entries.empty()) drop_front();
+    }
+  };
+  constexpr size_t kCaps = 8;
+  static Cache cache;
+  std::lock_guard<std::mutex> lock(cache.m);
+  for (const Entry& e : cache.entries)
+    if (e.enc == enc && gst_caps_is_equal(e.in, in)) return gst_event_ref(e.out);
+  GstCaps* caps = lfgst::fragment_caps(enc, in);
+  cache.entries.push_back({gst_caps_copy(in), enc, gst_event_new_caps(caps)});
+  gst_caps_unref(caps);
+  if (cache.entries.size() > kCaps) cache.drop_front();
+  return gst_event_ref(cache.entries.back().out);
+}
+
 static gboolean lf_fragment_request_event(GstPad* pad, GstObject* parent, GstEvent* event) {
   LfFragment* self = LF_FRAGMENT(parent);
   switch (GST_EVENT_TYPE(event)) {
@@ -303,11 +345,9 @@ static gboolean lf_fragment_request_event(GstPad* pad, GstObject* parent, GstEve
       gst_event_parse_caps(event, &in);
       const Encoding enc =
           lfgst::read_setting(GST_OBJECT(self), self->priv->settings, &Settings::encoding);
-      GstCaps* caps = lfgst::fragment_caps(enc, in);
+      GstEvent* out = shared_caps_event(in, enc);
       gst_event_unref(event);
-      const gboolean ok = gst_pad_push_event(self->srcpad, gst_event_new_caps(caps));
-      gst_caps_unref(caps);
-      return ok;
+      return gst_pad_push_event(self->srcpad, out);
     }
     case GST_EVENT_FLUSH_START:
       self->priv->set_flushing(true);
@@ -590,6 +630,7 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
         };
         size_t warped = 0;
         if (st->s.encoding == Encoding::kJpeg) {
+          f.pixels.swap(st->jpeg_pixels);
           for (const lf::FragmentPlan& plan : plans) {
             lf::describe_fragment(plan, f);
             f.camera_id = static_cast<uint32_t>(cam.id);
@@ -600,6 +641,7 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
                 lf::serialize_fragment(f, lf::Encoding::kJpeg, quality);
             bytes.insert(bytes.end(), one.begin(), one.end());
           }
+          f.pixels.swap(st->jpeg_pixels);
           lfgst::trace(GST_ELEMENT(self), "warped", req.viewer_id, req.sequence, cam.id,
                        static_cast<gint64>(warped));
           out = gst_buffer_new_memdup(bytes.data(), bytes.size());

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
@@ -565,6 +566,57 @@ TEST_F(Gst, PartialSumsGiveTheFramesOfTheCameras) {
     cv::cvtColor(want[i], a, cv::COLOR_RGBA2RGB);
     cv::cvtColor(jpeg[i], b, cv::COLOR_RGBA2RGB);
     EXPECT_GT(cv::PSNR(a, b), 36.0) << "frame " << i;
+  }
+}
+
+// A camera host's fragment stream carries its caps once: its cameras share
+// one caps event, so the funnel joining them, which forwards a camera's
+// sticky events whenever it switches cameras, sends nothing new (with a
+// caps event per camera, caps went down with most fragments and each made
+// a payloader such as rtpgstpay negotiate again). Two view sizes, each
+// once.
+TEST_F(Gst, CameraHostSendsItsCapsOnce) {
+  struct Count {
+    std::atomic<int> caps{0}, buffers{0};
+  } count;
+  for (const char* size : {"width=320 height=240", "width=160 height=120"}) {
+    count.caps = 0, count.buffers = 0;
+    GstElement* p =
+        gst_parse_launch(("lfviewrequest rig=" + rig_path_ + " num-buffers=12 " + size +
+                          " focal-plane=param:-0.2 orbit=0.5 ! lfcamerahost rig=" + rig_path_ +
+                          " cameras=0-3 num-buffers=1 ! fakesink name=out sync=false")
+                             .c_str(),
+                         nullptr);
+    ASSERT_NE(p, nullptr);
+    GstElement* sink = gst_bin_get_by_name(GST_BIN(p), "out");
+    GstPad* pad = gst_element_get_static_pad(sink, "sink");
+    gst_pad_add_probe(
+        pad,
+        static_cast<GstPadProbeType>(GST_PAD_PROBE_TYPE_BUFFER |
+                                     GST_PAD_PROBE_TYPE_EVENT_DOWNSTREAM),
+        [](GstPad*, GstPadProbeInfo* info, gpointer data) {
+          auto* c = static_cast<Count*>(data);
+          if (info->type & GST_PAD_PROBE_TYPE_BUFFER) ++c->buffers;
+          if ((info->type & GST_PAD_PROBE_TYPE_EVENT_DOWNSTREAM) &&
+              GST_EVENT_TYPE(GST_PAD_PROBE_INFO_EVENT(info)) == GST_EVENT_CAPS)
+            ++c->caps;
+          return GST_PAD_PROBE_OK;
+        },
+        &count, nullptr);
+    gst_element_set_state(p, GST_STATE_PLAYING);
+    GstBus* bus = gst_element_get_bus(p);
+    GstMessage* m = gst_bus_timed_pop_filtered(
+        bus, 30 * GST_SECOND, static_cast<GstMessageType>(GST_MESSAGE_EOS | GST_MESSAGE_ERROR));
+    ASSERT_NE(m, nullptr);
+    EXPECT_EQ(GST_MESSAGE_TYPE(m), GST_MESSAGE_EOS);
+    gst_message_unref(m);
+    gst_object_unref(bus);
+    gst_element_set_state(p, GST_STATE_NULL);
+    gst_object_unref(pad);
+    gst_object_unref(sink);
+    gst_object_unref(p);
+    EXPECT_EQ(count.buffers.load(), 48) << size;  // 12 requests x 4 cameras
+    EXPECT_EQ(count.caps.load(), 1) << size;
   }
 }
 
