@@ -261,7 +261,19 @@ struct Priv {
   // One frame period of the output rate (ns; 0 until the caps give a rate):
   // read by the `latency` notify handler on any thread, so not in State.
   std::atomic<GstClockTime> period{0};
+  // What the aggregate thread accepts, published for decode_on_arrival()
+  // on the pads' streaming threads (publish_acceptance()): the view's area
+  // in pixels (0: not known yet, so no decoding there), the viewer (-1: not
+  // known yet), stereo, and the last request emitted (-1: none).
+  std::atomic<uint64_t> accept_pixels{0};
+  std::atomic<int64_t> accept_viewer{-1};
+  std::atomic<bool> accept_stereo{false};
+  std::atomic<int64_t> accept_after{-1};
 };
+
+// A fragment buffer that decode_on_arrival() made from a JPEG one: raw,
+// sealed here, GST_BUFFER_OFFSET_END the decoding time in ns.
+constexpr GstBufferFlags kDecodedOnArrival = GST_BUFFER_FLAG_LAST;
 
 lfgst::Properties<Settings> props;
 }  // namespace
@@ -296,6 +308,8 @@ static gboolean lf_compositor_start(GstAggregator* agg) {
     if (!st->rig) return FALSE;
   }
   st->viewer = st->s.viewer_id;
+  Priv* p = self->priv;
+  p->accept_pixels = 0, p->accept_viewer = -1, p->accept_after = -1;
   if (!lfgst::open_backend(GST_ELEMENT(self), st->s.backend, st->gl)) return FALSE;
   self->priv->state = std::move(st);
   return TRUE;
@@ -303,7 +317,18 @@ static gboolean lf_compositor_start(GstAggregator* agg) {
 
 static gboolean lf_compositor_stop(GstAggregator* agg) {
   LF_COMPOSITOR(agg)->priv->state.reset();
+  LF_COMPOSITOR(agg)->priv->accept_pixels = 0;
   return TRUE;
+}
+
+// Publishes what absorb() accepts now (aggregate thread), for
+// decode_on_arrival().
+static void publish_acceptance(Priv* p, const State* st) {
+  int w = 0, h = 0;
+  p->accept_pixels = st->view_size(&w, &h) ? static_cast<uint64_t>(w) * h : 0;
+  p->accept_viewer = st->viewer;
+  p->accept_stereo = st->s.stereo;
+  p->accept_after = st->last_emitted;
 }
 
 // The deadline: one frame period of the request rate, unless the `latency`
@@ -869,8 +894,12 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
                                "camera %u: fragment for %dx%d, the output is %dx%d", f.camera_id,
                                f.out_width, f.out_height, w, h);
   } else {
+    const gint64 on_arrival_ns = GST_BUFFER_FLAG_IS_SET(buf, kDecodedOnArrival)
+                                     ? static_cast<gint64>(GST_BUFFER_OFFSET_END(buf))
+                                     : 0;
     lfgst::trace(GST_ELEMENT(self), "decoded", f.viewer_id, f.sequence,
-                 static_cast<gint>(f.camera_id), (g_get_monotonic_time() - t0) * 1000);
+                 static_cast<gint>(f.camera_id),
+                 (g_get_monotonic_time() - t0) * 1000 + on_arrival_ns);
     st->foreign_count = 0, st->foreign_since_us = -1;
     if (st->viewer < 0) {  // viewer-id -1: the first viewer seen, then only it
       st->viewer = f.viewer_id;
@@ -1004,6 +1033,7 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
     ret = emit(self, it->first, it->second, complete);
     st->pending.erase(it);
   }
+  publish_acceptance(self->priv, st);
   if (ret == GST_FLOW_OK && all_eos && st->pending.empty()) return GST_FLOW_EOS;
   return ret;
 }
@@ -1053,12 +1083,70 @@ static GstPadProbeReturn trace_arrival(GstPad* pad, GstPadProbeInfo* info, gpoin
   return GST_PAD_PROBE_OK;
 }
 
+// JPEG fragments are decoded on the streaming thread that brings them (the
+// camera branch's in process, the RTP receiver's across machines), before
+// the aggregator queues them, into a raw fragment buffer (sealed here):
+// fragments of different pads decode in parallel, and while others are
+// still on their way, instead of one after another on the aggregate thread
+// once the last has come. Only fragments that absorb() would composite
+// (what publish_acceptance() last said: this viewer, inside the sequence
+// window, at most the view's area) and one fragment per buffer; everything
+// else, and a fragment that does not parse (absorb() reports it), goes on
+// unchanged.
+static GstPadProbeReturn decode_on_arrival(GstPad*, GstPadProbeInfo* info, gpointer data) {
+  Priv* p = LF_COMPOSITOR(data)->priv;
+  GstBuffer* buf = GST_PAD_PROBE_INFO_BUFFER(info);
+  const uint64_t limit = p->accept_pixels.load();
+  if (!buf || limit == 0) return GST_PAD_PROBE_OK;
+  GstBuffer* raw = nullptr;
+  lfgst::guard(
+      [&] {
+        const lfgst::MappedBuffer in(buf, GST_MAP_READ);
+        const lf::FragmentHeader head = lf::peek_fragment_header(in.data(), in.size());
+        if (head.encoding != lf::Encoding::kJpeg || head.size() != in.size() ||
+            lf::is_focus_probe(head.sequence) || lf::is_surface_probe(head.sequence))
+          return;
+        const int64_t viewer = p->accept_viewer.load();
+        if (viewer < 0 || !(head.viewer_id == viewer ||
+                            (p->accept_stereo.load() && head.viewer_id == viewer + 1)))
+          return;
+        const int64_t after = p->accept_after.load();
+        if (after >= 0 && !(head.sequence > static_cast<uint64_t>(after) &&
+                            head.sequence - static_cast<uint64_t>(after) <= kSequenceWindow))
+          return;
+        const gint64 t0 = g_get_monotonic_time();
+        const lf::Fragment f = lf::parse_fragment(in.data(), in.size(), nullptr, limit);
+        const size_t size = lf::raw_fragment_size(f);
+        GstBuffer* out = gst_buffer_new_allocate(nullptr, size, nullptr);
+        lfgst::add_sealed_meta(out);  // while it is writable (sealed below)
+        {
+          const lfgst::MappedBuffer map(out, GST_MAP_WRITE);
+          uint8_t* px = lf::write_raw_fragment(f, map.data(), size);
+          if (!f.pixels.empty()) std::memcpy(px, f.pixels.data(), f.pixels.size());
+          lf::seal_fragment(map.data(), size);
+        }
+        gst_buffer_copy_into(out, buf, GST_BUFFER_COPY_METADATA, 0, -1);
+        GST_BUFFER_FLAG_SET(out, kDecodedOnArrival);
+        GST_BUFFER_OFFSET_END(out) = static_cast<guint64>((g_get_monotonic_time() - t0) * 1000);
+        raw = out;
+      },
+      nullptr);
+  if (raw) {
+    gst_buffer_unref(buf);
+    GST_PAD_PROBE_INFO_DATA(info) = raw;
+  }
+  return GST_PAD_PROBE_OK;
+}
+
 static GstPad* lf_compositor_request_new_pad(GstElement* el, GstPadTemplate* templ,
                                              const gchar* name, const GstCaps* caps) {
   GstPad* pad =
       GST_ELEMENT_CLASS(lf_compositor_parent_class)->request_new_pad(el, templ, name, caps);
-  if (pad && lfgst::trace_enabled())
+  if (!pad) return pad;
+  // Traced on arrival first, then decoded (probes run in the order added).
+  if (lfgst::trace_enabled())
     gst_pad_add_probe(pad, GST_PAD_PROBE_TYPE_BUFFER, trace_arrival, nullptr, nullptr);
+  gst_pad_add_probe(pad, GST_PAD_PROBE_TYPE_BUFFER, decode_on_arrival, el, nullptr);
   return pad;
 }
 

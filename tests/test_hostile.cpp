@@ -11,6 +11,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <thread>
 
 #include "calib/bundle.h"
@@ -290,6 +291,95 @@ TEST_F(Hostile, HugeJpegFragmentIsRefusedBeforeDecoding) {
   push(c.src, lf::serialize_fragment(fragment(rig1_, request(rig1_, 2), 0), lf::Encoding::kJpeg));
   EXPECT_EQ(pull(c.sink), 2);
   EXPECT_FALSE(c.error());
+}
+
+// 5b. JPEG fragments are decoded on the thread that brings them, before the
+// aggregator queues them, once the compositor has said what it takes (its
+// viewer, the view's area, the sequence window): a frame from them equals
+// one decoded on the aggregate thread, bit for bit. What it would not
+// composite (another viewer, a request already emitted, a corrupt fragment,
+// a rectangle larger than the view) goes on undecoded and is refused there
+// with a warning, as before; legitimate fragments keep coming out.
+TEST_F(Hostile, JpegFragmentsAreDecodedOnArrivalOnlyWhenAccepted) {
+  Compositor c(rig1_path_, "viewer-id=0", "",
+               "application/x-lf-fragment,encoding=jpeg,width=80,height=60,framerate=30/1");
+  // What reaches the aggregator's queue: a probe after the compositor's own.
+  struct Seen {
+    std::mutex m;
+    std::vector<lf::Encoding> encodings;
+  } seen;
+  GstElement* comp = gst_bin_get_by_name(GST_BIN(c.pipe), "c");
+  GstPad* pad = gst_element_get_static_pad(comp, "sink_0");
+  ASSERT_NE(pad, nullptr);
+  gst_pad_add_probe(
+      pad, GST_PAD_PROBE_TYPE_BUFFER,
+      [](GstPad*, GstPadProbeInfo* info, gpointer data) {
+        auto* s = static_cast<Seen*>(data);
+        GstMapInfo m;
+        GstBuffer* b = GST_PAD_PROBE_INFO_BUFFER(info);
+        if (gst_buffer_map(b, &m, GST_MAP_READ)) {
+          const lf::Encoding e = lf::peek_fragment_header(m.data, m.size).encoding;
+          gst_buffer_unmap(b, &m);
+          std::lock_guard<std::mutex> lock(s->m);
+          s->encodings.push_back(e);
+        }
+        return GST_PAD_PROBE_OK;
+      },
+      &seen, nullptr);
+  auto jpeg = [&](uint64_t seq, uint32_t viewer = 0) {
+    return lf::serialize_fragment(fragment(rig1_, request(rig1_, seq, viewer), 0),
+                                  lf::Encoding::kJpeg, 90);
+  };
+  auto last_seen = [&] {
+    std::lock_guard<std::mutex> lock(seen.m);
+    return seen.encodings.empty() ? lf::Encoding::kEmpty : seen.encodings.back();
+  };
+  auto seen_count = [&] {
+    std::lock_guard<std::mutex> lock(seen.m);
+    return seen.encodings.size();
+  };
+  // The first: nothing accepted yet, decoded on the aggregate thread.
+  cv::Mat first, second, third;
+  push(c.src, jpeg(1));
+  ASSERT_EQ(pull(c.sink, &first), 1);
+  EXPECT_EQ(last_seen(), lf::Encoding::kJpeg);
+  // The next: decoded on arrival, the same frame.
+  push(c.src, jpeg(2));
+  ASSERT_EQ(pull(c.sink, &second), 2);
+  EXPECT_EQ(last_seen(), lf::Encoding::kRaw);
+  ASSERT_FALSE(first.empty());
+  EXPECT_EQ(cv::norm(first, second, cv::NORM_INF), 0.0);
+  // Not decoded: a request already emitted, another viewer's fragment, a
+  // corrupt one, one larger than the view.
+  std::vector<uint8_t> corrupt = jpeg(3);
+  corrupt[corrupt.size() / 2] ^= 0x40;
+  std::vector<std::vector<uint8_t>> refused = {
+      jpeg(2), jpeg(3, /*viewer=*/5), corrupt,
+      lf::serialize_fragment(fragment(rig1_, request(rig1_, 3, 0, 4096, 4096), 0),
+                             lf::Encoding::kJpeg, 90)};
+  const size_t before = seen_count();
+  for (const auto& bytes : refused) push(c.src, bytes);
+  push(c.src, jpeg(3));
+  ASSERT_EQ(pull(c.sink, &third), 3);
+  {
+    std::lock_guard<std::mutex> lock(seen.m);
+    ASSERT_EQ(seen.encodings.size(), before + refused.size() + 1);
+    for (size_t k = 0; k < refused.size(); ++k)
+      EXPECT_EQ(seen.encodings[before + k], lf::Encoding::kJpeg) << "fragment " << k;
+    EXPECT_EQ(seen.encodings.back(), lf::Encoding::kRaw);
+  }
+  EXPECT_EQ(cv::norm(first, third, cv::NORM_INF), 0.0);
+  GstBus* bus = gst_element_get_bus(c.pipe);
+  int warnings = 0;
+  while (GstMessage* m = gst_bus_pop_filtered(bus, GST_MESSAGE_WARNING)) {
+    ++warnings;
+    gst_message_unref(m);
+  }
+  gst_object_unref(bus);
+  EXPECT_GE(warnings, 2) << "the corrupt and the oversized fragment";
+  EXPECT_FALSE(c.error());
+  gst_object_unref(pad);
+  gst_object_unref(comp);
 }
 
 // 7. A request before the first camera frame, then NULL: no deadlock; a
