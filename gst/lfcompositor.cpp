@@ -1115,16 +1115,21 @@ static GstPadProbeReturn decode_on_arrival(GstPad*, GstPadProbeInfo* info, gpoin
                             head.sequence - static_cast<uint64_t>(after) <= kSequenceWindow))
           return;
         const gint64 t0 = g_get_monotonic_time();
-        const lf::Fragment f = lf::parse_fragment(in.data(), in.size(), nullptr, limit);
-        const size_t size = lf::raw_fragment_size(f);
-        GstBuffer* out = gst_buffer_new_allocate(nullptr, size, nullptr);
-        lfgst::add_sealed_meta(out);  // while it is writable (sealed below)
-        {
-          const lfgst::MappedBuffer map(out, GST_MAP_WRITE);
-          uint8_t* px = lf::write_raw_fragment(f, map.data(), size);
-          if (!f.pixels.empty()) std::memcpy(px, f.pixels.data(), f.pixels.size());
-          lf::seal_fragment(map.data(), size);
+        GstBuffer* out = nullptr;
+        std::optional<lfgst::MappedBuffer> map;
+        try {
+          lf::decode_jpeg_to_raw(in.data(), in.size(), limit, [&](size_t size) {
+            out = gst_buffer_new_allocate(nullptr, size, nullptr);
+            lfgst::add_sealed_meta(out);  // while it is writable (sealed by the decoder)
+            map.emplace(out, GST_MAP_WRITE);
+            return map->data();
+          });
+        } catch (...) {
+          map.reset();
+          if (out) gst_buffer_unref(out);
+          throw;
         }
+        map.reset();
         gst_buffer_copy_into(out, buf, GST_BUFFER_COPY_METADATA, 0, -1);
         GST_BUFFER_FLAG_SET(out, kDecodedOnArrival);
         GST_BUFFER_OFFSET_END(out) = static_cast<guint64>((g_get_monotonic_time() - t0) * 1000);

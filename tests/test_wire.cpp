@@ -218,6 +218,49 @@ TEST(Wire, JpegWeightResolutionFollowsItsSmoothness) {
   EXPECT_LE(step_err, 8.0);
 }
 
+TEST(Wire, JpegDecodesStraightToRaw) {
+  // The raw wire bytes of the decoded fragment, written where asked, sealed:
+  // equal to serialising what parse_fragment() decodes.
+  const lf::Fragment f = sample_fragment();
+  for (int quality : {50, 90}) {
+    const auto jpeg = lf::serialize_fragment(f, lf::Encoding::kJpeg, quality);
+    const lf::Fragment decoded = lf::parse_fragment(jpeg.data(), jpeg.size());
+    const auto want = lf::serialize_fragment(decoded, lf::Encoding::kRaw);
+    std::vector<uint8_t> got;
+    const lf::Fragment head =
+        lf::decode_jpeg_to_raw(jpeg.data(), jpeg.size(), lf::kMaxFragmentPixels, [&](size_t n) {
+          got.assign(n, 0xAB);
+          return got.data();
+        });
+    EXPECT_EQ(got, want) << "quality " << quality;
+    EXPECT_TRUE(head.pixels.empty());
+    EXPECT_EQ(head.spans, decoded.spans);
+    EXPECT_EQ(head.rect, decoded.rect);
+    EXPECT_EQ(head.sequence, f.sequence);
+    const lf::Fragment back = lf::parse_fragment(got.data(), got.size());  // CRC checked
+    EXPECT_EQ(back.pixels, decoded.pixels);
+  }
+  // Nothing is asked for a fragment that fails before decoding (corrupt, over
+  // the pixel limit), and only JPEG fragments are taken.
+  auto jpeg = lf::serialize_fragment(f, lf::Encoding::kJpeg, 90);
+  int asked = 0;
+  auto out = [&](size_t n) -> uint8_t* {
+    ++asked;
+    static std::vector<uint8_t> sink;
+    sink.resize(n);
+    return sink.data();
+  };
+  EXPECT_THROW(lf::decode_jpeg_to_raw(jpeg.data(), jpeg.size(), f.rect.area() - 1, out),
+               lf::WireError);
+  jpeg[jpeg.size() - 10] ^= 0x10;
+  EXPECT_THROW(lf::decode_jpeg_to_raw(jpeg.data(), jpeg.size(), lf::kMaxFragmentPixels, out),
+               lf::WireError);
+  const auto raw = lf::serialize_fragment(f, lf::Encoding::kRaw);
+  EXPECT_THROW(lf::decode_jpeg_to_raw(raw.data(), raw.size(), lf::kMaxFragmentPixels, out),
+               std::invalid_argument);
+  EXPECT_EQ(asked, 0);
+}
+
 TEST(Wire, JpegTablesAreLeftOutAndPutBack) {
   // About 570 bytes of DQT/DHT per fragment do not travel.
   const lf::Fragment f = sample_fragment();

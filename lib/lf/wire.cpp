@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -542,9 +543,12 @@ FragmentHeader peek_fragment_header(const uint8_t* data, size_t size) {
 
 namespace {
 // raw_pixels: null, or where a raw payload's pixels are pointed to instead
-// of being copied (other encodings: at the decoded f.pixels).
+// of being copied (other encodings: at the decoded f.pixels). raw_out: null,
+// or (JPEG payloads only) where the decoded fragment goes in the raw wire
+// format, sealed, instead of into f.pixels (decode_jpeg_to_raw).
 Fragment parse_fragment_impl(const uint8_t* data, size_t size, Encoding* enc_out, size_t max_pixels,
-                             const uint8_t** raw_pixels, bool check_crc) {
+                             const uint8_t** raw_pixels, bool check_crc,
+                             const std::function<uint8_t*(size_t)>* raw_out = nullptr) {
   const FragmentHeader head = peek_fragment_header(data, size);
   Reader r(data + 32, size - 32, "fragment");
   Fragment f;
@@ -683,8 +687,18 @@ Fragment parse_fragment_impl(const uint8_t* data, size_t size, Encoding* enc_out
       cv::resize(alpha, up, cv::Size(w, h), 0, 0, cv::INTER_LINEAR);  // into up's memory
       alpha = up;
     }
-    f.pixels.resize(4 * npix);
-    uint8_t* dst = f.pixels.data();
+    // Into f.pixels, or straight into the raw wire format's pixels.
+    uint8_t* raw = nullptr;
+    size_t raw_size = 0;
+    uint8_t* dst;
+    if (raw_out) {
+      raw_size = raw_fragment_size(f);
+      raw = (*raw_out)(raw_size);
+      dst = write_raw_fragment(f, raw, raw_size);
+    } else {
+      f.pixels.resize(4 * npix);
+      dst = f.pixels.data();
+    }
     for (int row = 0; row < h; ++row) {
       const int b = f.spans[row][0] - x, e = f.spans[row][1] - x;
       const uint8_t* src = colour + (static_cast<size_t>(row) * w + b) * 4;
@@ -693,6 +707,11 @@ Fragment parse_fragment_impl(const uint8_t* data, size_t size, Encoding* enc_out
         dst[0] = src[0], dst[1] = src[1], dst[2] = src[2];
         dst[3] = a[c];
       }
+    }
+    if (raw) {
+      seal_fragment(raw, raw_size);
+      check_fragment_geometry(f);
+      return f;
     }
   }
   check_fragment(f);
@@ -709,6 +728,13 @@ Fragment parse_fragment_in_place(const uint8_t* data, size_t size, const uint8_t
                                  Encoding* enc_out, size_t max_pixels, bool check_crc) {
   if (!pixels) throw std::invalid_argument("parse_fragment_in_place: no pixel pointer");
   return parse_fragment_impl(data, size, enc_out, max_pixels, pixels, check_crc);
+}
+
+Fragment decode_jpeg_to_raw(const uint8_t* data, size_t size, size_t max_pixels,
+                            const std::function<uint8_t*(size_t)>& out) {
+  if (peek_fragment_header(data, size).encoding != Encoding::kJpeg)
+    throw std::invalid_argument("decode_jpeg_to_raw: not a JPEG fragment");
+  return parse_fragment_impl(data, size, nullptr, max_pixels, nullptr, true, &out);
 }
 
 namespace {

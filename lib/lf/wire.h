@@ -79,6 +79,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <stdexcept>
 #include <vector>
 
@@ -129,6 +130,19 @@ Fragment parse_fragment(const uint8_t* data, size_t size, Encoding* encoding = n
 Fragment parse_fragment_in_place(const uint8_t* data, size_t size, const uint8_t** pixels,
                                  Encoding* encoding = nullptr,
                                  size_t max_pixels = kMaxFragmentPixels, bool check_crc = true);
+
+// Decodes a JPEG fragment straight into the raw wire format, for a receiver
+// that composites raw fragments in place: parses and validates as
+// parse_fragment() does (the CRC, the max_pixels limit before decoding),
+// decodes, then asks out(size) for `size` bytes and writes there exactly
+// the bytes serialize_fragment(f, Encoding::kRaw) gives for the decoded
+// fragment f, sealed (seal_fragment). Returns f's header fields, rect and
+// spans (its `pixels` empty). `out` is not called for a fragment that fails
+// before it is decoded; if it throws, the exception goes on. Throws WireError
+// as parse_fragment() does, std::invalid_argument for a fragment that is not
+// JPEG.
+Fragment decode_jpeg_to_raw(const uint8_t* data, size_t size, size_t max_pixels,
+                            const std::function<uint8_t*(size_t)>& out);
 
 // Raw fragments serialised in place, for a sender that renders the pixels
 // straight into its output buffer (no copy of them; lf/render.h:
