@@ -62,4 +62,23 @@ inline std::string take_error_debug(GstMessage* m) {
   return out;
 }
 
+// Calls on(bytes, size) for every buffer that passes `pad`, on the
+// streaming thread, the buffer mapped for reading (a buffer probe, removed
+// with the pad).
+inline void on_each_buffer(GstPad* pad, std::function<void(const guint8*, gsize)> on) {
+  using Fn = std::function<void(const guint8*, gsize)>;
+  gst_pad_add_probe(
+      pad, GST_PAD_PROBE_TYPE_BUFFER,
+      [](GstPad*, GstPadProbeInfo* info, gpointer data) {
+        GstBuffer* b = GST_PAD_PROBE_INFO_BUFFER(info);
+        GstMapInfo m;
+        if (b && gst_buffer_map(b, &m, GST_MAP_READ)) {
+          (*static_cast<Fn*>(data))(m.data, m.size);
+          gst_buffer_unmap(b, &m);
+        }
+        return GST_PAD_PROBE_OK;
+      },
+      new Fn(std::move(on)), [](gpointer data) { delete static_cast<Fn*>(data); });
+}
+
 }  // namespace testing_lf

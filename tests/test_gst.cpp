@@ -287,19 +287,10 @@ TEST_F(Gst, NavigationEventsSteerTheViewOnce) {
     std::vector<lf::ViewRequest> reqs;
   } seen;
   GstPad* rp = gst_element_get_static_pad(req, "src");
-  gst_pad_add_probe(
-      rp, GST_PAD_PROBE_TYPE_BUFFER,
-      [](GstPad*, GstPadProbeInfo* info, gpointer data) {
-        auto* s = static_cast<Seen*>(data);
-        GstMapInfo m;
-        GstBuffer* b = GST_PAD_PROBE_INFO_BUFFER(info);
-        gst_buffer_map(b, &m, GST_MAP_READ);
-        std::lock_guard<std::mutex> l(s->m);
-        for (const lf::ViewRequest& r : lf::parse_requests(m.data, m.size)) s->reqs.push_back(r);
-        gst_buffer_unmap(b, &m);
-        return GST_PAD_PROBE_OK;
-      },
-      &seen, nullptr);
+  testing_lf::on_each_buffer(rp, [&seen](const guint8* data, gsize size) {
+    std::lock_guard<std::mutex> l(seen.m);
+    for (const lf::ViewRequest& r : lf::parse_requests(data, size)) seen.reqs.push_back(r);
+  });
   gst_object_unref(rp);
   gst_element_set_state(p, GST_STATE_PLAYING);
   auto pull = [&](int n) {

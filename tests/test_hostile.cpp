@@ -311,21 +311,11 @@ TEST_F(Hostile, JpegFragmentsAreDecodedOnArrivalOnlyWhenAccepted) {
   GstElement* comp = gst_bin_get_by_name(GST_BIN(c.pipe), "c");
   GstPad* pad = gst_element_get_static_pad(comp, "sink_0");
   ASSERT_NE(pad, nullptr);
-  gst_pad_add_probe(
-      pad, GST_PAD_PROBE_TYPE_BUFFER,
-      [](GstPad*, GstPadProbeInfo* info, gpointer data) {
-        auto* s = static_cast<Seen*>(data);
-        GstMapInfo m;
-        GstBuffer* b = GST_PAD_PROBE_INFO_BUFFER(info);
-        if (gst_buffer_map(b, &m, GST_MAP_READ)) {
-          const lf::Encoding e = lf::peek_fragment_header(m.data, m.size).encoding;
-          gst_buffer_unmap(b, &m);
-          std::lock_guard<std::mutex> lock(s->m);
-          s->encodings.push_back(e);
-        }
-        return GST_PAD_PROBE_OK;
-      },
-      &seen, nullptr);
+  testing_lf::on_each_buffer(pad, [&seen](const guint8* data, gsize size) {
+    const lf::Encoding e = lf::peek_fragment_header(data, size).encoding;
+    std::lock_guard<std::mutex> lock(seen.m);
+    seen.encodings.push_back(e);
+  });
   auto jpeg = [&](uint64_t seq, uint32_t viewer = 0) {
     return lf::serialize_fragment(fragment(rig1_, request(rig1_, seq, viewer), 0),
                                   lf::Encoding::kJpeg, 90);
