@@ -16,6 +16,12 @@
  * fragment is validated (lib/lf/wire.h); the CRC check is skipped only for
  * buffers that `lffragment` sealed in this process (they carry
  * `LfSealedMeta`, which no copy and nothing received from the network has).
+ * JPEG fragments are decoded on the streaming thread that brings them,
+ * before the aggregator queues them (lf::decode_jpeg_to_raw, into a raw
+ * buffer sealed here), so fragments of different pads decode in parallel
+ * and while others are still on their way; only those it would composite
+ * (its viewer, inside the sequence window, at most the view's area), the
+ * rest as before on the aggregate thread, where they are refused.
  *
  * Stream facts come from the fragment caps: the output frame rate is their
  * `framerate` (the viewer's request rate; the `framerate` property overrides

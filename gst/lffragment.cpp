@@ -26,7 +26,10 @@
  * lffragment`); their PTS is then the capture time.
  * Cameras that do not contribute send an explicitly empty fragment, so the
  * compositor knows the request is complete. The fragment caps carry the
- * request caps' `framerate`. Raw fragments are rendered straight into the
+ * request caps' `framerate`; the process's lffragments with equal request
+ * caps and encoding share one caps event, so a `funnel` joining cameras
+ * (lfcamerahost) sends no new caps downstream when it switches between
+ * them. Raw fragments are rendered straight into the
  * output buffer in their wire format (no copy) and carry `LfSealedMeta`
  * (gst/lfmeta.h), by which `lfcompositor` in the same process skips their
  * CRC check.
