@@ -314,8 +314,6 @@ static gboolean lf_compositor_start(GstAggregator* agg) {
     if (!st->rig) return FALSE;
   }
   st->viewer = st->s.viewer_id;
-  Priv* p = self->priv;
-  p->accept_pixels = 0, p->accept_viewer = -1, p->accept_after = -1;
   if (!lfgst::open_backend(GST_ELEMENT(self), st->s.backend, st->gl)) return FALSE;
   self->priv->state = std::move(st);
   return TRUE;
@@ -323,7 +321,7 @@ static gboolean lf_compositor_start(GstAggregator* agg) {
 
 static gboolean lf_compositor_stop(GstAggregator* agg) {
   LF_COMPOSITOR(agg)->priv->state.reset();
-  LF_COMPOSITOR(agg)->priv->accept_pixels = 0;
+  LF_COMPOSITOR(agg)->priv->accept_pixels = 0;  // nothing decoded on arrival until published again
   return TRUE;
 }
 
@@ -1121,25 +1119,21 @@ static GstPadProbeReturn decode_on_arrival(GstPad*, GstPadProbeInfo* info, gpoin
                             head.sequence - static_cast<uint64_t>(after) <= kSequenceWindow))
           return;
         const gint64 t0 = g_get_monotonic_time();
-        GstBuffer* out = nullptr;
+        // Unmapped before it is dropped (declared after it), on a throw too.
+        std::unique_ptr<GstBuffer, decltype(&gst_buffer_unref)> out(nullptr, gst_buffer_unref);
         std::optional<lfgst::MappedBuffer> map;
-        try {
-          lf::decode_jpeg_to_raw(in.data(), in.size(), limit, [&](size_t size) {
-            out = gst_buffer_new_allocate(nullptr, size, nullptr);
-            lfgst::add_sealed_meta(out);  // while it is writable (sealed by the decoder)
-            map.emplace(out, GST_MAP_WRITE);
-            return map->data();
-          });
-        } catch (...) {
-          map.reset();
-          if (out) gst_buffer_unref(out);
-          throw;
-        }
+        lf::decode_jpeg_to_raw(in.data(), in.size(), limit, [&](size_t size) {
+          out.reset(gst_buffer_new_allocate(nullptr, size, nullptr));
+          lfgst::add_sealed_meta(out.get());  // while it is writable (sealed by the decoder)
+          map.emplace(out.get(), GST_MAP_WRITE);
+          return map->data();
+        });
         map.reset();
-        gst_buffer_copy_into(out, buf, GST_BUFFER_COPY_METADATA, 0, -1);
-        GST_BUFFER_FLAG_SET(out, kDecodedOnArrival);
-        GST_BUFFER_OFFSET_END(out) = static_cast<guint64>((g_get_monotonic_time() - t0) * 1000);
-        raw = out;
+        gst_buffer_copy_into(out.get(), buf, GST_BUFFER_COPY_METADATA, 0, -1);
+        GST_BUFFER_FLAG_SET(out.get(), kDecodedOnArrival);
+        GST_BUFFER_OFFSET_END(out.get()) =
+            static_cast<guint64>((g_get_monotonic_time() - t0) * 1000);
+        raw = out.release();
       },
       nullptr);
   if (raw) {
