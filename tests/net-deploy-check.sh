@@ -139,7 +139,7 @@ check "$work/kill.txt" "the restarted host rejoins (last frames complete)" 'v["l
 # without OpenCV's imgcodecs: 0.5-1.4 s alone, 0.8-2.2 s beside the loop.
 # With JPEG fragments decoded on arrival and the cameras' shared caps event
 # (2026-11-23 night), 20 more runs, all passed: 0.29-0.46 s alone (median
-# 0.35 s), 0.33-0.46 s beside the loop (median 0.39 s).
+# 0.35 s), 0.33-0.46 s beside the loop (median 0.38 s).
 # The check allows 1.5 s, half again the worst seen, so that a busier
 # machine (CI) does not fail on that tail; the issue's 1 s held in every run.
 check "$work/kill.txt" "complete frames again within 1.5 s of the restart" \
