@@ -49,6 +49,14 @@
  * the 64-camera pipeline of Figure 2 on one machine. Navigation and
  * `lf-view` events from the sink travel up through it to `lfviewrequest`.
  *
+ * Whole-view GL mode: where the compositor draws with GL (`backend=gl`, or
+ * `auto` on a hardware GPU) and the fragments are raw, the `lffragment`s
+ * only plan (`defer=true`, no GL context of their own) and the compositor
+ * draws all cameras of a view from their frames in one GL pass sequence
+ * into one output: each camera frame uploaded once, no fragment read back
+ * (lib/lf/gl_render.h). Its frames equal those of every `lffragment`
+ * drawing its own with GL (`whole-view=false`), exactly.
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 lfviewrequest rig=rig.json orbit=0.5 ! lfarray rig=rig.json ! \
@@ -61,7 +69,9 @@
 #include <string>
 #include <vector>
 
+#include "lf/gl_render.h"
 #include "lf/parse.h"
+#include "lfbackend.h"
 #include "lfguard.h"
 #include "lfrig.h"
 
@@ -95,11 +105,13 @@ enum {
   PROP_REQUEST_MAX_AGE,
   PROP_PARTIAL_SUMS,
   PROP_SUM_LATENCY,
+  PROP_WHOLE_VIEW,  // lfarray only
   PROP_FIRST_FORWARD
 };
 #define DEFAULT_RECORD_QUALITY 0
 #define DEFAULT_REQUEST_MAX_AGE (200 * GST_MSECOND)
 #define DEFAULT_SUM_LATENCY (20 * GST_MSECOND)
+#define DEFAULT_WHOLE_VIEW TRUE
 
 // A bin property that is set on each child of one kind.
 struct Forward {
@@ -133,6 +145,7 @@ struct Priv {
   guint64 request_max_age = DEFAULT_REQUEST_MAX_AGE;  // ns, object lock
   bool partial_sums = false;                          // object lock
   guint64 sum_latency = DEFAULT_SUM_LATENCY;          // ns, object lock
+  bool whole_view = DEFAULT_WHOLE_VIEW;               // lfarray, object lock
   std::vector<GValue> values;                         // forwarded property values (only those set)
   std::vector<bool> set;
   GstPad* sink = nullptr;  // ghost pads, targets set when built
@@ -201,6 +214,8 @@ static void lf_camera_host_set_property(GObject* obj, guint id, const GValue* v,
     p->partial_sums = g_value_get_boolean(v);
   } else if (id == PROP_SUM_LATENCY) {
     p->sum_latency = g_value_get_uint64(v);
+  } else if (id == PROP_WHOLE_VIEW) {
+    p->whole_view = g_value_get_boolean(v);
   } else if (id - PROP_FIRST_FORWARD < p->values.size()) {
     GValue& dst = p->values[id - PROP_FIRST_FORWARD];
     if (G_IS_VALUE(&dst)) g_value_unset(&dst);
@@ -227,6 +242,8 @@ static void lf_camera_host_get_property(GObject* obj, guint id, GValue* v, GPara
     g_value_set_boolean(v, p->partial_sums);
   } else if (id == PROP_SUM_LATENCY) {
     g_value_set_uint64(v, p->sum_latency);
+  } else if (id == PROP_WHOLE_VIEW) {
+    g_value_set_boolean(v, p->whole_view);
   } else if (id - PROP_FIRST_FORWARD < p->values.size()) {
     if (p->set[id - PROP_FIRST_FORWARD])
       g_value_copy(&p->values[id - PROP_FIRST_FORWARD], v);
@@ -330,6 +347,7 @@ static bool build(LfCameraHost* self) {
   guint64 max_age = p->request_max_age;
   const bool sums = p->partial_sums;
   const guint64 sum_latency = p->sum_latency;
+  const bool whole_view = p->whole_view && composite_of(self) && !sums;
   const std::vector<Forward> fw = forwards(composite_of(self));
   std::vector<std::pair<Forward, GValue>> values;
   for (size_t i = 0; i < fw.size(); ++i) {
@@ -347,14 +365,33 @@ static bool build(LfCameraHost* self) {
                 [&] {
                   const std::vector<int> chosen = lf::parse_index_ranges(
                       cameras, static_cast<int>(rig->cameras.size()), "cameras");
-                  bool live = false, frame_select_set = false;
+                  bool live = false, frame_select_set = false, raw = true;
+                  lf::Backend backend = lf::Backend::kAuto;
                   for (auto& [f, v] : values) {
                     if (g_str_equal(f.name, "is-live")) live = g_value_get_boolean(&v);
+                    if (g_str_equal(f.name, "backend"))
+                      backend = static_cast<lf::Backend>(g_value_get_enum(&v));
+                    if (g_str_equal(f.name, "encoding"))
+                      raw =
+                          g_value_get_enum(&v) == static_cast<gint>(lfgst::FragmentEncoding::kRaw);
                     if (g_str_equal(f.name, "frame-select")) frame_select_set = true;
                     // lfarray: a request its compositor still waits for is not
                     // stale.
                     if (g_str_equal(f.name, "latency"))
                       max_age = std::max<guint64>(max_age, g_value_get_uint64(&v));
+                  }
+                  // Whole-view mode: where the compositor draws with GL,
+                  // the fragments leave their drawing to it (lffragment
+                  // defer) and need no GL of their own. Where GL is asked
+                  // for and cannot be had, the compositor says so at start.
+                  bool defer = false;
+                  if (whole_view && raw) {
+                    std::string why;
+                    try {
+                      defer = lf::resolve_backend(backend, &why) == lf::Backend::kGl;
+                    } catch (const std::exception&) {
+                      defer = false;
+                    }
                   }
                   // Bad file name patterns fail here, before anything is made.
                   if (!record.empty()) lf::camera_file_name(record, 0, "record");
@@ -401,6 +438,9 @@ static bool build(LfCameraHost* self) {
                     g_object_set(frag, "rig", rig_path.c_str(), "camera-id", cam_id, nullptr);
                     apply(frag, lf_fragment_get_type());
                     if (sum) gst_util_set_object_arg(G_OBJECT(frag), "encoding", "raw");
+                    if (defer)
+                      g_object_set(frag, "defer", TRUE, "backend",
+                                   static_cast<gint>(lf::Backend::kCpu), nullptr);
                     // A recording pairs frames with requests by capture time, live
                     // and played back alike.
                     if ((!record.empty() || !playback.empty()) && !frame_select_set)
@@ -668,6 +708,19 @@ static void lf_array_class_init(LfArrayClass* klass) {
   LF_CAMERA_HOST_CLASS(klass)->composite = TRUE;
   oc->set_property = lf_camera_host_set_property;  // GObject wants them per class
   oc->get_property = lf_camera_host_get_property;
+  g_object_class_install_property(
+      oc, PROP_WHOLE_VIEW,
+      g_param_spec_boolean(
+          "whole-view", "Whole-view GL mode",
+          "Where the compositor draws with GL (backend=gl, or auto on a hardware GPU) and the "
+          "fragments are raw: the fragments leave their drawing to it (lffragment defer), and "
+          "all cameras of a view are drawn in one GL pass sequence into one output, each camera "
+          "frame uploaded once, no fragment read back (lib/lf/gl_render.h). FALSE: every "
+          "lffragment draws its own fragment (in its own GL context with the GL backend). No "
+          "effect with the CPU backend or partial-sums",
+          DEFAULT_WHOLE_VIEW,
+          static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
+                                   GST_PARAM_MUTABLE_READY)));
   // The base class installed the camera host's properties; add lfarray's.
   install_forwards(oc, PROP_FIRST_FORWARD + G_N_ELEMENTS(kCameraHostForwards),
                    std::begin(kArrayForwards), std::end(kArrayForwards));

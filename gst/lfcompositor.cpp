@@ -23,6 +23,14 @@
  * (its viewer, inside the sequence window, at most the view's area), the
  * rest as before on the aggregate thread, where they are refused.
  *
+ * Fragments whose drawing `lffragment` left to it (`defer=true`, lfarray's
+ * whole-view GL mode: an empty fragment carrying its plan and camera image
+ * in `LfDeferredMeta`, which only buffers that stay in the process carry)
+ * are drawn here: with the GL backend in the same pass sequence as the
+ * other fragments, each camera frame uploaded once into a texture (slot:
+ * the camera's rig index); with the CPU backend by the CPU kernels on the
+ * aggregate thread.
+ *
  * Stream facts come from the fragment caps: the output frame rate is their
  * `framerate` (the viewer's request rate; the `framerate` property overrides
  * it), and the deadline is one frame period after a request's running time
@@ -80,6 +88,7 @@
 #include "lf/focus_probe.h"
 #include "lf/fragment.h"
 #include "lf/probe_bundle.h"
+#include "lf/render.h"
 #include "lf/surface_probe.h"
 #include "lf/wire.h"
 #include "lfaggregate.h"
@@ -135,6 +144,9 @@ struct Piece {
   lf::Fragment f;
   std::optional<lfgst::MappedBuffer> buffer;
   const uint8_t* raw_pixels = nullptr;  // inside a mapped buffer (this piece's or the one before)
+  // An empty fragment whose drawing lffragment left to us (`defer`,
+  // gst/lfmeta.h): drawn by GL with the others, or on the CPU into `f`.
+  std::shared_ptr<const lfgst::DeferredDraw> deferred;
   const uint8_t* pixels() const { return raw_pixels ? raw_pixels : f.pixels.data(); }
 };
 struct Group {
@@ -215,6 +227,9 @@ struct State {
   lf::Compositor comp, comp_right;
   lf::LayerCompositor layers[2];       // per eye, for frames with second-plane fragments
   std::unique_ptr<lf::GlRenderer> gl;  // backend gl (or auto on a hardware GPU)
+  // The frame in each of its image slots (deferred drawings' frame_key and
+  // frame_pts): a camera frame is uploaded once, whatever the requests.
+  std::vector<std::pair<const void*, GstClockTime>> uploaded;
   cv::Mat last_frame;  // RGBA of the last frame emitted (missing pixels come from it)
   cv::Mat frames[2];   // the RGBA frames resolved into, in turn (one is last_frame)
   int next_frame = 0;
@@ -497,12 +512,53 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
   const int W = st->s.stereo ? 2 * w : w;          // stereo: left | right side by side
   if (!ensure_caps(self, W, H)) return GST_FLOW_NOT_NEGOTIATED;
   const guint left_id = static_cast<guint>(std::max<int64_t>(0, st->viewer));
+  // Drawings left to us (lffragment defer): by GL below with the others,
+  // each camera frame uploaded once; without GL, or in a frame of layer
+  // pairs (composited on the CPU), drawn here into the piece first.
+  const bool layered_frame = std::any_of(g.fragments.begin(), g.fragments.end(),
+                                         [](const Piece& pc) { return pc.f.layer != 0; });
+  GError* derr = nullptr;
+  if (!lfgst::guard(
+          [&] {
+            for (Piece& pc : g.fragments) {
+              if (!pc.deferred) continue;
+              const lfgst::DeferredDraw& d = *pc.deferred;
+              if (st->gl && !layered_frame) {
+                if (st->uploaded.size() <= static_cast<size_t>(d.slot))
+                  st->uploaded.resize(d.slot + 1, {nullptr, GST_CLOCK_TIME_NONE});
+                auto& up = st->uploaded[d.slot];
+                if (up.first != d.frame_key || up.second != d.frame_pts) {
+                  st->gl->set_image(d.slot, d.image);
+                  up = {d.frame_key, d.frame_pts};
+                }
+                continue;
+              }
+              lf::describe_fragment(d.plan, pc.f);
+              pc.f.camera_id = static_cast<uint32_t>(d.camera.id);
+              pc.f.pixels.resize(4 * d.plan.pixel_count());
+              lf::render_pixels(d.plan, d.camera, d.image, pc.f.pixels.data());
+              pc.raw_pixels = nullptr;
+              pc.deferred.reset();
+            }
+          },
+          &derr)) {
+    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("Cannot draw the deferred fragments"),
+                      ("%s", derr->message));
+    g_error_free(derr);
+    return GST_FLOW_ERROR;
+  }
   // Each eye's fragments composited at once (lib/lf/composite.h: bands of
   // rows, in parallel), resolved into the frame that is not last_frame (no
   // allocation per frame).
   std::vector<lf::FragmentPixels> eye[2];
-  for (const Piece& piece : g.fragments)
-    eye[st->s.stereo && piece.f.viewer_id != left_id].push_back({&piece.f, piece.pixels()});
+  std::vector<lf::PlannedFragment> planned[2];
+  for (const Piece& piece : g.fragments) {
+    const int e = st->s.stereo && piece.f.viewer_id != left_id;
+    if (piece.deferred)
+      planned[e].push_back({&piece.deferred->plan, &piece.deferred->camera, piece.deferred->slot});
+    else
+      eye[e].push_back({&piece.f, piece.pixels()});
+  }
   cv::Mat& rgba = st->frames[st->next_frame];
   st->next_frame ^= 1;
   cv::Mat right;
@@ -518,7 +574,7 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
               if (layered)  // two planes per tile: chosen per pixel (CPU)
                 refused = st->layers[e].composite(w, H, eye[e], into);
               else if (st->gl)
-                refused = st->gl->composite(w, H, eye[e], into);
+                refused = st->gl->composite(w, H, eye[e], planned[e], into);
               else
                 refused = (e ? st->comp_right : st->comp).composite(w, H, eye[e], into);
             },
@@ -923,6 +979,13 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
       const bool raw2 = second && second_enc == lf::Encoding::kRaw;
       Piece piece{std::move(f), std::nullopt, raw ? pixels : nullptr};
       if (raw || raw2) piece.buffer.emplace(std::move(*mapped));
+      // A drawing left to us: only on an empty fragment this process made
+      // (the meta is never copied), for this camera and this view size.
+      if (piece.f.empty() && !second)
+        if (auto d = lfgst::deferred_of(buf); d &&
+                                              d->camera.id == static_cast<int>(piece.f.camera_id) &&
+                                              d->plan.out_width == w && d->plan.out_height == h)
+          piece.deferred = std::move(d);
       g.fragments.push_back(std::move(piece));
       if (second)
         g.fragments.push_back({std::move(*second), std::nullopt, raw2 ? second_pixels : nullptr});

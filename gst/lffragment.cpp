@@ -32,7 +32,10 @@
  * them. Raw fragments are rendered straight into the
  * output buffer in their wire format (no copy) and carry `LfSealedMeta`
  * (gst/lfmeta.h), by which `lfcompositor` in the same process skips their
- * CRC check.
+ * CRC check. With `defer=true` (lfarray's whole-view GL mode) a raw
+ * fragment is only planned here: it leaves as an empty fragment carrying
+ * the plan and the camera image (`LfDeferredMeta`), for an `lfcompositor`
+ * in the same process to draw.
  *
  * The camera is named like lfcamsrc's: `camera-id`, or `row` and `col` of
  * the rig's grid.
@@ -121,6 +124,7 @@ struct Settings : lfgst::CameraAddress {
   guint64 frame_timeout = DEFAULT_FRAME_TIMEOUT;
   FrameSelect frame_select = DEFAULT_FRAME_SELECT;
   lf::Backend backend = DEFAULT_BACKEND;
+  bool defer = false;  // leave the drawing to an lfcompositor in this process
 };
 
 // From READY->PAUSED to PAUSED->READY.
@@ -620,6 +624,39 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
         } else {
           plans.push_back(lf::plan_fragment(g, st->index));
         }
+        size_t warped = 0;
+        // defer (lfarray's whole-view mode): no pixels here; the plan and
+        // the image go on an empty fragment to the compositor, which draws
+        // them (probes, which are scored from pixels, and layer pairs are
+        // drawn here as always).
+        if (st->s.defer && st->s.encoding == Encoding::kRaw && !probe && plans.size() == 1 &&
+            !plans[0].empty()) {
+          auto d = std::make_shared<lfgst::DeferredDraw>();
+          if (rgba.data == image.data) {  // the frame itself: mapped while the drawing waits
+            if (!gst_video_frame_map(&d->frame, &info, frame, GST_MAP_READ))
+              throw std::runtime_error("cannot map the camera frame");
+            d->mapped = true;
+            d->image =
+                cv::Mat(image.rows, image.cols, CV_8UC4, GST_VIDEO_FRAME_PLANE_DATA(&d->frame, 0),
+                        GST_VIDEO_FRAME_PLANE_STRIDE(&d->frame, 0));
+          } else {
+            d->image = rgba;  // a colour-corrected copy (shared, made once per frame)
+          }
+          d->frame_key = frame;
+          d->frame_pts = GST_BUFFER_PTS(frame);
+          d->camera = cam;
+          d->slot = st->index;
+          d->plan = std::move(plans[0]);
+          f.camera_id = static_cast<uint32_t>(cam.id);
+          f.out_width = req.view.width, f.out_height = req.view.height;
+          bytes = lf::serialize_fragment(f, lf::Encoding::kEmpty, 90);
+          out = gst_buffer_new_memdup(bytes.data(), bytes.size());
+          lfgst::add_deferred_meta(out, std::move(d));
+          lfgst::trace(GST_ELEMENT(self), "warped", req.viewer_id, req.sequence, cam.id, 0);
+          lfgst::trace(GST_ELEMENT(self), "encoded", req.viewer_id, req.sequence, cam.id,
+                       static_cast<gint64>(bytes.size()));
+          return;
+        }
         if (st->gl && (st->uploaded_of != frame || st->uploaded_pts != GST_BUFFER_PTS(frame))) {
           st->gl->set_image(0, rgba);
           st->uploaded_of = frame;
@@ -631,7 +668,6 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
           else
             lf::render_pixels(plan, cam, rgba, px);
         };
-        size_t warped = 0;
         if (st->s.encoding == Encoding::kJpeg) {
           f.pixels.swap(st->jpeg_pixels);
           for (const lf::FragmentPlan& plan : plans) {
@@ -839,6 +875,18 @@ static void lf_fragment_class_init(LfFragmentClass* klass) {
                               "(identical on Mesa's llvmpipe)",
                               LF_TYPE_BACKEND, static_cast<gint>(DEFAULT_BACKEND),
                               lfgst::kReadWriteReady));
+  props.add(oc, &Settings::defer,
+            g_param_spec_boolean(
+                "defer", "Defer drawing",
+                "Leave the drawing to an lfcompositor with the GL backend in this process "
+                "(lfarray's whole-view mode): each fragment goes as an empty fragment with its "
+                "plan and camera image attached (LfDeferredMeta, gst/lfmeta.h), and the "
+                "compositor draws all cameras of a view in one GL pass sequence, with no "
+                "fragment read back (a CPU compositor draws them with the CPU kernels). The "
+                "attachment never leaves the process: over RTP or to any other element these "
+                "fragments are empty, so use it only with a compositor in the same process. "
+                "Raw encoding only; probes and layer pairs are drawn here as always",
+                FALSE, lfgst::kReadWriteReady));
   gst_type_mark_as_plugin_api(LF_TYPE_FRAGMENT_FRAME_SELECT, static_cast<GstPluginAPIFlags>(0));
   gst_type_mark_as_plugin_api(LF_TYPE_BACKEND, static_cast<GstPluginAPIFlags>(0));
   gst_element_class_add_static_pad_template(ec, &sink_template);

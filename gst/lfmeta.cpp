@@ -63,4 +63,51 @@ bool has_sealed_meta(GstBuffer* buf) {
   return gst_buffer_get_meta(buf, sealed_meta_api()) != nullptr;
 }
 
+namespace {
+struct DeferredMeta {
+  GstMeta meta;
+  std::shared_ptr<const DeferredDraw>* draw;
+};
+}  // namespace
+
+static GType deferred_meta_api() {
+  static GType type = 0;
+  static gsize once = 0;
+  if (g_once_init_enter(&once)) {
+    static const gchar* tags[] = {nullptr};
+    type = gst_meta_api_type_register("LfDeferredMetaAPI", tags);
+    g_once_init_leave(&once, 1);
+  }
+  return type;
+}
+
+static const GstMetaInfo* deferred_meta_info() {
+  static const GstMetaInfo* info = nullptr;
+  static gsize once = 0;
+  if (g_once_init_enter(&once)) {
+    // No transform: dropped by every copy (it refers to this process's memory).
+    info = gst_meta_register(
+        deferred_meta_api(), "LfDeferredMeta", sizeof(DeferredMeta),
+        [](GstMeta* m, gpointer, GstBuffer*) -> gboolean {
+          reinterpret_cast<DeferredMeta*>(m)->draw = nullptr;
+          return TRUE;
+        },
+        [](GstMeta* m, GstBuffer*) { delete reinterpret_cast<DeferredMeta*>(m)->draw; }, nullptr);
+    g_once_init_leave(&once, 1);
+  }
+  return info;
+}
+
+void add_deferred_meta(GstBuffer* buf, std::shared_ptr<const DeferredDraw> draw) {
+  auto* m =
+      reinterpret_cast<DeferredMeta*>(gst_buffer_add_meta(buf, deferred_meta_info(), nullptr));
+  if (m) m->draw = new std::shared_ptr<const DeferredDraw>(std::move(draw));
+}
+
+std::shared_ptr<const DeferredDraw> deferred_of(GstBuffer* buf) {
+  deferred_meta_info();
+  auto* m = reinterpret_cast<DeferredMeta*>(gst_buffer_get_meta(buf, deferred_meta_api()));
+  return m && m->draw ? *m->draw : nullptr;
+}
+
 }  // namespace lfgst

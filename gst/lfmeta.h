@@ -1,8 +1,16 @@
-// The capture meta that lfcamsrc puts on camera frames, and the sealed meta
-// that lffragment puts on the fragments it serialises.
+// The capture meta that lfcamsrc puts on camera frames, the sealed meta
+// that lffragment puts on the fragments it serialises, and the deferred
+// drawing that it puts on fragments whose pixels it leaves to lfcompositor.
 #pragma once
 
 #include <gst/gst.h>
+#include <gst/video/video.h>
+
+#include <memory>
+#include <opencv2/core.hpp>
+
+#include "lf/camera.h"
+#include "lf/plan.h"
 
 namespace lfgst {
 
@@ -20,5 +28,34 @@ bool read_capture_meta(GstBuffer* buf, int* camera_id, guint64* capture_time);
 // the bytes never having left the process (every other check still runs).
 void add_sealed_meta(GstBuffer* buf);
 bool has_sealed_meta(GstBuffer* buf);
+
+// A fragment's drawing left to the compositor (lffragment `defer`,
+// lfarray's whole-view mode): what lf::render_pixels() would take. On an
+// empty fragment buffer (lib/lf/wire.h kEmpty) as LfDeferredMeta, which,
+// like LfSealedMeta, no copy of the buffer carries: only buffers that stay
+// in this process have it, and anywhere else the fragment is just empty.
+struct DeferredDraw {
+  lf::FragmentPlan plan;  // in output pixels of the view
+  lf::Camera camera;      // intrinsics and distortion of the camera drawn
+  int slot = 0;           // the camera's index in the rig: its image slot in a GL compositor
+  // The camera image to sample (RGBA, the camera's size): the frame itself
+  // (mapped in `frame` while this lives) or its colour-corrected copy.
+  cv::Mat image;
+  // The frame's identity (its buffer and PTS), so that a compositor uploads
+  // each frame once however many requests use it; compared, never used.
+  const void* frame_key = nullptr;
+  GstClockTime frame_pts = GST_CLOCK_TIME_NONE;
+  GstVideoFrame frame{};  // holds a reference to the frame buffer while mapped
+  bool mapped = false;
+  DeferredDraw() = default;
+  DeferredDraw(const DeferredDraw&) = delete;
+  DeferredDraw& operator=(const DeferredDraw&) = delete;
+  ~DeferredDraw() {
+    if (mapped) gst_video_frame_unmap(&frame);
+  }
+};
+void add_deferred_meta(GstBuffer* buf, std::shared_ptr<const DeferredDraw> draw);
+// The drawing on `buf`, or null.
+std::shared_ptr<const DeferredDraw> deferred_of(GstBuffer* buf);
 
 }  // namespace lfgst

@@ -384,6 +384,66 @@ TEST(GlBackend, CompositingMatchesTheCpuCompositor) {
   EXPECT_THROW(gl.composite(0, 10, {}, out), std::invalid_argument);
 }
 
+// Planned fragments (the whole-view mode of lfcompositor: drawn from the
+// cameras' images into the sums, no fragment read back) give the frame of
+// the same fragments drawn by render_pixels() and composited, exactly,
+// also mixed with received fragments in one composite; distorted cameras.
+TEST(GlBackend, PlannedFragmentsEqualDrawnAndCompositedOnes) {
+  lf::GlRenderer gl;
+  const lf::Rig rig = grid4(true);
+  const auto images = images_of(rig);
+  for (size_t i = 0; i < images.size(); ++i) gl.set_image(static_cast<int>(i), images[i]);
+  size_t planned_pixels = 0;
+  for (const auto& [name, req] : views()) {
+    SCOPED_TRACE(name);
+    const lf::ViewGeometry g(rig, req);
+    const int n = static_cast<int>(rig.cameras.size());
+    std::vector<lf::FragmentPlan> plans;
+    std::vector<lf::Fragment> frags(n);
+    for (int i = 0; i < n; ++i) {
+      plans.push_back(lf::plan_fragment(g, i));
+      lf::describe_fragment(plans[i], frags[i]);
+      frags[i].pixels.resize(4 * plans[i].pixel_count());
+      gl.render_pixels(plans[i], rig.cameras[i], i, frags[i].pixels.data());
+    }
+    std::vector<lf::FragmentPixels> drawn, half;
+    std::vector<lf::PlannedFragment> planned, other_half;
+    for (int i = 0; i < n; ++i) {
+      drawn.push_back({&frags[i], frags[i].pixels.data()});
+      planned.push_back({&plans[i], &rig.cameras[i], i});
+      if (i % 2)
+        half.push_back(drawn.back());
+      else
+        other_half.push_back(planned.back());
+      planned_pixels += plans[i].pixel_count();
+    }
+    const int w = req.view.width, h = req.view.height;
+    cv::Mat want, all_planned, mixed;
+    gl.composite(w, h, drawn, want);
+    EXPECT_TRUE(gl.composite(w, h, {}, planned, all_planned).empty());
+    gl.composite(w, h, half, other_half, mixed);
+    EXPECT_EQ(cv::norm(all_planned, want, cv::NORM_INF), 0);
+    EXPECT_EQ(cv::norm(mixed, want, cv::NORM_INF), 0);
+    // The whole-view renderer draws the same sums.
+    EXPECT_EQ(cv::norm(gl.render_view(rig, req), want, cv::NORM_INF), 0);
+  }
+  EXPECT_GT(planned_pixels, 10000u);
+  // A plan outside the frame, or a slot without its camera's image.
+  const auto req = views().front().second;
+  const lf::ViewGeometry g(rig, req);
+  lf::FragmentPlan plan;
+  for (int i = 0; plan.empty() && i < static_cast<int>(rig.cameras.size()); ++i)
+    plan = lf::plan_fragment(g, i);
+  ASSERT_FALSE(plan.empty());
+  cv::Mat out;
+  EXPECT_THROW(gl.composite(plan.rect.x + plan.rect.width - 1, req.view.height, {},
+                            {{&plan, &rig.cameras[0], 0}}, out),
+               std::invalid_argument);
+  EXPECT_THROW(
+      gl.composite(req.view.width, req.view.height, {}, {{&plan, &rig.cameras[0], 99}}, out),
+      std::invalid_argument);
+}
+
 // Meson runs this suite with EGL_PLATFORM=nowhere: no context can be made.
 TEST(GlAbsent, AutoFallsBackAndGlFailsClearly) {
   const char* platform = std::getenv("EGL_PLATFORM");

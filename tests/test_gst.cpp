@@ -647,6 +647,91 @@ TEST_F(Gst, GlBackendPipelineEqualsTheCpuPipeline) {
   }
 }
 
+// The whole-view mode (lfarray whole-view, lffragment defer): the cameras'
+// fragments leave their drawing to the compositor, which draws them all in
+// one GL pass sequence from the camera frames, with no fragment read back.
+// Its frames equal those of every lffragment drawing with GL, exactly (the
+// same whole-number sums), so the CPU pipeline's within the GL tolerance
+// above; lfarray uses it when its compositor draws with GL. Two viewpoints
+// of an orbit, a still and a moving camera frame.
+TEST_F(Gst, WholeViewGlModeEqualsEveryFragmentDrawingWithGl) {
+  ASSERT_TRUE(lf::gl_info().available) << lf::gl_info().error;
+  const std::string view = "num-buffers=3 width=320 height=240 focal-plane=param:-0.2 orbit=0.5";
+  std::string err;
+  const auto cpu = run(pipeline(view, "backend=cpu", "backend=cpu"), 100, nullptr, &err);
+  ASSERT_EQ(cpu.size(), 3u) << err;
+  const auto gl = run(pipeline(view, "backend=gl", "backend=gl"), 100, nullptr, &err);
+  ASSERT_EQ(gl.size(), 3u) << err;
+  const auto whole = run(pipeline(view, "defer=true", "backend=gl"), 100, nullptr, &err);
+  ASSERT_EQ(whole.size(), 3u) << err;
+  const std::string req = "lfviewrequest rig=" + rig_path_ + " " + view;
+  const std::string out = " ! video/x-raw,format=RGBA ! appsink name=out sync=false";
+  const auto array =
+      run(req + " ! lfarray name=a rig=" + rig_path_ + " num-buffers=1 backend=gl" + out, 100,
+          nullptr, &err);
+  ASSERT_EQ(array.size(), 3u) << err;
+  const auto per_fragment =
+      run(req + " ! lfarray rig=" + rig_path_ + " num-buffers=1 backend=gl whole-view=false" + out,
+          100, nullptr, &err);
+  ASSERT_EQ(per_fragment.size(), 3u) << err;
+  for (size_t k = 0; k < 3; ++k) {
+    EXPECT_EQ(cv::norm(whole[k], gl[k], cv::NORM_INF), 0) << "frame " << k;
+    EXPECT_EQ(cv::norm(array[k], gl[k], cv::NORM_INF), 0) << "frame " << k;
+    EXPECT_EQ(cv::norm(per_fragment[k], gl[k], cv::NORM_INF), 0) << "frame " << k;
+    EXPECT_LE(cv::norm(whole[k], cpu[k], cv::NORM_INF), 3) << "frame " << k;
+    EXPECT_GT(cv::countNonZero(whole[k].reshape(1)), static_cast<int>(whole[k].total()))
+        << "frame " << k << " is mostly empty";
+  }
+  // lfarray set its fragments to defer (and to no GL of their own) only
+  // with the GL backend.
+  auto deferred = [&](const std::string& props) {
+    GstElement* p = gst_parse_launch(
+        (req + " ! lfarray name=a rig=" + rig_path_ + " num-buffers=1 " + props + " ! fakesink")
+            .c_str(),
+        nullptr);
+    gst_element_set_state(p, GST_STATE_READY);
+    GstElement* a = gst_bin_get_by_name(GST_BIN(p), "a");
+    const lf::Rig rig = lf::load_rig(rig_path_);
+    GstElement* f =
+        gst_bin_get_by_name(GST_BIN(a), ("fragment" + std::to_string(rig.cameras[0].id)).c_str());
+    gboolean defer = FALSE;
+    gint backend = -1;
+    if (f) g_object_get(f, "defer", &defer, "backend", &backend, nullptr);
+    gst_element_set_state(p, GST_STATE_NULL);
+    if (f) gst_object_unref(f);
+    gst_object_unref(a);
+    gst_object_unref(p);
+    return std::make_pair(static_cast<bool>(defer), backend);
+  };
+  const int kCpuBackend = static_cast<int>(lf::Backend::kCpu);
+  EXPECT_EQ(deferred("backend=gl"), std::make_pair(true, kCpuBackend));
+  EXPECT_EQ(deferred("backend=gl whole-view=false").first, false);
+  EXPECT_EQ(deferred("backend=cpu").first, false);
+  EXPECT_EQ(deferred("backend=gl encoding=jpeg").first, false);
+}
+
+// Deferred fragments without GL: a CPU compositor draws them with the CPU
+// kernels, bit-identical to fragments drawn by their lffragments. Their
+// drawing never leaves the process: through RTP (rtpgstpay, a copy) they
+// arrive as the empty fragments they are on the wire, and the frame is
+// empty (no weight anywhere: all zero), never garbage.
+TEST_F(Gst, DeferredFragmentsWithoutGlAndOverRtp) {
+  const std::string view = "num-buffers=2 width=320 height=240 focal-plane=param:-0.2 orbit=0.5";
+  std::string err;
+  const auto want = run(pipeline(view, "backend=cpu", "backend=cpu"), 100, nullptr, &err);
+  ASSERT_EQ(want.size(), 2u) << err;
+  const auto cpu = run(pipeline(view, "defer=true", "backend=cpu"), 100, nullptr, &err);
+  ASSERT_EQ(cpu.size(), 2u) << err;
+  const auto rtp = run(pipeline(view, "defer=true ! rtpgstpay ! rtpgstdepay", "backend=cpu"), 100,
+                       nullptr, &err);
+  ASSERT_EQ(rtp.size(), 2u) << err;
+  for (size_t k = 0; k < 2; ++k) {
+    EXPECT_EQ(cv::norm(cpu[k], want[k], cv::NORM_INF), 0) << "frame " << k;
+    EXPECT_GT(cv::countNonZero(want[k].reshape(1)), static_cast<int>(want[k].total()));
+    EXPECT_EQ(cv::countNonZero(rtp[k].reshape(1)), 0) << "frame " << k;
+  }
+}
+
 TEST_F(Gst, BadPropertiesGiveClearErrors) {
   std::string err;
   run("lfviewrequest num-buffers=1 ! fakesink", 1, nullptr, &err);

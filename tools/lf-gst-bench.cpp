@@ -79,9 +79,23 @@ constexpr const char* kFocalPlane = "param:-0.2";
 // (a focal surface from the fragments, lib/lf/surface_probe.h) instead of
 // the fixed focal plane; `props`: more lfviewrequest properties
 // ("name=value ...", e.g. "ulr-cameras=4 sampling=bicubic").
+// `backend`: cpu (the CPU kernels), gl (lfarray's whole-view mode: the
+// fragments leave their drawing to the compositor, which draws them all
+// with GL) or gl-fragments (each lffragment draws its own with GL, the
+// compositor adds them with GL).
 std::string pipeline(const std::string& rig, const lf::Rig& r, int W, int H, const std::string& enc,
                      bool live, int frames, int rate, int surface = 0,
-                     const std::string& props = "") {
+                     const std::string& props = "", const std::string& backend = "cpu") {
+  std::string fb, cb;  // lffragment's and lfcompositor's backend properties
+  if (backend == "cpu") {
+    fb = "backend=cpu", cb = "backend=cpu";
+  } else if (backend == "gl") {
+    fb = "defer=true backend=cpu", cb = "backend=gl";
+  } else if (backend == "gl-fragments") {
+    fb = "backend=gl", cb = "backend=gl";
+  } else {
+    throw std::invalid_argument("backend '" + backend + "': use cpu, gl or gl-fragments");
+  }
   std::string fr;
   if (enc == "raw") {
     fr = "encoding=raw";
@@ -96,12 +110,12 @@ std::string pipeline(const std::string& rig, const lf::Rig& r, int W, int H, con
     << (surface > 0 ? " focal-surface=true surface-interval=" + std::to_string(surface) : "")
     << (props.empty() ? "" : " " + props) << " framerate=" << rate << "/1"
     << (live ? " is-live=true" : "") << " num-buffers=" << frames
-    << " ! tee name=t lfcompositor name=comp rig=" << rig << (live ? " latency=100000000" : "")
-    << " ! appsink name=out sync=false max-buffers=4";
+    << " ! tee name=t lfcompositor name=comp rig=" << rig << " " << cb
+    << (live ? " latency=100000000" : "") << " ! appsink name=out sync=false max-buffers=4";
   for (size_t i = 0; i < r.cameras.size(); ++i)
     d << " lfcamsrc rig=" << rig << " camera-id=" << r.cameras[i].id << " num-buffers=1 ! f" << i
       << ".sink t. ! queue max-size-buffers=8 ! lffragment name=f" << i << " rig=" << rig
-      << " camera-id=" << r.cameras[i].id << " " << fr << " ! comp.sink_" << i;
+      << " camera-id=" << r.cameras[i].id << " " << fr << " " << fb << " ! comp.sink_" << i;
   return d.str();
 }
 
@@ -354,6 +368,7 @@ int main(int argc, char** argv) {
   gchar* viewers_opt = nullptr;
   gboolean skip_bound = FALSE;
   gchar* focal_opt = nullptr;
+  gchar* backends_opt = nullptr;
   const GOptionEntry entries[] = {
       {"input", 0, 0, G_OPTION_ARG_STRING, &input,
        "Dataset folder or rig file (default ../shared/data/stanford-chess)", "PATH"},
@@ -378,6 +393,12 @@ int main(int argc, char** argv) {
        "the fragments every N requests), each optionally with more lfviewrequest properties "
        "after '+' signs, e.g. plane,surface:30,plane+ulr-cameras=4,plane+sampling=bicubic; "
        "each row is compared with the first plain plane row",
+       "LIST"},
+      {"backends", 0, 0, G_OPTION_ARG_STRING, &backends_opt,
+       "Renderers of the single-viewer runs, raw fragments (JPEG rows: cpu only): cpu (default), "
+       "gl (lfarray's whole-view mode: the compositor draws all fragments with EGL/GLES, "
+       "lffragment defer=true) and/or gl-fragments (every lffragment draws its own with GL); "
+       "each row is compared with the cpu plane row",
        "LIST"},
       {"skip-bound", 0, 0, G_OPTION_ARG_NONE, &skip_bound,
        "Leave out the kernel bound and the pipeline efficiency", nullptr},
@@ -413,6 +434,7 @@ int main(int argc, char** argv) {
   const std::string encodings_spec = str(encodings_opt, "raw,jpeg90");
   const std::string viewers_spec = str(viewers_opt, "");
   const std::string focal_spec = str(focal_opt, "plane");
+  const std::string backends_spec = str(backends_opt, "cpu");
   try {
     const lf::Rig rig =
         cli::select_cameras(lf::load_rig_or_dataset(input_path), block_spec, 0, 1.0, true);
@@ -468,6 +490,18 @@ int main(int argc, char** argv) {
         if (!f.props.empty()) f.label += ", " + f.props;
         focals.push_back(f);
       }
+    }
+    std::vector<std::string> backends;
+    {
+      std::stringstream bs(backends_spec);
+      std::string t;
+      while (std::getline(bs, t, ',')) {
+        if (t != "cpu" && t != "gl" && t != "gl-fragments")
+          throw std::invalid_argument("--backends '" + t + "': use cpu, gl or gl-fragments");
+        backends.push_back(t);
+      }
+      if (std::find(backends.begin(), backends.end(), std::string("cpu")) == backends.end())
+        backends.insert(backends.begin(), "cpu");  // the rows' reference
     }
     const int cores = static_cast<int>(std::thread::hardware_concurrency());
     // The kernel bound of each size, measured before the pipelines run (the
@@ -532,7 +566,7 @@ int main(int argc, char** argv) {
         "(%d cores / single-core time) | pipeline efficiency | CPU ms per frame (process) | "
         "kernel CPU ms per frame (one core) | CPU efficiency | cores used | steal %% | live fps "
         "(%d requests/s) | latency median ms | latency p95 ms (live) | peak RSS MiB | vs the "
-        "plane row (throughput, live fps, CPU per frame) |\n"
+        "cpu plane row (throughput, live fps, CPU per frame) |\n"
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         frames, cores, rate);
     for (const auto& [W, H] : sizes)
@@ -540,58 +574,62 @@ int main(int argc, char** argv) {
         // The plane row of this size and encoding (run before the surface
         // rows when --focal lists it first): fps, live fps, CPU ms per frame.
         double plane[3] = {0, 0, 0};
-        for (const Focus& focus : focals) {
-          const int surface = focus.surface;
-          const bool baseline = surface == 0 && focus.props.empty();
-          reset_peak_rss();
-          const auto t =
-              run(pipeline(rig_path, rig, W, H, enc, false, frames, 1000, surface, focus.props),
-                  nullptr);
-          const int warm = std::min<int>(20, static_cast<int>(t.size()) / 4);
-          const bool steady = t.size() > static_cast<size_t>(warm + 1);
-          const Mark& a = steady ? t[warm] : Mark{};
-          const Mark& z = steady ? t.back() : Mark{};
-          const double frames_steady = steady ? static_cast<double>(t.size() - 1 - warm) : 0;
-          const double fps = steady ? frames_steady / (z.wall - a.wall) : 0;
-          const double cpu_ms = steady ? (z.cpu - a.cpu) * 1000.0 / frames_steady : 0;
-          const double cores_used = steady ? (z.cpu - a.cpu) / (z.wall - a.wall) : 0;
-          const auto ticks = z.machine.total - a.machine.total;
-          const double steal =
-              ticks ? 100.0 * static_cast<double>(z.machine.steal - a.machine.steal) / ticks : 0;
-          Probe probe;
-          const auto live = run(pipeline(rig_path, rig, W, H, enc, true, std::max(60, rate * 4),
-                                         rate, surface, focus.props),
-                                &probe);
-          // Output frames per second of the live run, after its first quarter.
-          const size_t lw = live.size() / 4;
-          const double live_fps = live.size() > lw + 1 ? static_cast<double>(live.size() - 1 - lw) /
-                                                             (live.back().wall - live[lw].wall)
-                                                       : 0;
-          std::vector<double> lat(
-              probe.latency_ms.begin() + std::min<size_t>(10, probe.latency_ms.size()),
-              probe.latency_ms.end());
-          // The bound is plan + render + composite of one plane: raw fragments
-          // only (JPEG rows add encoding and decoding that it does not count).
-          const bool has_bound = !skip_bound && enc == "raw" && baseline;
-          const KernelTime k = has_bound ? bound[{W, H}] : KernelTime{};
-          const double kb = has_bound ? cores * 1000.0 / k.wall_ms : 0;
-          auto num = [&](double v, const char* f) {
-            return has_bound ? cv::format(f, v) : std::string("-");
-          };
-          if (baseline && plane[0] == 0) plane[0] = fps, plane[1] = live_fps, plane[2] = cpu_ms;
-          const std::string vs = !baseline && plane[0] > 0 && plane[1] > 0 && plane[2] > 0
-                                     ? cv::format("%.2f, %.2f, %.2fx", fps / plane[0],
-                                                  live_fps / plane[1], cpu_ms / plane[2])
-                                     : std::string("-");
-          std::printf(
-              "| %dx%d | %s | %s | %.1f | %s | %s | %.2f | %s | %s | %.2f | %.0f | %.1f | %.1f | "
-              "%.1f | %.0f | %s |\n",
-              W, H, enc.c_str(), focus.label.c_str(), fps, num(kb, "%.1f").c_str(),
-              num(fps / kb, "%.2f").c_str(), cpu_ms, num(k.cpu_ms, "%.2f").c_str(),
-              num(k.cpu_ms / cpu_ms, "%.2f").c_str(), cores_used, steal, live_fps,
-              percentile(lat, 0.5), percentile(lat, 0.95), peak_rss_mib(), vs.c_str());
-          std::fflush(stdout);
-        }
+        for (const Focus& focus : focals)
+          for (const std::string& backend : backends) {
+            if (backend != "cpu" && enc != "raw") continue;
+            const int surface = focus.surface;
+            const bool baseline = surface == 0 && focus.props.empty() && backend == "cpu";
+            reset_peak_rss();
+            const auto t = run(pipeline(rig_path, rig, W, H, enc, false, frames, 1000, surface,
+                                        focus.props, backend),
+                               nullptr);
+            const int warm = std::min<int>(20, static_cast<int>(t.size()) / 4);
+            const bool steady = t.size() > static_cast<size_t>(warm + 1);
+            const Mark& a = steady ? t[warm] : Mark{};
+            const Mark& z = steady ? t.back() : Mark{};
+            const double frames_steady = steady ? static_cast<double>(t.size() - 1 - warm) : 0;
+            const double fps = steady ? frames_steady / (z.wall - a.wall) : 0;
+            const double cpu_ms = steady ? (z.cpu - a.cpu) * 1000.0 / frames_steady : 0;
+            const double cores_used = steady ? (z.cpu - a.cpu) / (z.wall - a.wall) : 0;
+            const auto ticks = z.machine.total - a.machine.total;
+            const double steal =
+                ticks ? 100.0 * static_cast<double>(z.machine.steal - a.machine.steal) / ticks : 0;
+            Probe probe;
+            const auto live = run(pipeline(rig_path, rig, W, H, enc, true, std::max(60, rate * 4),
+                                           rate, surface, focus.props, backend),
+                                  &probe);
+            // Output frames per second of the live run, after its first quarter.
+            const size_t lw = live.size() / 4;
+            const double live_fps =
+                live.size() > lw + 1
+                    ? static_cast<double>(live.size() - 1 - lw) / (live.back().wall - live[lw].wall)
+                    : 0;
+            std::vector<double> lat(
+                probe.latency_ms.begin() + std::min<size_t>(10, probe.latency_ms.size()),
+                probe.latency_ms.end());
+            // The bound is plan + render + composite of one plane: raw fragments
+            // only (JPEG rows add encoding and decoding that it does not count).
+            const bool has_bound = !skip_bound && enc == "raw" && baseline;
+            const KernelTime k = has_bound ? bound[{W, H}] : KernelTime{};
+            const double kb = has_bound ? cores * 1000.0 / k.wall_ms : 0;
+            auto num = [&](double v, const char* f) {
+              return has_bound ? cv::format(f, v) : std::string("-");
+            };
+            if (baseline && plane[0] == 0) plane[0] = fps, plane[1] = live_fps, plane[2] = cpu_ms;
+            const std::string vs = !baseline && plane[0] > 0 && plane[1] > 0 && plane[2] > 0
+                                       ? cv::format("%.2f, %.2f, %.2fx", fps / plane[0],
+                                                    live_fps / plane[1], cpu_ms / plane[2])
+                                       : std::string("-");
+            std::printf(
+                "| %dx%d | %s | %s | %.1f | %s | %s | %.2f | %s | %s | %.2f | %.0f | %.1f | %.1f | "
+                "%.1f | %.0f | %s |\n",
+                W, H, (backend == "cpu" ? enc : enc + ", " + backend).c_str(), focus.label.c_str(),
+                fps, num(kb, "%.1f").c_str(), num(fps / kb, "%.2f").c_str(), cpu_ms,
+                num(k.cpu_ms, "%.2f").c_str(), num(k.cpu_ms / cpu_ms, "%.2f").c_str(), cores_used,
+                steal, live_fps, percentile(lat, 0.5), percentile(lat, 0.95), peak_rss_mib(),
+                vs.c_str());
+            std::fflush(stdout);
+          }
       }
     return 0;
   } catch (const std::exception& e) {

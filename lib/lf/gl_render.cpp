@@ -108,6 +108,10 @@ std::vector<std::pair<size_t, std::string>> GlRenderer::composite(
     int, int, const std::vector<FragmentPixels>&, cv::Mat&) {
   return {};
 }
+std::vector<std::pair<size_t, std::string>> GlRenderer::composite(
+    int, int, const std::vector<FragmentPixels>&, const std::vector<PlannedFragment>&, cv::Mat&) {
+  return {};
+}
 cv::Mat GlRenderer::render_view(const Rig&, const std::vector<cv::Mat>&, const ViewRequest&,
                                 RenderStats*, int) {
   return {};
@@ -726,6 +730,27 @@ struct GlRenderer::Impl {
     glDrawArrays(GL_TRIANGLE_STRIP, 0, 4);
   }
 
+  // Draws `planned` into the accumulation target (begin_sum()) from their
+  // images, with the run program (scale 1: the sums take whole numbers).
+  void draw_planned(const std::vector<PlannedFragment>& planned) {
+    if (planned.empty()) return;
+    glUseProgram(run_program);
+    glUniform4f(loc.frame, 0.0f, 0.0f, static_cast<float>(sum_w), static_cast<float>(sum_h));
+    glUniform2i(loc.origin, 0, 0);
+    runs.clear();
+    rows.clear();
+    std::vector<int> first_row;
+    first_row.reserve(planned.size());
+    for (const PlannedFragment& pf : planned)
+      first_row.push_back(pf.plan->runs.empty() ? 0 : append_tables(*pf.plan, runs, rows));
+    upload_tables();
+    for (size_t k = 0; k < planned.size(); ++k) {
+      if (planned[k].plan->runs.empty()) continue;
+      set_camera(*planned[k].camera, slot(planned[k].slot), 1.0f);
+      draw_plan(*planned[k].plan, first_row[k]);
+    }
+  }
+
   void init() {
     const std::string why = context.create();
     if (!why.empty()) throw std::runtime_error("GL backend unavailable: " + why);
@@ -926,24 +951,16 @@ cv::Mat GlRenderer::render_view(const Rig& rig, const ViewRequest& request, Rend
   // Sums of up to a few 8-bit contributions per pixel are whole numbers
   // below 2048: exact in half floats, so the blending adds exactly.
   m.begin_sum(w, h);
-  glUseProgram(m.run_program);
-  glUniform4f(m.loc.frame, 0.0f, 0.0f, static_cast<float>(m.sum_w), static_cast<float>(m.sum_h));
-  glUniform2i(m.loc.origin, 0, 0);
   RenderStats s;
   s.plan_ms = t1 - t0;
-  m.runs.clear();
-  m.rows.clear();
-  std::vector<int> first_row(n, 0);
-  for (int i = 0; i < n; ++i)
-    if (!plans[i].runs.empty()) first_row[i] = append_tables(plans[i], m.runs, m.rows);
-  m.upload_tables();
+  std::vector<PlannedFragment> planned;
   for (int i = 0; i < n; ++i) {
     if (plans[i].runs.empty()) continue;
-    m.set_camera(rig.cameras[i], m.slot(i), 1.0f);
-    m.draw_plan(plans[i], first_row[i]);
+    planned.push_back({&plans[i], &rig.cameras[i], i});
     s.fragment_pixels += plans[i].pixel_count();
     ++s.contributing;
   }
+  m.draw_planned(planned);
   cv::Mat out;
   m.resolve(w, h, out);
   check_gl("view rendering");
@@ -954,8 +971,19 @@ cv::Mat GlRenderer::render_view(const Rig& rig, const ViewRequest& request, Rend
 
 std::vector<std::pair<size_t, std::string>> GlRenderer::composite(
     int width, int height, const std::vector<FragmentPixels>& fragments, cv::Mat& out) {
+  return composite(width, height, fragments, {}, out);
+}
+
+std::vector<std::pair<size_t, std::string>> GlRenderer::composite(
+    int width, int height, const std::vector<FragmentPixels>& fragments,
+    const std::vector<PlannedFragment>& planned, cv::Mat& out) {
   if (width < 1 || height < 1 || width > 16384 || height > 16384)
     throw std::invalid_argument("compositor: output size out of range");
+  const cv::Rect frame(0, 0, width, height);
+  for (const PlannedFragment& pf : planned)
+    if (!pf.plan || !pf.camera ||
+        (!pf.plan->runs.empty() && (pf.plan->rect & frame) != pf.plan->rect))
+      throw std::invalid_argument("GlRenderer::composite: a planned fragment outside the frame");
   // lf::Compositor::add()'s checks.
   std::vector<std::pair<size_t, std::string>> refused;
   std::vector<const FragmentPixels*> ok;
@@ -1009,6 +1037,7 @@ std::vector<std::pair<size_t, std::string>> GlRenderer::composite(
     glUniform2i(m.add_rect, rc.y, first_row[k]);
     glDrawArrays(GL_TRIANGLE_STRIP, 0, 4);
   }
+  m.draw_planned(planned);
   m.resolve(width, height, out);
   check_gl("compositing");
   return refused;

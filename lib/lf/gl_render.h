@@ -69,6 +69,16 @@ const GlInfo& gl_info();
 // std::runtime_error("GL backend asked for but unavailable: <why>").
 Backend resolve_backend(Backend asked, std::string* message = nullptr);
 
+// A fragment to be drawn from its camera's image into a composite
+// (GlRenderer::composite): its plan (lf/plan.h, in output pixels), its
+// camera (intrinsics, distortion) and the image slot holding the camera's
+// frame (GlRenderer::set_image). Not owned.
+struct PlannedFragment {
+  const FragmentPlan* plan = nullptr;
+  const Camera* camera = nullptr;
+  int slot = 0;
+};
+
 // A GLES 3 renderer of fragments and whole views.
 //
 // Images: set_image(slot, image) uploads a camera's current frame
@@ -121,6 +131,16 @@ class GlRenderer {
   // GL's largest texture size: 67 M pixels on llvmpipe).
   std::vector<std::pair<size_t, std::string>> composite(
       int width, int height, const std::vector<FragmentPixels>& fragments, cv::Mat& out);
+  // The same, with `planned` fragments drawn here, into the same sums, from
+  // their cameras' images (whole-view mode of a pipeline on one machine:
+  // lffragment leaves the drawing to lfcompositor, no fragment is read
+  // back). Each must lie inside width x height (std::invalid_argument
+  // otherwise; empty plans are skipped) and sample a slot holding an image
+  // of its camera's size (set_image). The sums equal those of render_pixels() + composite() for
+  // the same plans, exactly: the fragment pixels are the same whole numbers.
+  std::vector<std::pair<size_t, std::string>> composite(
+      int width, int height, const std::vector<FragmentPixels>& fragments,
+      const std::vector<PlannedFragment>& planned, cv::Mat& out);
 
   // The same after uploading images[i] into slot i.
   cv::Mat render_view(const Rig& rig, const std::vector<cv::Mat>& images,
