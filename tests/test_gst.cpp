@@ -703,6 +703,37 @@ TEST_F(Gst, WholeViewGlModeEqualsEveryFragmentDrawingWithGl) {
     gst_object_unref(p);
     return std::make_pair(static_cast<bool>(defer), backend);
   };
+  // A stereo pair (two viewers' fragments, one compositor) and a rig with
+  // colour correction (the image drawn is the corrected copy): the same.
+  lf::Rig rig = lf::load_rig(rig_path_);
+  for (auto& c : rig.cameras) c.colour = {0.5, 0, 0, 0, 0, 1, 0, 10, 0, 0, 1, 0};
+  const std::string corrected =
+      (std::filesystem::temp_directory_path() / "lf-test-chess4-colour-gl.json").string();
+  lf::save_rig(rig, corrected);
+  for (const bool stereo : {true, false}) {
+    std::string gl_desc = pipeline(view + (stereo ? " stereo-baseline=2" : ""), "backend=gl",
+                                   stereo ? "backend=gl stereo=true viewer-id=0" : "backend=gl");
+    std::string whole_desc = pipeline(view + (stereo ? " stereo-baseline=2" : ""), "defer=true",
+                                      stereo ? "backend=gl stereo=true viewer-id=0" : "backend=gl");
+    for (std::string* d : {&gl_desc, &whole_desc})
+      for (size_t at = d->find(rig_path_); !stereo && at != std::string::npos;
+           at = d->find(rig_path_, at))
+        d->replace(at, rig_path_.size(), corrected);
+    const auto a = run(gl_desc, 100, nullptr, &err);
+    ASSERT_EQ(a.size(), 3u) << err;
+    const auto b = run(whole_desc, 100, nullptr, &err);
+    ASSERT_EQ(b.size(), 3u) << err;
+    for (size_t k = 0; k < 3; ++k) {
+      EXPECT_EQ(a[k].cols, stereo ? 640 : 320);
+      EXPECT_EQ(cv::norm(a[k], b[k], cv::NORM_INF), 0) << (stereo ? "stereo" : "colour");
+      // Not the plain frame: the eyes differ; the colours are corrected.
+      if (stereo)
+        EXPECT_GT(cv::norm(a[k].colRange(0, 320), a[k].colRange(320, 640), cv::NORM_L1), 0);
+      else
+        EXPECT_GT(cv::norm(a[k], gl[k], cv::NORM_L1), 0);
+    }
+  }
+  std::filesystem::remove(corrected);
   const int kCpuBackend = static_cast<int>(lf::Backend::kCpu);
   EXPECT_EQ(deferred("backend=gl"), std::make_pair(true, kCpuBackend));
   EXPECT_EQ(deferred("backend=gl whole-view=false").first, false);
