@@ -652,9 +652,10 @@ TEST_F(Gst, GlBackendPipelineEqualsTheCpuPipeline) {
 // one GL pass sequence from the camera frames, with no fragment read back.
 // Its frames equal those of every lffragment drawing with GL, exactly (the
 // same whole-number sums), so the CPU pipeline's within the GL tolerance
-// above; lfarray uses it when its compositor draws with GL. Two viewpoints
-// of an orbit, a still and a moving camera frame.
-TEST_F(Gst, WholeViewGlModeEqualsEveryFragmentDrawingWithGl) {
+// above; lfarray uses it when its compositor draws with GL. Three requests
+// along an orbit, a stereo pair, a rig with colour correction. (Named GlBackend* so that the
+// sanitizer run leaves it out with the other GL pipeline tests: scripts/test-san.sh.)
+TEST_F(Gst, GlBackendWholeViewModeEqualsEveryFragmentDrawingWithGl) {
   ASSERT_TRUE(lf::gl_info().available) << lf::gl_info().error;
   const std::string view = "num-buffers=3 width=320 height=240 focal-plane=param:-0.2 orbit=0.5";
   std::string err;
