@@ -651,16 +651,15 @@ TEST_F(Gst, GlBackendPipelineEqualsTheCpuPipeline) {
 // fragments leave their drawing to the compositor, which draws them all in
 // one GL pass sequence from the camera frames, with no fragment read back.
 // Its frames equal those of every lffragment drawing with GL, exactly (the
-// same whole-number sums), so the CPU pipeline's within the GL tolerance
-// above; lfarray uses it when its compositor draws with GL. Three requests
-// along an orbit, a stereo pair, a rig with colour correction. (Named GlBackend* so that the
-// sanitizer run leaves it out with the other GL pipeline tests: scripts/test-san.sh.)
+// same whole-number sums; those are within the GL tolerance of the CPU
+// pipeline's, above); lfarray uses it when its compositor draws with GL.
+// Three requests along an orbit, a stereo pair, a rig with colour
+// correction. (Named GlBackend* so that the sanitizer run leaves it out
+// with the other GL pipeline tests: scripts/test-san.sh.)
 TEST_F(Gst, GlBackendWholeViewModeEqualsEveryFragmentDrawingWithGl) {
   ASSERT_TRUE(lf::gl_info().available) << lf::gl_info().error;
   const std::string view = "num-buffers=3 width=320 height=240 focal-plane=param:-0.2 orbit=0.5";
   std::string err;
-  const auto cpu = run(pipeline(view, "backend=cpu", "backend=cpu"), 100, nullptr, &err);
-  ASSERT_EQ(cpu.size(), 3u) << err;
   const auto gl = run(pipeline(view, "backend=gl", "backend=gl"), 100, nullptr, &err);
   ASSERT_EQ(gl.size(), 3u) << err;
   const auto whole = run(pipeline(view, "defer=true", "backend=gl"), 100, nullptr, &err);
@@ -679,7 +678,6 @@ TEST_F(Gst, GlBackendWholeViewModeEqualsEveryFragmentDrawingWithGl) {
     EXPECT_EQ(cv::norm(whole[k], gl[k], cv::NORM_INF), 0) << "frame " << k;
     EXPECT_EQ(cv::norm(array[k], gl[k], cv::NORM_INF), 0) << "frame " << k;
     EXPECT_EQ(cv::norm(per_fragment[k], gl[k], cv::NORM_INF), 0) << "frame " << k;
-    EXPECT_LE(cv::norm(whole[k], cpu[k], cv::NORM_INF), 3) << "frame " << k;
     EXPECT_GT(cv::countNonZero(whole[k].reshape(1)), static_cast<int>(whole[k].total()))
         << "frame " << k << " is mostly empty";
   }
