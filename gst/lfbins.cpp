@@ -386,9 +386,8 @@ static bool build(LfCameraHost* self) {
                   // for and cannot be had, the compositor says so at start.
                   bool defer = false;
                   if (whole_view && raw) {
-                    std::string why;
                     try {
-                      defer = lf::resolve_backend(backend, &why) == lf::Backend::kGl;
+                      defer = lf::resolve_backend(backend) == lf::Backend::kGl;
                     } catch (const std::exception&) {
                       defer = false;
                     }

@@ -514,6 +514,19 @@ static std::unique_ptr<lf::ViewGeometry> geometry_for(const std::shared_ptr<cons
   return g;
 }
 
+// An explicitly empty fragment of camera `cam` for `req` (wire kEmpty): a
+// camera that answers without pixels of its own (capture time -1: none).
+static GstBuffer* empty_fragment(const lf::ViewRequest& req, const lf::Camera& cam,
+                                 int64_t capture_time_ns) {
+  lf::Fragment f;
+  f.viewer_id = req.viewer_id, f.sequence = req.sequence;
+  f.camera_id = static_cast<uint32_t>(cam.id);
+  f.capture_time_ns = capture_time_ns;
+  f.out_width = req.view.width, f.out_height = req.view.height;
+  const std::vector<uint8_t> bytes = lf::serialize_fragment(f, lf::Encoding::kEmpty, 90);
+  return gst_buffer_new_memdup(bytes.data(), bytes.size());
+}
+
 // Answers one request (a frame request, or one step of a probe) that came
 // in `buf` (timestamps): *answer gets its fragment buffer, or stays null
 // where the request is dropped (with a warning where due).
@@ -575,12 +588,7 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
     // scored without its pixels in every step.
     GST_DEBUG_OBJECT(self, "probe %" G_GUINT64_FORMAT ": its instant is no longer here, sat out",
                      req.sequence);
-    lf::Fragment f;
-    f.viewer_id = req.viewer_id, f.sequence = req.sequence;
-    f.camera_id = static_cast<uint32_t>(cam.id);
-    f.out_width = req.view.width, f.out_height = req.view.height;
-    const std::vector<uint8_t> bytes = lf::serialize_fragment(f, lf::Encoding::kEmpty, 90);
-    GstBuffer* out = gst_buffer_new_memdup(bytes.data(), bytes.size());
+    GstBuffer* out = empty_fragment(req, cam, -1);
     gst_buffer_copy_into(out, buf, GST_BUFFER_COPY_TIMESTAMPS, 0, -1);
     GST_BUFFER_OFFSET(out) = req.sequence;
     *answer = out;
@@ -647,14 +655,11 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
           d->camera = cam;
           d->slot = st->index;
           d->plan = std::move(plans[0]);
-          f.camera_id = static_cast<uint32_t>(cam.id);
-          f.out_width = req.view.width, f.out_height = req.view.height;
-          bytes = lf::serialize_fragment(f, lf::Encoding::kEmpty, 90);
-          out = gst_buffer_new_memdup(bytes.data(), bytes.size());
+          out = empty_fragment(req, cam, f.capture_time_ns);
           lfgst::add_deferred_meta(out, std::move(d));
           lfgst::trace(GST_ELEMENT(self), "warped", req.viewer_id, req.sequence, cam.id, 0);
           lfgst::trace(GST_ELEMENT(self), "encoded", req.viewer_id, req.sequence, cam.id,
-                       static_cast<gint64>(bytes.size()));
+                       static_cast<gint64>(gst_buffer_get_size(out)));
           return;
         }
         if (st->gl && (st->uploaded_of != frame || st->uploaded_pts != GST_BUFFER_PTS(frame))) {

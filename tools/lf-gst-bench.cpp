@@ -79,23 +79,21 @@ constexpr const char* kFocalPlane = "param:-0.2";
 // (a focal surface from the fragments, lib/lf/surface_probe.h) instead of
 // the fixed focal plane; `props`: more lfviewrequest properties
 // ("name=value ...", e.g. "ulr-cameras=4 sampling=bicubic").
-// `backend`: cpu (the CPU kernels), gl (lfarray's whole-view mode: the
-// fragments leave their drawing to the compositor, which draws them all
-// with GL) or gl-fragments (each lffragment draws its own with GL, the
-// compositor adds them with GL).
+// lffragment's and lfcompositor's properties for `backend`: cpu (the CPU
+// kernels), gl (lfarray's whole-view mode: the fragments leave their
+// drawing to the compositor, which draws them all with GL) or gl-fragments
+// (each lffragment draws its own with GL, the compositor adds them with GL).
+std::pair<std::string, std::string> backend_properties(const std::string& backend) {
+  if (backend == "cpu") return {"backend=cpu", "backend=cpu"};
+  if (backend == "gl") return {"defer=true backend=cpu", "backend=gl"};
+  if (backend == "gl-fragments") return {"backend=gl", "backend=gl"};
+  throw std::invalid_argument("backend '" + backend + "': use cpu, gl or gl-fragments");
+}
+
 std::string pipeline(const std::string& rig, const lf::Rig& r, int W, int H, const std::string& enc,
                      bool live, int frames, int rate, int surface = 0,
                      const std::string& props = "", const std::string& backend = "cpu") {
-  std::string fb, cb;  // lffragment's and lfcompositor's backend properties
-  if (backend == "cpu") {
-    fb = "backend=cpu", cb = "backend=cpu";
-  } else if (backend == "gl") {
-    fb = "defer=true backend=cpu", cb = "backend=gl";
-  } else if (backend == "gl-fragments") {
-    fb = "backend=gl", cb = "backend=gl";
-  } else {
-    throw std::invalid_argument("backend '" + backend + "': use cpu, gl or gl-fragments");
-  }
+  const auto [fb, cb] = backend_properties(backend);
   std::string fr;
   if (enc == "raw") {
     fr = "encoding=raw";
@@ -496,8 +494,7 @@ int main(int argc, char** argv) {
       std::stringstream bs(backends_spec);
       std::string t;
       while (std::getline(bs, t, ',')) {
-        if (t != "cpu" && t != "gl" && t != "gl-fragments")
-          throw std::invalid_argument("--backends '" + t + "': use cpu, gl or gl-fragments");
+        backend_properties(t);  // throws for an unknown one
         backends.push_back(t);
       }
       if (std::find(backends.begin(), backends.end(), std::string("cpu")) == backends.end())
