@@ -635,6 +635,9 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
   GST_BUFFER_OFFSET(out) = seq;
   st->last_emitted = static_cast<int64_t>(seq);
   st->stale_since_us = -1;
+  // Before the frame goes out: whoever sees it and sends on can rely on
+  // the new window (decode_on_arrival).
+  publish_acceptance(self->priv, st);
   GST_OBJECT_LOCK(self);
   self->priv->settings.frames++;
   self->priv->settings.last_cameras = static_cast<guint>(g.count);
