@@ -489,6 +489,24 @@ TEST(Render, InPlaceRenderingWritesEveryByte) {
       std::fill_n(expect.begin() + row_start[r] + 4 * (x - plan.row_spans[r][0]), 4, 0);
     EXPECT_EQ(holed, expect) << "camera " << i;
     gap_pixels += gaps.size();
+
+    // Row by row in pieces (render_rows, as the fused compositor draws a
+    // band at a time): the same bytes, gaps included, whatever the cuts.
+    const int rows = static_cast<int>(plan.row_spans.size());
+    for (int piece : {1, 7, 32}) {
+      std::vector<uint8_t> pieces(holed.size(), 0xcd);
+      for (int r0 = 0; r0 < rows; r0 += piece) {
+        const int r1 = std::min(rows, r0 + piece);
+        lf::render_rows(cut, rig.cameras[i], images[i], r0, r1, pieces.data() + row_start[r0]);
+      }
+      EXPECT_EQ(pieces, expect) << "camera " << i << ", " << piece << " rows at a time";
+    }
+    uint8_t none = 0;
+    EXPECT_THROW(lf::render_rows(plan, rig.cameras[i], images[i], 0, rows + 1, &none),
+                 std::invalid_argument);
+    EXPECT_THROW(lf::render_rows(plan, rig.cameras[i], images[i], 2, 1, &none),
+                 std::invalid_argument);
+    EXPECT_NO_THROW(lf::render_rows(plan, rig.cameras[i], images[i], rows, rows, &none));
   }
   EXPECT_GT(compared, 20000u);
   EXPECT_GT(gap_pixels, 500u);
@@ -604,6 +622,87 @@ TEST(Composite, FusedCompositeEqualsAddAndResolve) {
   lf::Compositor c;
   cv::Mat out;
   EXPECT_THROW(c.composite(0, 10, in, out), std::invalid_argument);
+}
+
+// Render and composite fused (Compositor::composite with drawings: each
+// band draws its rows of the cameras' fragments straight into its sums, as
+// lfcompositor does with lffragment defer=true): the frame of the rendered
+// fragments, bit for bit, with lens distortion and bicubic sampling, any
+// mix of drawn and rendered fragments and any number of threads; drawings
+// that cannot be drawn are refused by index, the rest still composited.
+TEST(Composite, DrawingsComposeAsRenderedFragments) {
+  lf::Rig rig = lf::synthetic_grid_rig(3, 3, 0.5, 240, 180, 50, 2.0, 6);
+  for (auto& c : rig.cameras) c.intrinsics.k1 = -0.1, c.intrinsics.k2 = 0.02;
+  rig.finalize();
+  const auto images = images_of(rig);
+  const int saved = cv::getNumThreads();
+  for (const lf::Sampling sampling : {lf::Sampling::kBilinear, lf::Sampling::kBicubic}) {
+    lf::ViewRequest req = view_at({-0.2, 0.15, -0.5}, {0.1, 0.0, kDepth});
+    req.sampling = sampling;
+    const lf::ViewGeometry g(rig, req);
+    std::vector<lf::FragmentPlan> plans;
+    std::vector<lf::Fragment> frags(rig.cameras.size());
+    for (size_t i = 0; i < frags.size(); ++i) {
+      plans.push_back(lf::plan_fragment(g, static_cast<int>(i)));
+      lf::render_fragment(plans[i], rig.cameras[i], images[i], frags[i]);
+    }
+    std::vector<lf::FragmentPixels> all;
+    for (const auto& f : frags) all.push_back({&f, f.pixels.data()});
+    lf::Compositor ref;
+    cv::Mat want;
+    ASSERT_TRUE(ref.composite(200, 150, all, want).empty());
+    size_t covered = 0;
+    for (int y = 0; y < 150; ++y)
+      for (int x = 0; x < 200; ++x) covered += ref.weight_at(x, y) > 0;
+    EXPECT_GT(covered, 200u * 150u / 2);
+    for (int threads : {1, 2, 4}) {
+      cv::setNumThreads(threads);
+      for (size_t drawn_from : {size_t{0}, size_t{4}, frags.size()}) {
+        std::vector<lf::FragmentPixels> given(all.begin(), all.begin() + drawn_from);
+        std::vector<lf::FragmentDrawing> drawings;
+        for (size_t i = drawn_from; i < frags.size(); ++i)
+          drawings.push_back({&plans[i], &rig.cameras[i], &images[i]});
+        lf::Compositor comp;
+        cv::Mat got(5, 5, CV_8UC4, cv::Scalar::all(99));
+        EXPECT_TRUE(comp.composite(200, 150, given, drawings, got).empty());
+        EXPECT_EQ(cv::norm(got, want, cv::NORM_INF), 0)
+            << threads << " threads, drawn from camera " << drawn_from;
+        for (int y = 0; y < 150; y += 7)
+          for (int x = 0; x < 200; x += 3) ASSERT_EQ(comp.weight_at(x, y), ref.weight_at(x, y));
+      }
+    }
+    // Refusals: an image of the wrong size, no image, a plan for another
+    // output size; the other drawings are still composited.
+    size_t some = 0;
+    while (plans[some].empty()) ++some;
+    const cv::Mat small(10, 10, CV_8UC4, cv::Scalar::all(1));
+    lf::FragmentPlan other = plans[some];
+    other.out_width += 2;
+    std::vector<lf::FragmentDrawing> drawings;
+    for (size_t i = 0; i < frags.size(); ++i)
+      drawings.push_back({&plans[i], &rig.cameras[i], &images[i]});
+    drawings.push_back({&plans[some], &rig.cameras[some], &small});
+    drawings.push_back({&plans[some], &rig.cameras[some], nullptr});
+    drawings.push_back({&other, &rig.cameras[some], &images[some]});
+    lf::Compositor comp;
+    cv::Mat got;
+    const auto refused = comp.composite(200, 150, {all[0]}, drawings, got);
+    ASSERT_EQ(refused.size(), 3u);
+    EXPECT_EQ(refused[0].first, 1 + frags.size());
+    EXPECT_NE(refused[0].second.find("does not match"), std::string::npos) << refused[0].second;
+    EXPECT_EQ(refused[1].first, 2 + frags.size());
+    EXPECT_EQ(refused[2].first, 3 + frags.size());
+    EXPECT_NE(refused[2].second.find("frame"), std::string::npos) << refused[2].second;
+    // Camera 0 twice (given and drawn): its weight twice, the rest once.
+    lf::Compositor twice;
+    twice.reset(200, 150);
+    for (const auto& f : frags) twice.add(f);
+    twice.add(frags[0]);
+    cv::Mat want2;
+    twice.resolve(want2);
+    EXPECT_EQ(cv::norm(got, want2, cv::NORM_INF), 0);
+  }
+  cv::setNumThreads(saved);
 }
 
 // Partial sums (issue 15's bandwidth point): a host's cameras summed into

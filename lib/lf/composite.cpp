@@ -7,6 +7,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "lf/render.h"
+
 #if defined(__SSE2__) && !defined(LF_NO_SIMD)
 #include <emmintrin.h>
 #define LF_COMPOSITE_SSE2 1
@@ -128,6 +130,12 @@ std::vector<size_t> row_starts(const Fragment& f) {
 
 std::vector<std::pair<size_t, std::string>> Compositor::composite(
     int width, int height, const std::vector<FragmentPixels>& fragments, cv::Mat& out) {
+  return composite(width, height, fragments, {}, out);
+}
+
+std::vector<std::pair<size_t, std::string>> Compositor::composite(
+    int width, int height, const std::vector<FragmentPixels>& fragments,
+    const std::vector<FragmentDrawing>& drawings, cv::Mat& out) {
   if (width < 1 || height < 1 || width > 16384 || height > 16384)
     throw std::invalid_argument("compositor: output size out of range");
   w_ = width;
@@ -154,6 +162,32 @@ std::vector<std::pair<size_t, std::string>> Compositor::composite(
     ok.push_back(&fp);
     row_start.push_back(row_starts(*fp.fragment));
   }
+  // The drawings' fragments (rect and spans, no pixels yet), checked as
+  // render_pixels() and add() would check them.
+  std::vector<Fragment> drawn;
+  std::vector<const FragmentDrawing*> to_draw;
+  std::vector<std::vector<size_t>> drawn_start;
+  drawn.reserve(drawings.size());
+  for (size_t i = 0; i < drawings.size(); ++i) {
+    const FragmentDrawing& d = drawings[i];
+    Fragment f;
+    try {
+      if (!d.plan || !d.camera || !d.image)
+        throw std::invalid_argument("compositor: drawing without a plan, camera or image");
+      describe_fragment(*d.plan, f);
+      f.camera_id = static_cast<uint32_t>(d.camera->id);
+      uint8_t none = 0;
+      render_rows(*d.plan, *d.camera, *d.image, 0, 0, &none);  // its image's checks only
+      const size_t n = check(f, &none, width, height);
+      if (n == 0) continue;
+    } catch (const std::invalid_argument& e) {
+      refused.emplace_back(fragments.size() + i, e.what());
+      continue;
+    }
+    drawn.push_back(std::move(f));
+    to_draw.push_back(&d);
+    drawn_start.push_back(row_starts(drawn.back()));
+  }
   // Bands of 32 rows: a 640-pixel band's sums take 320 KiB (L2-sized); a
   // band is zeroed, accumulated and resolved by one thread, in fragment
   // order, so every sum is the serial one.
@@ -169,6 +203,18 @@ std::vector<std::pair<size_t, std::string>> Compositor::composite(
         const int r0 = std::max(y0, f.rect.y) - f.rect.y;
         const int r1 = std::min(y1, f.rect.y + f.rect.height) - f.rect.y;
         if (r0 < r1) add_rows(f, ok[k]->pixels + row_start[k][r0], r0, r1);
+      }
+      for (size_t k = 0; k < drawn.size(); ++k) {
+        const Fragment& f = drawn[k];
+        const int r0 = std::max(y0, f.rect.y) - f.rect.y;
+        const int r1 = std::min(y1, f.rect.y + f.rect.height) - f.rect.y;
+        if (r0 >= r1) continue;
+        // This thread's buffer for a band's rows of one drawing (reused).
+        thread_local std::vector<uint8_t> rows;
+        rows.resize(drawn_start[k][r1] - drawn_start[k][r0]);
+        const FragmentDrawing& d = *to_draw[k];
+        render_rows(*d.plan, *d.camera, *d.image, r0, r1, rows.data());
+        add_rows(f, rows.data(), r0, r1);
       }
       resolve_rows(out, y0, y1);
     }

@@ -8,7 +8,9 @@
 #include <utility>
 #include <vector>
 
+#include "lf/camera.h"
 #include "lf/fragment.h"
+#include "lf/plan.h"
 
 namespace lf {
 
@@ -17,6 +19,16 @@ namespace lf {
 struct FragmentPixels {
   const Fragment* fragment = nullptr;
   const uint8_t* pixels = nullptr;
+};
+
+// A fragment not drawn yet: its plan (lf/plan.h), its camera and the
+// camera's current image (CV_8UC4, camera.width x camera.height), as
+// lf/render.h render_pixels() takes them. Compositor::composite draws it
+// band by band straight into its sums (no fragment in memory).
+struct FragmentDrawing {
+  const FragmentPlan* plan = nullptr;
+  const Camera* camera = nullptr;
+  const cv::Mat* image = nullptr;
 };
 
 // Additive compositor with renormalisation (Section 4.3: "It then adds the
@@ -44,6 +56,18 @@ class Compositor {
   // Throws std::invalid_argument for a size out of range, as reset() does.
   std::vector<std::pair<size_t, std::string>> composite(
       int width, int height, const std::vector<FragmentPixels>& fragments, cv::Mat& out);
+  // The same with fragments still to draw besides (render and composite
+  // fused): each band draws the drawings' rows within it
+  // (lf/render.h render_rows, best kernel) into a buffer of its thread and
+  // adds them at once, while the band's sums are in cache. The frame equals,
+  // bit for bit, composite() of the fragments followed by the drawings
+  // rendered by render_fragment(). A drawing that render_pixels() or add()
+  // would refuse (no plan, camera or image, an image of the wrong size or
+  // type, a plan for another output size) is left out and returned as
+  // (fragments.size() + its index, why).
+  std::vector<std::pair<size_t, std::string>> composite(
+      int width, int height, const std::vector<FragmentPixels>& fragments,
+      const std::vector<FragmentDrawing>& drawings, cv::Mat& out);
   // Where no weight arrived (alpha 0 in `out`), takes the pixel of
   // `previous` (the last frame shown, same size, CV_8UC4): a frame
   // composited without some of its fragments (a missed deadline) shows the

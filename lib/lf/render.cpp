@@ -220,6 +220,15 @@ void render_fragment(const FragmentPlan& plan, const Camera& cam, const cv::Mat&
 
 void render_pixels(const FragmentPlan& plan, const Camera& cam, const cv::Mat& image,
                    uint8_t* pixels, Kernel kernel) {
+  render_rows(plan, cam, image, 0, static_cast<int>(plan.row_spans.size()), pixels, kernel);
+}
+
+void render_rows(const FragmentPlan& plan, const Camera& cam, const cv::Mat& image, int r0, int r1,
+                 uint8_t* pixels, Kernel kernel) {
+  if (r0 < 0 || r1 > static_cast<int>(plan.row_spans.size()) || r0 > r1)
+    throw std::invalid_argument("render_rows: rows " + std::to_string(r0) + ".." +
+                                std::to_string(r1) + " are not within the plan's " +
+                                std::to_string(plan.row_spans.size()));
   if (kernel == Kernel::kBest) kernel = best_kernel();
   if (!kernel_available(kernel))
     throw std::invalid_argument(std::string("render_fragment: the ") + kernel_name(kernel) +
@@ -237,16 +246,22 @@ void render_pixels(const FragmentPlan& plan, const Camera& cam, const cv::Mat& i
   // are walked, so every byte is written once.
   const auto& spans = plan.row_spans;
   uint8_t* row = pixels;  // start of row `cur`
-  int cur = 0, cursor = spans.empty() ? 0 : spans[0][0];
+  int cur = r0, cursor = r0 < r1 ? spans[r0][0] : 0;
   auto finish_rows_before = [&](int r) {
     for (; cur < r; ++cur) {
       std::memset(row + 4 * (cursor - spans[cur][0]), 0, 4 * (spans[cur][1] - cursor));
       row += 4 * (spans[cur][1] - spans[cur][0]);
-      if (cur + 1 < static_cast<int>(spans.size())) cursor = spans[cur + 1][0];
+      if (cur + 1 < r1) cursor = spans[cur + 1][0];
     }
   };
-  if (plan.runs.empty()) {
-    finish_rows_before(static_cast<int>(spans.size()));
+  // The runs of rows [r0, r1) (sorted by y).
+  const int y0 = plan.rect.y + r0, y1 = plan.rect.y + r1;
+  const auto first = std::lower_bound(plan.runs.begin(), plan.runs.end(), y0,
+                                      [](const Run& run, int y) { return run.y < y; });
+  const auto last =
+      std::lower_bound(first, plan.runs.end(), y1, [](const Run& run, int y) { return run.y < y; });
+  if (first == last) {
+    finish_rows_before(r1);
     return;
   }
 
@@ -267,7 +282,8 @@ void render_pixels(const FragmentPlan& plan, const Camera& cam, const cv::Mat& i
   const bool cubic = plan.sampling == Sampling::kBicubic;
 
   alignas(32) int32_t iu[kBlock], iv[kBlock], wtop[kBlock], wbot[kBlock];
-  for (const Run& run : plan.runs) {
+  for (auto it = first; it != last; ++it) {
+    const Run& run = *it;
     const FragmentPiece& pc = plan.pieces[run.piece];
     const double y = run.y;
     const cv::Matx33d& H = pc.H;
@@ -315,7 +331,7 @@ void render_pixels(const FragmentPlan& plan, const Camera& cam, const cv::Mat& i
       gather_sse2(sse2, image.data, stride, n, iu, iv, wtop, wbot, dst);
     }
   }
-  finish_rows_before(static_cast<int>(spans.size()));
+  finish_rows_before(r1);
 }
 
 }  // namespace lf

@@ -42,6 +42,14 @@ void render_fragment(const FragmentPlan& plan, const Camera& camera, const cv::M
 void describe_fragment(const FragmentPlan& plan, Fragment& out);
 void render_pixels(const FragmentPlan& plan, const Camera& camera, const cv::Mat& image,
                    uint8_t* pixels, Kernel kernel = Kernel::kBest);
+// Rows [r0, r1) of the plan's rect only (0 <= r0 <= r1 <= its height), as
+// render_pixels() writes them: `pixels` receives those rows' span pixels,
+// row after row (4 bytes each, the same values). For a caller that renders
+// a fragment in pieces, e.g. band by band into its sums
+// (lf/composite.h Compositor::composite with drawings). Throws
+// std::invalid_argument for rows out of range, and as render_pixels().
+void render_rows(const FragmentPlan& plan, const Camera& camera, const cv::Mat& image, int r0,
+                 int r1, uint8_t* pixels, Kernel kernel = Kernel::kBest);
 bool kernel_available(Kernel kernel);
 Kernel best_kernel();                    // never kBest
 const char* kernel_name(Kernel kernel);  // "scalar", "sse2", "avx2" (kBest: the one it picks)
