@@ -49,13 +49,20 @@
  * the 64-camera pipeline of Figure 2 on one machine. Navigation and
  * `lf-view` events from the sink travel up through it to `lfviewrequest`.
  *
- * Whole-view GL mode: where the compositor draws with GL (`backend=gl`, or
- * `auto` on a hardware GPU) and the fragments are raw, the `lffragment`s
- * only plan (`defer=true`, no GL context of their own) and the compositor
- * draws all cameras of a view from their frames in one GL pass sequence
- * into one output: each camera frame uploaded once, no fragment read back
- * (lib/lf/gl_render.h). Its frames equal those of every `lffragment`
- * drawing its own with GL (`whole-view=false`), exactly.
+ * Whole-view mode (`whole-view`, the default with raw fragments): the
+ * `lffragment`s only plan (`defer=true`) and the compositor draws all
+ * cameras of a view from their frames: on the CPU band by band straight
+ * into its sums, on all cores (lib/lf/composite.h; no fragment in memory),
+ * with GL in one pass sequence into one output (each camera frame uploaded
+ * once, no fragment read back, no GL context per camera;
+ * lib/lf/gl_render.h). Planning is cheap, so one request thread plans
+ * every camera (not one thread per camera: one hand-off per request
+ * instead of 64, issue 12's profile in docs/speed.md), with the request
+ * rate limit (`max-rate`) kept once for all cameras; only where frames are
+ * picked by capture time (`record`, `playback`, `frame-select`), a request
+ * may wait for a camera's frame and each camera keeps its own request
+ * thread. The frames equal those of every `lffragment` drawing its own
+ * fragment (`whole-view=false`), exactly.
  *
  * ## Example launch line
  * |[
@@ -73,7 +80,9 @@
 #include "lf/parse.h"
 #include "lfbackend.h"
 #include "lfguard.h"
+#include "lfrate.h"
 #include "lfrig.h"
+#include "lfwarn.h"
 
 extern "C" GType lf_cam_src_get_type(void);
 extern "C" GType lf_fragment_get_type(void);
@@ -266,6 +275,33 @@ static GstElement* adopt(GstBin* bin, Priv* p, GstElement* e) {
   return e;
 }
 
+// lfarray with one request thread for all cameras: the request rate limit
+// (lffragment max-rate) is kept here, once for all cameras, on the requests
+// coming in, and the lffragments have none: each of 64 buckets deciding
+// alone could drop a request in some cameras and not in others, and a
+// non-live compositor's pads out of step hold the request thread for ever.
+struct RequestLimit {
+  GstElement* host = nullptr;  // not owned: the probe dies with its child
+  double rate = 0;
+  lfgst::TokenBucket bucket;
+  lfgst::WarnLimiter warned;
+};
+
+static GstPadProbeReturn limit_requests(GstPad*, GstPadProbeInfo* info, gpointer data) {
+  auto* l = static_cast<RequestLimit*>(data);
+  const guint n = (GST_PAD_PROBE_INFO_TYPE(info) & GST_PAD_PROBE_TYPE_BUFFER_LIST)
+                      ? gst_buffer_list_length(GST_PAD_PROBE_INFO_BUFFER_LIST(info))
+                      : 1;
+  for (guint i = 0; i < n; ++i)
+    if (!l->bucket.take(l->rate)) {
+      LF_ELEMENT_WARNING_LIMITED(l->host, l->warned, STREAM, DECODE,
+                                 ("Dropping view requests above max-rate"),
+                                 "more than %g requests a second", l->rate);
+      return GST_PAD_PROBE_DROP;
+    }
+  return GST_PAD_PROBE_OK;
+}
+
 static void link_or_throw(GstElement* a, GstElement* b, const std::string& what) {
   if (!gst_element_link(a, b)) throw std::runtime_error("cannot link " + what);
 }
@@ -361,131 +397,159 @@ static bool build(LfCameraHost* self) {
   const std::shared_ptr<const lf::Rig> rig = lfgst::open_rig(GST_ELEMENT(self), rig_path);
   bool ok = rig != nullptr;
   GError* err = nullptr;
-  if (ok && !lfgst::guard(
-                [&] {
-                  const std::vector<int> chosen = lf::parse_index_ranges(
-                      cameras, static_cast<int>(rig->cameras.size()), "cameras");
-                  bool live = false, frame_select_set = false, raw = true;
-                  lf::Backend backend = lf::Backend::kAuto;
-                  for (auto& [f, v] : values) {
-                    if (g_str_equal(f.name, "is-live")) live = g_value_get_boolean(&v);
-                    if (g_str_equal(f.name, "backend"))
-                      backend = static_cast<lf::Backend>(g_value_get_enum(&v));
-                    if (g_str_equal(f.name, "encoding"))
-                      raw =
-                          g_value_get_enum(&v) == static_cast<gint>(lfgst::FragmentEncoding::kRaw);
-                    if (g_str_equal(f.name, "frame-select")) frame_select_set = true;
-                    // lfarray: a request its compositor still waits for is not
-                    // stale.
-                    if (g_str_equal(f.name, "latency"))
-                      max_age = std::max<guint64>(max_age, g_value_get_uint64(&v));
-                  }
-                  // Whole-view mode: where the compositor draws with GL,
-                  // the fragments leave their drawing to it (lffragment
-                  // defer) and need no GL of their own. Where GL is asked
-                  // for and cannot be had, the compositor says so at start.
-                  bool defer = false;
-                  if (whole_view && raw) {
-                    try {
-                      defer = lf::resolve_backend(backend) == lf::Backend::kGl;
-                    } catch (const std::exception&) {
-                      defer = false;
-                    }
-                  }
-                  // Bad file name patterns fail here, before anything is made.
-                  if (!record.empty()) lf::camera_file_name(record, 0, "record");
-                  if (!playback.empty()) lf::camera_file_name(playback, 0, "playback");
-                  GstElement* tee = make("tee", "requests");
-                  g_object_set(tee, "allow-not-linked", TRUE, nullptr);
-                  GstElement* out = composite_of(self) ? make("lfcompositor", "compositor")
-                                    : sums             ? make("lfpartialsum", "sums")
-                                                       : make("funnel", "fragments");
-                  gst_bin_add_many(GST_BIN(self), tee, out, nullptr);
-                  p->children = {tee, out};
-                  // Partial sums: the cameras' raw fragments are added up,
-                  // and the sum encoded, in `sum`.
-                  GstElement* sum = nullptr;
-                  if (sums && composite_of(self)) {
-                    sum = adopt(GST_BIN(self), p, make("lfpartialsum", "sums"));
-                    if (!gst_element_link_pads(sum, "src", out, "sink_%u"))
-                      throw std::runtime_error("cannot link the partial sums");
-                  } else if (sums) {
-                    sum = out;
-                  }
-                  if (sum) {
-                    g_object_set(sum, "latency", sum_latency, nullptr);
-                    for (auto& [f, v] : values)
-                      if (g_str_equal(f.name, "encoding") || g_str_equal(f.name, "jpeg-quality"))
-                        g_object_set_property(G_OBJECT(sum), f.name, &v);
-                  }
-                  auto apply = [&](GstElement* e, GType type) {
-                    // `backend` is the fragments' and, in lfarray, the compositor's.
-                    for (auto& [f, v] : values)
-                      if (f.child() == type ||
-                          (type == lf_compositor_get_type() && g_str_equal(f.name, "backend")))
-                        g_object_set_property(G_OBJECT(e), f.name, &v);
-                  };
-                  if (composite_of(self)) {
-                    g_object_set(out, "rig", rig_path.c_str(), nullptr);
-                    apply(out, lf_compositor_get_type());
-                  }
-                  for (int i : chosen) {
-                    const int cam_id = rig->cameras[i].id;
-                    const std::string id = std::to_string(cam_id);
-                    GstElement* q = adopt(GST_BIN(self), p, make("queue", "requests" + id));
-                    GstElement* frag = adopt(GST_BIN(self), p, make("lffragment", "fragment" + id));
-                    g_object_set(frag, "rig", rig_path.c_str(), "camera-id", cam_id, nullptr);
-                    apply(frag, lf_fragment_get_type());
-                    if (sum) gst_util_set_object_arg(G_OBJECT(frag), "encoding", "raw");
-                    if (defer)
-                      g_object_set(frag, "defer", TRUE, "backend",
-                                   static_cast<gint>(lf::Backend::kCpu), nullptr);
-                    // A recording pairs frames with requests by capture time, live
-                    // and played back alike.
-                    if ((!record.empty() || !playback.empty()) && !frame_select_set)
-                      gst_util_set_object_arg(G_OBJECT(frag), "frame-select", "capture-time");
-                    GstElement* cam;
-                    if (playback.empty()) {
-                      cam = adopt(GST_BIN(self), p, make("lfcamsrc", "camera" + id));
-                      g_object_set(cam, "rig", rig_path.c_str(), "camera-id", cam_id, nullptr);
-                      apply(cam, lf_cam_src_get_type());
-                    } else {
-                      cam = add_playback(GST_BIN(self), p,
-                                         lf::camera_file_name(playback, cam_id, "playback"),
-                                         rig->cameras[i], id);
-                    }
-                    if (!record.empty())
-                      cam = add_recorder(GST_BIN(self), p, cam,
-                                         lf::camera_file_name(record, cam_id, "record"),
-                                         record_quality, id);
-                    // Live: a request that waits behind requests request-max-age
-                    // newer is stale (the oldest go first). Bounded in time, not
-                    // in count: the requests of several viewers arrive in the
-                    // same tick (a two-request queue dropped two of four
-                    // viewers' requests at every camera, lf-web with four
-                    // browsers).
-                    if (live)
-                      g_object_set(q, "max-size-buffers", 64, "max-size-bytes", 0, "max-size-time",
-                                   max_age, nullptr),
-                          gst_util_set_object_arg(G_OBJECT(q), "leaky", "downstream");
-                    // Not live: the queue's defaults (requests of several viewers
-                    // interleave; a short queue here can stall them behind one
-                    // another).
-                    if (!gst_element_link_pads(tee, "src_%u", q, "sink") ||
-                        !gst_element_link_pads(q, "src", frag, "request") ||
-                        !gst_element_link_pads(cam, nullptr, frag, "sink") ||
-                        !gst_element_link_pads(frag, "src", sum ? sum : out, "sink_%u"))
-                      throw std::runtime_error("cannot link the graph of camera " + id);
-                  }
-                  GstPad* tsink = gst_element_get_static_pad(tee, "sink");
-                  GstPad* osrc = gst_element_get_static_pad(out, "src");
-                  gst_ghost_pad_set_target(GST_GHOST_PAD(p->sink), tsink);
-                  gst_ghost_pad_set_target(GST_GHOST_PAD(p->src), osrc);
-                  gst_object_unref(tsink);
-                  gst_object_unref(osrc);
-                  GST_INFO_OBJECT(self, "%zu cameras of %s", chosen.size(), rig_path.c_str());
-                },
-                &err)) {
+  if (ok &&
+      !lfgst::guard(
+          [&] {
+            const std::vector<int> chosen =
+                lf::parse_index_ranges(cameras, static_cast<int>(rig->cameras.size()), "cameras");
+            bool live = false, frame_select_set = false, by_capture_time = false, raw = true;
+            for (auto& [f, v] : values) {
+              if (g_str_equal(f.name, "is-live")) live = g_value_get_boolean(&v);
+              if (g_str_equal(f.name, "encoding"))
+                raw = g_value_get_enum(&v) == static_cast<gint>(lfgst::FragmentEncoding::kRaw);
+              if (g_str_equal(f.name, "frame-select")) {
+                frame_select_set = true;
+                const GEnumValue* ev = g_enum_get_value(
+                    G_ENUM_CLASS(g_type_class_peek(G_VALUE_TYPE(&v))), g_value_get_enum(&v));
+                by_capture_time = ev && g_str_equal(ev->value_nick, "capture-time");
+              }
+              // lfarray: a request its compositor still waits for is not
+              // stale.
+              if (g_str_equal(f.name, "latency"))
+                max_age = std::max<guint64>(max_age, g_value_get_uint64(&v));
+            }
+            // Whole-view mode: the fragments leave their drawing to
+            // the compositor (lffragment defer), which draws them
+            // all, with GL or fused into its CPU compositing; they
+            // only plan, so one request thread plans every camera
+            // (one hand-off a request, not one a camera), unless
+            // frames are picked by capture time (recording, playback,
+            // frame-select): there a request may wait for a camera's
+            // frame, and each camera keeps its own request thread.
+            const bool defer = whole_view && raw;
+            const bool one_thread = defer && record.empty() && playback.empty() && !by_capture_time;
+            // Bad file name patterns fail here, before anything is made.
+            if (!record.empty()) lf::camera_file_name(record, 0, "record");
+            if (!playback.empty()) lf::camera_file_name(playback, 0, "playback");
+            GstElement* tee = make("tee", "requests");
+            g_object_set(tee, "allow-not-linked", TRUE, nullptr);
+            // Live: a request that waits behind requests request-max-age
+            // newer is stale (the oldest go first). Bounded in time, not
+            // in count: the requests of several viewers arrive in the
+            // same tick (a two-request queue dropped two of four
+            // viewers' requests at every camera, lf-web with four
+            // browsers). Not live: the queue's defaults (requests of
+            // several viewers interleave; a short queue here can stall
+            // them behind one another).
+            auto request_queue = [&](const std::string& name) {
+              GstElement* q = adopt(GST_BIN(self), p, make("queue", name));
+              if (live) {
+                g_object_set(q, "max-size-buffers", 64, "max-size-bytes", 0, "max-size-time",
+                             max_age, nullptr);
+                gst_util_set_object_arg(G_OBJECT(q), "leaky", "downstream");
+              }
+              return q;
+            };
+            GstElement* out = composite_of(self) ? make("lfcompositor", "compositor")
+                              : sums             ? make("lfpartialsum", "sums")
+                                                 : make("funnel", "fragments");
+            gst_bin_add_many(GST_BIN(self), tee, out, nullptr);
+            p->children = {tee, out};
+            // Partial sums: the cameras' raw fragments are added up,
+            // and the sum encoded, in `sum`.
+            GstElement* sum = nullptr;
+            if (sums && composite_of(self)) {
+              sum = adopt(GST_BIN(self), p, make("lfpartialsum", "sums"));
+              if (!gst_element_link_pads(sum, "src", out, "sink_%u"))
+                throw std::runtime_error("cannot link the partial sums");
+            } else if (sums) {
+              sum = out;
+            }
+            if (sum) {
+              g_object_set(sum, "latency", sum_latency, nullptr);
+              for (auto& [f, v] : values)
+                if (g_str_equal(f.name, "encoding") || g_str_equal(f.name, "jpeg-quality"))
+                  g_object_set_property(G_OBJECT(sum), f.name, &v);
+            }
+            auto apply = [&](GstElement* e, GType type) {
+              // `backend` is the fragments' and, in lfarray, the compositor's.
+              for (auto& [f, v] : values)
+                if (f.child() == type ||
+                    (type == lf_compositor_get_type() && g_str_equal(f.name, "backend")))
+                  g_object_set_property(G_OBJECT(e), f.name, &v);
+            };
+            if (composite_of(self)) {
+              g_object_set(out, "rig", rig_path.c_str(), nullptr);
+              apply(out, lf_compositor_get_type());
+            }
+            std::vector<GstElement*> frags;
+            for (int i : chosen) {
+              const int cam_id = rig->cameras[i].id;
+              const std::string id = std::to_string(cam_id);
+              GstElement* q = one_thread ? nullptr : request_queue("requests" + id);
+              GstElement* frag = adopt(GST_BIN(self), p, make("lffragment", "fragment" + id));
+              frags.push_back(frag);
+              g_object_set(frag, "rig", rig_path.c_str(), "camera-id", cam_id, nullptr);
+              apply(frag, lf_fragment_get_type());
+              if (sum) gst_util_set_object_arg(G_OBJECT(frag), "encoding", "raw");
+              if (defer)
+                g_object_set(frag, "defer", TRUE, "backend", static_cast<gint>(lf::Backend::kCpu),
+                             nullptr);
+              // A recording pairs frames with requests by capture time, live
+              // and played back alike.
+              if ((!record.empty() || !playback.empty()) && !frame_select_set)
+                gst_util_set_object_arg(G_OBJECT(frag), "frame-select", "capture-time");
+              GstElement* cam;
+              if (playback.empty()) {
+                cam = adopt(GST_BIN(self), p, make("lfcamsrc", "camera" + id));
+                g_object_set(cam, "rig", rig_path.c_str(), "camera-id", cam_id, nullptr);
+                apply(cam, lf_cam_src_get_type());
+              } else {
+                cam = add_playback(GST_BIN(self), p,
+                                   lf::camera_file_name(playback, cam_id, "playback"),
+                                   rig->cameras[i], id);
+              }
+              if (!record.empty())
+                cam = add_recorder(GST_BIN(self), p, cam,
+                                   lf::camera_file_name(record, cam_id, "record"), record_quality,
+                                   id);
+              if ((q && (!gst_element_link_pads(tee, "src_%u", q, "sink") ||
+                         !gst_element_link_pads(q, "src", frag, "request"))) ||
+                  (!q && !gst_element_link_pads(tee, "src_%u", frag, "request")) ||
+                  !gst_element_link_pads(cam, nullptr, frag, "sink") ||
+                  !gst_element_link_pads(frag, "src", sum ? sum : out, "sink_%u"))
+                throw std::runtime_error("cannot link the graph of camera " + id);
+            }
+            // One request thread for all cameras: live, a queue before
+            // the tee (stale requests dropped there, and the request
+            // source never waits for the cameras); not live, the
+            // request source's own thread.
+            GstElement* first = tee;
+            if (one_thread && live) {
+              first = request_queue("request-queue");
+              if (!gst_element_link(first, tee))
+                throw std::runtime_error("cannot link the request queue");
+            }
+            GstPad* tsink = gst_element_get_static_pad(first, "sink");
+            if (one_thread && !frags.empty()) {
+              auto* limit = new RequestLimit;
+              limit->host = GST_ELEMENT(self);
+              g_object_get(frags.front(), "max-rate", &limit->rate, nullptr);
+              for (GstElement* f : frags) g_object_set(f, "max-rate", 0.0, nullptr);
+              gst_pad_add_probe(tsink,
+                                static_cast<GstPadProbeType>(GST_PAD_PROBE_TYPE_BUFFER |
+                                                             GST_PAD_PROBE_TYPE_BUFFER_LIST),
+                                limit_requests, limit,
+                                [](gpointer d) { delete static_cast<RequestLimit*>(d); });
+            }
+            GstPad* osrc = gst_element_get_static_pad(out, "src");
+            gst_ghost_pad_set_target(GST_GHOST_PAD(p->sink), tsink);
+            gst_ghost_pad_set_target(GST_GHOST_PAD(p->src), osrc);
+            gst_object_unref(tsink);
+            gst_object_unref(osrc);
+            GST_INFO_OBJECT(self, "%zu cameras of %s", chosen.size(), rig_path.c_str());
+          },
+          &err)) {
     GST_ELEMENT_ERROR(self, LIBRARY, SETTINGS, ("Cannot build the camera graph"),
                       ("%s", err->message));
     g_error_free(err);
@@ -710,13 +774,14 @@ static void lf_array_class_init(LfArrayClass* klass) {
   g_object_class_install_property(
       oc, PROP_WHOLE_VIEW,
       g_param_spec_boolean(
-          "whole-view", "Whole-view GL mode",
-          "Where the compositor draws with GL (backend=gl, or auto on a hardware GPU) and the "
-          "fragments are raw: the fragments leave their drawing to it (lffragment defer), and "
-          "all cameras of a view are drawn in one GL pass sequence into one output, each camera "
-          "frame uploaded once, no fragment read back (lib/lf/gl_render.h). FALSE: every "
-          "lffragment draws its own fragment (in its own GL context with the GL backend). No "
-          "effect with the CPU backend or partial-sums",
+          "whole-view", "Whole-view mode",
+          "With raw fragments: the fragments only plan, all on one request thread (each on its "
+          "own where frames are picked by capture time), and leave their drawing to the "
+          "compositor (lffragment defer), which draws all cameras of a view: on the CPU fused "
+          "into its compositing, on all cores; with GL in one pass sequence, each camera frame "
+          "uploaded once, no fragment read back. FALSE: a request thread per camera, and every "
+          "lffragment draws its own fragment (in its own GL context with the GL backend). The "
+          "same frames either way. No effect with JPEG fragments or partial-sums",
           DEFAULT_WHOLE_VIEW,
           static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
                                    GST_PARAM_MUTABLE_READY)));

@@ -24,12 +24,14 @@
  * rest as before on the aggregate thread, where they are refused.
  *
  * Fragments whose drawing `lffragment` left to it (`defer=true`, lfarray's
- * whole-view GL mode: an empty fragment carrying its plan and camera image
+ * whole-view mode: an empty fragment carrying its plan and camera image
  * in `LfDeferredMeta`, which only buffers that stay in the process carry)
  * are drawn here: with the GL backend in the same pass sequence as the
  * other fragments, each camera frame uploaded once into a texture (slot:
- * the camera's rig index); with the CPU backend by the CPU kernels on the
- * aggregate thread.
+ * the camera's rig index); with the CPU backend fused into the compositing
+ * (lib/lf/composite.h: each band of rows draws its part of every camera's
+ * fragment straight into its sums, the bands on all cores), or, in a frame
+ * of layer pairs, drawn first by the CPU kernels on the aggregate thread.
  *
  * Stream facts come from the fragment caps: the output frame rate is their
  * `framerate` (the viewer's request rate; the `framerate` property overrides
@@ -513,8 +515,10 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
   if (!ensure_caps(self, W, H)) return GST_FLOW_NOT_NEGOTIATED;
   const guint left_id = static_cast<guint>(std::max<int64_t>(0, st->viewer));
   // Drawings left to us (lffragment defer): by GL below with the others,
-  // each camera frame uploaded once; without GL, or in a frame of layer
-  // pairs (composited on the CPU), drawn here into the piece first.
+  // each camera frame uploaded once; on the CPU, fused into the composite
+  // (each band of rows draws its part of every camera's fragment straight
+  // into its sums, on both cores); in a frame of layer pairs (the layer
+  // compositor), drawn here into the piece first.
   const bool layered_frame = std::any_of(g.fragments.begin(), g.fragments.end(),
                                          [](const Piece& pc) { return pc.f.layer != 0; });
   GError* derr = nullptr;
@@ -533,6 +537,7 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
                 }
                 continue;
               }
+              if (!layered_frame) continue;  // fused into Compositor::composite
               lf::describe_fragment(d.plan, pc.f);
               pc.f.camera_id = static_cast<uint32_t>(d.camera.id);
               pc.f.pixels.resize(4 * d.plan.pixel_count());
@@ -552,10 +557,14 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
   // allocation per frame).
   std::vector<lf::FragmentPixels> eye[2];
   std::vector<lf::PlannedFragment> planned[2];
+  std::vector<lf::FragmentDrawing> drawings[2];
   for (const Piece& piece : g.fragments) {
     const int e = st->s.stereo && piece.f.viewer_id != left_id;
-    if (piece.deferred)
+    if (piece.deferred && st->gl)
       planned[e].push_back({&piece.deferred->plan, &piece.deferred->camera, piece.deferred->slot});
+    else if (piece.deferred)
+      drawings[e].push_back(
+          {&piece.deferred->plan, &piece.deferred->camera, &piece.deferred->image});
     else
       eye[e].push_back({&piece.f, piece.pixels()});
   }
@@ -576,15 +585,18 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
               else if (st->gl)
                 refused = st->gl->composite(w, H, eye[e], planned[e], into);
               else
-                refused = (e ? st->comp_right : st->comp).composite(w, H, eye[e], into);
+                refused =
+                    (e ? st->comp_right : st->comp).composite(w, H, eye[e], drawings[e], into);
             },
             &err)) {
       GST_ELEMENT_ERROR(self, STREAM, FAILED, ("Cannot composite the frame"), ("%s", err->message));
       g_error_free(err);
       return GST_FLOW_ERROR;
     }
-    for (const auto& [i, why] : refused)
-      GST_WARNING_OBJECT(self, "dropping fragment of camera %u: %s", eye[e][i].fragment->camera_id,
+    for (const auto& [i, why] : refused)  // fragments, then drawings
+      GST_WARNING_OBJECT(self, "dropping fragment of camera %d: %s",
+                         i < eye[e].size() ? static_cast<int>(eye[e][i].fragment->camera_id)
+                                           : drawings[e][i - eye[e].size()].camera->id,
                          why.c_str());
   }
   if (st->s.stereo) cv::hconcat(rgba, right, rgba);

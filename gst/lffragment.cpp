@@ -32,7 +32,7 @@
  * them. Raw fragments are rendered straight into the
  * output buffer in their wire format (no copy) and carry `LfSealedMeta`
  * (gst/lfmeta.h), by which `lfcompositor` in the same process skips their
- * CRC check. With `defer=true` (lfarray's whole-view GL mode) a raw
+ * CRC check. With `defer=true` (lfarray's whole-view mode) a raw
  * fragment is only planned here: it leaves as an empty fragment carrying
  * the plan and the camera image (`LfDeferredMeta`), for an `lfcompositor`
  * in the same process to draw.
@@ -67,6 +67,7 @@
 #include "lfguard.h"
 #include "lfmeta.h"
 #include "lfprops.h"
+#include "lfrate.h"
 #include "lfrig.h"
 #include "lftrace.h"
 #include "lfwarn.h"
@@ -137,10 +138,9 @@ struct State {
   // request; guarded by Priv::lock.
   GstBuffer* corrected_of = nullptr;  // the frame it was made from (not owned, compared only)
   cv::Mat corrected;
-  // Request rate limit: a token bucket of max_rate tokens, refilled at
-  // max_rate per second (request thread only).
-  double tokens = 0;
-  gint64 refilled_us = -1;
+  // Request rate limit: max_rate per second, bursts of one second's worth
+  // (request thread only).
+  lfgst::TokenBucket rate;
   // The GL renderer (backend gl, or auto on a hardware GPU; else null) and
   // the frame in its texture, by buffer and PTS (request thread only).
   std::unique_ptr<lf::GlRenderer> gl;
@@ -442,20 +442,11 @@ static bool admit(LfFragment* self, State* st, const lf::ViewRequest& req) {
         req.viewer_id, req.view.width, req.view.height, px, s.max_pixels);
     return false;
   }
-  if (s.max_rate > 0) {
-    const gint64 now = g_get_monotonic_time();
-    if (st->refilled_us < 0)
-      st->tokens = s.max_rate;
-    else
-      st->tokens = std::min(s.max_rate, st->tokens + s.max_rate * (now - st->refilled_us) / 1e6);
-    st->refilled_us = now;
-    if (st->tokens < 1) {
-      LF_ELEMENT_WARNING_LIMITED(
-          self, st->too_fast, STREAM, DECODE, ("Dropping view requests above max-rate"),
-          "more than %g requests a second (viewer %u)", s.max_rate, req.viewer_id);
-      return false;
-    }
-    st->tokens -= 1;
+  if (!st->rate.take(s.max_rate)) {
+    LF_ELEMENT_WARNING_LIMITED(
+        self, st->too_fast, STREAM, DECODE, ("Dropping view requests above max-rate"),
+        "more than %g requests a second (viewer %u)", s.max_rate, req.viewer_id);
+    return false;
   }
   return true;
 }
@@ -594,6 +585,17 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
     *answer = out;
     return GST_FLOW_OK;
   }
+  // defer (lfarray's whole-view mode, one request thread for all cameras):
+  // a request this camera cannot answer still gets an explicitly empty
+  // fragment, so every camera's pad of a non-live compositor stays in step
+  // (a pad left without the fragment that the others have would hold
+  // GstAggregator, and with it the request thread, for ever).
+  auto answer_empty = [&] {
+    if (!st->s.defer) return;
+    *answer = empty_fragment(req, cam, -1);
+    gst_buffer_copy_into(*answer, buf, GST_BUFFER_COPY_TIMESTAMPS, 0, -1);
+    GST_BUFFER_OFFSET(*answer) = req.sequence;
+  };
   GstVideoFrame vf;
   if (!frame || !have_info || !gst_video_frame_map(&vf, &info, frame, GST_MAP_READ)) {
     LF_ELEMENT_WARNING_LIMITED(
@@ -601,6 +603,7 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
         "camera %d delivered no frame within %" GST_TIME_FORMAT " (request %" G_GUINT64_FORMAT ")",
         cam.id, GST_TIME_ARGS(st->s.frame_timeout), req.sequence);
     if (frame) gst_buffer_unref(frame);
+    answer_empty();
     return GST_FLOW_OK;
   }
   const gint quality = lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::quality);
@@ -727,6 +730,7 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
                                req.viewer_id, err->message);
     g_error_free(err);
     if (out) gst_buffer_unref(out);
+    answer_empty();
     return GST_FLOW_OK;
   }
   gst_buffer_copy_into(out, buf, GST_BUFFER_COPY_TIMESTAMPS, 0, -1);
@@ -883,14 +887,17 @@ static void lf_fragment_class_init(LfFragmentClass* klass) {
   props.add(oc, &Settings::defer,
             g_param_spec_boolean(
                 "defer", "Defer drawing",
-                "Leave the drawing to an lfcompositor with the GL backend in this process "
-                "(lfarray's whole-view mode): each fragment goes as an empty fragment with its "
-                "plan and camera image attached (LfDeferredMeta, gst/lfmeta.h), and the "
-                "compositor draws all cameras of a view in one GL pass sequence, with no "
-                "fragment read back (a CPU compositor draws them with the CPU kernels). The "
+                "Leave the drawing to an lfcompositor in this process (lfarray's whole-view "
+                "mode): each fragment goes as an empty fragment with its plan and camera image "
+                "attached (LfDeferredMeta, gst/lfmeta.h), and the compositor draws all cameras "
+                "of a view: with GL in one pass sequence, with no fragment read back; on the CPU "
+                "band by band straight into its sums, on all cores (lib/lf/composite.h). The "
                 "attachment never leaves the process: over RTP or to any other element these "
                 "fragments are empty, so use it only with a compositor in the same process. "
-                "Raw encoding only; probes and layer pairs are drawn here as always",
+                "Raw encoding only; probes and layer pairs are drawn here as always. A request "
+                "without a camera frame (frame-timeout) or that cannot be planned is answered "
+                "with an empty fragment (and a warning), not dropped: lfarray plans all cameras "
+                "on one thread, whose pads must stay in step",
                 FALSE, lfgst::kReadWriteReady));
   gst_type_mark_as_plugin_api(LF_TYPE_FRAGMENT_FRAME_SELECT, static_cast<GstPluginAPIFlags>(0));
   gst_type_mark_as_plugin_api(LF_TYPE_BACKEND, static_cast<GstPluginAPIFlags>(0));

@@ -681,8 +681,8 @@ TEST_F(Gst, GlBackendWholeViewModeEqualsEveryFragmentDrawingWithGl) {
     EXPECT_GT(cv::countNonZero(whole[k].reshape(1)), static_cast<int>(whole[k].total()))
         << "frame " << k << " is mostly empty";
   }
-  // lfarray set its fragments to defer (and to no GL of their own) only
-  // with the GL backend.
+  // lfarray sets its fragments to defer (and to no GL of their own) with
+  // raw fragments, whatever the backend, unless whole-view=false.
   auto deferred = [&](const std::string& props) {
     GstElement* p = gst_parse_launch(
         (req + " ! lfarray name=a rig=" + rig_path_ + " num-buffers=1 " + props + " ! fakesink")
@@ -736,12 +736,17 @@ TEST_F(Gst, GlBackendWholeViewModeEqualsEveryFragmentDrawingWithGl) {
   const int kCpuBackend = static_cast<int>(lf::Backend::kCpu);
   EXPECT_EQ(deferred("backend=gl"), std::make_pair(true, kCpuBackend));
   EXPECT_EQ(deferred("backend=gl whole-view=false").first, false);
-  EXPECT_EQ(deferred("backend=cpu").first, false);
+  EXPECT_EQ(deferred("backend=cpu"), std::make_pair(true, kCpuBackend));
   EXPECT_EQ(deferred("backend=gl encoding=jpeg").first, false);
 }
 
 // Deferred fragments without GL: a CPU compositor draws them with the CPU
-// kernels, bit-identical to fragments drawn by their lffragments. Their
+// kernels, fused into its compositing (lib/lf/composite.h drawings),
+// bit-identical to fragments drawn by their lffragments; so does lfarray,
+// whose whole-view mode (the default with raw fragments) defers them and
+// plans every camera on one request thread, against whole-view=false (a
+// request thread and a drawing per camera), in a stereo pair and with
+// colour correction too. Their
 // drawing never leaves the process: through RTP (rtpgstpay, a copy) they
 // arrive as the empty fragments they are on the wire, and the frame is
 // empty (no weight anywhere: all zero), never garbage.
@@ -755,10 +760,124 @@ TEST_F(Gst, DeferredFragmentsWithoutGlAndOverRtp) {
   const auto rtp = run(pipeline(view, "defer=true ! rtpgstpay ! rtpgstdepay", "backend=cpu"), 100,
                        nullptr, &err);
   ASSERT_EQ(rtp.size(), 2u) << err;
+  lf::Rig rig = lf::load_rig(rig_path_);
+  for (auto& c : rig.cameras) c.colour = {0.5, 0, 0, 0, 0, 1, 0, 10, 0, 0, 1, 0};
+  const std::string corrected =
+      (std::filesystem::temp_directory_path() / "lf-test-chess4-colour-cpu.json").string();
+  lf::save_rig(rig, corrected);
+  for (const std::string& r : {rig_path_, corrected})
+    for (const std::string stereo : {"", " stereo-baseline=2"}) {
+      const std::string req = "lfviewrequest rig=" + r + " " + view + stereo;
+      const std::string out = " ! video/x-raw,format=RGBA ! appsink name=out sync=false";
+      const std::string array = " ! lfarray rig=" + r + " num-buffers=1 backend=cpu" +
+                                (stereo.empty() ? "" : " stereo=true viewer-id=0");
+      const auto whole = run(req + array + out, 100, nullptr, &err);
+      ASSERT_EQ(whole.size(), 2u) << err;
+      const auto each = run(req + array + " whole-view=false" + out, 100, nullptr, &err);
+      ASSERT_EQ(each.size(), 2u) << err;
+      for (size_t k = 0; k < 2; ++k) {
+        EXPECT_EQ(whole[k].cols, stereo.empty() ? 320 : 640);
+        EXPECT_EQ(cv::norm(whole[k], each[k], cv::NORM_INF), 0) << r << stereo << ", frame " << k;
+        EXPECT_GT(cv::countNonZero(whole[k].reshape(1)), static_cast<int>(whole[k].total()))
+            << r << stereo;
+        if (!stereo.empty()) continue;
+        if (r == rig_path_) {
+          EXPECT_EQ(cv::norm(whole[k], want[k], cv::NORM_INF), 0) << "frame " << k;
+        } else {  // corrected: not the plain frame
+          EXPECT_GT(cv::norm(whole[k], want[k], cv::NORM_L1), 0);
+        }
+      }
+    }
+  std::filesystem::remove(corrected);
   for (size_t k = 0; k < 2; ++k) {
     EXPECT_EQ(cv::norm(cpu[k], want[k], cv::NORM_INF), 0) << "frame " << k;
     EXPECT_GT(cv::countNonZero(want[k].reshape(1)), static_cast<int>(want[k].total()));
     EXPECT_EQ(cv::countNonZero(rtp[k].reshape(1)), 0) << "frame " << k;
+  }
+}
+
+// One request thread for all cameras (lfarray's whole-view mode: the
+// fragments only plan, and a non-live compositor waits for a fragment on
+// every pad): every camera answers every request, so the pads stay in step.
+// A camera without a frame answers with an empty fragment (a dropped one
+// would hold the compositor, and the request thread pushing into it, for
+// ever); a request rate over lfarray's max-rate is dropped once for all
+// cameras, not by each camera's own limit. Before either, both pipelines
+// hung.
+TEST_F(Gst, OneRequestThreadKeepsTheCamerasInStep) {
+  const lf::Rig rig = lf::load_rig(rig_path_);
+  // Camera 0's frames never arrive (valve): every request waits
+  // frame-timeout there, then gets its empty fragment.
+  std::string d = "lfviewrequest rig=" + rig_path_ +
+                  " num-buffers=4 width=160 height=120 focal-plane=param:-0.2 orbit=0.5"
+                  " ! tee name=t lfcompositor name=comp rig=" +
+                  rig_path_ +
+                  " backend=cpu ! video/x-raw,format=RGBA ! appsink name=out sync=false";
+  for (size_t i = 0; i < rig.cameras.size(); ++i) {
+    const std::string id = std::to_string(rig.cameras[i].id), n = std::to_string(i);
+    d += " lfcamsrc rig=" + rig_path_ + " camera-id=" + id + " num-buffers=1 ! " +
+         (i == 0 ? "valve drop=true ! " : "") + "f" + n + ".sink";
+    d += " t. ! lffragment name=f" + n + " rig=" + rig_path_ + " camera-id=" + id +
+         " defer=true frame-timeout=20000000 ! comp.sink_" + n;
+  }
+  std::vector<std::string> warnings;
+  std::string err;
+  const auto frames = run(d, 100, &warnings, &err);
+  EXPECT_TRUE(err.empty()) << err;
+  EXPECT_EQ(frames.size(), 4u);
+  EXPECT_TRUE(std::any_of(warnings.begin(), warnings.end(), [](const std::string& w) {
+    return w.find("No camera frame") != std::string::npos;
+  }));
+  // The other three cameras' pixels are there.
+  for (const cv::Mat& f : frames) {
+    std::vector<cv::Mat> ch;
+    cv::split(f, ch);
+    EXPECT_GT(cv::countNonZero(ch[3]), static_cast<int>(f.total()) / 4);
+  }
+  // 400 requests as fast as the pipeline takes them, at most 100 a second
+  // (bursts of 100): some pass, the rest are dropped with a warning, and the
+  // run ends; each frame that comes is whole (every camera's weight).
+  warnings.clear();
+  const gint64 t0 = g_get_monotonic_time();
+  const auto limited =
+      run("lfviewrequest rig=" + rig_path_ +
+              " num-buffers=400 framerate=1000/1 width=160 height=120 focal-plane=param:-0.2"
+              " orbit=0.5 ! lfarray rig=" +
+              rig_path_ +
+              " num-buffers=1 max-rate=100 ! video/x-raw,format=RGBA ! appsink name=out "
+              "sync=false",
+          1000, &warnings, &err);
+  const double seconds = (g_get_monotonic_time() - t0) / 1e6;
+  EXPECT_TRUE(err.empty()) << err;
+  EXPECT_GE(limited.size(), 100u);
+  EXPECT_LE(static_cast<double>(limited.size()), 100 + 100 * seconds + 1) << seconds << " s";
+  EXPECT_LT(limited.size(), 400u);
+  EXPECT_TRUE(std::any_of(warnings.begin(), warnings.end(), [](const std::string& w) {
+    return w.find("max-rate") != std::string::npos;
+  }));
+  for (const cv::Mat& f : limited) {
+    std::vector<cv::Mat> ch;
+    cv::split(f, ch);
+    ASSERT_GT(cv::countNonZero(ch[3]), static_cast<int>(f.total()) * 9 / 10);
+  }
+  // Where the limit is kept: lfarray's own (its fragments have none) on one
+  // request thread; each fragment's with a request thread per camera.
+  for (const bool whole : {true, false}) {
+    GstElement* a = gst_parse_launch(
+        ("lfarray name=a rig=" + rig_path_ + " max-rate=100" + (whole ? "" : " whole-view=false"))
+            .c_str(),
+        nullptr);
+    ASSERT_NE(a, nullptr);
+    ASSERT_NE(gst_element_set_state(a, GST_STATE_READY), GST_STATE_CHANGE_FAILURE);
+    GstElement* f =
+        gst_bin_get_by_name(GST_BIN(a), ("fragment" + std::to_string(rig.cameras[0].id)).c_str());
+    ASSERT_NE(f, nullptr);
+    gdouble rate = -1;
+    g_object_get(f, "max-rate", &rate, nullptr);
+    EXPECT_EQ(rate, whole ? 0.0 : 100.0) << (whole ? "whole-view" : "whole-view=false");
+    gst_object_unref(f);
+    gst_element_set_state(a, GST_STATE_NULL);
+    gst_object_unref(a);
   }
 }
 
