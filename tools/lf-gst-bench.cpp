@@ -1,15 +1,17 @@
 // lf-gst-bench: throughput and request->frame latency of the single-machine
-// GStreamer pipeline (lfviewrequest ! tee ! N x (queue ! lffragment) !
-// lfcompositor ! appsink), in process.
+// GStreamer pipeline (lfviewrequest ! lfarray ! appsink: N x (lfcamsrc,
+// lffragment) and an lfcompositor), in process.
 //  * throughput: non-live, requests as fast as the pipeline takes them;
 //    output frames per second after a warm-up.
 //  * kernel bound, in the same run: the library's plan + render + composite
 //    of the same views on one thread, times the number of cores (raw
-//    fragments); pipeline efficiency = throughput / kernel bound. It splits
-//    into CPU efficiency (the kernels' CPU time per frame / the process's CPU
-//    time per frame) times the cores the pipeline keeps busy; the share of
-//    the machine stolen by the hypervisor meanwhile is printed beside them
-//    (on a shared VM it slows both the pipeline and the bound).
+//    fragments; the faster of the library's two ways: fragments rendered
+//    then composited, or drawn band by band into the sums, fused, as
+//    lfcompositor draws lfarray's deferred fragments); pipeline efficiency = throughput / kernel
+//    bound. It splits into CPU efficiency (the kernels' CPU time per frame / the process's CPU time
+//    per frame) times the cores the pipeline keeps busy; the share of the machine stolen by the
+//    hypervisor meanwhile is printed beside them (on a shared VM it slows both the pipeline and the
+//    bound).
 //  * the process's peak resident set size during each row's pipelines.
 //  * latency: a live request source at a fixed rate; for each request, the
 //    time from the request leaving lfviewrequest to its frame reaching the
@@ -79,21 +81,28 @@ constexpr const char* kFocalPlane = "param:-0.2";
 // (a focal surface from the fragments, lib/lf/surface_probe.h) instead of
 // the fixed focal plane; `props`: more lfviewrequest properties
 // ("name=value ...", e.g. "ulr-cameras=4 sampling=bicubic").
-// lffragment's and lfcompositor's properties for `backend`: cpu (the CPU
-// kernels), gl (lfarray's whole-view mode: the fragments leave their
-// drawing to the compositor, which draws them all with GL) or gl-fragments
-// (each lffragment draws its own with GL, the compositor adds them with GL).
-std::pair<std::string, std::string> backend_properties(const std::string& backend) {
-  if (backend == "cpu") return {"backend=cpu", "backend=cpu"};
-  if (backend == "gl") return {"defer=true backend=cpu", "backend=gl"};
-  if (backend == "gl-fragments") return {"backend=gl", "backend=gl"};
-  throw std::invalid_argument("backend '" + backend + "': use cpu, gl or gl-fragments");
+// lfarray's properties for `backend`: cpu and gl (its whole-view mode, the
+// default: the fragments only plan, on one request thread, and the
+// compositor draws them all, fused into its CPU compositing or with GL) or
+// cpu-fragments and gl-fragments (whole-view=false: a request thread per
+// camera, where each lffragment draws its own fragment, and the compositor
+// adds them).
+std::string backend_properties(const std::string& backend) {
+  if (backend == "cpu") return "backend=cpu";
+  if (backend == "cpu-fragments") return "backend=cpu whole-view=false";
+  if (backend == "gl") return "backend=gl";
+  if (backend == "gl-fragments") return "backend=gl whole-view=false";
+  throw std::invalid_argument("backend '" + backend +
+                              "': use cpu, cpu-fragments, gl or gl-fragments");
 }
 
-std::string pipeline(const std::string& rig, const lf::Rig& r, int W, int H, const std::string& enc,
-                     bool live, int frames, int rate, int surface = 0,
-                     const std::string& props = "", const std::string& backend = "cpu") {
-  const auto [fb, cb] = backend_properties(backend);
+// The pipeline on one machine as lfarray builds it (gst/lfbins.cpp):
+// lfviewrequest ! lfarray (64 x lfcamsrc and lffragment, one lfcompositor)
+// ! appsink; no request rate limit (max-rate=0: the runs ask for more than
+// its default 240 a second).
+std::string pipeline(const std::string& rig, int W, int H, const std::string& enc, bool live,
+                     int frames, int rate, int surface = 0, const std::string& props = "",
+                     const std::string& backend = "cpu") {
   std::string fr;
   if (enc == "raw") {
     fr = "encoding=raw";
@@ -107,13 +116,9 @@ std::string pipeline(const std::string& rig, const lf::Rig& r, int W, int H, con
     << " orbit=" << kOrbit << " path-frames=" << kPathFrames << " focal-plane=" << kFocalPlane
     << (surface > 0 ? " focal-surface=true surface-interval=" + std::to_string(surface) : "")
     << (props.empty() ? "" : " " + props) << " framerate=" << rate << "/1"
-    << (live ? " is-live=true" : "") << " num-buffers=" << frames
-    << " ! tee name=t lfcompositor name=comp rig=" << rig << " " << cb
+    << (live ? " is-live=true" : "") << " num-buffers=" << frames << " ! lfarray rig=" << rig
+    << " num-buffers=1 max-rate=0 " << fr << " " << backend_properties(backend)
     << (live ? " latency=100000000" : "") << " ! appsink name=out sync=false max-buffers=4";
-  for (size_t i = 0; i < r.cameras.size(); ++i)
-    d << " lfcamsrc rig=" << rig << " camera-id=" << r.cameras[i].id << " num-buffers=1 ! f" << i
-      << ".sink t. ! queue max-size-buffers=8 ! lffragment name=f" << i << " rig=" << rig
-      << " camera-id=" << r.cameras[i].id << " " << fr << " " << fb << " ! comp.sink_" << i;
   return d.str();
 }
 
@@ -298,7 +303,8 @@ std::vector<Mark> run(const std::string& desc, Probe* probe) {
 // the elements keep theirs: the median per view over the first `n`, wall
 // clock and this thread's CPU time.
 struct KernelTime {
-  double wall_ms = 0, cpu_ms = 0;
+  double wall_ms = 0, cpu_ms = 0;  // the faster way's
+  double separate_ms = 0, fused_ms = 0;
 };
 KernelTime kernel_ms(const lf::Rig& rig, const std::vector<cv::Mat>& images, int W, int H, int n) {
   lf::ViewSettings vs;
@@ -311,26 +317,49 @@ KernelTime kernel_ms(const lf::Rig& rig, const std::vector<cv::Mat>& images, int
   req.focal_plane = lf::parse_focal_plane(kFocalPlane, rig);
   std::vector<lf::Fragment> frags(rig.cameras.size());
   std::vector<lf::FragmentPixels> pixels(frags.size());
+  std::vector<lf::FragmentPlan> plans(frags.size());
+  std::vector<lf::FragmentDrawing> drawings(frags.size());
   lf::Compositor comp;
   cv::Mat out;
-  std::vector<double> ms, cpu;
+  // Both of the library's ways, view by view: each fragment rendered, then
+  // all composited; or planned, then drawn band by band into the sums
+  // (fused, as lfcompositor draws deferred fragments).
+  std::vector<double> ms[2], cpu[2];
   for (int k = 0; k < n; ++k) {
     req.view = seq.at(static_cast<uint64_t>(k), rig);
-    const gint64 t0 = g_get_monotonic_time();
-    const double c0 = thread_cpu_s();
-    const lf::ViewGeometry g(rig, req);
-    for (size_t i = 0; i < frags.size(); ++i) {
-      lf::render_fragment(lf::plan_fragment(g, static_cast<int>(i)), rig.cameras[i], images[i],
-                          frags[i]);
-      pixels[i] = {&frags[i], frags[i].pixels.data()};
+    for (int fused = 0; fused < 2; ++fused) {
+      const gint64 t0 = g_get_monotonic_time();
+      const double c0 = thread_cpu_s();
+      const lf::ViewGeometry g(rig, req);
+      for (size_t i = 0; i < frags.size(); ++i) {
+        plans[i] = lf::plan_fragment(g, static_cast<int>(i));
+        if (fused) {
+          drawings[i] = {&plans[i], &rig.cameras[i], &images[i]};
+        } else {
+          lf::render_fragment(plans[i], rig.cameras[i], images[i], frags[i]);
+          pixels[i] = {&frags[i], frags[i].pixels.data()};
+        }
+      }
+      // One thread: cv::setNumThreads(1) by the caller.
+      if (fused)
+        comp.composite(W, H, {}, drawings, out);
+      else
+        comp.composite(W, H, pixels, out);
+      ms[fused].push_back((g_get_monotonic_time() - t0) / 1000.0);
+      cpu[fused].push_back((thread_cpu_s() - c0) * 1000.0);
     }
-    comp.composite(W, H, pixels, out);  // one thread: cv::setNumThreads(1) by the caller
-    ms.push_back((g_get_monotonic_time() - t0) / 1000.0);
-    cpu.push_back((thread_cpu_s() - c0) * 1000.0);
   }
-  std::sort(ms.begin(), ms.end());
-  std::sort(cpu.begin(), cpu.end());
-  return {ms[ms.size() / 2], cpu[cpu.size() / 2]};
+  auto median = [](std::vector<double>& v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  KernelTime t;
+  t.separate_ms = median(ms[0]);
+  t.fused_ms = median(ms[1]);
+  const int best = t.fused_ms < t.separate_ms;
+  t.wall_ms = best ? t.fused_ms : t.separate_ms;
+  t.cpu_ms = median(cpu[best]);
+  return t;
 }
 
 // Peak resident set size of this process since the last reset (Linux
@@ -393,10 +422,11 @@ int main(int argc, char** argv) {
        "each row is compared with the first plain plane row",
        "LIST"},
       {"backends", 0, 0, G_OPTION_ARG_STRING, &backends_opt,
-       "Renderers of the single-viewer runs, raw fragments (JPEG rows: cpu only): cpu (default), "
-       "gl (lfarray's whole-view mode: the compositor draws all fragments with EGL/GLES, "
-       "lffragment defer=true) and/or gl-fragments (every lffragment draws its own with GL); "
-       "each row is compared with the cpu plane row",
+       "Renderers of the single-viewer runs, raw fragments (JPEG rows: cpu only): cpu (default) "
+       "and gl are lfarray's whole-view mode (the fragments only plan, on one request thread; "
+       "the compositor draws them all, fused into its CPU compositing or with EGL/GLES); "
+       "cpu-fragments and gl-fragments are whole-view=false (each lffragment draws its own, on "
+       "a request thread per camera); each row is compared with the cpu plane row",
        "LIST"},
       {"skip-bound", 0, 0, G_OPTION_ARG_NONE, &skip_bound,
        "Leave out the kernel bound and the pipeline efficiency", nullptr},
@@ -521,8 +551,15 @@ int main(int argc, char** argv) {
           KernelTime& b = bound[sz];
           b.wall_ms = pass ? std::min(b.wall_ms, k.wall_ms) : k.wall_ms;
           b.cpu_ms = pass ? std::min(b.cpu_ms, k.cpu_ms) : k.cpu_ms;
+          b.separate_ms = pass ? std::min(b.separate_ms, k.separate_ms) : k.separate_ms;
+          b.fused_ms = pass ? std::min(b.fused_ms, k.fused_ms) : k.fused_ms;
         }
       cv::setNumThreads(threads);
+      std::printf("Kernel bound, single-core ms per view (the library, the same views): ");
+      for (const auto& [sz, b] : bound)
+        std::printf("%dx%d rendered then composited %.2f, fused %.2f; ", sz.first, sz.second,
+                    b.separate_ms, b.fused_ms);
+      std::printf("the bound takes the faster.\n\n");
     }
     if (viewers_run) {
       const auto [W, H] = sizes.front();
@@ -577,9 +614,9 @@ int main(int argc, char** argv) {
             const int surface = focus.surface;
             const bool baseline = surface == 0 && focus.props.empty() && backend == "cpu";
             reset_peak_rss();
-            const auto t = run(pipeline(rig_path, rig, W, H, enc, false, frames, 1000, surface,
-                                        focus.props, backend),
-                               nullptr);
+            const auto t = run(
+                pipeline(rig_path, W, H, enc, false, frames, 1000, surface, focus.props, backend),
+                nullptr);
             const int warm = std::min<int>(20, static_cast<int>(t.size()) / 4);
             const bool steady = t.size() > static_cast<size_t>(warm + 1);
             const Mark& a = steady ? t[warm] : Mark{};
@@ -592,8 +629,8 @@ int main(int argc, char** argv) {
             const double steal =
                 ticks ? 100.0 * static_cast<double>(z.machine.steal - a.machine.steal) / ticks : 0;
             Probe probe;
-            const auto live = run(pipeline(rig_path, rig, W, H, enc, true, std::max(60, rate * 4),
-                                           rate, surface, focus.props, backend),
+            const auto live = run(pipeline(rig_path, W, H, enc, true, std::max(60, rate * 4), rate,
+                                           surface, focus.props, backend),
                                   &probe);
             // Output frames per second of the live run, after its first quarter.
             const size_t lw = live.size() / 4;
