@@ -451,58 +451,82 @@ static bool admit(LfFragment* self, State* st, const lf::ViewRequest& req) {
   return true;
 }
 
-// ULR blending fields shared by the cameras of one process. A kUlr
-// request's field depends on the whole rig, not on one camera (every
-// camera's penalty at every vertex of its grid), so each of 64 cameras
-// computing it cost 64 fields per frame. The first camera to plan a
-// request computes it and the others wait for it and take it. Keyed by the
-// rig and the request's bytes (requests up to kMaxSharedKey bytes; larger
-// ones, with big focal surfaces, are planned alone); the last
-// kSharedFields requests are kept.
-constexpr size_t kMaxSharedKey = 16384, kSharedFields = 16;
-struct SharedUlr {
+// What the cameras of one process share per request: the first camera to
+// plan a request makes it and the others wait for it and take it. Keyed by
+// the rig and the request's bytes (requests up to kMaxSharedKey bytes;
+// larger ones, with big focal surfaces, are planned alone); the last
+// kShared requests are kept.
+constexpr size_t kMaxSharedKey = 16384, kShared = 16;
+template <typename T>
+class SharedPerRequest {
+ public:
+  // The value for (rig, key), made by `make` in the first caller; null
+  // where that failed (it rethrows; a waiting caller then makes its own,
+  // and fails alike with the reason).
+  template <typename Make>
+  std::shared_ptr<const T> get(const std::shared_ptr<const lf::Rig>& rig, const std::string& key,
+                               Make make) {
+    std::shared_future<std::shared_ptr<const T>> value;
+    std::promise<std::shared_ptr<const T>> mine;
+    bool making = false;
+    {
+      std::lock_guard<std::mutex> lock(m_);
+      for (const Entry& e : entries_)
+        if (e.rig == rig && e.key == key) value = e.value;
+      if (!value.valid()) {
+        value = mine.get_future().share();
+        entries_.push_back({rig, key, value});
+        if (entries_.size() > kShared) entries_.pop_front();
+        making = true;
+      }
+    }
+    if (!making) return value.get();
+    try {
+      std::shared_ptr<const T> v = make();
+      mine.set_value(v);
+      return v;
+    } catch (...) {
+      mine.set_value(nullptr);
+      throw;
+    }
+  }
+
+ private:
   struct Entry {
     std::shared_ptr<const lf::Rig> rig;
     std::string key;
-    std::shared_future<std::shared_ptr<const lf::UlrField>> field;
+    std::shared_future<std::shared_ptr<const T>> value;
   };
-  std::mutex m;
-  std::deque<Entry> entries;
+  std::mutex m_;
+  std::deque<Entry> entries_;
 };
 
-static std::unique_ptr<lf::ViewGeometry> geometry_for(const std::shared_ptr<const lf::Rig>& rig,
-                                                      const lf::ViewRequest& req, int index,
-                                                      const std::string& ulr_key) {
-  if (ulr_key.empty()) return std::make_unique<lf::ViewGeometry>(*rig, req, index);
-  static SharedUlr shared;
-  std::shared_future<std::shared_ptr<const lf::UlrField>> field;
-  std::promise<std::shared_ptr<const lf::UlrField>> mine;
-  bool compute = false;
-  {
-    std::lock_guard<std::mutex> lock(shared.m);
-    for (const SharedUlr::Entry& e : shared.entries)
-      if (e.rig == rig && e.key == ulr_key) field = e.field;
-    if (!field.valid()) {
-      field = mine.get_future().share();
-      shared.entries.push_back({rig, ulr_key, field});
-      if (shared.entries.size() > kSharedFields) shared.entries.pop_front();
-      compute = true;
-    }
+// The request's geometry for camera `index`. A request through one focal
+// plane: the whole rig's geometry (every camera's homographies), made once
+// for the process's cameras (64 cameras each making their own cost 63
+// times its shared part: issue 12's profile). A kUlr request: the camera's
+// own, with the blending field shared (it depends on the whole rig: every
+// camera's penalty at every vertex of its grid). A focal surface's
+// geometry (per-tile planes) is made per camera, its own homographies only.
+static std::shared_ptr<const lf::ViewGeometry> geometry_for(
+    const std::shared_ptr<const lf::Rig>& rig, const lf::ViewRequest& req, int index,
+    const std::string& key) {
+  const bool ulr = req.aperture == lf::Aperture::kUlr;
+  if (key.empty() || (!ulr && !req.surface.empty()))
+    return std::make_shared<const lf::ViewGeometry>(*rig, req, index);
+  if (ulr) {
+    static SharedPerRequest<lf::UlrField> fields;
+    std::shared_ptr<const lf::ViewGeometry> own;
+    const auto field = fields.get(rig, key, [&] {
+      own = std::make_shared<const lf::ViewGeometry>(*rig, req, index);
+      return own->ulr_field();
+    });
+    return own ? own : std::make_shared<const lf::ViewGeometry>(*rig, req, index, field);
   }
-  if (!compute) {
-    // Another camera computes it (a null field: it failed; then this one
-    // computes its own, and fails alike with the reason).
-    return std::make_unique<lf::ViewGeometry>(*rig, req, index, field.get());
-  }
-  std::unique_ptr<lf::ViewGeometry> g;
-  try {
-    g = std::make_unique<lf::ViewGeometry>(*rig, req, index);
-  } catch (...) {
-    mine.set_value(nullptr);
-    throw;
-  }
-  mine.set_value(g->ulr_field());
-  return g;
+  static SharedPerRequest<lf::ViewGeometry> whole;
+  const auto g =
+      whole.get(rig, key, [&] { return std::make_shared<const lf::ViewGeometry>(*rig, req); });
+  return g ? g : std::make_shared<const lf::ViewGeometry>(*rig, req, index);
 }
 
 // An explicitly empty fragment of camera `cam` for `req` (wire kEmpty): a
@@ -522,8 +546,7 @@ static GstBuffer* empty_fragment(const lf::ViewRequest& req, const lf::Camera& c
 // in `buf` (timestamps): *answer gets its fragment buffer, or stays null
 // where the request is dropped (with a warning where due).
 static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req,
-                                    const std::string& ulr_key, GstBuffer* buf,
-                                    GstBuffer** answer) {
+                                    const std::string& key, GstBuffer* buf, GstBuffer** answer) {
   Priv* p = self->priv;
   State* st = p->state.get();
   GError* err = nullptr;
@@ -616,10 +639,10 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
                             GST_VIDEO_FRAME_PLANE_STRIDE(&vf, 0));
         const cv::Mat rgba = camera_image(p, st, frame, image,
                                           GST_VIDEO_INFO_FORMAT(&info) == GST_VIDEO_FORMAT_RGBx);
-        // Only this camera's homographies; a ULR field shared with the
-        // process's other cameras.
-        const std::unique_ptr<lf::ViewGeometry> geometry =
-            geometry_for(st->rig, req, st->index, ulr_key);
+        // Shared with the process's other cameras where it pays
+        // (geometry_for).
+        const std::shared_ptr<const lf::ViewGeometry> geometry =
+            geometry_for(st->rig, req, st->index, key);
         const lf::ViewGeometry& g = *geometry;
         lf::Fragment f;
         f.viewer_id = req.viewer_id;
@@ -746,7 +769,7 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
   LfFragment* self = LF_FRAGMENT(parent);
   State* st = self->priv->state.get();
   std::vector<lf::ViewRequest> reqs;
-  std::vector<std::string> ulr_keys;  // a ULR request's bytes, to share its blending field
+  std::vector<std::string> keys;  // a request's bytes, to share what it needs (geometry_for)
   GError* err = nullptr;
   {
     GstMapInfo map;
@@ -759,9 +782,9 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
         lfgst::guard([&] { reqs = lf::parse_requests(map.data, map.size, &sizes); }, &err);
     size_t at = 0;
     for (size_t k = 0; ok && k < reqs.size(); at += sizes[k++]) {
-      ulr_keys.emplace_back();
-      if (reqs[k].aperture == lf::Aperture::kUlr && sizes[k] <= kMaxSharedKey)
-        ulr_keys.back().assign(reinterpret_cast<const char*>(map.data + at), sizes[k]);
+      keys.emplace_back();
+      if (sizes[k] <= kMaxSharedKey)
+        keys.back().assign(reinterpret_cast<const char*>(map.data + at), sizes[k]);
     }
     gst_buffer_unmap(buf, &map);
     if (!ok) {
@@ -775,7 +798,7 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
   GstBuffer* bundle = nullptr;
   for (size_t k = 0; k < reqs.size(); ++k) {
     GstBuffer* out = nullptr;
-    const GstFlowReturn ret = answer_request(self, reqs[k], ulr_keys[k], buf, &out);
+    const GstFlowReturn ret = answer_request(self, reqs[k], keys[k], buf, &out);
     if (ret != GST_FLOW_OK) {
       if (bundle) gst_buffer_unref(bundle);
       gst_buffer_unref(buf);
