@@ -531,36 +531,40 @@ int main(int argc, char** argv) {
         backends.insert(backends.begin(), "cpu");  // the rows' reference
     }
     const int cores = static_cast<int>(std::thread::hardware_concurrency());
-    // The kernel bound of each size, measured before the pipelines run (the
-    // camera images it needs are freed before them, so each row's peak RSS
-    // is the pipeline's own): the faster of two passes over 40 views, since a
-    // busy spell elsewhere on the machine only ever slows a pass down. Wall
-    // clock (the bound as defined) and CPU time (for the CPU efficiency).
+    // The kernel bound of a size, measured right before that size's
+    // pipelines run (a shared machine's speed drifts: measured minutes
+    // apart, the ratio would carry the drift; the camera images it needs
+    // are freed before them, so each row's peak RSS is the pipeline's own):
+    // the faster of two passes over 40 views, since a busy spell elsewhere
+    // on the machine only ever slows a pass down. Wall clock (the bound as
+    // defined) and CPU time (for the CPU efficiency).
     std::map<std::pair<int, int>, KernelTime> bound;
     const bool any_raw = std::find(encodings.begin(), encodings.end(), "raw") != encodings.end();
     const bool viewers_run = !viewers_spec.empty();
-    if (!skip_bound && (viewers_run ? encodings.front() == "raw" : any_raw)) {
+    auto measure_bound = [&](const std::pair<int, int>& sz) {
+      if (skip_bound || !(viewers_run ? encodings.front() == "raw" : any_raw)) return;
       // One core (images load in parallel first); OpenCV's default comes
       // back for the pipelines (lfcompositor composites in parallel).
       const std::vector<cv::Mat> images = lf::load_images(rig);
       const int threads = cv::getNumThreads();
       cv::setNumThreads(1);
-      for (const auto& sz : viewers_run ? decltype(sizes){sizes.front()} : sizes)
-        for (int pass = 0; pass < 2; ++pass) {
-          const KernelTime k = kernel_ms(rig, images, sz.first, sz.second, 40);
-          KernelTime& b = bound[sz];
-          b.wall_ms = pass ? std::min(b.wall_ms, k.wall_ms) : k.wall_ms;
-          b.cpu_ms = pass ? std::min(b.cpu_ms, k.cpu_ms) : k.cpu_ms;
-          b.separate_ms = pass ? std::min(b.separate_ms, k.separate_ms) : k.separate_ms;
-          b.fused_ms = pass ? std::min(b.fused_ms, k.fused_ms) : k.fused_ms;
-        }
+      for (int pass = 0; pass < 2; ++pass) {
+        const KernelTime k = kernel_ms(rig, images, sz.first, sz.second, 40);
+        KernelTime& b = bound[sz];
+        b.wall_ms = pass ? std::min(b.wall_ms, k.wall_ms) : k.wall_ms;
+        b.cpu_ms = pass ? std::min(b.cpu_ms, k.cpu_ms) : k.cpu_ms;
+        b.separate_ms = pass ? std::min(b.separate_ms, k.separate_ms) : k.separate_ms;
+        b.fused_ms = pass ? std::min(b.fused_ms, k.fused_ms) : k.fused_ms;
+      }
       cv::setNumThreads(threads);
-      std::printf("Kernel bound, single-core ms per view (the library, the same views): ");
-      for (const auto& [sz, b] : bound)
-        std::printf("%dx%d rendered then composited %.2f, fused %.2f; ", sz.first, sz.second,
-                    b.separate_ms, b.fused_ms);
-      std::printf("the bound takes the faster.\n\n");
-    }
+      const KernelTime& b = bound[sz];
+      std::fprintf(stderr,
+                   "Kernel bound at %dx%d, single-core ms per view (the library, the same "
+                   "views): rendered then composited %.2f, fused %.2f; the bound takes the "
+                   "faster.\n",
+                   sz.first, sz.second, b.separate_ms, b.fused_ms);
+    };
+    if (viewers_run) measure_bound(sizes.front());
     if (viewers_run) {
       const auto [W, H] = sizes.front();
       const std::string& enc = encodings.front();
@@ -603,7 +607,8 @@ int main(int argc, char** argv) {
         "cpu plane row (throughput, live fps, CPU per frame) |\n"
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         frames, cores, rate);
-    for (const auto& [W, H] : sizes)
+    for (const auto& [W, H] : sizes) {
+      measure_bound({W, H});
       for (const auto& enc : encodings) {
         // The plane row of this size and encoding (run before the surface
         // rows when --focal lists it first): fps, live fps, CPU ms per frame.
@@ -655,7 +660,8 @@ int main(int argc, char** argv) {
                                                     live_fps / plane[1], cpu_ms / plane[2])
                                        : std::string("-");
             std::printf(
-                "| %dx%d | %s | %s | %.1f | %s | %s | %.2f | %s | %s | %.2f | %.0f | %.1f | %.1f | "
+                "| %dx%d | %s | %s | %.1f | %s | %s | %.2f | %s | %s | %.2f | %.0f | %.1f | %.1f "
+                "| "
                 "%.1f | %.0f | %s |\n",
                 W, H, (backend == "cpu" ? enc : enc + ", " + backend).c_str(), focus.label.c_str(),
                 fps, num(kb, "%.1f").c_str(), num(fps / kb, "%.2f").c_str(), cpu_ms,
@@ -665,6 +671,7 @@ int main(int argc, char** argv) {
             std::fflush(stdout);
           }
       }
+    }
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "lf-gst-bench: error: %s\n", e.what());
