@@ -892,7 +892,8 @@ static void lf_fragment_class_init(LfFragmentClass* klass) {
             g_param_spec_uint64("frame-timeout", "Frame timeout",
                                 "How long a request waits for a camera frame (the first one; with "
                                 "frame-select=capture-time or for a focus probe, the one of its "
-                                "time), ns; a request without a frame is dropped with a warning",
+                                "time), ns; a request without a frame is dropped with a warning "
+                                "(with defer, answered with an empty fragment)",
                                 0, G_MAXUINT64, DEFAULT_FRAME_TIMEOUT, lfgst::kReadWriteReady));
   props.add(oc, &Settings::frame_select,
             g_param_spec_enum("frame-select", "Frame selection",
