@@ -217,6 +217,17 @@ bool maybe_hardware_gl() {
   return answer;
 }
 
+// Mesa's llvmpipe (Debian 12) crashed inside a draw in one context while
+// another thread drew in another (an lffragment per camera drawing with
+// GL: about one run in ten of tests/test_gst.cpp). So on a software
+// rasteriser the process's GL work runs one context at a time: contexts
+// are made, destroyed and current under this lock (a GPU driver runs
+// contexts in parallel; there it is held only while making and destroying).
+std::recursive_mutex& gl_lock() {
+  static std::recursive_mutex m;
+  return m;
+}
+
 // A GLES 3 context of its own, current only inside a Current scope.
 struct Context {
   EGLDisplay dpy = EGL_NO_DISPLAY;
@@ -225,6 +236,7 @@ struct Context {
 
   // Returns "" on success, else why not.
   std::string create() {
+    std::lock_guard<std::recursive_mutex> lock(gl_lock());
     const Display& d = display();
     if (d.dpy == EGL_NO_DISPLAY) return d.error;
     dpy = d.dpy;
@@ -253,6 +265,7 @@ struct Context {
     return "";
   }
   void destroy() {
+    std::lock_guard<std::recursive_mutex> lock(gl_lock());
     if (ctx != EGL_NO_CONTEXT) eglDestroyContext(dpy, ctx);
     if (surface != EGL_NO_SURFACE) eglDestroySurface(dpy, surface);
     ctx = EGL_NO_CONTEXT;
@@ -263,14 +276,21 @@ struct Context {
 // Makes a context current on this thread for a scope (and releases it).
 class Current {
  public:
-  explicit Current(const Context& c) : c_(c) {
+  explicit Current(const Context& c) : c_(c), lock_(gl_lock()) {
     if (!eglMakeCurrent(c.dpy, c.surface, c.surface, c.ctx))
       throw std::runtime_error("GL: " + egl_error("eglMakeCurrent"));
+    static const bool software = [] {
+      const auto* r = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
+      return !r || software_renderer(r);
+    }();
+    if (!software) lock_.unlock();  // contexts in parallel (gl_lock)
   }
+  // Released before the lock (members are destroyed after this body).
   ~Current() { eglMakeCurrent(c_.dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT); }
 
  private:
   const Context& c_;
+  std::unique_lock<std::recursive_mutex> lock_;
 };
 
 void check_gl(const char* where) {
