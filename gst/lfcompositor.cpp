@@ -527,7 +527,8 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
             for (Piece& pc : g.fragments) {
               if (!pc.deferred) continue;
               const lfgst::DeferredDraw& d = *pc.deferred;
-              if (st->gl && !layered_frame) {
+              if (!layered_frame) {  // CPU: drawn in Compositor::composite
+                if (!st->gl) continue;
                 if (st->uploaded.size() <= static_cast<size_t>(d.slot))
                   st->uploaded.resize(d.slot + 1, {nullptr, GST_CLOCK_TIME_NONE});
                 auto& up = st->uploaded[d.slot];
@@ -537,7 +538,6 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
                 }
                 continue;
               }
-              if (!layered_frame) continue;  // fused into Compositor::composite
               lf::describe_fragment(d.plan, pc.f);
               pc.f.camera_id = static_cast<uint32_t>(d.camera.id);
               pc.f.pixels.resize(4 * d.plan.pixel_count());

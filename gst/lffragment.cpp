@@ -595,30 +595,26 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
   GstVideoInfo info = p->vinfo;
   const bool have_info = p->have_vinfo;
   g_mutex_unlock(&p->lock);
-  if (!frame && probe && req_time >= 0 && have_info) {
-    // Sat out with an explicitly empty fragment, as a camera that sees none
-    // of the view: the compositor knows this camera answered (a non-live
-    // pipeline would otherwise wait for it for ever), and the probe is
-    // scored without its pixels in every step.
-    GST_DEBUG_OBJECT(self, "probe %" G_GUINT64_FORMAT ": its instant is no longer here, sat out",
-                     req.sequence);
-    GstBuffer* out = empty_fragment(req, cam, -1);
-    gst_buffer_copy_into(out, buf, GST_BUFFER_COPY_TIMESTAMPS, 0, -1);
-    GST_BUFFER_OFFSET(out) = req.sequence;
-    *answer = out;
-    return GST_FLOW_OK;
-  }
-  // defer (lfarray's whole-view mode, one request thread for all cameras):
-  // a request this camera cannot answer still gets an explicitly empty
-  // fragment, so every camera's pad of a non-live compositor stays in step
-  // (a pad left without the fragment that the others have would hold
-  // GstAggregator, and with it the request thread, for ever).
+  // An explicitly empty answer, as from a camera that sees none of the
+  // view: the compositor knows this camera answered.
   auto answer_empty = [&] {
-    if (!st->s.defer) return;
     *answer = empty_fragment(req, cam, -1);
     gst_buffer_copy_into(*answer, buf, GST_BUFFER_COPY_TIMESTAMPS, 0, -1);
     GST_BUFFER_OFFSET(*answer) = req.sequence;
   };
+  if (!frame && probe && req_time >= 0 && have_info) {
+    // Sat out: a non-live pipeline would otherwise wait for this camera for
+    // ever, and the probe is scored without its pixels in every step.
+    GST_DEBUG_OBJECT(self, "probe %" G_GUINT64_FORMAT ": its instant is no longer here, sat out",
+                     req.sequence);
+    answer_empty();
+    return GST_FLOW_OK;
+  }
+  // defer (lfarray's whole-view mode, one request thread for all cameras):
+  // a request this camera cannot answer still gets an empty answer, so
+  // every camera's pad of a non-live compositor stays in step (a pad left
+  // without the fragment that the others have would hold GstAggregator,
+  // and with it the request thread, for ever).
   GstVideoFrame vf;
   if (!frame || !have_info || !gst_video_frame_map(&vf, &info, frame, GST_MAP_READ)) {
     LF_ELEMENT_WARNING_LIMITED(
@@ -626,7 +622,7 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
         "camera %d delivered no frame within %" GST_TIME_FORMAT " (request %" G_GUINT64_FORMAT ")",
         cam.id, GST_TIME_ARGS(st->s.frame_timeout), req.sequence);
     if (frame) gst_buffer_unref(frame);
-    answer_empty();
+    if (st->s.defer) answer_empty();
     return GST_FLOW_OK;
   }
   const gint quality = lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::quality);
@@ -753,7 +749,7 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
                                req.viewer_id, err->message);
     g_error_free(err);
     if (out) gst_buffer_unref(out);
-    answer_empty();
+    if (st->s.defer) answer_empty();
     return GST_FLOW_OK;
   }
   gst_buffer_copy_into(out, buf, GST_BUFFER_COPY_TIMESTAMPS, 0, -1);
