@@ -50,6 +50,29 @@ class Gst : public ::testing::Test {
   }
   static std::string rig_path_;
 
+  // The test rig with every camera's colour correction halving red and
+  // adding 10 to green (the rig's 3x4 `colour` matrix), saved as `name` in
+  // the temporary folder; returns its path.
+  static std::string colour_corrected_rig(const std::string& name) {
+    lf::Rig rig = lf::load_rig(rig_path_);
+    for (auto& c : rig.cameras) c.colour = {0.5, 0, 0, 0, 0, 1, 0, 10, 0, 0, 1, 0};
+    const std::string path = (std::filesystem::temp_directory_path() / name).string();
+    lf::save_rig(rig, path);
+    return path;
+  }
+
+  // An lfarray of the test rig with `props` at READY (its graph built), in
+  // *array, and its first camera's lffragment (both new references; null
+  // where it failed). The caller sets *array to NULL and unrefs both.
+  static GstElement* array_fragment(const std::string& props, GstElement** array) {
+    *array = gst_parse_launch(("lfarray rig=" + rig_path_ + " " + props).c_str(), nullptr);
+    if (!*array || gst_element_set_state(*array, GST_STATE_READY) == GST_STATE_CHANGE_FAILURE)
+      return nullptr;
+    const lf::Rig rig = lf::load_rig(rig_path_);
+    return gst_bin_get_by_name(GST_BIN(*array),
+                               ("fragment" + std::to_string(rig.cameras[0].id)).c_str());
+  }
+
   // Builds lfviewrequest ! tee, per camera lfcamsrc -> lffragment, -> lfcompositor ! appsink.
   static std::string pipeline(const std::string& request_props,
                               const std::string& extra_fragment = "",
@@ -213,11 +236,7 @@ TEST_F(Gst, PipelineOutputEqualsOfflineRenderer) {
 }
 
 TEST_F(Gst, ColourCorrectionFromTheRigIsApplied) {
-  lf::Rig rig = lf::load_rig(rig_path_);
-  for (auto& c : rig.cameras) c.colour = {0.5, 0, 0, 0, 0, 1, 0, 10, 0, 0, 1, 0};
-  const std::string corrected =
-      (std::filesystem::temp_directory_path() / "lf-test-chess4-colour.json").string();
-  lf::save_rig(rig, corrected);
+  const std::string corrected = colour_corrected_rig("lf-test-chess4-colour.json");
   std::string desc = pipeline("num-buffers=1 width=160 height=120 focal-plane=param:-0.2");
   const auto plain = run(desc);
   for (size_t at = desc.find(rig_path_); at != std::string::npos; at = desc.find(rig_path_, at))
@@ -684,31 +703,18 @@ TEST_F(Gst, GlBackendWholeViewModeEqualsEveryFragmentDrawingWithGl) {
   // lfarray sets its fragments to defer (and to no GL of their own) with
   // raw fragments, whatever the backend, unless whole-view=false.
   auto deferred = [&](const std::string& props) {
-    GstElement* p = gst_parse_launch(
-        (req + " ! lfarray name=a rig=" + rig_path_ + " num-buffers=1 " + props + " ! fakesink")
-            .c_str(),
-        nullptr);
-    gst_element_set_state(p, GST_STATE_READY);
-    GstElement* a = gst_bin_get_by_name(GST_BIN(p), "a");
-    const lf::Rig rig = lf::load_rig(rig_path_);
-    GstElement* f =
-        gst_bin_get_by_name(GST_BIN(a), ("fragment" + std::to_string(rig.cameras[0].id)).c_str());
+    GstElement* a = nullptr;
+    GstElement* f = array_fragment(props, &a);
     gboolean defer = FALSE;
     gint backend = -1;
     if (f) g_object_get(f, "defer", &defer, "backend", &backend, nullptr);
-    gst_element_set_state(p, GST_STATE_NULL);
     if (f) gst_object_unref(f);
-    gst_object_unref(a);
-    gst_object_unref(p);
+    if (a) gst_element_set_state(a, GST_STATE_NULL), gst_object_unref(a);
     return std::make_pair(static_cast<bool>(defer), backend);
   };
   // A stereo pair (two viewers' fragments, one compositor) and a rig with
   // colour correction (the image drawn is the corrected copy): the same.
-  lf::Rig rig = lf::load_rig(rig_path_);
-  for (auto& c : rig.cameras) c.colour = {0.5, 0, 0, 0, 0, 1, 0, 10, 0, 0, 1, 0};
-  const std::string corrected =
-      (std::filesystem::temp_directory_path() / "lf-test-chess4-colour-gl.json").string();
-  lf::save_rig(rig, corrected);
+  const std::string corrected = colour_corrected_rig("lf-test-chess4-colour-gl.json");
   for (const bool stereo : {true, false}) {
     std::string gl_desc = pipeline(view + (stereo ? " stereo-baseline=2" : ""), "backend=gl",
                                    stereo ? "backend=gl stereo=true viewer-id=0" : "backend=gl");
@@ -760,11 +766,7 @@ TEST_F(Gst, DeferredFragmentsWithoutGlAndOverRtp) {
   const auto rtp = run(pipeline(view, "defer=true ! rtpgstpay ! rtpgstdepay", "backend=cpu"), 100,
                        nullptr, &err);
   ASSERT_EQ(rtp.size(), 2u) << err;
-  lf::Rig rig = lf::load_rig(rig_path_);
-  for (auto& c : rig.cameras) c.colour = {0.5, 0, 0, 0, 0, 1, 0, 10, 0, 0, 1, 0};
-  const std::string corrected =
-      (std::filesystem::temp_directory_path() / "lf-test-chess4-colour-cpu.json").string();
-  lf::save_rig(rig, corrected);
+  const std::string corrected = colour_corrected_rig("lf-test-chess4-colour-cpu.json");
   for (const std::string& r : {rig_path_, corrected})
     for (const std::string stereo : {"", " stereo-baseline=2"}) {
       const std::string req = "lfviewrequest rig=" + r + " " + view + stereo;
@@ -860,14 +862,9 @@ TEST_F(Gst, OneRequestThreadKeepsTheCamerasInStep) {
   // Where the limit is kept: lfarray's own (its fragments have none) on one
   // request thread; each fragment's with a request thread per camera.
   for (const bool whole : {true, false}) {
-    GstElement* a = gst_parse_launch(
-        ("lfarray name=a rig=" + rig_path_ + " max-rate=100" + (whole ? "" : " whole-view=false"))
-            .c_str(),
-        nullptr);
-    ASSERT_NE(a, nullptr);
-    ASSERT_NE(gst_element_set_state(a, GST_STATE_READY), GST_STATE_CHANGE_FAILURE);
+    GstElement* a = nullptr;
     GstElement* f =
-        gst_bin_get_by_name(GST_BIN(a), ("fragment" + std::to_string(rig.cameras[0].id)).c_str());
+        array_fragment(std::string("max-rate=100") + (whole ? "" : " whole-view=false"), &a);
     ASSERT_NE(f, nullptr);
     gdouble rate = -1;
     g_object_get(f, "max-rate", &rate, nullptr);
