@@ -7,11 +7,12 @@
 //    of the same views on one thread, times the number of cores (raw
 //    fragments; the faster of the library's two ways: fragments rendered
 //    then composited, or drawn band by band into the sums, fused, as
-//    lfcompositor draws lfarray's deferred fragments); pipeline efficiency = throughput / kernel
-//    bound. It splits into CPU efficiency (the kernels' CPU time per frame / the process's CPU time
-//    per frame) times the cores the pipeline keeps busy; the share of the machine stolen by the
-//    hypervisor meanwhile is printed beside them (on a shared VM it slows both the pipeline and the
-//    bound).
+//    lfcompositor draws lfarray's deferred fragments); pipeline efficiency
+//    = throughput / kernel bound. It splits into CPU efficiency (the
+//    kernels' CPU time per frame / the process's CPU time per frame) times
+//    the cores the pipeline keeps busy; the share of the machine stolen by
+//    the hypervisor meanwhile is printed beside them (on a shared VM it
+//    slows both the pipeline and the bound).
 //  * the process's peak resident set size during each row's pipelines.
 //  * latency: a live request source at a fixed rate; for each request, the
 //    time from the request leaving lfviewrequest to its frame reaching the

@@ -191,7 +191,7 @@ std::vector<std::pair<size_t, std::string>> Compositor::composite(
   // Bands of 16 rows: a 640-pixel band's sums take 160 KiB (L2-sized); a
   // band is zeroed, accumulated (drawings drawn) and resolved by one
   // thread, in fragment order, so every sum is the serial one. (16 rows
-  // against 32: 3-5 % more frames a second at 640x480 in lfarray, the
+  // against 32: 2-5 % more frames a second at 640x480 in lfarray, the
   // threads' shares more even; the single-core time is no slower.)
   constexpr int kBandRows = 16;
   const int bands = (h_ + kBandRows - 1) / kBandRows;
