@@ -219,30 +219,45 @@ bool ViewGeometry::facet_values(const Simplex& sx, double x, double y, std::arra
   const double dn = dn_(x, y);
   if (dn == 0.0) return false;
   orient = dn > 0 ? 1.0 : -1.0;
-  for (int k = 0; k < sx.size; ++k) v[k] = facet_form(sx.facet[k], sx.sign[k])(x, y);
+  // As facet_form(...)(x, y): a sign of +-1 commutes with every rounding.
+  for (int k = 0; k < sx.size; ++k) v[k] = facet_px_[sx.facet[k]](x, y) * sx.sign[k];
   return true;
 }
 
-bool ViewGeometry::inside(int s, double x, double y, std::array<double, 3>* w) const {
+bool ViewGeometry::facet_sums(int s, double x, double y, std::array<double, 3>& v,
+                              double& sum) const {
   const Simplex& sx = rig_->simplices()[s];
   if (sx.size == 1) {
-    if (w) *w = {1.0, 0.0, 0.0};
+    v = {1.0, 0.0, 0.0};
+    sum = 1.0;
     return true;
   }
-  std::array<double, 3> v;
   double orient;
   if (!facet_values(sx, x, y, v, orient)) return false;
-  double sum = 0;
+  sum = 0;
   for (int k = 0; k < sx.size; ++k) {
     const double e = v[k] * orient;
     if (e < 0 || (e == 0 && !tie_positive(sx.facet[k], sx.sign[k]))) return false;
     sum += v[k];
   }
+  return true;
+}
+
+bool ViewGeometry::inside(int s, double x, double y, std::array<double, 3>* w) const {
+  std::array<double, 3> v;
+  double sum;
+  if (!facet_sums(s, x, y, v, sum)) return false;
   if (w) {
     *w = {0, 0, 0};
-    for (int k = 0; k < sx.size; ++k) (*w)[k] = std::clamp(v[k] / sum, 0.0, 1.0);
+    for (int k = 0; k < rig_->simplices()[s].size; ++k) (*w)[k] = std::clamp(v[k] / sum, 0.0, 1.0);
   }
   return true;
+}
+
+bool ViewGeometry::weight_positive(int s, int slot, double x, double y) const {
+  std::array<double, 3> v;
+  double sum;
+  return facet_sums(s, x, y, v, sum) && std::clamp(v[slot] / sum, 0.0, 1.0) > 0;
 }
 
 bool ViewGeometry::inside_scaled(int s, int slot, double x, double y, double* weight) const {
@@ -365,11 +380,16 @@ void scan_rows(const Polygon& poly, int ylo, int yhi, int xlo, int xhi, const Pr
     if (!row_extent(poly, y, xl, xr)) continue;
     int a = std::clamp(static_cast<int>(std::floor(xl)) - 1, xlo, xhi);
     int b = std::clamp(static_cast<int>(std::ceil(xr)) + 1, xlo, xhi);
+    const int a0 = a, b0 = b;
     while (a <= b && !pred(a, y)) ++a;
     while (b >= a && !pred(b, y)) --b;
     if (a > b) continue;
-    while (a > xlo && pred(a - 1, y)) --a;
-    while (b < xhi && pred(b + 1, y)) ++b;
+    // An end that moved in stops where the predicate was just found false;
+    // only an end that did not may grow.
+    if (a == a0)
+      while (a > xlo && pred(a - 1, y)) --a;
+    if (b == b0)
+      while (b < xhi && pred(b + 1, y)) ++b;
     emit(y, a, b + 1);
   }
 }
@@ -427,8 +447,7 @@ bool weighted(const ViewGeometry& g, const Part& part, int x, int y) {
     if ((dn > 0 ? 1 : -1) != part.sd || dn == 0) return false;
   }
   if (g.request().aperture_scale != 1.0) return g.inside_scaled(part.s, part.slot, x, y);
-  std::array<double, 3> w;
-  return g.inside(part.s, x, y, &w) && w[part.slot] > 0;
+  return g.weight_positive(part.s, part.slot, x, y);
 }
 
 // Output pixels [x0, x1) x [y0, y1) focused through plane `plane`.

@@ -135,6 +135,9 @@ class ViewGeometry {
   // Exact membership of a pixel's line in simplex `s`; fills barycentric
   // weights (per simplex vertex) when inside.
   bool inside(int s, double x, double y, std::array<double, 3>* weights = nullptr) const;
+  // inside(s, x, y, &w) && w[slot] > 0, with one division instead of three
+  // (the planner's predicate).
+  bool weight_positive(int s, int slot, double x, double y) const;
   // With the request's aperture scale k > 1 (lf/view.h Aperture): whether
   // the pixel's line meets simplex `s` scaled by k about its vertex `slot`
   // with a positive weight of that vertex's camera, and the weight,
@@ -183,6 +186,10 @@ class ViewGeometry {
   // (+-1); false for a line parallel to the plane.
   bool facet_values(const Simplex& sx, double x, double y, std::array<double, 3>& v,
                     double& orient) const;
+  // The facet values of simplex `s` at the pixel's line and their sum, when
+  // the line meets the simplex (its tie rule included); a point simplex:
+  // {1, 0, 0} and 1.
+  bool facet_sums(int s, double x, double y, std::array<double, 3>& v, double& sum) const;
   const Rig* rig_;
   ViewRequest req_;
   cv::Matx33d M_;
