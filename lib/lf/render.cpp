@@ -280,8 +280,14 @@ void render_rows(const FragmentPlan& plan, const Camera& cam, const cv::Mat& ima
   k.r2max = std::isfinite(rf) ? static_cast<float>(rf * rf) : INFINITY;
   const int stride = static_cast<int>(image.step[0]);
   const bool cubic = plan.sampling == Sampling::kBicubic;
+  // The AVX2 bilinear gather reads taps at 32-bit byte offsets (made in the
+  // coordinate pass); an image of 2 GiB or more takes the SSE2 kernel, whose
+  // bytes are the same.
+  if (kernel == Kernel::kAvx2 && !cubic &&
+      static_cast<double>(image.step[0]) * image.rows > static_cast<double>(INT32_MAX))
+    kernel = Kernel::kSse2;
 
-  alignas(32) int32_t iu[kBlock], iv[kBlock], wtop[kBlock], wbot[kBlock];
+  alignas(32) int32_t iu[kBlock], iv[kBlock], wtop[kBlock], wbot[kBlock], off[kBlock];
   for (auto it = first; it != last; ++it) {
     const Run& run = *it;
     const FragmentPiece& pc = plan.pieces[run.piece];
@@ -303,12 +309,13 @@ void render_rows(const FragmentPlan& plan, const Camera& cam, const cv::Mat& ima
       uint8_t* dst = row + 4 * (x - spans[r][0]);
 #ifdef LF_X86_SIMD
       if (kernel == Kernel::kAvx2) {
-        kernels::coords_avx2(distort, cubic, k, x, n, iu, iv, wtop, wbot);
+        kernels::coords_avx2(distort, cubic, k, x, n, iu, iv, wtop, wbot, stride,
+                             cubic ? nullptr : off);
         if (cubic)
           kernels::gather_cubic_avx2(image.data, stride, cam.width, cam.height, n, iu, iv, wtop,
                                      wbot, dst);
         else
-          kernels::gather_avx2(image.data, stride, n, iu, iv, wtop, wbot, dst);
+          kernels::gather_avx2(image.data, stride, n, off, iu, iv, wtop, wbot, dst);
         continue;
       }
 #endif

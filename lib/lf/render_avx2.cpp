@@ -19,7 +19,7 @@ namespace {
 
 template <bool kDistort, bool kCubic>
 LF_AVX2 void coords8(const Consts& k, int x0, int n, int32_t* iu, int32_t* iv, int32_t* wt,
-                     int32_t* wb) {
+                     int32_t* wb, int stride, int32_t* off) {
   const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
   const __m256 half = _mm256_set1_ps(0.5f), mhalf = _mm256_set1_ps(-0.5f);
   const __m256 scale = _mm256_set1_ps(static_cast<float>(1 << kWeightBits));
@@ -71,6 +71,10 @@ LF_AVX2 void coords8(const Consts& k, int x0, int n, int32_t* iu, int32_t* iv, i
     const __m256 wq = _mm256_mul_ps(w, scale);
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(iu + i), iuv);
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(iv + i), ivv);
+    if (off)
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(off + i),
+                          _mm256_add_epi32(_mm256_mullo_epi32(ivv, _mm256_set1_epi32(stride)),
+                                           _mm256_slli_epi32(iuv, 2)));
     if constexpr (kCubic) {
       const __m256 phases = _mm256_set1_ps(static_cast<float>(1 << kPhaseBits));
       const __m256i pu = _mm256_cvttps_epi32(_mm256_add_ps(_mm256_mul_ps(fu, phases), half));
@@ -92,8 +96,10 @@ LF_AVX2 void coords8(const Consts& k, int x0, int n, int32_t* iu, int32_t* iv, i
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(wb + i),
                         _mm256_or_si256(w10, _mm256_slli_epi32(w11, 16)));
   }
-  for (; i < n; ++i)
+  for (; i < n; ++i) {
     coord1<kDistort, kCubic>(k, static_cast<float>(x0 + i), iu[i], iv[i], wt[i], wb[i]);
+    if (off) off[i] = iv[i] * stride + 4 * iu[i];
+  }
 }
 
 // The two horizontally adjacent taps at p (8 bytes: RGBA RGBA).
@@ -106,16 +112,16 @@ LF_AVX2 inline int64_t taps(const uint8_t* p) {
 }  // namespace
 
 LF_AVX2 void coords_avx2(bool distort, bool cubic, const Consts& k, int x0, int n, int32_t* iu,
-                         int32_t* iv, int32_t* wt, int32_t* wb) {
+                         int32_t* iv, int32_t* wt, int32_t* wb, int stride, int32_t* off) {
   if (cubic) {
     if (distort)
-      coords8<true, true>(k, x0, n, iu, iv, wt, wb);
+      coords8<true, true>(k, x0, n, iu, iv, wt, wb, stride, off);
     else
-      coords8<false, true>(k, x0, n, iu, iv, wt, wb);
+      coords8<false, true>(k, x0, n, iu, iv, wt, wb, stride, off);
   } else if (distort) {
-    coords8<true, false>(k, x0, n, iu, iv, wt, wb);
+    coords8<true, false>(k, x0, n, iu, iv, wt, wb, stride, off);
   } else {
-    coords8<false, false>(k, x0, n, iu, iv, wt, wb);
+    coords8<false, false>(k, x0, n, iu, iv, wt, wb, stride, off);
   }
 }
 
@@ -211,9 +217,9 @@ LF_AVX2 void gather_cubic_avx2(const uint8_t* src, int stride, int width, int he
 // 16 bits, one 128-bit lane that a single madd with the pixel's packed
 // (w00, w01) turns into four 32-bit channel sums; likewise the bottom taps.
 // Two pixels share a 256-bit register (one per lane).
-LF_AVX2 void gather_avx2(const uint8_t* src, int stride, int n, const int32_t* iu,
-                         const int32_t* iv, const int32_t* wtop, const int32_t* wbot,
-                         uint8_t* dst) {
+LF_AVX2 void gather_avx2(const uint8_t* src, int stride, int n, const int32_t* off,
+                         const int32_t* iu, const int32_t* iv, const int32_t* wtop,
+                         const int32_t* wbot, uint8_t* dst) {
   const __m128i pair = _mm_setr_epi8(0, 4, 1, 5, 2, 6, 3, 7, 8, 12, 9, 13, 10, 14, 11, 15);
   const __m256i round = _mm256_set1_epi32(1 << (kWeightBits - 1));
   const __m256i lo2 = _mm256_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1);
@@ -222,8 +228,7 @@ LF_AVX2 void gather_avx2(const uint8_t* src, int stride, int n, const int32_t* i
   int i = 0;
   for (; i + 4 <= n; i += 4) {
     const uint8_t* p[4];
-    for (int j = 0; j < 4; ++j)
-      p[j] = src + static_cast<std::ptrdiff_t>(iv[i + j]) * stride + 4 * iu[i + j];
+    for (int j = 0; j < 4; ++j) p[j] = src + off[i + j];
     const __m256i t01 =
         _mm256_cvtepu8_epi16(_mm_shuffle_epi8(_mm_set_epi64x(taps(p[1]), taps(p[0])), pair));
     const __m256i t23 =

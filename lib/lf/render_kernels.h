@@ -128,12 +128,12 @@ inline void gather_cubic1(const uint8_t* src, int stride, int width, int height,
 #ifdef LF_X86_SIMD
 // AVX2 kernels (render_avx2.cpp): call only where the CPU has AVX2.
 void coords_avx2(bool distort, bool cubic, const Consts& k, int x0, int n, int32_t* iu, int32_t* iv,
-                 int32_t* wt, int32_t* wb);
+                 int32_t* wt, int32_t* wb, int stride, int32_t* off);
 void gather_cubic_avx2(const uint8_t* src, int stride, int width, int height, int n,
                        const int32_t* iu, const int32_t* iv, const int32_t* phases,
                        const int32_t* wq, uint8_t* dst);
-void gather_avx2(const uint8_t* src, int stride, int n, const int32_t* iu, const int32_t* iv,
-                 const int32_t* wtop, const int32_t* wbot, uint8_t* dst);
+void gather_avx2(const uint8_t* src, int stride, int n, const int32_t* off, const int32_t* iu,
+                 const int32_t* iv, const int32_t* wtop, const int32_t* wbot, uint8_t* dst);
 #endif
 
 }  // namespace lf::kernels
