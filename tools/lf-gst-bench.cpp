@@ -12,7 +12,12 @@
 //    kernels' CPU time per frame / the process's CPU time per frame) times
 //    the cores the pipeline keeps busy; the share of the machine stolen by
 //    the hypervisor meanwhile is printed beside them (on a shared VM it
-//    slows both the pipeline and the bound).
+//    slows both the pipeline and the bound). JPEG rows get a bound of their
+//    own: each fragment rendered, JPEG-encoded (lf::serialize_fragment),
+//    decoded into the raw wire format (lf::decode_jpeg_to_raw, as
+//    lfcompositor does on arrival), then all composited; the ratio of the
+//    two bounds is the most of the raw pipeline's throughput that a JPEG
+//    pipeline could reach.
 //  * the process's peak resident set size during each row's pipelines.
 //  * latency: a live request source at a fixed rate; for each request, the
 //    time from the request leaving lfviewrequest to its frame reaching the
@@ -40,6 +45,7 @@
 #include "lf/rig_file.h"
 #include "lf/rig_ops.h"
 #include "lf/view_builder.h"
+#include "lf/wire.h"
 
 namespace {
 
@@ -101,17 +107,22 @@ std::string backend_properties(const std::string& backend) {
 // lfviewrequest ! lfarray (64 x lfcamsrc and lffragment, one lfcompositor)
 // ! appsink; no request rate limit (max-rate=0: the runs ask for more than
 // its default 240 a second).
+// The quality of a "jpegQ" encoding (1..100); 0 for "raw".
+int jpeg_quality(const std::string& enc) {
+  if (enc == "raw") return 0;
+  if (enc.rfind("jpeg", 0) == 0 && enc.size() > 4 && enc.size() <= 7 &&
+      enc.find_first_not_of("0123456789", 4) == std::string::npos) {
+    const int q = std::stoi(enc.substr(4));
+    if (q >= 1 && q <= 100) return q;
+  }
+  throw std::invalid_argument("encoding '" + enc + "': use raw or jpegQ (Q: 1..100)");
+}
+
 std::string pipeline(const std::string& rig, int W, int H, const std::string& enc, bool live,
                      int frames, int rate, int surface = 0, const std::string& props = "",
                      const std::string& backend = "cpu") {
-  std::string fr;
-  if (enc == "raw") {
-    fr = "encoding=raw";
-  } else if (enc.rfind("jpeg", 0) == 0) {
-    fr = "encoding=jpeg jpeg-quality=" + enc.substr(4);
-  } else {
-    throw std::invalid_argument("encoding '" + enc + "': use raw or jpegQ");
-  }
+  const int q = jpeg_quality(enc);
+  const std::string fr = q ? "encoding=jpeg jpeg-quality=" + std::to_string(q) : "encoding=raw";
   std::ostringstream d;
   d << "lfviewrequest name=req rig=" << rig << " width=" << W << " height=" << H
     << " orbit=" << kOrbit << " path-frames=" << kPathFrames << " focal-plane=" << kFocalPlane
@@ -306,8 +317,22 @@ std::vector<Mark> run(const std::string& desc, Probe* probe) {
 struct KernelTime {
   double wall_ms = 0, cpu_ms = 0;  // the faster way's
   double separate_ms = 0, fused_ms = 0;
+  std::map<int, std::pair<double, double>> jpeg;  // quality -> wall ms, CPU ms
+  // Each the smaller of this and `o`.
+  void keep_faster(const KernelTime& o) {
+    wall_ms = std::min(wall_ms, o.wall_ms), cpu_ms = std::min(cpu_ms, o.cpu_ms);
+    separate_ms = std::min(separate_ms, o.separate_ms), fused_ms = std::min(fused_ms, o.fused_ms);
+    for (auto& [q, t] : jpeg) {
+      const auto it = o.jpeg.find(q);
+      if (it != o.jpeg.end())
+        t = {std::min(t.first, it->second.first), std::min(t.second, it->second.second)};
+    }
+  }
 };
-KernelTime kernel_ms(const lf::Rig& rig, const std::vector<cv::Mat>& images, int W, int H, int n) {
+// Single-core time per view of the library's ways; `jpeg_qualities`: also
+// with JPEG fragments at these qualities.
+KernelTime kernel_ms(const lf::Rig& rig, const std::vector<cv::Mat>& images, int W, int H, int n,
+                     const std::vector<int>& jpeg_qualities) {
   lf::ViewSettings vs;
   vs.width = W;
   vs.height = H;
@@ -320,15 +345,20 @@ KernelTime kernel_ms(const lf::Rig& rig, const std::vector<cv::Mat>& images, int
   std::vector<lf::FragmentPixels> pixels(frags.size());
   std::vector<lf::FragmentPlan> plans(frags.size());
   std::vector<lf::FragmentDrawing> drawings(frags.size());
+  std::vector<std::vector<uint8_t>> wire(frags.size());  // JPEG: decoded, raw wire format
+  std::vector<lf::Fragment> heads(frags.size());
   lf::Compositor comp;
   cv::Mat out;
-  // Both of the library's ways, view by view: each fragment rendered, then
-  // all composited; or planned, then drawn band by band into the sums
-  // (fused, as lfcompositor draws deferred fragments).
-  std::vector<double> ms[2], cpu[2];
+  // The library's ways, view by view: each fragment rendered, then all
+  // composited (way 0); or planned, then drawn band by band into the sums
+  // (1: fused, as lfcompositor draws deferred fragments); or rendered, JPEG
+  // coded and decoded, then composited (2 + k: jpeg_qualities[k]).
+  const int ways = 2 + static_cast<int>(jpeg_qualities.size());
+  std::vector<std::vector<double>> ms(ways), cpu(ways);
   for (int k = 0; k < n; ++k) {
     req.view = seq.at(static_cast<uint64_t>(k), rig);
-    for (int fused = 0; fused < 2; ++fused) {
+    for (int way = 0; way < ways; ++way) {
+      const bool fused = way == 1;
       const gint64 t0 = g_get_monotonic_time();
       const double c0 = thread_cpu_s();
       const lf::ViewGeometry g(rig, req);
@@ -336,18 +366,29 @@ KernelTime kernel_ms(const lf::Rig& rig, const std::vector<cv::Mat>& images, int
         plans[i] = lf::plan_fragment(g, static_cast<int>(i));
         if (fused) {
           drawings[i] = {&plans[i], &rig.cameras[i], &images[i]};
-        } else {
-          lf::render_fragment(plans[i], rig.cameras[i], images[i], frags[i]);
-          pixels[i] = {&frags[i], frags[i].pixels.data()};
+          continue;
         }
+        lf::render_fragment(plans[i], rig.cameras[i], images[i], frags[i]);
+        pixels[i] = {&frags[i], frags[i].pixels.data()};
+        if (way < 2 || frags[i].empty()) continue;
+        const std::vector<uint8_t> jpeg =
+            lf::serialize_fragment(frags[i], lf::Encoding::kJpeg, jpeg_qualities[way - 2]);
+        lf::decode_jpeg_to_raw(jpeg.data(), jpeg.size(), lf::kMaxFragmentPixels, [&](size_t size) {
+          wire[i].resize(size);
+          return wire[i].data();
+        });
+        const uint8_t* px = nullptr;
+        heads[i] = lf::parse_fragment_in_place(wire[i].data(), wire[i].size(), &px, nullptr,
+                                               lf::kMaxFragmentPixels, false);
+        pixels[i] = {&heads[i], px};
       }
       // One thread: cv::setNumThreads(1) by the caller.
       if (fused)
         comp.composite(W, H, {}, drawings, out);
       else
         comp.composite(W, H, pixels, out);
-      ms[fused].push_back((g_get_monotonic_time() - t0) / 1000.0);
-      cpu[fused].push_back((thread_cpu_s() - c0) * 1000.0);
+      ms[way].push_back((g_get_monotonic_time() - t0) / 1000.0);
+      cpu[way].push_back((thread_cpu_s() - c0) * 1000.0);
     }
   }
   auto median = [](std::vector<double>& v) {
@@ -360,6 +401,8 @@ KernelTime kernel_ms(const lf::Rig& rig, const std::vector<cv::Mat>& images, int
   const int best = t.fused_ms < t.separate_ms;
   t.wall_ms = best ? t.fused_ms : t.separate_ms;
   t.cpu_ms = median(cpu[best]);
+  for (size_t q = 0; q < jpeg_qualities.size(); ++q)
+    t.jpeg[jpeg_qualities[q]] = {median(ms[2 + q]), median(cpu[2 + q])};
   return t;
 }
 
@@ -541,21 +584,26 @@ int main(int argc, char** argv) {
     // defined) and CPU time (for the CPU efficiency).
     std::map<std::pair<int, int>, KernelTime> bound;
     const bool any_raw = std::find(encodings.begin(), encodings.end(), "raw") != encodings.end();
+    std::vector<int> jpeg_qualities;  // of the JPEG rows, for their bounds
+    for (const std::string& e : encodings)
+      if (jpeg_quality(e)) jpeg_qualities.push_back(jpeg_quality(e));
     const bool viewers_run = !viewers_spec.empty();
     auto measure_bound = [&](const std::pair<int, int>& sz) {
-      if (skip_bound || !(viewers_run ? encodings.front() == "raw" : any_raw)) return;
+      if (skip_bound ||
+          !(viewers_run ? encodings.front() == "raw" : any_raw || !jpeg_qualities.empty()))
+        return;
       // One core (images load in parallel first); OpenCV's default comes
       // back for the pipelines (lfcompositor composites in parallel).
       const std::vector<cv::Mat> images = lf::load_images(rig);
       const int threads = cv::getNumThreads();
       cv::setNumThreads(1);
       for (int pass = 0; pass < 2; ++pass) {
-        const KernelTime k = kernel_ms(rig, images, sz.first, sz.second, 40);
-        KernelTime& b = bound[sz];
-        b.wall_ms = pass ? std::min(b.wall_ms, k.wall_ms) : k.wall_ms;
-        b.cpu_ms = pass ? std::min(b.cpu_ms, k.cpu_ms) : k.cpu_ms;
-        b.separate_ms = pass ? std::min(b.separate_ms, k.separate_ms) : k.separate_ms;
-        b.fused_ms = pass ? std::min(b.fused_ms, k.fused_ms) : k.fused_ms;
+        const KernelTime k = kernel_ms(rig, images, sz.first, sz.second, 40,
+                                       viewers_run ? std::vector<int>{} : jpeg_qualities);
+        if (pass)
+          bound[sz].keep_faster(k);
+        else
+          bound[sz] = k;
       }
       cv::setNumThreads(threads);
       const KernelTime& b = bound[sz];
@@ -564,6 +612,12 @@ int main(int argc, char** argv) {
                    "views): rendered then composited %.2f, fused %.2f; the bound takes the "
                    "faster.\n",
                    sz.first, sz.second, b.separate_ms, b.fused_ms);
+      for (const auto& [q, t] : b.jpeg)
+        std::fprintf(stderr,
+                     "JPEG q%d bound at %dx%d: %.2f ms per view (rendered, coded, decoded, "
+                     "composited): %.2f of the raw bound's throughput, the most a JPEG pipeline "
+                     "can reach against a raw one.\n",
+                     q, sz.first, sz.second, t.first, b.wall_ms / t.first);
     };
     if (viewers_run) measure_bound(sizes.front());
     if (viewers_run) {
@@ -647,10 +701,13 @@ int main(int argc, char** argv) {
             std::vector<double> lat(
                 probe.latency_ms.begin() + std::min<size_t>(10, probe.latency_ms.size()),
                 probe.latency_ms.end());
-            // The bound is plan + render + composite of one plane: raw fragments
-            // only (JPEG rows add encoding and decoding that it does not count).
-            const bool has_bound = !skip_bound && enc == "raw" && baseline;
-            const KernelTime k = has_bound ? bound[{W, H}] : KernelTime{};
+            // The bound is plan + render + composite of one plane; a JPEG
+            // row's also encodes and decodes each fragment.
+            const int q = jpeg_quality(enc);
+            const bool has_bound = !skip_bound && baseline && bound.count({W, H}) &&
+                                   (!q || bound[{W, H}].jpeg.count(q));
+            KernelTime k = has_bound ? bound[{W, H}] : KernelTime{};
+            if (has_bound && q) std::tie(k.wall_ms, k.cpu_ms) = k.jpeg.at(q);
             const double kb = has_bound ? cores * 1000.0 / k.wall_ms : 0;
             auto num = [&](double v, const char* f) {
               return has_bound ? cv::format(f, v) : std::string("-");
