@@ -507,6 +507,30 @@ TEST(Render, InPlaceRenderingWritesEveryByte) {
     EXPECT_THROW(lf::render_rows(plan, rig.cameras[i], images[i], 2, 1, &none),
                  std::invalid_argument);
     EXPECT_NO_THROW(lf::render_rows(plan, rig.cameras[i], images[i], rows, rows, &none));
+
+    // Into an image of the rect (row_bytes, as a JPEG sender draws): each
+    // row's span pixels where the rect's image has them, the same bytes,
+    // and nothing outside the spans written; in pieces too, with a row
+    // longer than the rect's.
+    if (rows == 0) continue;
+    const int w = plan.rect.width;
+    for (const size_t row_bytes : {4 * static_cast<size_t>(w), 4 * static_cast<size_t>(w) + 12}) {
+      for (int piece : {rows, 7}) {
+        std::vector<uint8_t> image(row_bytes * rows, 0xcd);
+        for (int r0 = 0; r0 < rows; r0 += piece)
+          lf::render_rows(cut, rig.cameras[i], images[i], r0, std::min(rows, r0 + piece),
+                          image.data() + r0 * row_bytes, lf::Kernel::kBest, row_bytes);
+        std::vector<uint8_t> want(image.size(), 0xcd);
+        for (int r = 0; r < rows; ++r)
+          std::copy(expect.begin() + row_start[r], expect.begin() + row_start[r + 1],
+                    want.begin() + r * row_bytes + 4 * (plan.row_spans[r][0] - plan.rect.x));
+        EXPECT_EQ(image, want) << "camera " << i << ", " << row_bytes << " bytes a row, " << piece
+                               << " rows at a time";
+      }
+    }
+    EXPECT_THROW(lf::render_rows(plan, rig.cameras[i], images[i], 0, rows, &none, lf::Kernel::kBest,
+                                 4 * static_cast<size_t>(w) - 1),
+                 std::invalid_argument);
   }
   EXPECT_GT(compared, 20000u);
   EXPECT_GT(gap_pixels, 500u);

@@ -186,6 +186,44 @@ TEST(Wire, JpegFragmentRoundTrip) {
   EXPECT_LE(alpha_err, 6.0);  // the weight channel survives q90 closely
 }
 
+// A JPEG fragment serialised from the rectangle its pixels were drawn into
+// (lffragment's CPU path): the same bytes as from the fragment, whatever
+// the rectangle holds outside the spans; single cameras and partial sums.
+TEST(Wire, JpegFromTheRectangleEqualsSerialized) {
+  lf::Fragment f = sample_fragment();
+  const int w = f.rect.width, h = f.rect.height;
+  int partial_rows = 0;
+  for (const bool sum : {false, true}) {
+    if (sum) f.cameras = 16, f.weight_shift = 2;
+    for (const int q : {50, 90}) {
+      lf::Fragment head = f;
+      head.pixels.clear();
+      std::vector<uint8_t> rect(4 * static_cast<size_t>(w) * h, 0x5a);
+      const uint8_t* src = f.pixels.data();
+      for (int r = 0; r < h; ++r) {
+        const int b = f.spans[r][0] - f.rect.x, e = f.spans[r][1] - f.rect.x;
+        std::copy(src, src + 4 * (e - b), rect.begin() + 4 * (static_cast<size_t>(r) * w + b));
+        src += 4 * (e - b);
+        partial_rows += e - b < w;
+      }
+      EXPECT_EQ(lf::serialize_jpeg_fragment(head, rect.data(), q),
+                lf::serialize_fragment(f, lf::Encoding::kJpeg, q))
+          << (sum ? "partial sum" : "one camera") << ", quality " << q;
+      std::vector<uint8_t> any(rect.size(), 0);
+      EXPECT_THROW(lf::serialize_jpeg_fragment(f, any.data(), q), std::invalid_argument)
+          << "a fragment with pixels";
+      EXPECT_THROW(lf::serialize_jpeg_fragment(head, rect.data(), 0), std::invalid_argument);
+    }
+  }
+  EXPECT_GT(partial_rows, 8) << "the padding outside the spans is exercised";
+  lf::Fragment empty = sample_fragment();
+  empty.rect = cv::Rect();
+  empty.spans.clear();
+  empty.pixels.clear();
+  EXPECT_EQ(lf::serialize_jpeg_fragment(empty, nullptr, 90),
+            lf::serialize_fragment(empty, lf::Encoding::kJpeg, 90));
+}
+
 // Alpha error (max) and flags byte of a JPEG round trip.
 std::pair<double, uint8_t> jpeg_alpha_error(const lf::Fragment& f, size_t* size = nullptr) {
   const auto b = lf::serialize_fragment(f, lf::Encoding::kJpeg, 90);

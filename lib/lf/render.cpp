@@ -224,11 +224,15 @@ void render_pixels(const FragmentPlan& plan, const Camera& cam, const cv::Mat& i
 }
 
 void render_rows(const FragmentPlan& plan, const Camera& cam, const cv::Mat& image, int r0, int r1,
-                 uint8_t* pixels, Kernel kernel) {
+                 uint8_t* pixels, Kernel kernel, size_t row_bytes) {
   if (r0 < 0 || r1 > static_cast<int>(plan.row_spans.size()) || r0 > r1)
     throw std::invalid_argument("render_rows: rows " + std::to_string(r0) + ".." +
                                 std::to_string(r1) + " are not within the plan's " +
                                 std::to_string(plan.row_spans.size()));
+  if (row_bytes != 0 && row_bytes < 4 * static_cast<size_t>(plan.rect.width))
+    throw std::invalid_argument("render_rows: " + std::to_string(row_bytes) +
+                                " bytes a row is less than the rect's " +
+                                std::to_string(4 * plan.rect.width));
   if (kernel == Kernel::kBest) kernel = best_kernel();
   if (!kernel_available(kernel))
     throw std::invalid_argument(std::string("render_fragment: the ") + kernel_name(kernel) +
@@ -244,13 +248,20 @@ void render_rows(const FragmentPlan& plan, const Camera& cam, const cv::Mat& ima
   // Each row's pixels start where the rows before it end; the gaps between
   // a row's runs (and any span pixel no run covers) are zeroed as the rows
   // are walked, so every byte is written once.
+  // (With row_bytes, each row starts at its own place in the rect's image.)
   const auto& spans = plan.row_spans;
-  uint8_t* row = pixels;  // start of row `cur`
+  auto row_start = [&](int r) {
+    return pixels + static_cast<size_t>(r - r0) * row_bytes + 4 * (spans[r][0] - plan.rect.x);
+  };
+  uint8_t* row = row_bytes && r0 < r1 ? row_start(r0) : pixels;  // start of row `cur`
   int cur = r0, cursor = r0 < r1 ? spans[r0][0] : 0;
   auto finish_rows_before = [&](int r) {
     for (; cur < r; ++cur) {
       std::memset(row + 4 * (cursor - spans[cur][0]), 0, 4 * (spans[cur][1] - cursor));
-      row += 4 * (spans[cur][1] - spans[cur][0]);
+      if (!row_bytes)
+        row += 4 * (spans[cur][1] - spans[cur][0]);
+      else if (cur + 1 < r1)
+        row = row_start(cur + 1);
       if (cur + 1 < r1) cursor = spans[cur + 1][0];
     }
   };

@@ -46,10 +46,15 @@ void render_pixels(const FragmentPlan& plan, const Camera& camera, const cv::Mat
 // render_pixels() writes them: `pixels` receives those rows' span pixels,
 // row after row (4 bytes each, the same values). For a caller that renders
 // a fragment in pieces, e.g. band by band into its sums
-// (lf/composite.h Compositor::composite with drawings). Throws
-// std::invalid_argument for rows out of range, and as render_pixels().
+// (lf/composite.h Compositor::composite with drawings). With row_bytes > 0
+// the rows are laid out as in an image of the rect instead: row r's span
+// pixels start at pixels + (r - r0) * row_bytes + 4 * (begin - rect.x)
+// (row_bytes >= 4 * rect.width), and the bytes outside the spans are not
+// written (e.g. straight into the rectangle a JPEG encoder takes,
+// lf/wire.h serialize_jpeg_fragment). Throws std::invalid_argument for rows
+// out of range or a row_bytes too small, and as render_pixels().
 void render_rows(const FragmentPlan& plan, const Camera& camera, const cv::Mat& image, int r0,
-                 int r1, uint8_t* pixels, Kernel kernel = Kernel::kBest);
+                 int r1, uint8_t* pixels, Kernel kernel = Kernel::kBest, size_t row_bytes = 0);
 bool kernel_available(Kernel kernel);
 Kernel best_kernel();                    // never kBest
 const char* kernel_name(Kernel kernel);  // "scalar", "sse2", "avx2" (kBest: the one it picks)

@@ -391,11 +391,74 @@ void write_deflated_spans(const Fragment& f, Writer& w) {
 }
 }  // namespace
 
+namespace {
+// This thread's JPEG buffers, kept from fragment to fragment.
+struct JpegBuffers {
+  Scratch rgba, alpha, half;
+  TjBuffer colour, weight;
+  std::vector<uint8_t> ctables, wtables;
+};
+thread_local JpegBuffers jpeg_buffers;
+
+// The JPEG payload after the spans, from `full`: the rect's w x h RGBA
+// image with the span pixels in place (the rest is overwritten: the
+// padding).
+void write_jpeg(const Fragment& f, uint8_t* full, int quality, Writer& p) {
+  JpegBuffers& b = jpeg_buffers;
+  const int w = f.rect.width, h = f.rect.height;
+  pad_outside_spans(full, w, h, f.spans, f.rect.x);
+  const size_t csize = compress_into(b.colour, full, w, h, JpegKind::kColour, quality);
+  cv::Mat alpha(h, w, CV_8U, b.alpha.get(static_cast<size_t>(w) * h));
+  cv::extractChannel(cv::Mat(h, w, CV_8UC4, full), alpha, 3);  // into alpha's memory
+  // Spans-only check: the padding outside them repeats edge values.
+  const bool half = weight_is_smooth(alpha, f.spans, f.rect.x);
+  cv::Mat weight_img = alpha;
+  if (half) {
+    const int hw = (w + 1) / 2, hh = (h + 1) / 2;
+    weight_img = cv::Mat(hh, hw, CV_8U, b.half.get(static_cast<size_t>(hw) * hh));
+    cv::resize(alpha, weight_img, cv::Size(hw, hh), 0, 0, cv::INTER_AREA);
+  }
+  const size_t wsize = compress_into(b.weight, weight_img.data, weight_img.cols, weight_img.rows,
+                                     JpegKind::kGrey, quality);
+  // The tables are left out when both streams have the standard ones.
+  const bool omit = tables_of(b.colour.p, csize, b.ctables) &&
+                    b.ctables == standard_tables(JpegKind::kColour, quality) &&
+                    tables_of(b.weight.p, wsize, b.wtables) &&
+                    b.wtables == standard_tables(JpegKind::kGrey, quality);
+  p.u8(static_cast<uint8_t>((omit ? kTablesOmitted : 0) | (half ? kHalfResolutionWeight : 0)));
+  p.u32(static_cast<uint32_t>(omit ? csize - b.ctables.size() : csize));
+  auto put = [&](const uint8_t* j, size_t n) {
+    if (!omit) return p.bytes(j, n);
+    walk_segments(j, n, [&](bool table, const uint8_t* q, size_t k) {
+      if (!table) p.bytes(q, k);
+    });
+  };
+  put(b.colour.p, csize);
+  put(b.weight.p, wsize);
+}
+
+// The header and CRC before the payload.
+std::vector<uint8_t> finish_fragment(const Fragment& f, Encoding enc, int quality,
+                                     const std::vector<uint8_t>& payload, bool deflated) {
+  if (payload.size() > kMaxPayload)
+    throw std::invalid_argument("serialize_fragment: payload exceeds 64 MiB");
+  std::vector<uint8_t> out;
+  out.reserve(header_size(f) + payload.size());
+  write_header(f, enc, quality, payload.size(), out, deflated);
+  const uint32_t sum = crc(out.data(), out.size(), payload.data(), payload.size());
+  Writer(out).u32(sum);
+  out.insert(out.end(), payload.begin(), payload.end());
+  return out;
+}
+}  // namespace
+
 std::vector<uint8_t> serialize_fragment(const Fragment& f, Encoding enc, int quality) {
   check_fragment(f);
   if (quality < 1 || quality > 100)
     throw std::invalid_argument("serialize_fragment: JPEG quality must be 1..100");
   if (f.empty()) enc = Encoding::kEmpty;
+  if (enc != Encoding::kEmpty && enc != Encoding::kRaw && enc != Encoding::kJpeg)
+    throw std::invalid_argument("serialize_fragment: unknown encoding");
   std::vector<uint8_t> payload;
   const bool deflated = is_sum(f) && enc != Encoding::kEmpty;
   if (enc != Encoding::kEmpty) {
@@ -406,66 +469,39 @@ std::vector<uint8_t> serialize_fragment(const Fragment& f, Encoding enc, int qua
       write_spans(f, p);
     if (enc == Encoding::kRaw) {
       p.bytes(f.pixels.data(), f.pixels.size());
-    } else if (enc == Encoding::kJpeg) {
-      // This thread's buffers, kept from fragment to fragment.
-      struct Buffers {
-        Scratch rgba, alpha, half;
-        TjBuffer colour, weight;
-        std::vector<uint8_t> ctables, wtables;
-      };
-      thread_local Buffers b;
-      const int w = f.rect.width, h = f.rect.height;
+    } else {
       // Every pixel of the rectangle is written: the spans' from the
-      // fragment, the others by pad_outside_spans.
-      uint8_t* full = b.rgba.get(static_cast<size_t>(w) * h * 4);
+      // fragment here, the others by write_jpeg's padding.
+      const int w = f.rect.width, h = f.rect.height;
+      uint8_t* full = jpeg_buffers.rgba.get(static_cast<size_t>(w) * h * 4);
       const uint8_t* src = f.pixels.data();
       for (int r = 0; r < h; ++r) {
         const int n = 4 * (f.spans[r][1] - f.spans[r][0]);
         std::memcpy(full + (static_cast<size_t>(r) * w + f.spans[r][0] - f.rect.x) * 4, src, n);
         src += n;
       }
-      pad_outside_spans(full, w, h, f.spans, f.rect.x);
-      const size_t csize = compress_into(b.colour, full, w, h, JpegKind::kColour, quality);
-      cv::Mat alpha(h, w, CV_8U, b.alpha.get(static_cast<size_t>(w) * h));
-      cv::extractChannel(cv::Mat(h, w, CV_8UC4, full), alpha, 3);  // into alpha's memory
-      // Spans-only check: the padding outside them repeats edge values.
-      const bool half = weight_is_smooth(alpha, f.spans, f.rect.x);
-      cv::Mat weight_img = alpha;
-      if (half) {
-        const int hw = (w + 1) / 2, hh = (h + 1) / 2;
-        weight_img = cv::Mat(hh, hw, CV_8U, b.half.get(static_cast<size_t>(hw) * hh));
-        cv::resize(alpha, weight_img, cv::Size(hw, hh), 0, 0, cv::INTER_AREA);
-      }
-      const size_t wsize = compress_into(b.weight, weight_img.data, weight_img.cols,
-                                         weight_img.rows, JpegKind::kGrey, quality);
-      // The tables are left out when both streams have the standard ones.
-      const bool omit = tables_of(b.colour.p, csize, b.ctables) &&
-                        b.ctables == standard_tables(JpegKind::kColour, quality) &&
-                        tables_of(b.weight.p, wsize, b.wtables) &&
-                        b.wtables == standard_tables(JpegKind::kGrey, quality);
-      p.u8(static_cast<uint8_t>((omit ? kTablesOmitted : 0) | (half ? kHalfResolutionWeight : 0)));
-      p.u32(static_cast<uint32_t>(omit ? csize - b.ctables.size() : csize));
-      auto put = [&](const uint8_t* j, size_t n) {
-        if (!omit) return p.bytes(j, n);
-        walk_segments(j, n, [&](bool table, const uint8_t* q, size_t k) {
-          if (!table) p.bytes(q, k);
-        });
-      };
-      put(b.colour.p, csize);
-      put(b.weight.p, wsize);
-    } else {
-      throw std::invalid_argument("serialize_fragment: unknown encoding");
+      write_jpeg(f, full, quality, p);
     }
   }
-  if (payload.size() > kMaxPayload)
-    throw std::invalid_argument("serialize_fragment: payload exceeds 64 MiB");
-  std::vector<uint8_t> out;
-  out.reserve(header_size(f) + payload.size());
-  write_header(f, enc, quality, payload.size(), out, deflated);
-  const uint32_t sum = crc(out.data(), out.size(), payload.data(), payload.size());
-  Writer(out).u32(sum);
-  out.insert(out.end(), payload.begin(), payload.end());
-  return out;
+  return finish_fragment(f, enc, quality, payload, deflated);
+}
+
+std::vector<uint8_t> serialize_jpeg_fragment(const Fragment& f, uint8_t* rect_rgba, int quality) {
+  if (!f.pixels.empty())
+    throw std::invalid_argument("serialize_jpeg_fragment: the pixels are in the rectangle");
+  check_fragment_geometry(f);
+  if (quality < 1 || quality > 100)
+    throw std::invalid_argument("serialize_fragment: JPEG quality must be 1..100");
+  if (f.empty()) return finish_fragment(f, Encoding::kEmpty, quality, {}, false);
+  std::vector<uint8_t> payload;
+  const bool deflated = is_sum(f);
+  Writer p(payload);
+  if (deflated)
+    write_deflated_spans(f, p);
+  else
+    write_spans(f, p);
+  write_jpeg(f, rect_rgba, quality, p);
+  return finish_fragment(f, Encoding::kJpeg, quality, payload, deflated);
 }
 
 size_t raw_fragment_size(const Fragment& f) {

@@ -110,6 +110,17 @@ constexpr size_t kMaxFragmentPixels = size_t{8192} * 8192;
 // fragment.
 std::vector<uint8_t> serialize_fragment(const Fragment& f, Encoding encoding,
                                         int jpeg_quality = 90);
+// A JPEG fragment whose pixels were drawn straight into the rectangle the
+// encoder takes (lf/render.h render_rows with row_bytes = 4 * rect.width),
+// with no copy of them: `f` has the header fields, rect and spans (its
+// `pixels` empty, as describe_fragment leaves them); `rect_rgba` holds
+// rect.width x rect.height RGBA pixels, the span pixels in place, and is
+// written to (the pixels outside the spans become the encoder's padding).
+// The same bytes as serialize_fragment(f with the span pixels, kJpeg,
+// jpeg_quality); the same exceptions, and std::invalid_argument for an `f`
+// with pixels.
+std::vector<uint8_t> serialize_jpeg_fragment(const Fragment& f, uint8_t* rect_rgba,
+                                             int jpeg_quality = 90);
 // Parses and validates; the result passes check_fragment(). `encoding`
 // receives the payload's encoding if not null. A fragment whose rectangle has
 // more than `max_pixels` pixels is rejected before anything is decoded (a
