@@ -146,8 +146,10 @@ struct State {
   std::unique_ptr<lf::GlRenderer> gl;
   GstBuffer* uploaded_of = nullptr;
   GstClockTime uploaded_pts = GST_CLOCK_TIME_NONE;
-  // encoding=jpeg: the fragment's pixels before coding, kept from request
-  // to request (no allocation per fragment; request thread only).
+  // encoding=jpeg: the fragment's pixels before coding (on the CPU the
+  // rectangle's image, drawn in place, lf/wire.h serialize_jpeg_fragment;
+  // with GL the spans' layout), kept from request to request (no
+  // allocation per fragment; request thread only).
   std::vector<uint8_t> jpeg_pixels;
   // Warnings about what peers send, at most one a second each.
   lfgst::WarnLimiter bad_request, too_large, too_fast, no_frame, failed;
@@ -696,18 +698,27 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
             lf::render_pixels(plan, cam, rgba, px);
         };
         if (st->s.encoding == Encoding::kJpeg) {
-          f.pixels.swap(st->jpeg_pixels);
           for (const lf::FragmentPlan& plan : plans) {
             lf::describe_fragment(plan, f);
             f.camera_id = static_cast<uint32_t>(cam.id);
-            f.pixels.resize(4 * plan.pixel_count());
-            draw(plan, f.pixels.data());
-            warped += f.pixel_count();
-            const std::vector<uint8_t> one =
-                lf::serialize_fragment(f, lf::Encoding::kJpeg, quality);
+            std::vector<uint8_t> one;
+            if (st->gl) {
+              f.pixels.swap(st->jpeg_pixels);
+              f.pixels.resize(4 * plan.pixel_count());
+              draw(plan, f.pixels.data());
+              one = lf::serialize_fragment(f, lf::Encoding::kJpeg, quality);
+              f.pixels.swap(st->jpeg_pixels);
+            } else {
+              // Drawn straight into the rectangle the encoder takes.
+              const size_t n = 4 * static_cast<size_t>(plan.rect.width) * plan.rect.height;
+              if (st->jpeg_pixels.size() < n) st->jpeg_pixels.resize(n);
+              lf::render_rows(plan, cam, rgba, 0, plan.rect.height, st->jpeg_pixels.data(),
+                              lf::Kernel::kBest, 4 * static_cast<size_t>(plan.rect.width));
+              one = lf::serialize_jpeg_fragment(f, st->jpeg_pixels.data(), quality);
+            }
+            warped += plan.pixel_count();
             bytes.insert(bytes.end(), one.begin(), one.end());
           }
-          f.pixels.swap(st->jpeg_pixels);
           lfgst::trace(GST_ELEMENT(self), "warped", req.viewer_id, req.sequence, cam.id,
                        static_cast<gint64>(warped));
           out = gst_buffer_new_memdup(bytes.data(), bytes.size());

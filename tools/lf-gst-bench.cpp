@@ -346,6 +346,7 @@ KernelTime kernel_ms(const lf::Rig& rig, const std::vector<cv::Mat>& images, int
   std::vector<lf::FragmentPlan> plans(frags.size());
   std::vector<lf::FragmentDrawing> drawings(frags.size());
   std::vector<std::vector<uint8_t>> wire(frags.size());  // JPEG: decoded, raw wire format
+  std::vector<uint8_t> rect;                             // JPEG: the rectangle to encode
   std::vector<lf::Fragment> heads(frags.size());
   lf::Compositor comp;
   cv::Mat out;
@@ -368,11 +369,22 @@ KernelTime kernel_ms(const lf::Rig& rig, const std::vector<cv::Mat>& images, int
           drawings[i] = {&plans[i], &rig.cameras[i], &images[i]};
           continue;
         }
-        lf::render_fragment(plans[i], rig.cameras[i], images[i], frags[i]);
-        pixels[i] = {&frags[i], frags[i].pixels.data()};
-        if (way < 2 || frags[i].empty()) continue;
+        if (way < 2) {
+          lf::render_fragment(plans[i], rig.cameras[i], images[i], frags[i]);
+          pixels[i] = {&frags[i], frags[i].pixels.data()};
+          continue;
+        }
+        // As lffragment does on the CPU: drawn straight into the rectangle
+        // the encoder takes.
+        const lf::FragmentPlan& p = plans[i];
+        lf::describe_fragment(p, frags[i]);
+        rect.resize(std::max(rect.size(), 4 * static_cast<size_t>(p.rect.area())));
+        lf::render_rows(p, rig.cameras[i], images[i], 0, p.rect.height, rect.data(),
+                        lf::Kernel::kBest, 4 * static_cast<size_t>(p.rect.width));
         const std::vector<uint8_t> jpeg =
-            lf::serialize_fragment(frags[i], lf::Encoding::kJpeg, jpeg_qualities[way - 2]);
+            lf::serialize_jpeg_fragment(frags[i], rect.data(), jpeg_qualities[way - 2]);
+        pixels[i] = {&frags[i], nullptr};
+        if (frags[i].empty()) continue;
         lf::decode_jpeg_to_raw(jpeg.data(), jpeg.size(), lf::kMaxFragmentPixels, [&](size_t size) {
           wire[i].resize(size);
           return wire[i].data();
