@@ -491,7 +491,7 @@ std::vector<uint8_t> serialize_jpeg_fragment(const Fragment& f, uint8_t* rect_rg
     throw std::invalid_argument("serialize_jpeg_fragment: the pixels are in the rectangle");
   check_fragment_geometry(f);
   if (quality < 1 || quality > 100)
-    throw std::invalid_argument("serialize_fragment: JPEG quality must be 1..100");
+    throw std::invalid_argument("serialize_jpeg_fragment: JPEG quality must be 1..100");
   if (f.empty()) return finish_fragment(f, Encoding::kEmpty, quality, {}, false);
   std::vector<uint8_t> payload;
   const bool deflated = is_sum(f);
