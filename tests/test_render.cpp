@@ -544,12 +544,13 @@ TEST(Composite, ResolveMatchesTheFormulaEverywhere) {
   const int W = 37, H = 23;  // odd sizes: no vector loop ends evenly
   cv::RNG rng(12345);
   std::vector<uint32_t> sum(static_cast<size_t>(W) * H * 4, 0);
-  lf::Compositor comp;
-  comp.reset(W, H);
+  std::vector<lf::Fragment> frags;
   for (int f = 0; f < 6; ++f) {
     lf::Fragment fr;
     fr.out_width = W, fr.out_height = H;
     fr.rect = {0, 0, W, H};
+    // The last one a partial sum: its values are added << weight_shift.
+    if (f == 5) fr.cameras = 4, fr.weight_shift = 2;
     for (int y = 0; y < H; ++y) {
       const int b = rng.uniform(0, W), e = rng.uniform(b, W + 1);
       fr.spans.push_back({static_cast<uint16_t>(b), static_cast<uint16_t>(e)});
@@ -558,32 +559,54 @@ TEST(Composite, ResolveMatchesTheFormulaEverywhere) {
         for (int ch = 0; ch < 4; ++ch) {
           const int v = ch == 3 ? w : rng.uniform(0, w + 1);  // premultiplied: colour <= weight
           fr.pixels.push_back(static_cast<uint8_t>(v));
-          sum[(static_cast<size_t>(y) * W + x) * 4 + ch] += v;
+          sum[(static_cast<size_t>(y) * W + x) * 4 + ch] += static_cast<uint32_t>(v)
+                                                            << fr.weight_shift;
         }
       }
     }
-    comp.add(fr);
+    frags.push_back(fr);
   }
-  cv::Mat out;
-  comp.resolve(out);
-  size_t empty = 0;
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) {
-      const uint32_t* a = &sum[(static_cast<size_t>(y) * W + x) * 4];
-      const cv::Vec4b o = out.at<cv::Vec4b>(y, x);
-      if (a[3] == 0) {
-        ++empty;
-        EXPECT_EQ(o, cv::Vec4b(0, 0, 0, 0)) << x << "," << y;
-        continue;
-      }
-      const float s = 255.0f / static_cast<float>(a[3]);
-      for (int ch = 0; ch < 3; ++ch)
-        EXPECT_EQ(o[ch], static_cast<uint8_t>(std::min(255.0f, a[ch] * s + 0.5f)))
-            << x << "," << y << " channel " << ch;
-      EXPECT_EQ(o[3], 255);
+  // Every kernel this CPU has: the same sums and the same bytes.
+  int kernels = 0;
+  for (const lf::Kernel kernel : {lf::Kernel::kScalar, lf::Kernel::kSse2, lf::Kernel::kAvx2}) {
+    lf::Compositor comp;
+    if (!lf::kernel_available(kernel)) {
+      EXPECT_THROW(comp.set_kernel(kernel), std::invalid_argument);
+      continue;
     }
-  EXPECT_GT(empty, 0u);
-  EXPECT_LT(empty, static_cast<size_t>(W) * H / 2);
+    ++kernels;
+    comp.set_kernel(kernel);
+    EXPECT_EQ(comp.kernel(), kernel);
+    comp.reset(W, H);
+    for (const lf::Fragment& fr : frags) comp.add(fr);
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x)
+        ASSERT_EQ(std::vector<uint32_t>(comp.sums_at(x, y), comp.sums_at(x, y) + 4),
+                  std::vector<uint32_t>(&sum[(static_cast<size_t>(y) * W + x) * 4],
+                                        &sum[(static_cast<size_t>(y) * W + x) * 4] + 4))
+            << lf::kernel_name(kernel) << " " << x << "," << y;
+    cv::Mat out;
+    comp.resolve(out);
+    size_t empty = 0;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        const uint32_t* a = &sum[(static_cast<size_t>(y) * W + x) * 4];
+        const cv::Vec4b o = out.at<cv::Vec4b>(y, x);
+        if (a[3] == 0) {
+          ++empty;
+          EXPECT_EQ(o, cv::Vec4b(0, 0, 0, 0)) << lf::kernel_name(kernel) << " " << x << "," << y;
+          continue;
+        }
+        const float s = 255.0f / static_cast<float>(a[3]);
+        for (int ch = 0; ch < 3; ++ch)
+          EXPECT_EQ(o[ch], static_cast<uint8_t>(std::min(255.0f, a[ch] * s + 0.5f)))
+              << lf::kernel_name(kernel) << " " << x << "," << y << " channel " << ch;
+        EXPECT_EQ(o[3], 255);
+      }
+    EXPECT_GT(empty, 0u);
+    EXPECT_LT(empty, static_cast<size_t>(W) * H / 2);
+  }
+  EXPECT_GE(kernels, 1);
 }
 
 // The fused, banded composite() against reset + add + resolve: the same

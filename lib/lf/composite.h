@@ -11,6 +11,7 @@
 #include "lf/camera.h"
 #include "lf/fragment.h"
 #include "lf/plan.h"
+#include "lf/render.h"
 
 namespace lf {
 
@@ -86,6 +87,13 @@ class Compositor {
   }
   int width() const { return w_; }
   int height() const { return h_; }
+  // The kernel that adds and normalises (lf/render.h Kernel; kBest, the
+  // default: AVX2 where the CPU has it, else SSE2, else the scalar
+  // reference). Every kernel gives the same bytes (tests); throws
+  // std::invalid_argument for one this CPU or build lacks. kernel(): the
+  // one used.
+  void set_kernel(Kernel k);
+  Kernel kernel() const;
 
  private:
   size_t check(const Fragment& f, const uint8_t* pixels) const {  // its pixel count
@@ -95,6 +103,7 @@ class Compositor {
   void resolve_rows(cv::Mat& out, int y0, int y1) const;
   int w_ = 0, h_ = 0;
   std::vector<uint32_t> acc_;
+  Kernel kernel_ = Kernel::kBest;
 };
 
 // Partial sums (a camera host adds up its own cameras' fragments before
