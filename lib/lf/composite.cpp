@@ -67,8 +67,7 @@ LF_AVX2 static void accumulate_avx2(uint32_t* acc, const uint8_t* px, int n, int
   const __m128i count = _mm_cvtsi32_si128(shift);
   int i = 0;
   for (; i + 8 <= n; i += 8) {
-    __m128i b;
-    std::memcpy(&b, px + i, 8);  // the low 8 bytes (the rest unused)
+    const __m128i b = _mm_loadl_epi64(reinterpret_cast<const __m128i*>(px + i));
     const __m256i v = _mm256_sll_epi32(_mm256_cvtepu8_epi32(b), count);
     __m256i* a = reinterpret_cast<__m256i*>(acc + i);
     _mm256_storeu_si256(a, _mm256_add_epi32(_mm256_loadu_si256(a), v));
@@ -124,22 +123,15 @@ Kernel Compositor::kernel() const {
 }
 
 void Compositor::add_rows(const Fragment& f, const uint8_t* pixels, int r0, int r1) {
-  const uint8_t* px = pixels;
+  void (*add)(uint32_t*, const uint8_t*, int, int) = accumulate;
 #ifdef LF_COMPOSITE_SSE2
-  const bool avx2 = kernel() == Kernel::kAvx2;
+  if (kernel() == Kernel::kAvx2) add = accumulate_avx2;
 #endif
+  const uint8_t* px = pixels;
   for (int r = r0; r < r1; ++r) {
     const int b = f.spans[r][0], e = f.spans[r][1];
     const int n = 4 * (e - b);
-    uint32_t* acc = acc_.data() + (static_cast<size_t>(f.rect.y + r) * w_ + b) * 4;
-#ifdef LF_COMPOSITE_SSE2
-    if (avx2) {
-      accumulate_avx2(acc, px, n, f.weight_shift);
-      px += n;
-      continue;
-    }
-#endif
-    accumulate(acc, px, n, f.weight_shift);
+    add(acc_.data() + (static_cast<size_t>(f.rect.y + r) * w_ + b) * 4, px, n, f.weight_shift);
     px += n;
   }
 }
@@ -164,7 +156,7 @@ void Compositor::resolve(cv::Mat& out) const {
 }
 
 void Compositor::resolve_rows(cv::Mat& out, int y0, int y1) const {
-  const Kernel k = kernel();
+  [[maybe_unused]] const Kernel k = kernel();
   for (int y = y0; y < y1; ++y) {
     const uint32_t* a = acc_.data() + static_cast<size_t>(y) * w_ * 4;
     uint8_t* o = out.ptr<uint8_t>(y);
@@ -192,7 +184,6 @@ void Compositor::resolve_rows(cv::Mat& out, int y0, int y1) const {
       std::memcpy(o, &px, 4);
     }
 #endif
-    (void)k;
     for (; x < w_; ++x, a += 4, o += 4) resolve1(a, o);
   }
 }

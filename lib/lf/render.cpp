@@ -258,11 +258,11 @@ void render_rows(const FragmentPlan& plan, const Camera& cam, const cv::Mat& ima
   auto finish_rows_before = [&](int r) {
     for (; cur < r; ++cur) {
       std::memset(row + 4 * (cursor - spans[cur][0]), 0, 4 * (spans[cur][1] - cursor));
-      if (!row_bytes)
-        row += 4 * (spans[cur][1] - spans[cur][0]);
-      else if (cur + 1 < r1)
-        row = row_start(cur + 1);
-      if (cur + 1 < r1) cursor = spans[cur + 1][0];
+      if (!row_bytes) row += 4 * (spans[cur][1] - spans[cur][0]);
+      if (cur + 1 < r1) {
+        cursor = spans[cur + 1][0];
+        if (row_bytes) row = row_start(cur + 1);
+      }
     }
   };
   // The runs of rows [r0, r1) (sorted by y).
