@@ -695,12 +695,12 @@ int main(int argc, char** argv) {
       for (lf::Kernel k : {lf::Kernel::kScalar, lf::Kernel::kSse2, lf::Kernel::kAvx2})
         if (lf::kernel_available(k)) kernels.push_back(k);
       std::vector<std::vector<double>> ours_ms(kernels.size());
-      std::vector<double> warp_ms, naive_ms;
+      std::vector<double> warp_ms, naive_ms, plan_ms;
       size_t frag_px = 0, warp_px = 0;
       const int nviews = std::min<int>(8, path.size());
       for (int rep = 0; rep < 5; ++rep) {
         std::vector<double> ours(kernels.size(), 0.0);
-        double warp = 0, naive = 0;
+        double warp = 0, naive = 0, planning = 0;
         frag_px = warp_px = 0;
         for (int v = 0; v < nviews; ++v) {
           const lf::ViewRequest& req = path[v * path.size() / nviews];
@@ -716,12 +716,17 @@ int main(int argc, char** argv) {
             }
             ours[ki] += ms_since(t0);
           }
+          // Planning alone (the share of "ours" that no kernel does).
+          auto t0 = Clock::now();
           const lf::ViewGeometry g(rig, req);
+          for (size_t i = 0; i < rig.cameras.size(); ++i)
+            plans[i] = lf::plan_fragment(g, static_cast<int>(i));
+          planning += ms_since(t0);
           // OpenCV warpPerspective for the same number of output pixels: each
           // non-empty fragment's homography into a destination of as many
           // pixels as the fragment carries (its rectangle's width).
           cv::Mat dst;
-          auto t0 = Clock::now();
+          t0 = Clock::now();
           for (size_t i = 0; i < rig.cameras.size(); ++i) {
             const auto& p = plans[i];
             if (p.empty()) continue;
@@ -762,6 +767,7 @@ int main(int argc, char** argv) {
         for (size_t ki = 0; ki < kernels.size(); ++ki) ours_ms[ki].push_back(ours[ki] / nviews);
         warp_ms.push_back(warp / nviews);
         naive_ms.push_back(naive / nviews);
+        plan_ms.push_back(planning / nviews);
       }
       const double w = median(warp_ms), nv = median(naive_ms);
       const double w_same = w * static_cast<double>(frag_px) / warp_px;
@@ -784,6 +790,10 @@ int main(int argc, char** argv) {
                   frag_px / nviews);
       std::printf("| naive: full-frame warp of every camera + blend | %.2f | %zu | %.1f |\n", nv,
                   rig.cameras.size() * static_cast<size_t>(W0) * H0, nv / w_same);
+      std::printf(
+          "\nOf ours, planning (ViewGeometry + plan_fragment of every camera): %.2f ms "
+          "per view.\n",
+          median(plan_ms));
       std::printf(
           "\nours (%s) / warpPerspective = %.2f (target <= 0.6); naive / ours = %.1f (target >= "
           "15)\n",

@@ -13,7 +13,8 @@
 //    the cores the pipeline keeps busy; the share of the machine stolen by
 //    the hypervisor meanwhile is printed beside them (on a shared VM it
 //    slows both the pipeline and the bound). JPEG rows get a bound of their
-//    own: each fragment rendered, JPEG-encoded (lf::serialize_fragment),
+//    own: each fragment drawn into its rectangle and JPEG-encoded
+//    (lf::render_rows, lf::serialize_jpeg_fragment, as lffragment does),
 //    decoded into the raw wire format (lf::decode_jpeg_to_raw, as
 //    lfcompositor does on arrival), then all composited; the ratio of the
 //    two bounds is the most of the raw pipeline's throughput that a JPEG
@@ -103,10 +104,6 @@ std::string backend_properties(const std::string& backend) {
                               "': use cpu, cpu-fragments, gl or gl-fragments");
 }
 
-// The pipeline on one machine as lfarray builds it (gst/lfbins.cpp):
-// lfviewrequest ! lfarray (64 x lfcamsrc and lffragment, one lfcompositor)
-// ! appsink; no request rate limit (max-rate=0: the runs ask for more than
-// its default 240 a second).
 // The quality of a "jpegQ" encoding (1..100); 0 for "raw".
 int jpeg_quality(const std::string& enc) {
   if (enc == "raw") return 0;
@@ -118,11 +115,20 @@ int jpeg_quality(const std::string& enc) {
   throw std::invalid_argument("encoding '" + enc + "': use raw or jpegQ (Q: 1..100)");
 }
 
+// The fragments' properties for an encoding ("raw" or "jpegQ").
+std::string encoding_properties(const std::string& enc) {
+  const int q = jpeg_quality(enc);
+  return q ? "encoding=jpeg jpeg-quality=" + std::to_string(q) : "encoding=raw";
+}
+
+// The pipeline on one machine as lfarray builds it (gst/lfbins.cpp):
+// lfviewrequest ! lfarray (64 x lfcamsrc and lffragment, one lfcompositor)
+// ! appsink; no request rate limit (max-rate=0: the runs ask for more than
+// its default 240 a second).
 std::string pipeline(const std::string& rig, int W, int H, const std::string& enc, bool live,
                      int frames, int rate, int surface = 0, const std::string& props = "",
                      const std::string& backend = "cpu") {
-  const int q = jpeg_quality(enc);
-  const std::string fr = q ? "encoding=jpeg jpeg-quality=" + std::to_string(q) : "encoding=raw";
+  const std::string fr = encoding_properties(enc);
   std::ostringstream d;
   d << "lfviewrequest name=req rig=" << rig << " width=" << W << " height=" << H
     << " orbit=" << kOrbit << " path-frames=" << kPathFrames << " focal-plane=" << kFocalPlane
@@ -598,7 +604,7 @@ int main(int argc, char** argv) {
     const bool any_raw = std::find(encodings.begin(), encodings.end(), "raw") != encodings.end();
     std::vector<int> jpeg_qualities;  // of the JPEG rows, for their bounds
     for (const std::string& e : encodings)
-      if (jpeg_quality(e)) jpeg_qualities.push_back(jpeg_quality(e));
+      if (const int q = jpeg_quality(e)) jpeg_qualities.push_back(q);
     const bool viewers_run = !viewers_spec.empty();
     auto measure_bound = [&](const std::pair<int, int>& sz) {
       if (skip_bound ||
@@ -635,8 +641,7 @@ int main(int argc, char** argv) {
     if (viewers_run) {
       const auto [W, H] = sizes.front();
       const std::string& enc = encodings.front();
-      const std::string fr =
-          enc == "raw" ? "encoding=raw" : "encoding=jpeg jpeg-quality=" + enc.substr(4);
+      const std::string fr = encoding_properties(enc);
       const bool has_bound = bound.count({W, H}) > 0;
       const double kb = has_bound ? cores * 1000.0 / bound[{W, H}].wall_ms : 0;
       std::printf(
@@ -730,9 +735,8 @@ int main(int argc, char** argv) {
                                                     live_fps / plane[1], cpu_ms / plane[2])
                                        : std::string("-");
             std::printf(
-                "| %dx%d | %s | %s | %.1f | %s | %s | %.2f | %s | %s | %.2f | %.0f | %.1f | %.1f "
-                "| "
-                "%.1f | %.0f | %s |\n",
+                "| %dx%d | %s | %s | %.1f | %s | %s | %.2f | %s | %s | %.2f | %.0f | %.1f | "
+                "%.1f | %.1f | %.0f | %s |\n",
                 W, H, (backend == "cpu" ? enc : enc + ", " + backend).c_str(), focus.label.c_str(),
                 fps, num(kb, "%.1f").c_str(), num(fps / kb, "%.2f").c_str(), cpu_ms,
                 num(k.cpu_ms, "%.2f").c_str(), num(k.cpu_ms / cpu_ms, "%.2f").c_str(), cores_used,
