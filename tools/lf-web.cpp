@@ -21,18 +21,21 @@
 #define GST_USE_UNSTABLE_API
 #include <gst/webrtc/webrtc.h>
 #include <libsoup/soup.h>
+#include <malloc.h>
 
 #include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
+#include <cstring>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <string>
+#include <vector>
 
 #include "cli.h"
 #include "lf-web-resources.h"  // the page (glib-compile-resources)
@@ -58,7 +61,11 @@ struct Options {
   std::string address = "0.0.0.0";
   int bitrate_kbps = 1500;
   int max_viewers = 8;
+  int max_per_address = 4;  // viewers from one remote address
+  int handshake_s = 10;     // an offer unanswered or ICE unconnected this long frees the slot
   int latency_ms = 200;
+  std::string token;                      // required in /ws?token=... when set
+  std::vector<std::string> allow_origin;  // Origins besides the page's own; "*": any
   std::string stun;
   std::string source;  // the camera source's bin description
   bool quiet = false;
@@ -110,6 +117,7 @@ struct Control {
   RateLimit limit;
   std::atomic<guint64> messages{0}, refused{0};
   std::atomic<bool> stereo{false};
+  std::atomic<bool> connected{false};  // ICE connected (the handshake deadline's test)
   ~Control() {
     if (channel) g_object_unref(channel);
     if (request) gst_object_unref(request);
@@ -128,6 +136,9 @@ struct Viewer {
   GstElement* bin = nullptr;              // in the pipeline
   GstPad* funnel_pad = nullptr;           // requests in (ref)
   GstPad* demux_pads[2] = {nullptr, nullptr};
+  GstWebRTCDataChannel* channel = nullptr;  // (ref) the control channel we made, for its handlers
+  std::string address;                      // the browser's IP address
+  guint deadline = 0;                       // the handshake deadline's GSource id (0: gone)
   bool answered = false;
   int candidates = 0;
 };
@@ -242,6 +253,9 @@ void on_ice_candidate(GstElement*, guint mline, gchar* candidate, gpointer data)
 void on_ice_state(GstElement* webrtc, GParamSpec*, gpointer data) {
   GstWebRTCICEConnectionState state;
   g_object_get(webrtc, "ice-connection-state", &state, nullptr);
+  if (state == GST_WEBRTC_ICE_CONNECTION_STATE_CONNECTED ||
+      state == GST_WEBRTC_ICE_CONNECTION_STATE_COMPLETED)
+    ref_of(data)->connected = true;
   if (state == GST_WEBRTC_ICE_CONNECTION_STATE_FAILED) {
     std::fprintf(stderr, "lf-web: viewer %u: ICE failed\n", ref_of(data)->viewer_id);
     post(*ref_of(data), "");
@@ -496,7 +510,30 @@ GstPad* ghost(GstElement* bin, const char* child, const char* pad, const char* n
 void on_ws_message(SoupWebsocketConnection*, gint type, GBytes* message, gpointer data);
 void on_ws_closed(SoupWebsocketConnection*, gpointer data);
 
-bool add_viewer(Server* s, SoupWebsocketConnection* ws) {
+// The handshake deadline: a browser that has not answered the offer and
+// connected (ICE) within --handshake-timeout seconds loses its slot, so
+// connections that never answer cannot hold the viewers for ever.
+struct Deadline {
+  Server* server;
+  guint64 serial;
+};
+
+gboolean on_deadline(gpointer data) {
+  const auto* d = static_cast<const Deadline*>(data);
+  auto it = d->server->viewers.find(d->serial);
+  if (it == d->server->viewers.end()) return G_SOURCE_REMOVE;
+  Viewer& v = *it->second;
+  v.deadline = 0;
+  if (!v.answered || !v.ctl->connected) {
+    const std::string why = std::string(v.answered ? "no ICE connection" : "no SDP answer") +
+                            " within " + std::to_string(d->server->opt.handshake_s) +
+                            " s (--handshake-timeout)";
+    remove_viewer(d->server, d->serial, why.c_str());
+  }
+  return G_SOURCE_REMOVE;
+}
+
+bool add_viewer(Server* s, SoupWebsocketConnection* ws, const std::string& address) {
   auto v = std::make_unique<Viewer>();
   auto ctl = std::make_shared<Control>();
   ctl->server = s;
@@ -516,6 +553,19 @@ bool add_viewer(Server* s, SoupWebsocketConnection* ws) {
   ctl->request = gst_bin_get_by_name(GST_BIN(bin), "req");
   ctl->compositor = gst_bin_get_by_name(GST_BIN(bin), "comp");
   ctl->webrtc = gst_bin_get_by_name(GST_BIN(bin), "webrtc");
+  // No UPnP port mapping: libnice's default starts an HTTP server and SSDP
+  // sockets per viewer (GUPnP) that a server on a LAN never needs, and some
+  // of them outlived the viewer.
+  GObject* ice = nullptr;
+  g_object_get(ctl->webrtc, "ice-agent", &ice, nullptr);
+  if (ice && g_object_class_find_property(G_OBJECT_GET_CLASS(ice), "agent")) {
+    GObject* agent = nullptr;
+    g_object_get(ice, "agent", &agent, nullptr);
+    if (agent && g_object_class_find_property(G_OBJECT_GET_CLASS(agent), "upnp"))
+      g_object_set(agent, "upnp", FALSE, nullptr);
+    if (agent) g_object_unref(agent);
+  }
+  if (ice) g_object_unref(ice);
   GstPad* src = ghost(bin, "req", "src", "src");
   GstPad* sink_l = ghost(bin, "ql", "sink", "sink_l");
   GstPad* sink_r = ghost(bin, "qr", "sink", "sink_r");
@@ -541,7 +591,7 @@ bool add_viewer(Server* s, SoupWebsocketConnection* ws) {
                           delete_ref_closure, GConnectFlags(0));
     g_signal_connect_data(ch, "on-message-data", G_CALLBACK(on_control_bytes), new_ref(ctl),
                           delete_ref_closure, GConnectFlags(0));
-    g_object_unref(ch);
+    v->channel = ch;  // our reference: remove_viewer disconnects these handlers
   }
   g_signal_connect_data(ctl->webrtc, "on-negotiation-needed", G_CALLBACK(on_negotiation_needed),
                         new_ref(ctl), delete_ref_closure, GConnectFlags(0));
@@ -565,6 +615,10 @@ bool add_viewer(Server* s, SoupWebsocketConnection* ws) {
                    reinterpret_cast<gpointer>(ctl->serial));
   g_signal_connect(ws, "closed", G_CALLBACK(on_ws_closed), reinterpret_cast<gpointer>(ctl->serial));
   v->ctl = ctl;
+  v->address = address;
+  v->deadline = g_timeout_add_seconds_full(G_PRIORITY_DEFAULT, s->opt.handshake_s, on_deadline,
+                                           new Deadline{s, ctl->serial},
+                                           [](gpointer d) { delete static_cast<Deadline*>(d); });
   const double dmin = s->opt.fx * s->opt.spacing / 24, dmax = s->opt.fx * s->opt.spacing / 0.1;
   soup_websocket_connection_send_text(
       ws,
@@ -579,8 +633,8 @@ bool add_viewer(Server* s, SoupWebsocketConnection* ws) {
             {lf::aperture_diameter(1, s->opt.spacing), lf::aperture_diameter(4, s->opt.spacing)}}}
           .dump()
           .c_str());
-  say(s, "viewer %u connected (%zu viewer%s)", ctl->viewer_id, s->viewers.size() + 1,
-      s->viewers.empty() ? "" : "s");
+  say(s, "viewer %u connected from %s (%zu viewer%s)", ctl->viewer_id, address.c_str(),
+      s->viewers.size() + 1, s->viewers.empty() ? "" : "s");
   s->viewers[ctl->serial] = std::move(v);
   return true;
 }
@@ -594,10 +648,30 @@ void remove_viewer(Server* s, guint64 serial, const char* why) {
   // fragments), then the branch stops, then its request pad goes.
   for (GstPad* p : v->demux_pads)
     if (p) gst_element_release_request_pad(s->demux, p), gst_object_unref(p);
+  if (v->deadline) g_source_remove(v->deadline);
   gst_element_set_state(v->bin, GST_STATE_NULL);
   {
     std::lock_guard<std::mutex> l(v->ctl->channel_lock);
     if (v->ctl->channel) g_object_unref(v->ctl->channel), v->ctl->channel = nullptr;
+  }
+  // The signal handlers of webrtcbin and of the data channel each hold a
+  // reference to the Control, which holds webrtcbin: disconnecting them
+  // breaks that cycle, so the branch (its threads, sockets, encoder) is
+  // freed with the bin. Without this every viewer stayed behind.
+  g_signal_handlers_disconnect_matched(v->ctl->webrtc, G_SIGNAL_MATCH_FUNC, 0, 0, nullptr,
+                                       reinterpret_cast<gpointer>(on_negotiation_needed), nullptr);
+  g_signal_handlers_disconnect_matched(v->ctl->webrtc, G_SIGNAL_MATCH_FUNC, 0, 0, nullptr,
+                                       reinterpret_cast<gpointer>(on_ice_candidate), nullptr);
+  g_signal_handlers_disconnect_matched(v->ctl->webrtc, G_SIGNAL_MATCH_FUNC, 0, 0, nullptr,
+                                       reinterpret_cast<gpointer>(on_ice_state), nullptr);
+  if (v->channel) {
+    for (gpointer f :
+         {reinterpret_cast<gpointer>(on_channel_open), reinterpret_cast<gpointer>(on_channel_close),
+          reinterpret_cast<gpointer>(on_control_message),
+          reinterpret_cast<gpointer>(on_control_bytes)})
+      g_signal_handlers_disconnect_matched(v->channel, G_SIGNAL_MATCH_FUNC, 0, 0, nullptr, f,
+                                           nullptr);
+    g_object_unref(v->channel);
   }
   g_signal_handlers_disconnect_by_data(v->ws, reinterpret_cast<gpointer>(serial));
   gst_element_release_request_pad(s->funnel, v->funnel_pad);
@@ -606,6 +680,10 @@ void remove_viewer(Server* s, guint64 serial, const char* why) {
   if (soup_websocket_connection_get_state(v->ws) == SOUP_WEBSOCKET_STATE_OPEN)
     soup_websocket_connection_close(v->ws, SOUP_WEBSOCKET_CLOSE_NORMAL, why);
   g_object_unref(v->ws);
+  // The branch's memory back to the system: glibc keeps freed memory in its
+  // per-thread arenas, and a viewer's threads leave arenas of their own
+  // (without this the RSS rose by about half after a few hundred viewers).
+  malloc_trim(0);
   say(s, "viewer %u left: %s (%zu viewer%s; %llu control messages, %llu refused)",
       v->ctl->viewer_id, why, s->viewers.size(), s->viewers.size() == 1 ? "" : "s",
       static_cast<unsigned long long>(v->ctl->messages.load()),
@@ -668,10 +746,79 @@ void on_ws_closed(SoupWebsocketConnection* ws, gpointer data) {
   remove_viewer(s, reinterpret_cast<guint64>(data), "the browser closed the connection");
 }
 
-void on_websocket(SoupServer*, SoupServerMessage*, const char*, SoupWebsocketConnection* ws,
+int viewers_from(const Server* s, const std::string& address) {
+  return static_cast<int>(std::count_if(s->viewers.begin(), s->viewers.end(), [&](const auto& v) {
+    return v.second->address == address;
+  }));
+}
+
+// Equal strings, in a time that does not depend on where they differ.
+bool same_secret(const std::string& a, const std::string& b) {
+  if (a.size() != b.size()) return false;
+  unsigned char d = 0;
+  for (size_t i = 0; i < a.size(); ++i) d |= static_cast<unsigned char>(a[i] ^ b[i]);
+  return d == 0;
+}
+
+// Why an upgrade to /ws is refused, or empty: the Origin (a page of another
+// site must not steer a viewer: cross-site WebSocket hijacking), the token,
+// the viewer slots and the slots of one address.
+std::string refusal(const Server* s, SoupServerMessage* msg, GHashTable* query, guint* status) {
+  SoupMessageHeaders* h = soup_server_message_get_request_headers(msg);
+  const char* origin = soup_message_headers_get_one(h, "Origin");
+  const char* host = soup_message_headers_get_one(h, "Host");
+  const auto& allow = s->opt.allow_origin;
+  *status = SOUP_STATUS_FORBIDDEN;
+  // A browser always sends Origin; a program without one speaks for itself.
+  if (origin && !(host && std::string(origin) == std::string("http://") + host) &&
+      std::find(allow.begin(), allow.end(), "*") == allow.end() &&
+      std::find(allow.begin(), allow.end(), origin) == allow.end())
+    return std::string("Origin '") + std::string(origin).substr(0, 128) +
+           "' is not this page's (--allow-origin widens it)";
+  if (!s->opt.token.empty()) {
+    const char* t = query ? static_cast<const char*>(g_hash_table_lookup(query, "token")) : nullptr;
+    *status = SOUP_STATUS_UNAUTHORIZED;
+    if (!t || !same_secret(t, s->opt.token)) return "no or a wrong token (--token)";
+  }
+  *status = SOUP_STATUS_SERVICE_UNAVAILABLE;
+  if (static_cast<int>(s->viewers.size()) >= s->opt.max_viewers)
+    return "the server has its " + std::to_string(s->opt.max_viewers) + " viewers (--max-viewers)";
+  const char* address = soup_server_message_get_remote_host(msg);
+  *status = 429;  // Too Many Requests (RFC 6585; libsoup 3.2 has no name for it)
+  if (viewers_from(s, address ? address : "") >= s->opt.max_per_address)
+    return std::string(address ? address : "this address") + " has its " +
+           std::to_string(s->opt.max_per_address) + " viewers (--max-per-address)";
+  return "";
+}
+
+// Before the upgrade to a WebSocket: a refused browser gets an HTTP status
+// (403, 401, 503 or 429) and no viewer is built.
+void on_ws_gate(SoupServer*, SoupServerMessage* msg, const char*, GHashTable* query,
+                gpointer data) {
+  const Server* s = static_cast<const Server*>(data);
+  guint status = 0;
+  const std::string why = refusal(s, msg, query, &status);
+  if (why.empty()) return;  // the upgrade goes on
+  const char* address = soup_server_message_get_remote_host(msg);
+  static gint64 last_warning = 0;  // at most one line a second: a flood is no log flood
+  if (g_get_monotonic_time() - last_warning > G_USEC_PER_SEC) {
+    last_warning = g_get_monotonic_time();
+    std::fprintf(stderr, "lf-web: refused %s: %s\n", address ? address : "a browser", why.c_str());
+  }
+  soup_server_message_set_status(msg, status, status == 429 ? "Too Many Requests" : nullptr);
+  // Closed after the answer: a refused peer keeps no connection (without
+  // this libsoup waited on it for ever, one fd per refusal).
+  soup_message_headers_replace(soup_server_message_get_response_headers(msg), "Connection",
+                               "close");
+  soup_server_message_set_response(msg, "text/plain; charset=utf-8", SOUP_MEMORY_COPY, why.c_str(),
+                                   why.size());
+}
+
+void on_websocket(SoupServer*, SoupServerMessage* msg, const char*, SoupWebsocketConnection* ws,
                   gpointer data) {
   Server* s = static_cast<Server*>(data);
   g_object_set_data(G_OBJECT(ws), "lf-server", s);
+  const char* address = soup_server_message_get_remote_host(msg);
   if (static_cast<int>(s->viewers.size()) >= s->opt.max_viewers) {
     const std::string m =
         "the server has its " + std::to_string(s->opt.max_viewers) + " viewers (--max-viewers)";
@@ -680,7 +827,7 @@ void on_websocket(SoupServer*, SoupServerMessage*, const char*, SoupWebsocketCon
     soup_websocket_connection_close(ws, SOUP_WEBSOCKET_CLOSE_GOING_AWAY, "full");
     return;
   }
-  if (!add_viewer(s, ws))
+  if (!add_viewer(s, ws, address ? address : ""))
     soup_websocket_connection_close(ws, SOUP_WEBSOCKET_CLOSE_SERVER_ERROR, "cannot build a viewer");
 }
 
@@ -793,10 +940,17 @@ const char* kSummary =
 }  // namespace
 
 int main(int argc, char** argv) {
+  // One malloc arena a core, not glibc's eight: every viewer's threads
+  // otherwise leave arenas of their own whose freed memory stays mapped
+  // (RSS 164 -> 205 MiB over 2000 viewers, back within 3 % with this;
+  // tests/web/lifetime-test.mjs). Set before any thread starts.
+  mallopt(M_ARENA_MAX, std::max(2, static_cast<int>(g_get_num_processors())));
   gchar *rig = nullptr, *block = nullptr, *size = nullptr, *address = nullptr, *stun = nullptr,
-        *source = nullptr;
+        *source = nullptr, *token = nullptr;
+  gchar** allow_origin = nullptr;
   gdouble input_scale = 1;
-  gint port = 8080, fps = 15, bitrate = 1500, max_viewers = 8, latency = 200;
+  gint port = 8080, fps = 15, bitrate = 1500, max_viewers = 8, latency = 200, per_address = 4,
+       handshake = 10;
   gboolean quiet = FALSE;
   const GOptionEntry entries[] = {
       {"rig", 0, 0, G_OPTION_ARG_FILENAME, &rig, "Rig file (.json) or dataset folder (required)",
@@ -819,6 +973,20 @@ int main(int argc, char** argv) {
        "VP8 target bitrate per browser, kbit/s (default 1500)", "KBPS"},
       {"max-viewers", 0, 0, G_OPTION_ARG_INT, &max_viewers,
        "Browsers served at once; more are refused with a message (default 8)", "N"},
+      {"max-per-address", 0, 0, G_OPTION_ARG_INT, &per_address,
+       "Browsers served at once from one IP address (default 4)", "N"},
+      {"handshake-timeout", 0, 0, G_OPTION_ARG_INT, &handshake,
+       "Seconds a browser has to answer the offer and connect before its slot is freed "
+       "(default 10)",
+       "S"},
+      {"token", 0, 0, G_OPTION_ARG_STRING, &token,
+       "Require this secret: the page is opened as http://HOST:PORT/?token=SECRET (default: none; "
+       "anyone who reaches the port can watch and steer)",
+       "SECRET"},
+      {"allow-origin", 0, 0, G_OPTION_ARG_STRING_ARRAY, &allow_origin,
+       "Also accept WebSocket upgrades from pages of this origin (repeatable; '*': any). By "
+       "default only the page's own origin",
+       "http://HOST:PORT"},
       {"latency", 0, 0, G_OPTION_ARG_INT, &latency,
        "Compositor deadline, ms: a view leaves when every camera answered, or then (default 200)",
        "MS"},
@@ -848,6 +1016,11 @@ int main(int argc, char** argv) {
   o.latency_ms = latency;
   if (address) o.address = address;
   if (stun) o.stun = stun;
+  o.max_per_address = per_address, o.handshake_s = handshake;
+  if (token) o.token = token;
+  for (gchar** a = allow_origin; a && *a; ++a) o.allow_origin.emplace_back(*a);
+  g_free(token);
+  g_strfreev(allow_origin);
   gchar* tmpdir = nullptr;
   try {
     if (!rig) throw std::invalid_argument("--rig is required (a rig file or dataset folder)");
@@ -858,6 +1031,11 @@ int main(int argc, char** argv) {
       throw std::invalid_argument("--bitrate outside 50..100000 kbit/s");
     if (max_viewers < 1 || max_viewers > 64)
       throw std::invalid_argument("--max-viewers outside 1..64");
+    if (per_address < 1 || per_address > 64)
+      throw std::invalid_argument("--max-per-address outside 1..64");
+    if (handshake < 1 || handshake > 600)
+      throw std::invalid_argument("--handshake-timeout outside 1..600 s");
+    if (token && std::strlen(token) == 0) throw std::invalid_argument("--token is empty");
     if (latency < 1 || latency > 10000)
       throw std::invalid_argument("--latency outside 1..10000 ms");
     lf::Rig r =
@@ -917,6 +1095,7 @@ int main(int argc, char** argv) {
 
   s.soup = soup_server_new("server-header", "lf-web ", nullptr);
   soup_server_add_handler(s.soup, nullptr, on_http, &s, nullptr);
+  soup_server_add_handler(s.soup, "/ws", on_ws_gate, &s, nullptr);
   soup_server_add_websocket_handler(s.soup, "/ws", nullptr, nullptr, on_websocket, &s, nullptr);
   GInetAddress* ia = g_inet_address_new_from_string(o.address.c_str());
   if (!ia) {

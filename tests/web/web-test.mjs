@@ -11,6 +11,7 @@ import { spawn } from 'node:child_process';
 import { readFileSync } from 'node:fs';
 import { cpus } from 'node:os';
 import { chromium } from 'playwright-core';
+import { wsOpen, wsClose } from './wsraw.mjs';
 
 const [lfWeb, rig, ...rest] = process.argv.slice(2);
 const nBrowsers = rest[0] === '--browsers' ? Number(rest[1]) : 4;
@@ -152,6 +153,24 @@ try {
   check('video plays', s.frameWidth === 640 && s.frameHeight === 480,
     `${s.framesDecoded} frames decoded, ${s.frameWidth}x${s.frameHeight}, ${s.fps.toFixed(1)} fps, ` +
     `${s.stats.cameras_answered}/${s.stats.cameras} cameras in the last frame, control round trip ${s.rttMs?.toFixed(1)} ms`);
+
+  // 1b. 64 connections from another address that never answer the offer
+  //     (a peer holding the slots) do not keep a real browser from a
+  //     picture: they get at most --max-per-address (4) slots, and lose them
+  //     at the handshake deadline.
+  const silent = await Promise.all(Array.from({ length: 64 }, () =>
+    wsOpen({ port, localAddress: '127.0.0.2' }).catch((e) => ({ status: -1, body: e.message }))));
+  const tSilent = Date.now();
+  const H = await openViewer('H');
+  viewers.push(H);
+  s = await waitFor(H, 'video beside 64 silent connections', (x) => x.framesDecoded > 0 && x.stats, 15);
+  const held = silent.filter((c) => c.status === 101).length;
+  check('64 silent connections do not keep a browser out', held <= 4,
+    `${held} of 64 silent connections got a slot; a browser decoded its first frame ` +
+    `${((Date.now() - tSilent) / 1000).toFixed(1)} s after they opened (bound 15 s)`);
+  await H.context.close();
+  viewers.splice(viewers.indexOf(H), 1);
+  for (const c of silent) if (c.status === 101) wsClose(c);
 
   // 2. A drag changes the picture, and the server saw the requests move.
   await settle(A);

@@ -56,8 +56,18 @@
 
   function connect() {
     const scheme = location.protocol === 'https:' ? 'wss' : 'ws';
-    ws = new WebSocket(`${scheme}://${location.host}/ws`);
-    ws.onclose = () => { lf.connected = false; statusLine.textContent = 'disconnected (reload to reconnect)'; };
+    // The page's own query (?token=SECRET when lf-web runs with --token) goes
+    // along to the signalling socket.
+    const token = new URLSearchParams(location.search).get('token');
+    ws = new WebSocket(`${scheme}://${location.host}/ws` + (token ? `?token=${encodeURIComponent(token)}` : ''));
+    // A refused upgrade (a wrong token, no free slot) closes before it opens.
+    let opened = false;
+    ws.onopen = () => { opened = true; };
+    ws.onclose = () => {
+      statusLine.textContent = opened ? 'disconnected (reload to reconnect)'
+        : 'the server refused this page (a wrong ?token=, or no free viewer slot): reload to try again';
+      lf.connected = false;
+    };
     ws.onmessage = async (ev) => {
       const m = JSON.parse(ev.data);
       if (m.type === 'hello') {

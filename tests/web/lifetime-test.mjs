@@ -1,0 +1,187 @@
+// lf-web under connect/close cycles and hostile connections, with no browser
+// (tests/web/wsraw.mjs plays the peer): every viewer a connection builds is
+// freed when it closes, fails or misses the handshake deadline, so threads,
+// fds and memory come back to the idle level and the CPU goes quiet; peers
+// that never answer cannot hold the slots; a foreign Origin and a missing
+// token are refused before any viewer is built.
+//
+// usage: node tests/web/lifetime-test.mjs LF_WEB RIG [--cycles N]
+//   --cycles N: connect/close cycles after the warm-up (default 1000; the
+//   figure in docs/reliability.md was taken with 10000).
+import { spawn } from 'node:child_process';
+import { readFileSync, readdirSync } from 'node:fs';
+import { wsOpen, wsSend, wsClose, wsWaitFor } from './wsraw.mjs';
+
+const [lfWeb, rig, ...rest] = process.argv.slice(2);
+const arg = (name, dflt) => { const i = rest.indexOf(name); return i >= 0 ? Number(rest[i + 1]) : dflt; };
+const cycles = arg('--cycles', 1000);
+const HANDSHAKE_S = 3;
+const results = [];
+let failures = 0;
+function check(name, ok, detail) {
+  const line = `${ok ? 'ok  ' : 'FAIL'} ${name}: ${detail}`;
+  results.push(line); console.log(line);
+  if (!ok) failures++;
+}
+const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+
+function startServer(extra = []) {
+  const server = spawn(lfWeb, ['--rig', rig, '--block', '0,0,4,4', '--input-scale', '0.5',
+    '--framerate', '10', '--port', '0', '--address', '127.0.0.1', '--max-viewers', '8',
+    '--max-per-address', '4', '--handshake-timeout', String(HANDSHAKE_S), ...extra],
+  { stdio: ['ignore', 'pipe', 'pipe'] });
+  server.out = '';
+  server.stdout.on('data', (d) => { server.out += d; });
+  server.stderr.on('data', (d) => { server.out += d; });
+  process.on('exit', () => server.kill('SIGKILL'));
+  return server;
+}
+
+async function portOf(server) {
+  for (let k = 0; k < 600; ++k) {
+    const m = server.out.match(/open http:\/\/[^:]+:(\d+)\//);
+    if (m) return Number(m[1]);
+    if (server.exitCode !== null) throw new Error(`lf-web exited with ${server.exitCode}: ${server.out}`);
+    await sleep(100);
+  }
+  throw new Error('lf-web did not print its port within 60 s');
+}
+
+function usage(pid) {
+  const status = readFileSync(`/proc/${pid}/status`, 'utf8');
+  const f = readFileSync(`/proc/${pid}/stat`, 'utf8').split(') ')[1].split(' ');
+  return {
+    threads: Number(status.match(/Threads:\s+(\d+)/)[1]),
+    fds: readdirSync(`/proc/${pid}/fd`).length,
+    rssMiB: Number(status.match(/VmRSS:\s+(\d+)/)[1]) / 1024,
+    cpuS: (Number(f[11]) + Number(f[12])) / 100,
+  };
+}
+
+// CPU used over `ms`, in cores.
+async function cpuOver(pid, ms) {
+  const a = usage(pid).cpuS, t = Date.now();
+  await sleep(ms);
+  return (usage(pid).cpuS - a) / ((Date.now() - t) / 1000);
+}
+
+// One cycle: upgrade, then close at one of four points: before the offer
+// (cleanly or by dropping the connection), after it, or after a bogus answer.
+// A 429 means the server has not yet freed this address's last viewer
+// (the close is still on its way): try again shortly, as a browser would.
+let retries = 0;
+async function cycle(port, k) {
+  let conn = await wsOpen({ port });
+  for (let r = 0; conn.status === 429 && r < 100; ++r) {
+    retries++;
+    await sleep(20);
+    conn = await wsOpen({ port });
+  }
+  if (conn.status !== 101) throw new Error(`cycle ${k}: upgrade answered ${conn.status}: ${conn.body}`);
+  const kind = k % 4;
+  if (kind >= 2) await wsWaitFor(conn, (m) => m.includes('"offer"'), 20000);
+  if (kind === 3) wsSend(conn, JSON.stringify({ type: 'answer', sdp: 'v=0\r\no=- 0 0 IN IP4 127.0.0.1\r\ns=-\r\nt=0 0\r\nm=video 9 UDP/TLS/RTP/SAVPF 96\r\nc=IN IP4 0.0.0.0\r\na=mid:video0\r\na=recvonly\r\n' }));
+  wsClose(conn, { abrupt: kind === 1 });
+  await new Promise((r) => (conn.closed ? r() : conn.socket.on('close', r)));
+}
+
+// Cycles, four at a time (the per-address cap).
+async function cycles4(port, n) {
+  let next = 0;
+  const worker = async () => { while (next < n) await cycle(port, next++); };
+  await Promise.all([worker(), worker(), worker(), worker()]);
+}
+
+// Waits until the server has no viewer left (its usage stops falling).
+async function settled(pid) {
+  let last = usage(pid);
+  for (let k = 0; k < 40; ++k) {
+    await sleep(250);
+    const u = usage(pid);
+    if (u.threads === last.threads && u.fds === last.fds) return u;
+    last = u;
+  }
+  return last;
+}
+
+const server = startServer();
+try {
+  const port = await portOf(server);
+  // Warm-up: the first viewers load the plugins and fill the allocator's
+  // pools; the idle level is taken after them.
+  await cycles4(port, 500);
+  await sleep(1500);
+  const idle = await settled(server.pid);
+  const idleCpu = await cpuOver(server.pid, 2000);
+  console.log(`idle after 500 warm-up cycles: ${JSON.stringify(idle)}, ${(100 * idleCpu).toFixed(1)} % CPU`);
+
+  const t0 = Date.now();
+  for (let done = 0; done < cycles; done += 500) {
+    await cycles4(port, Math.min(500, cycles - done));
+    const u = usage(server.pid);
+    console.log(`  ${Math.min(done + 500, cycles)} cycles, ${((Date.now() - t0) / 1000).toFixed(0)} s: ${u.threads} threads, ${u.fds} fds, ${u.rssMiB.toFixed(0)} MiB`);
+  }
+  const secs = (Date.now() - t0) / 1000;
+  await sleep(2000);  // "2 s after the last viewer leaves"
+  const after = await settled(server.pid);
+  const cpuAfter = await cpuOver(server.pid, 2000);
+  const within = (a, b) => Math.abs(a - b) <= 0.05 * b;
+  check(`${cycles} connect/close cycles`, within(after.threads, idle.threads) &&
+    within(after.fds, idle.fds) && within(after.rssMiB, idle.rssMiB),
+  `${secs.toFixed(0)} s (${(1000 * secs / cycles).toFixed(1)} ms a cycle, 4 at a time, ${retries} upgrades retried after a 429); threads ` +
+    `${idle.threads} -> ${after.threads}, fds ${idle.fds} -> ${after.fds}, RSS ` +
+    `${idle.rssMiB.toFixed(1)} -> ${after.rssMiB.toFixed(1)} MiB (each within 5 %)`);
+  check('quiet after the last viewer left', cpuAfter < 0.05,
+    `${(100 * cpuAfter).toFixed(1)} % of a core over 2 s, 2 s after (idle before: ${(100 * idleCpu).toFixed(1)} %; < 5 %)`);
+
+  // Peers that never answer: 64 connections from another address hold at
+  // most --max-per-address slots, and lose them at the handshake deadline.
+  const hostile = await Promise.all(Array.from({ length: 64 }, () =>
+    wsOpen({ port, localAddress: '127.0.0.2' }).catch((e) => ({ status: -1, body: e.message }))));
+  const admitted = hostile.filter((c) => c.status === 101);
+  const refusedStatus = [...new Set(hostile.filter((c) => c.status !== 101).map((c) => c.status))];
+  const mine = await wsOpen({ port });  // this address still has its slots
+  const tHostile = Date.now();
+  await Promise.all(admitted.map((c) => new Promise((r) => (c.closed ? r() : c.socket.on('close', r)))));
+  const freedAfter = (Date.now() - tHostile) / 1000;
+  check('64 silent connections hold at most 4 slots', admitted.length === 4 &&
+    refusedStatus.length === 1 && refusedStatus[0] === 429 && mine.status === 101,
+  `${admitted.length} admitted from 127.0.0.2, ${64 - admitted.length} refused with HTTP ` +
+    `${refusedStatus.join(',')}; a connection from 127.0.0.1 meanwhile: ${mine.status}`);
+  check('the handshake deadline frees them', freedAfter < HANDSHAKE_S + 3 &&
+    /no SDP answer within 3 s/.test(server.out),
+  `closed by the server ${freedAfter.toFixed(1)} s after (--handshake-timeout ${HANDSHAKE_S})`);
+  wsClose(mine);
+
+  // Cross-site pages: a foreign Origin is refused before any viewer is built;
+  // the page's own origin and a program without an Origin are let in.
+  const foreign = await wsOpen({ port, origin: 'http://evil.example' });
+  const own = await wsOpen({ port, origin: `http://127.0.0.1:${port}` });
+  check('a foreign Origin is refused', foreign.status === 403 && own.status === 101,
+    `Origin http://evil.example: HTTP ${foreign.status} (${foreign.body.trim()}); the page's own: ${own.status}`);
+  if (own.status === 101) wsClose(own);
+} catch (e) {
+  check('test ran to the end', false, e.stack);
+} finally {
+  server.kill('SIGINT');
+  await new Promise((r) => { const t = setTimeout(() => { server.kill('SIGKILL'); r(); }, 10000); server.on('exit', () => { clearTimeout(t); r(); }); });
+}
+
+// --token: without it, or with a wrong one, 401; with it, 101.
+const guarded = startServer(['--token', 's3cret']);
+try {
+  const port = await portOf(guarded);
+  const none = await wsOpen({ port });
+  const wrong = await wsOpen({ port, path: '/ws?token=s3cres' });
+  const right = await wsOpen({ port, path: '/ws?token=s3cret' });
+  check('--token is required', none.status === 401 && wrong.status === 401 && right.status === 101,
+    `no token: ${none.status}, a wrong one: ${wrong.status}, the right one: ${right.status}`);
+  if (right.status === 101) wsClose(right);
+} catch (e) {
+  check('token test ran to the end', false, e.stack);
+} finally {
+  guarded.kill('SIGINT');
+  await new Promise((r) => { const t = setTimeout(() => { guarded.kill('SIGKILL'); r(); }, 10000); guarded.on('exit', () => { clearTimeout(t); r(); }); });
+}
+console.log(`\nweb-lifetime: ${results.length - failures} passed, ${failures} failed`);
+process.exit(failures ? 1 : 0);
