@@ -114,6 +114,7 @@ struct Settings : lfgst::CameraAddress {
   std::string device = DEFAULT_DEVICE;
   bool loop = DEFAULT_LOOP;
   double noise = DEFAULT_NOISE;  // sensor noise, standard deviation in 8-bit levels
+  bool skip_bad_frames = false;  // file mode: a frame that does not decode is a warning
   std::string still_cache = default_still_cache();  // "" = off
 };
 
@@ -134,6 +135,32 @@ struct State {
   GstElement* decoder = nullptr;
   GstElement* appsink = nullptr;
   GstBuffer* last = nullptr;  // newest decoded frame (not the sample: appsink reuses those)
+  // File mode: which input frame the decoder is on (image sequences: one
+  // buffer a file), for the error that names a damaged one; the frames
+  // skipped (skip-bad-frames) and their warnings, taken by create().
+  std::atomic<guint64> entered{0};
+  std::mutex bad_lock;
+  std::vector<std::string> bad;  // warnings not yet posted
+  guint64 skipped = 0;
+  gint64 error_frame = -1;  // the input frame of the decoder's error (-1: none or unknown)
+  // File mode with PNG or JPEG stills (one file, or a sequence): decoded here
+  // by lf::read_image, so a damaged, truncated or wrong-sized frame is an
+  // error naming its file (GStreamer's parsers drop such a frame silently,
+  // and jpegdec greys out the rest of a truncated one).
+  bool own_decode = false;
+  gint64 next_index = 0;  // the next frame of the sequence (a still: 0, then the end)
+  // The name of input frame k: the sequence's file, or the file.
+  std::string frame_path(gint64 k) const {
+    if (s.location.find('%') == std::string::npos || k < 0) return s.location;
+    gchar* n = g_strdup_printf(s.location.c_str(), static_cast<int>(k));  // as multifilesrc
+    std::string r = n;
+    g_free(n);
+    return r;
+  }
+  std::string frame_name(gint64 k) const {
+    if (s.location.find('%') == std::string::npos || k < 0) return s.location;
+    return frame_path(k) + " (frame " + std::to_string(k) + ")";
+  }
   ~State() {
     if (last) gst_buffer_unref(last);
     if (decoder) {
@@ -176,8 +203,44 @@ using lfgst::make_element;
 // The internal decoding pipeline (file and v4l2 modes), built from elements
 // with their properties set directly: user strings (location, device) are
 // never spliced into a pipeline description.
-static GstElement* build_decoder(const Settings& s, const lf::Camera& cam, GstElement** sink) {
+// Every video decoder inside decodebin: the first frame it cannot decode is
+// an error (max-errors 0), or, with skip-bad-frames, a warning (no limit).
+static void on_decoder_element(GstBin*, GstBin*, GstElement* e, gpointer skip) {
+  if (GST_IS_VIDEO_DECODER(e))
+    g_object_set(e, "max-errors", GPOINTER_TO_INT(skip) ? -1 : 0, nullptr);
+}
+
+// Messages of the internal pipeline, in the decoding thread as they are
+// posted: which input frame an error or warning is about, and with
+// skip-bad-frames the warnings kept for create() to post.
+static GstBusSyncReply on_decoder_message(GstBus*, GstMessage* m, gpointer data) {
+  auto* st = static_cast<State*>(data);
+  const gint64 frame = static_cast<gint64>(st->entered.load()) - 1;
+  if (GST_MESSAGE_TYPE(m) == GST_MESSAGE_ERROR) {
+    std::lock_guard<std::mutex> l(st->bad_lock);
+    if (st->error_frame < 0) st->error_frame = frame;
+  } else if (GST_MESSAGE_TYPE(m) == GST_MESSAGE_WARNING && st->s.skip_bad_frames) {
+    GError* e = nullptr;
+    gst_message_parse_warning(m, &e, nullptr);
+    std::lock_guard<std::mutex> l(st->bad_lock);
+    st->bad.push_back(st->frame_name(frame) + ": " + (e ? e->message : "not decoded"));
+    g_clear_error(&e);
+    return GST_BUS_DROP;
+  }
+  return GST_BUS_PASS;
+}
+
+static GstPadProbeReturn count_input(GstPad*, GstPadProbeInfo*, gpointer data) {
+  static_cast<State*>(data)->entered++;
+  return GST_PAD_PROBE_OK;
+}
+
+static GstElement* build_decoder(State* st, const lf::Camera& cam, GstElement** sink) {
+  const Settings& s = st->s;
   GstElement* pipe = gst_pipeline_new(nullptr);
+  GstBus* bus = gst_element_get_bus(pipe);
+  gst_bus_set_sync_handler(bus, on_decoder_message, st, nullptr);
+  gst_object_unref(bus);
   GstElement* convert = make_element("videoconvert");
   GstElement* scale = make_element("videoscale");
   GstElement* filter = make_element("capsfilter");
@@ -201,6 +264,11 @@ static GstElement* build_decoder(const Settings& s, const lf::Camera& cam, GstEl
     g_object_set(src, "location", s.location.c_str(), "loop", s.loop, nullptr);
     gst_bin_add_many(GST_BIN(pipe), src, dec, nullptr);
     gst_element_link(src, dec);
+    GstPad* out = gst_element_get_static_pad(src, "src");  // one buffer a file
+    gst_pad_add_probe(out, GST_PAD_PROBE_TYPE_BUFFER, count_input, st, nullptr);
+    gst_object_unref(out);
+    g_signal_connect(dec, "deep-element-added", G_CALLBACK(on_decoder_element),
+                     GINT_TO_POINTER(s.skip_bad_frames));
     lfgst::link_decoded_video(dec, convert);
   } else {
     gchar* uri = gst_uri_is_valid(s.location.c_str())
@@ -212,6 +280,8 @@ static GstElement* build_decoder(const Settings& s, const lf::Camera& cam, GstEl
     }
     GstElement* dec = make_element("uridecodebin");
     g_object_set(dec, "uri", uri, nullptr);
+    g_signal_connect(dec, "deep-element-added", G_CALLBACK(on_decoder_element),
+                     GINT_TO_POINTER(s.skip_bad_frames));
     g_free(uri);
     gst_bin_add(GST_BIN(pipe), dec);
     lfgst::link_decoded_video(dec, convert);
@@ -283,7 +353,12 @@ static void open_input(GstElement* self, State* st) {
         throw std::invalid_argument(
             "mode=file needs 'location' (a file, or a printf pattern such as frames/%04d.png "
             "for an image sequence)");
-      st->decoder = build_decoder(s, cam, &st->appsink);
+      if (lf::is_still_image(st->frame_path(0))) {
+        st->own_decode = true;
+        st->rgba = cv::Mat(cam.height, cam.width, CV_8UC4);  // size for caps
+        break;
+      }
+      st->decoder = build_decoder(st, cam, &st->appsink);
       const std::string input = s.mode == Mode::kV4l2 ? "device " + s.device : s.location;
       // Errors surface here, when the element starts (a missing file, a
       // busy device, an undecodable stream), not later as a missing frame.
@@ -323,6 +398,7 @@ static void open_input(GstElement* self, State* st) {
             cache, cam.image, cam.width, cam.height, CV_8UC4,
             [&cam] {
               cv::Mat bgr = lf::read_image(cam.image), rgba;
+              lf::check_image_fits(cam.image, bgr.size(), cam.width, cam.height);
               if (bgr.cols != cam.width || bgr.rows != cam.height)
                 cv::resize(bgr, bgr, cv::Size(cam.width, cam.height), 0, 0, cv::INTER_AREA);
               cv::cvtColor(bgr, rgba, cv::COLOR_BGR2RGBA);
@@ -402,12 +478,90 @@ static GstSample* pull_or_error(LfCamSrc* self, State* st, GstClockTime timeout)
     if (GstSample* s = gst_app_sink_try_pull_sample(sink, 50 * GST_MSECOND)) return s;
     if (gst_app_sink_is_eos(sink)) return nullptr;
     if (const std::string why = decoder_error(st->decoder); !why.empty()) {
+      gint64 frame;
+      {
+        std::lock_guard<std::mutex> l(st->bad_lock);
+        frame = st->error_frame;
+      }
       GST_ELEMENT_ERROR(self, STREAM, DECODE, ("Cannot decode the camera input"),
-                        ("%s: %s", st->s.location.c_str(), why.c_str()));
+                        ("%s: %s%s", st->frame_name(frame).c_str(), why.c_str(),
+                         st->s.skip_bad_frames ? "" : " (skip-bad-frames=true skips such frames)"));
       return nullptr;
     }
   }
   return nullptr;
+}
+
+// skip-bad-frames: the frames the decoder skipped since the last call, as
+// warnings with the count so far.
+static void post_skipped(LfCamSrc* self, State* st) {
+  std::vector<std::string> bad;
+  {
+    std::lock_guard<std::mutex> l(st->bad_lock);
+    bad.swap(st->bad);
+  }
+  for (const auto& b : bad)
+    GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Skipped a frame that does not decode"),
+                        ("%s (%" G_GUINT64_FORMAT " skipped so far)", b.c_str(), ++st->skipped));
+}
+
+// File mode with PNG or JPEG stills: the next frame of the sequence (or the
+// one still) into st->rgba; at the end EOS, or the first frame again with
+// loop. A frame that does not decode is an error naming it, or with
+// skip-bad-frames a warning, and the next frame is taken.
+static GstFlowReturn next_still(LfCamSrc* self, State* st) {
+  const Settings& set = st->s;
+  const lf::Camera& cam = st->rig->cameras[st->index];
+  const bool sequence = set.location.find('%') != std::string::npos;
+  int wraps = 0;  // back to the first frame in this call: twice, and no frame decodes
+  for (;;) {
+    const std::string path = st->frame_path(st->next_index);
+    const bool exists =
+        (sequence || st->next_index == 0) && g_file_test(path.c_str(), G_FILE_TEST_IS_REGULAR);
+    if (!exists) {
+      if (st->next_index == 0) {
+        GST_ELEMENT_ERROR(self, RESOURCE, NOT_FOUND, ("No frame in the camera input"),
+                          ("%s: missing or unreadable", path.c_str()));
+        return GST_FLOW_ERROR;
+      }
+      if (!set.loop) return GST_FLOW_EOS;
+      if (!sequence) return GST_FLOW_OK;  // a still, looped: the same picture again
+      if (++wraps > 1) {
+        GST_ELEMENT_ERROR(self, STREAM, DECODE, ("No frame in the camera input"),
+                          ("%s: no frame of the sequence decodes", set.location.c_str()));
+        return GST_FLOW_ERROR;
+      }
+      st->next_index = 0;
+      continue;
+    }
+    cv::Mat rgba;
+    GError* err = nullptr;
+    const bool ok = lfgst::guard(
+        [&] {
+          cv::Mat bgr = lf::read_image(path);
+          lf::check_image_fits(path, bgr.size(), cam.width, cam.height);
+          if (bgr.cols != cam.width || bgr.rows != cam.height)
+            cv::resize(bgr, bgr, cv::Size(cam.width, cam.height), 0, 0, cv::INTER_AREA);
+          cv::cvtColor(bgr, rgba, cv::COLOR_BGR2RGBA);
+        },
+        &err);
+    const gint64 k = st->next_index++;
+    if (ok) {
+      st->rgba = rgba;
+      return GST_FLOW_OK;
+    }
+    const std::string why = err->message;
+    g_error_free(err);
+    if (!set.skip_bad_frames || !sequence) {  // a still is the whole input
+      GST_ELEMENT_ERROR(self, STREAM, DECODE, ("Cannot decode the camera input"),
+                        ("%s: %s (skip-bad-frames=true skips such frames)",
+                         st->frame_name(k).c_str(), why.c_str()));
+      return GST_FLOW_ERROR;
+    }
+    GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Skipped a frame that does not decode"),
+                        ("%s: %s (%" G_GUINT64_FORMAT " skipped so far)", st->frame_name(k).c_str(),
+                         why.c_str(), ++st->skipped));
+  }
 }
 
 static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
@@ -432,7 +586,10 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
   };
   // Live: emit at running time pts on the pipeline clock.
   if (set.live && !self->priv->waiter.wait_until(GST_ELEMENT(src), pts)) return GST_FLOW_FLUSHING;
-  if (st->decoder) {
+  if (st->own_decode) {
+    const GstFlowReturn r = next_still(self, st);
+    if (r != GST_FLOW_OK) return r;
+  } else if (st->decoder) {
     // File: the next decoded frame (looping a plain file on EOS if asked);
     // V4L2 (live): the newest frame at the capture instant.
     GstAppSink* sink = GST_APP_SINK(st->appsink);
@@ -448,7 +605,15 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
       if (!s && gst_app_sink_is_eos(sink) && set.loop &&
           gst_element_seek_simple(st->decoder, GST_FORMAT_TIME, GST_SEEK_FLAG_FLUSH, 0))
         s = pull_or_error(self, st, 30 * GST_SECOND);
+      post_skipped(self, st);
       if (!s) {
+        if (gst_app_sink_is_eos(sink) && !st->last) {
+          // The end before a single frame: nothing in the file decoded
+          // (a damaged still, a sequence of damaged frames).
+          GST_ELEMENT_ERROR(self, STREAM, DECODE, ("No frame in the camera input"),
+                            ("%s: the input ended before a frame decoded", set.location.c_str()));
+          return GST_FLOW_ERROR;
+        }
         if (gst_app_sink_is_eos(sink)) return GST_FLOW_EOS;
         if (!st->last) return GST_FLOW_ERROR;  // pull_or_error posted the decoder's error
       }
@@ -560,6 +725,12 @@ static void lf_cam_src_class_init(LfCamSrcClass* klass) {
                 "recently used removed first), so that a restart reads them instead of decoding "
                 "the image files again; a changed image file is decoded again. Empty: no cache",
                 default_still_cache().c_str(), rw));
+  props.add(oc, &Settings::skip_bad_frames,
+            g_param_spec_boolean(
+                "skip-bad-frames", "Skip bad frames",
+                "mode=file: a frame the decoder cannot decode is skipped with a warning naming "
+                "it and the count so far (default: an error naming the file and frame)",
+                FALSE, rw));
   props.add(
       oc, &Settings::loop,
       g_param_spec_boolean("loop", "Loop", "mode=file: start again at the end", DEFAULT_LOOP, rw));

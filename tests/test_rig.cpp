@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <thread>
@@ -227,6 +228,41 @@ TEST(Rig, BadRigFilesGiveClearErrors) {
   expect_error(lf::rig_to_json(skew), "not a rotation");
   EXPECT_THROW(lf::load_rig("/nonexistent/rig.json"), std::runtime_error);
   EXPECT_THROW(lf::import_dataset("/nonexistent"), std::runtime_error);
+  // Finite is not enough: implausible numbers are refused by name.
+  expect_error(replace("\"fx\": ", "\"fx\": 1e308, \"fx_was\": "), "focal length");
+  expect_error(replace("\"cx\": ", "\"cx\": 1e9, \"cx_was\": "), "principal point");
+  expect_error(replace("\"k1\": ", "\"k1\": 1e6, \"k1_was\": "), "distortion");
+  lf::Rig far = lf::synthetic_grid_rig(2, 2, 0.1, 64, 48);
+  far.cameras[3].extrinsics.t[0] = 1e12;
+  expect_error(lf::rig_to_json(far), "translation");
+}
+
+// Bounds checked before anything is built: the camera count (a rig declaring
+// 10^6 cameras once took 3.2 GB before it was refused) and the text's size.
+TEST(Rig, HugeRigFilesAreRefusedBeforeTheyAreBuilt) {
+  nlohmann::json j =
+      nlohmann::json::parse(lf::rig_to_json(lf::synthetic_grid_rig(1, 2, 0.1, 64, 48)));
+  j.erase("grid");
+  j.erase("triangles");
+  const nlohmann::json cam = j["cameras"][0];
+  j["cameras"] = nlohmann::json::array();
+  for (int i = 0; i < 16385; ++i) j["cameras"].push_back(cam);
+  const std::string many = j.dump();  // compact: under the size bound
+  ASSERT_LT(many.size(), 16u << 20);
+  try {
+    lf::rig_from_json(many, "many.json");
+    ADD_FAILURE() << "a rig of 16385 cameras was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("16385 cameras (at most 16384)"), std::string::npos)
+        << e.what();
+  }
+  const std::string big(17u << 20, ' ');
+  try {
+    lf::rig_from_json(big, "big.json");
+    ADD_FAILURE() << "17 MiB of text were parsed";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("not parsed"), std::string::npos) << e.what();
+  }
 }
 
 // The still cache (lf/still_cache.h): a miss decodes and stores, a hit gives
@@ -470,10 +506,35 @@ TEST(ImageIo, BadFilesGiveClearErrors) {
   fails(write("flipped.png", flipped), "damaged PNG");
   fails(write("header.jpg", std::vector<uchar>(jpg.begin(), jpg.begin() + 20)), "damaged JPEG");
   EXPECT_THROW(lf::read_image_size((dir / "none.png").string()), std::runtime_error);
-  // A JPEG cut short decodes as far as it goes (as libjpeg and cv::imread do).
-  const std::string cut = write("cut.jpg", std::vector<uchar>(jpg.begin(), jpg.end() - 200));
-  EXPECT_EQ(lf::read_image(cut).size(), m.size());
+  // A JPEG cut short is an error, not a picture grey below the cut (libjpeg
+  // only warns, and cv::imread returns that picture); so is one whose
+  // entropy-coded data is garbage.
+  fails(write("cut.jpg", std::vector<uchar>(jpg.begin(), jpg.end() - 200)),
+        "truncated or corrupt JPEG");
+  std::vector<uchar> garbled = jpg;
+  for (size_t i = garbled.size() / 2; i < garbled.size() - 2; ++i) garbled[i] = 0xff;
+  fails(write("garbled.jpg", garbled), "JPEG");
+  // The intact files read.
+  EXPECT_EQ(lf::read_image(write("ok.jpg", jpg)).size(), m.size());
+  EXPECT_TRUE(lf::is_still_image((dir / "ok.jpg").string()));
+  EXPECT_FALSE(lf::is_still_image((dir / "text.png").string()));
+  EXPECT_FALSE(lf::is_still_image((dir / "none.png").string()));
   std::filesystem::remove_all(dir);
+}
+
+// A still fits a camera only by one uniform resize (a scaled rig), never by
+// stretching: another shape names the file.
+TEST(ImageIo, StillOfAnotherSizeIsRefused) {
+  EXPECT_NO_THROW(lf::check_image_fits("a.png", cv::Size(1400, 800), 1400, 800));
+  EXPECT_NO_THROW(lf::check_image_fits("a.png", cv::Size(1400, 800), 700, 400));
+  EXPECT_NO_THROW(lf::check_image_fits("a.png", cv::Size(1401, 801), 467, 267));  // scale 1/3
+  try {
+    lf::check_image_fits("b.jpg", cv::Size(640, 480), 1400, 800);
+    ADD_FAILURE() << "a 640x480 still fitted a 1400x800 camera";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("b.jpg"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("640x480"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -325,6 +325,12 @@ std::vector<cv::Mat> load_images(const Rig& rig, const std::function<void(int, i
         errors[i] = e.what();
         continue;
       }
+      try {
+        check_image_fits(c.image, m.size(), c.width, c.height);
+      } catch (const std::exception& e) {
+        errors[i] = e.what();
+        continue;
+      }
       cv::Mat bgra;
       cv::cvtColor(m, bgra, cv::COLOR_BGR2BGRA);
       if (bgra.cols != c.width || bgra.rows != c.height)

@@ -3,6 +3,7 @@
 #include <png.h>
 #include <turbojpeg.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -136,10 +137,14 @@ cv::Mat read(const std::string& path, bool pixels, cv::Size* size) {
     m.create(h, w, CV_8UC3);
     // TurboJPEG's defaults are libjpeg's, as cv::imread uses them: the
     // accurate integer DCT and fancy upsampling.
+    // A warning is an error too: libjpeg warns of a file cut short
+    // ("Premature end of JPEG file") or of corrupt data, and still returns
+    // an image, grey below the damage. None of the datasets' 107 JPEGs warns.
     if (tjDecompress2(tj, data.data(), static_cast<unsigned long>(data.size()), m.data, w,
-                      static_cast<int>(m.step), h, TJPF_BGR, 0) != 0 &&
-        tjGetErrorCode(tj) == TJERR_FATAL)
-      why = std::string("damaged JPEG (") + tjGetErrorStr2(tj) + ")";
+                      static_cast<int>(m.step), h, TJPF_BGR, 0) != 0)
+      why = std::string(tjGetErrorCode(tj) == TJERR_FATAL ? "damaged JPEG ("
+                                                          : "truncated or corrupt JPEG (") +
+            tjGetErrorStr2(tj) + ")";
   }
   tjDestroy(tj);
   if (!why.empty()) throw error(path, why);
@@ -158,6 +163,27 @@ cv::Size read_image_size(const std::string& path) {
   cv::Size size;
   read(path, false, &size);
   return size;
+}
+
+bool is_still_image(const std::string& path) {
+  FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return false;
+  unsigned char head[8] = {};
+  const size_t n = std::fread(head, 1, sizeof head, f);
+  std::fclose(f);
+  return kind_of(head, n) != Kind::kOther;
+}
+
+void check_image_fits(const std::string& path, cv::Size image, int width, int height) {
+  if (image.width == width && image.height == height) return;
+  // The size a uniform resize to `width` columns gives, within a pixel of
+  // rounding either way (scale_rig rounds each side on its own).
+  const double s = static_cast<double>(width) / image.width;
+  if (image.width > 0 && image.height > 0 && std::abs(image.height * s - height) <= 1.0) return;
+  throw error(path, std::to_string(image.width) + "x" + std::to_string(image.height) +
+                        " pixels, which no uniform resize makes the camera's " +
+                        std::to_string(width) + "x" + std::to_string(height) +
+                        " (a still of another camera or another rig?)");
 }
 
 }  // namespace lf

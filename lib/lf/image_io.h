@@ -8,7 +8,8 @@
 // file (tested on the datasets' PNG and JPEG images, on grey, 16-bit and
 // alpha PNGs and a grey JPEG), with one exception: a JPEG's EXIF orientation
 // is not applied (a camera's calibration is in its sensor's orientation).
-// A JPEG cut short decodes as far as it goes, as with libjpeg.
+// A JPEG cut short or with corrupt data is an error (libjpeg only warns and
+// fills the rest with grey; cv::imread returns that picture).
 // PNG as OpenCV 4.6 reads it: 16-bit samples keep their high byte, alpha
 // and transparency are dropped (not composited), grey is replicated.
 #pragma once
@@ -26,5 +27,15 @@ cv::Mat read_image(const std::string& path);
 // The size of the image at `path` from its header alone (PNG IHDR, JPEG
 // SOF); the same errors.
 cv::Size read_image_size(const std::string& path);
+
+// Whether the file at `path` begins as a PNG or a JPEG does (false when it
+// cannot be read): what read_image reads.
+bool is_still_image(const std::string& path);
+
+// Throws std::runtime_error naming `path` unless an image of size `image`
+// becomes a camera's width x height by one uniform resize (the same size,
+// or a rig scaled by lf::scale_rig, within a pixel of rounding): a still of
+// another size or shape is some other camera's, and is never stretched.
+void check_image_fits(const std::string& path, cv::Size image, int width, int height);
 
 }  // namespace lf

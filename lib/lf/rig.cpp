@@ -30,11 +30,22 @@ void check_camera(const Camera& c) {
   for (double v : {k.fx, k.fy, k.cx, k.cy, k.k1, k.k2})
     if (!std::isfinite(v)) bad("intrinsics are not finite");
   if (!(k.fx > 0) || !(k.fy > 0)) bad("focal lengths fx, fy must be > 0");
+  // Plausible, not only finite: a focal length of 10^4 image sides is a
+  // field of view of 0.006 degrees; further out the geometry overflows or
+  // loses every digit (fx 1e308 was accepted once).
+  const double side = std::max(c.width, c.height);
+  if (k.fx > 1e4 * side || k.fy > 1e4 * side)
+    bad("focal length fx " + std::to_string(k.fx) + " or fy " + std::to_string(k.fy) +
+        " px is over 10^4 times the image side (a field of view under 0.006 degrees)");
+  if (std::fabs(k.cx) > 10 * side || std::fabs(k.cy) > 10 * side)
+    bad("principal point cx, cy is over 10 image sides from the image");
+  if (std::fabs(k.k1) > 100 || std::fabs(k.k2) > 100) bad("distortion |k1| or |k2| is over 100");
   const cv::Matx33d& R = c.extrinsics.R;
   for (int i = 0; i < 9; ++i)
     if (!std::isfinite(R.val[i])) bad("rotation R is not finite");
   for (int i = 0; i < 3; ++i)
-    if (!std::isfinite(c.extrinsics.t[i])) bad("translation t is not finite");
+    if (!std::isfinite(c.extrinsics.t[i]) || std::fabs(c.extrinsics.t[i]) > 1e9)
+      bad("translation t is not finite or over 10^9 rig units");
   const double orth = cv::norm(R * R.t() - cv::Matx33d::eye(), cv::NORM_INF);
   if (orth > 1e-6 || cv::determinant(R) < 0) bad("R is not a rotation (R R^T != I or det < 0)");
 }

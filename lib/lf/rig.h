@@ -94,7 +94,9 @@ class Rig {
   // Validates the rig and computes the camera plane, the triangulation (if not
   // given) and the aperture simplices. Throws std::invalid_argument naming the
   // offending camera or field on: no cameras, duplicate ids, bad image size or
-  // intrinsics, non-rotation R, coincident camera centres, triangles naming
+  // intrinsics (not finite, or implausible: fx, fy over 10^4 image sides,
+  // cx, cy over 10 sides away, |k1|, |k2| over 100), non-rotation R, t not
+  // finite or over 10^9 units, coincident camera centres, triangles naming
   // unknown cameras, or a triangulation that folds over on the camera plane.
   void finalize();
 

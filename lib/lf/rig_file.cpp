@@ -16,6 +16,11 @@ namespace {
 using nlohmann::json;
 constexpr const char* kFormat = "lightfield-gst-rig";
 constexpr int kVersion = 1;
+// Bounds checked before anything is built from a file: its size before it is
+// read (a JSON document takes about ten times its size in memory: a 350 MB
+// rig once took 3.2 GB before it was refused) and its camera count.
+constexpr uintmax_t kMaxRigBytes = 16u << 20;  // a 4096-camera rig is about 2.5 MB
+constexpr size_t kMaxCameras = 16384;
 
 [[noreturn]] void fail(const std::string& origin, const std::string& what) {
   throw std::runtime_error("rig file " + origin + ": " + what);
@@ -105,6 +110,9 @@ std::string rig_to_json(const Rig& rig) {
 }
 
 Rig rig_from_json(const std::string& text, const std::string& origin) {
+  if (text.size() > kMaxRigBytes)
+    fail(origin, std::to_string(text.size()) + " bytes (at most " + std::to_string(kMaxRigBytes) +
+                     "): not parsed");
   json j;
   try {
     j = json::parse(text);
@@ -132,6 +140,9 @@ Rig parse_rig_json(const json& j, const std::string& origin) {
   rig.name = j.value("name", "");
   rig.unit = j.value("unit", "unit");
   if (!j.contains("cameras") || !j["cameras"].is_array()) fail(origin, "missing array 'cameras'");
+  if (j["cameras"].size() > kMaxCameras)
+    fail(origin, std::to_string(j["cameras"].size()) + " cameras (at most " +
+                     std::to_string(kMaxCameras) + ")");
   for (size_t i = 0; i < j["cameras"].size(); ++i) {
     const json& jc = j["cameras"][i];
     const std::string where = "cameras[" + std::to_string(i) + "]";
@@ -214,6 +225,11 @@ Rig parse_rig_json(const json& j, const std::string& origin) {
 }  // namespace
 
 Rig load_rig(const std::string& path) {
+  std::error_code ec;
+  const uintmax_t bytes = std::filesystem::file_size(path, ec);
+  if (!ec && bytes > kMaxRigBytes)
+    fail(path,
+         std::to_string(bytes) + " bytes (at most " + std::to_string(kMaxRigBytes) + "): not read");
   std::ifstream in(path);
   if (!in) throw std::runtime_error("rig file " + path + ": cannot open");
   std::stringstream ss;

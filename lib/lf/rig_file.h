@@ -10,7 +10,11 @@ namespace lf {
 // Rig file (JSON text, "format": "lightfield-gst-rig", "version": 1), read and
 // written with nlohmann::json. Image paths are stored relative to the file's
 // folder when possible. Throws std::runtime_error with the file name and the
-// field on any error; the rig returned is finalized.
+// field on any error; the rig returned is finalized. A file over 16 MiB is
+// refused before it is read, one of more than 16384 cameras before a camera
+// is built, and every number must be finite and plausible (lf::Rig::finalize:
+// image sides 2..65535, 0 < fx, fy <= 10^4 image sides, |cx|, |cy| <= 10
+// sides, |k1|, |k2| <= 100, |t| <= 10^9 rig units, R a rotation).
 Rig load_rig(const std::string& path);
 void save_rig(const Rig& rig, const std::string& path);
 // (De)serialization to a JSON string (image paths kept as they are).
