@@ -157,13 +157,21 @@ struct Group {
   size_t count = 0;            // cameras in them: a partial sum counts its cameras
   GstClockTime pts = GST_CLOCK_TIME_NONE, duration = GST_CLOCK_TIME_NONE;
   GstClockTime running_time = GST_CLOCK_TIME_NONE;  // of its first fragment
+  bool conflicted = false;  // a camera sent two fragments: both dropped, never complete
 };
-// Sequences accepted: (last emitted, last emitted + kSequenceWindow].
-constexpr uint64_t kSequenceWindow = 4096;
-// A stream that stays outside the window this long (no frame emitted) is
-// followed: the sequence is re-anchored to it (a restarted viewer, or a
-// hostile first fragment that anchored the window).
-constexpr gint64 kReanchorAfterUs = G_USEC_PER_SEC;
+// Request sequences are handled as RFC 3550 appendix A.1 handles RTP
+// sequence numbers, so that no single packet (forged with a stream's real
+// SSRC on plain RTP, or stray) can move the window:
+//  * accepted: (last emitted, last emitted + kMaxDropout];
+//  * late: up to kMaxMisorder behind: dropped;
+//  * anything else (a jump ahead, or far behind: a restarted viewer) is on
+//    probation: the window moves to it only when a fragment of the very
+//    next request (or the one after, one request lost) confirms it.
+// Before, any sequence up to 4096 ahead was accepted, and a stream outside
+// the window for a second was followed: one forged fragment 4000 ahead cost
+// a second of output.
+constexpr uint64_t kMaxDropout = 64;  // requests: 2 s at 30 fps
+constexpr uint64_t kMaxMisorder = 100;
 constexpr size_t kMaxPending = 16;
 // A focus probe is scored when every camera answered every step, or this long
 // (at least; the compositor's latency when longer) after its first fragment
@@ -224,8 +232,9 @@ struct State {
   std::shared_ptr<const lf::Rig> rig;
   std::map<uint64_t, Group> pending;  // by request sequence
   int64_t last_emitted = -1;
-  gint64 stale_since_us = -1;  // first out-of-window fragment since the last frame
-  int64_t viewer = -1;         // the viewer composited (viewer-id, or the first seen)
+  int64_t probation = -1;  // the out-of-window sequence waiting for its confirmation
+  guint64 conflicts = 0;   // fragments dropped as a second copy of a camera's in a request
+  int64_t viewer = -1;     // the viewer composited (viewer-id, or the first seen)
   lf::Compositor comp, comp_right;
   lf::LayerCompositor layers[2];       // per eye, for frames with second-plane fragments
   std::unique_ptr<lf::GlRenderer> gl;  // backend gl (or auto on a hardware GPU)
@@ -252,7 +261,7 @@ struct State {
   Probes<lf::FocusProbeAnswers> probes;
   Probes<lf::SurfaceProbeAnswers> surface_probes;
   lfgst::WarnLimiter no_focus, no_surface, bad, foreign, unknown_camera, wrong_size, no_size,
-      out_of_window;
+      out_of_window, duplicate;
   ~State() {
     if (convert) gst_video_converter_free(convert);
     drop_pool();
@@ -646,7 +655,6 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
   GST_BUFFER_DURATION(out) = g.duration;
   GST_BUFFER_OFFSET(out) = seq;
   st->last_emitted = static_cast<int64_t>(seq);
-  st->stale_since_us = -1;
   // Before the frame goes out: whoever sees it and sends on can rely on
   // the new window (decode_on_arrival).
   publish_acceptance(self->priv, st);
@@ -664,25 +672,31 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
 }
 
 // Whether a fragment's sequence is one to composite: inside the window after
-// the last frame emitted; a stream that stays outside it for a second is
-// followed (re-anchored) with a warning.
+// the last frame emitted, or confirmed on probation (see kMaxDropout).
 static bool sequence_accepted(LfCompositor* self, State* st, uint64_t seq) {
   if (st->last_emitted < 0) return true;
   const auto last = static_cast<uint64_t>(st->last_emitted);
-  if (seq > last && seq - last <= kSequenceWindow) return true;
-  if (seq <= last) st->late++;
-  const gint64 now = g_get_monotonic_time();
-  if (st->stale_since_us < 0) st->stale_since_us = now;
-  if (now - st->stale_since_us < kReanchorAfterUs) return false;
-  LF_ELEMENT_WARNING_LIMITED(self, st->out_of_window, STREAM, DECODE,
-                             ("Following a new request sequence"),
-                             "no frame for a second and fragments of request %" G_GUINT64_FORMAT
-                             " arrive (last emitted %" G_GUINT64_FORMAT ")",
-                             seq, last);
-  st->pending.clear();
-  st->last_emitted = seq > 0 ? static_cast<int64_t>(std::min<uint64_t>(seq - 1, G_MAXINT64)) : -1;
-  st->stale_since_us = -1;
-  return true;
+  if (seq > last && seq - last <= kMaxDropout) return true;
+  if (seq <= last && last - seq <= kMaxMisorder) {
+    st->late++;
+    return false;
+  }
+  const auto cand = st->probation;
+  if (cand >= 0 &&
+      (seq == static_cast<uint64_t>(cand) + 1 || seq == static_cast<uint64_t>(cand) + 2)) {
+    LF_ELEMENT_WARNING_LIMITED(self, st->out_of_window, STREAM, DECODE,
+                               ("Following a new request sequence"),
+                               "fragments of requests %" G_GINT64_FORMAT " and %" G_GUINT64_FORMAT
+                               " arrive, outside the window after %" G_GUINT64_FORMAT
+                               " (a restarted viewer, or requests lost for a while)",
+                               cand, seq, last);
+    st->pending.clear();
+    st->last_emitted = static_cast<int64_t>(std::min<uint64_t>(seq - 1, G_MAXINT64));
+    st->probation = -1;
+    return true;
+  }
+  st->probation = static_cast<int64_t>(std::min<uint64_t>(seq, G_MAXINT64));
+  return false;
 }
 
 // A fragment of another viewer: after kForeignWarnUs of only those, warn
@@ -982,7 +996,30 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
     }
     Group& g = st->pending[f.sequence];
     const uint64_t key = (static_cast<uint64_t>(f.viewer_id) << 32) | f.camera_id;
-    if (g.cameras.insert(key).second) {
+    if (!g.cameras.insert(key).second) {
+      // A second fragment of this camera for this request: one of the two is
+      // forged (plain RTP) or a stray copy, and nothing tells which. Neither
+      // is used, so a forgery can cost a camera's part of one frame (filled
+      // by the others) but never put its pixels in it.
+      const auto same = [&](const Piece& p) {
+        return p.f.camera_id == f.camera_id && p.f.viewer_id == f.viewer_id;
+      };
+      for (const Piece& p : g.fragments)
+        if (same(p) && p.f.layer == 0) g.count -= std::min<size_t>(g.count, p.f.cameras);
+      std::vector<Piece> kept;  // (a Piece moves but is not assigned)
+      kept.reserve(g.fragments.size());
+      for (Piece& p : g.fragments)
+        if (!same(p)) kept.push_back(std::move(p));
+      g.fragments = std::move(kept);
+      g.conflicted = true;
+      st->conflicts++;
+      LF_ELEMENT_WARNING_LIMITED(
+          self, st->duplicate, STREAM, DECODE, ("Dropping both copies of a fragment"),
+          "camera %u sent two fragments for request %" G_GUINT64_FORMAT " (%" G_GUINT64_FORMAT
+          " so far): one is forged or a stray copy, so neither is used "
+          "(on an untrusted network authenticate the streams: SRTP_KEY)",
+          f.camera_id, f.sequence, st->conflicts);
+    } else {
       g.count += f.cameras;
       if (!GST_CLOCK_TIME_IS_VALID(g.pts)) {
         g.pts = GST_BUFFER_PTS(buf);
@@ -1104,7 +1141,7 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
   // still in time, with it (their fragments are on their way).
   while (!st->pending.empty() && ret == GST_FLOW_OK) {
     auto it = st->pending.begin();
-    const bool complete = it->second.count >= expected;
+    const bool complete = it->second.count >= expected && !it->second.conflicted;
     const bool due = past_deadline(it->second.running_time);
     if (!(complete || due || all_eos || st->pending.size() > kMaxPending)) break;
     if (!complete)
@@ -1194,7 +1231,7 @@ static GstPadProbeReturn decode_on_arrival(GstPad*, GstPadProbeInfo* info, gpoin
           return;
         const int64_t after = p->accept_after.load();
         if (after >= 0 && !(head.sequence > static_cast<uint64_t>(after) &&
-                            head.sequence - static_cast<uint64_t>(after) <= kSequenceWindow))
+                            head.sequence - static_cast<uint64_t>(after) <= kMaxDropout))
           return;
         const gint64 t0 = g_get_monotonic_time();
         // Unmapped before it is dropped (declared after it), on a throw too.
