@@ -46,6 +46,7 @@
 #include <thread>
 
 #include "lf/image_io.h"
+#include "lf/parse.h"
 #include "lf/still_cache.h"
 #include "lf/synthetic.h"
 #include "lfclock.h"
@@ -150,12 +151,15 @@ struct State {
   bool own_decode = false;
   gint64 next_index = 0;  // the next frame of the sequence (a still: 0, then the end)
   // The name of input frame k: the sequence's file, or the file.
+  // (The pattern is never a printf format: lf::camera_file_name; open_input
+  // has checked it.)
   std::string frame_path(gint64 k) const {
     if (s.location.find('%') == std::string::npos || k < 0) return s.location;
-    gchar* n = g_strdup_printf(s.location.c_str(), static_cast<int>(k));  // as multifilesrc
-    std::string r = n;
-    g_free(n);
-    return r;
+    try {
+      return lf::camera_file_name(s.location, static_cast<int>(k), "location");
+    } catch (const std::exception&) {
+      return s.location;
+    }
   }
   std::string frame_name(gint64 k) const {
     if (s.location.find('%') == std::string::npos || k < 0) return s.location;
@@ -353,6 +357,8 @@ static void open_input(GstElement* self, State* st) {
         throw std::invalid_argument(
             "mode=file needs 'location' (a file, or a printf pattern such as frames/%04d.png "
             "for an image sequence)");
+      if (s.location.find('%') != std::string::npos)
+        lf::camera_file_name(s.location, 0, "location");  // throws naming a bad pattern
       if (lf::is_still_image(st->frame_path(0))) {
         st->own_decode = true;
         st->rgba = cv::Mat(cam.height, cam.width, CV_8UC4);  // size for caps

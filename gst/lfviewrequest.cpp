@@ -393,10 +393,40 @@ static gboolean lf_view_request_start(GstBaseSrc* src) {
     g_error_free(err);
     return FALSE;
   }
+  // A plane behind the cameras is legal but gives empty (black) views: say so.
+  if (const double depth = lf::focal_plane_depth(*st->rig, st->views->plane); depth <= 0)
+    GST_ELEMENT_WARNING(self, LIBRARY, SETTINGS, ("Focal plane behind the cameras"),
+                        ("focal-plane '%s' lies %g rig units behind the camera plane: every view "
+                         "focused there is empty (black); a plane in front has a positive depth "
+                         "(depth:Z with Z > 0)",
+                         s.focal_plane.c_str(), -depth));
   g_mutex_lock(&p->lock);
   p->state = std::move(st);
   g_mutex_unlock(&p->lock);
   return TRUE;
+}
+
+// NULL -> READY: the rig and the view settings are checked here, so that a
+// bad value gives one error (its own) and the state change fails; at start
+// (READY -> PAUSED) GstBaseSrc adds a second, generic "Failed to start"
+// error after the element's.
+static GstStateChangeReturn lf_view_request_change_state(GstElement* el, GstStateChange t) {
+  if (t == GST_STATE_CHANGE_NULL_TO_READY) {
+    LfViewRequest* self = LF_VIEW_REQUEST(el);
+    const Settings s = lfgst::snapshot(GST_OBJECT(self), self->priv->settings);
+    // (No rig yet: it may still be set in READY; start() checks it then.)
+    if (s.rig.empty()) return GST_ELEMENT_CLASS(lf_view_request_parent_class)->change_state(el, t);
+    auto rig = lfgst::open_rig(el, s.rig);  // posts its own error
+    if (!rig) return GST_STATE_CHANGE_FAILURE;
+    GError* err = nullptr;
+    if (!lfgst::guard([&] { build(s, *rig); }, &err)) {
+      GST_ELEMENT_ERROR(self, LIBRARY, SETTINGS, ("Invalid view request settings"),
+                        ("%s", err->message));
+      g_error_free(err);
+      return GST_STATE_CHANGE_FAILURE;
+    }
+  }
+  return GST_ELEMENT_CLASS(lf_view_request_parent_class)->change_state(el, t);
 }
 
 static gboolean lf_view_request_stop(GstBaseSrc* src) {
@@ -994,6 +1024,7 @@ static void lf_view_request_init(LfViewRequest* self) {
 static void lf_view_request_class_init(LfViewRequestClass* klass) {
   GObjectClass* oc = G_OBJECT_CLASS(klass);
   GstElementClass* ec = GST_ELEMENT_CLASS(klass);
+  ec->change_state = lf_view_request_change_state;
   GstBaseSrcClass* bc = GST_BASE_SRC_CLASS(klass);
   oc->set_property = lf_view_request_set_property;
   oc->get_property = lf_view_request_get_property;

@@ -889,6 +889,44 @@ TEST_F(Gst, BadPropertiesGiveClearErrors) {
   err.clear();
   run("lfcamsrc rig=" + rig_path_ + " camera-id=999999 num-buffers=1 ! fakesink", 1, nullptr, &err);
   EXPECT_NE(err.find("camera"), std::string::npos) << err;
+  // One bad value, one error (not its own and then GstBaseSrc's "Failed to
+  // start"); a focal plane behind the cameras, a warning naming it.
+  auto messages = [&](const std::string& desc, GstMessageType type, std::string* first) {
+    GstElement* p = gst_parse_launch(desc.c_str(), nullptr);
+    gst_element_set_state(p, GST_STATE_PLAYING);
+    gst_element_get_state(p, nullptr, nullptr, 5 * GST_SECOND);
+    g_usleep(200000);
+    GstBus* bus = gst_element_get_bus(p);  // read before NULL, which flushes it
+    int n = 0;
+    while (GstMessage* m = gst_bus_pop_filtered(bus, type)) {
+      GError* e = nullptr;
+      gchar* dbg = nullptr;
+      if (type == GST_MESSAGE_ERROR)
+        gst_message_parse_error(m, &e, &dbg);
+      else
+        gst_message_parse_warning(m, &e, &dbg);
+      if (n++ == 0) *first = std::string(e->message) + " " + (dbg ? dbg : "");
+      g_error_free(e);
+      g_free(dbg);
+      gst_message_unref(m);
+    }
+    gst_object_unref(bus);
+    gst_element_set_state(p, GST_STATE_NULL);
+    gst_object_unref(p);
+    return n;
+  };
+  std::string text;
+  EXPECT_EQ(messages("lfviewrequest rig=" + rig_path_ + " focal-plane=banana ! fakesink",
+                     GST_MESSAGE_ERROR, &text),
+            1);
+  EXPECT_NE(text.find("'banana'"), std::string::npos) << text;
+  EXPECT_EQ(messages("lfviewrequest rig=" + rig_path_ + " focal-plane=depth:-5 ! fakesink",
+                     GST_MESSAGE_WARNING, &text),
+            1);
+  EXPECT_NE(text.find("'depth:-5' lies 5 rig units behind"), std::string::npos) << text;
+  EXPECT_EQ(messages("lfviewrequest rig=" + rig_path_ + " focal-plane=depth:5 ! fakesink",
+                     GST_MESSAGE_WARNING, &text),
+            0);
 }
 
 TEST_F(Gst, MalformedRequestsAndFragmentsAreDroppedWithAWarning) {

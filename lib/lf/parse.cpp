@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -53,6 +54,14 @@ FocalPlane parse_focal_plane(const std::string& s, const Rig& rig) {
   }
   throw std::invalid_argument("focal plane '" + s +
                               "': use infinity, depth:Z, param:A or plane:nx,ny,nz,d");
+}
+
+double focal_plane_depth(const Rig& rig, const FocalPlane& p) {
+  if (p.at_infinity()) return std::numeric_limits<double>::infinity();
+  const CameraPlane& cp = rig.plane();
+  const double along = p.n.dot(cp.normal);
+  if (std::fabs(along) < 1e-12 * cv::norm(p.n)) return std::numeric_limits<double>::infinity();
+  return -(p.n.dot(cp.origin) + p.d) / along;  // n . (origin + t normal) + d = 0
 }
 
 std::vector<int> parse_index_ranges(const std::string& s, int count, const std::string& what) {

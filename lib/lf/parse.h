@@ -36,4 +36,12 @@ std::string camera_file_name(const std::string& pattern, int camera_id, const st
 // "plane:nx,ny,nz,d". Throws std::invalid_argument naming the problem.
 FocalPlane parse_focal_plane(const std::string& spec, const Rig& rig);
 
+// Where `plane` lies in front of the cameras: the distance, in rig units,
+// from the centroid of the camera centres along the camera plane's normal
+// (the way the cameras look) to the plane; +infinity for the plane at
+// infinity or one parallel to that direction. A focal plane at a depth <= 0
+// is behind (or at) the cameras: nothing any camera sees is on it, and every
+// view focused there is empty.
+double focal_plane_depth(const Rig& rig, const FocalPlane& plane);
+
 }  // namespace lf
