@@ -899,16 +899,8 @@ TEST_F(Gst, BadPropertiesGiveClearErrors) {
     GstBus* bus = gst_element_get_bus(p);  // read before NULL, which flushes it
     int n = 0;
     while (GstMessage* m = gst_bus_pop_filtered(bus, type)) {
-      GError* e = nullptr;
-      gchar* dbg = nullptr;
-      if (type == GST_MESSAGE_ERROR)
-        gst_message_parse_error(m, &e, &dbg);
-      else
-        gst_message_parse_warning(m, &e, &dbg);
-      if (n++ == 0) *first = std::string(e->message) + " " + (dbg ? dbg : "");
-      g_error_free(e);
-      g_free(dbg);
-      gst_message_unref(m);
+      const std::string t = testing_lf::take_error_debug(m);
+      if (n++ == 0) *first = t;
     }
     gst_object_unref(bus);
     gst_element_set_state(p, GST_STATE_NULL);

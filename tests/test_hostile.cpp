@@ -646,18 +646,10 @@ TEST_F(Hostile, BadCameraFilesAreErrorsNamingThem) {
     *seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     std::string text = m ? GST_MESSAGE_TYPE_NAME(m) : "nothing";
     if (m &&
-        (GST_MESSAGE_TYPE(m) == GST_MESSAGE_ERROR || GST_MESSAGE_TYPE(m) == GST_MESSAGE_WARNING)) {
-      GError* err = nullptr;
-      gchar* dbg = nullptr;
-      if (GST_MESSAGE_TYPE(m) == GST_MESSAGE_ERROR)
-        gst_message_parse_error(m, &err, &dbg);
-      else
-        gst_message_parse_warning(m, &err, &dbg);
-      text += std::string(": ") + err->message + " " + (dbg ? dbg : "");
-      g_error_free(err);
-      g_free(dbg);
-    }
-    if (m) gst_message_unref(m);
+        (GST_MESSAGE_TYPE(m) == GST_MESSAGE_ERROR || GST_MESSAGE_TYPE(m) == GST_MESSAGE_WARNING))
+      text += ": " + testing_lf::take_error_debug(m);
+    else if (m)
+      gst_message_unref(m);
     gst_object_unref(bus);
     gst_element_set_state(pipe, GST_STATE_NULL);
     gst_object_unref(sink);

@@ -940,11 +940,14 @@ const char* kSummary =
 }  // namespace
 
 int main(int argc, char** argv) {
-  // One malloc arena a core, not glibc's eight: every viewer's threads
+  // One malloc arena, not glibc's eight a core: every viewer's threads
   // otherwise leave arenas of their own whose freed memory stays mapped
-  // (RSS 164 -> 205 MiB over 2000 viewers, back within 3 % with this;
-  // tests/web/lifetime-test.mjs). Set before any thread starts.
-  mallopt(M_ARENA_MAX, std::max(2, static_cast<int>(g_get_num_processors())));
+  // (RSS 164 -> 205 MiB over 2000 viewers; with two arenas it still came
+  // back 66 -> 77 MiB in one run of five; with one, within 2 % in every run:
+  // tests/web/lifetime-test.mjs). Small allocations still go through each
+  // thread's own cache (tcache) without the arena's lock. Set before any
+  // thread starts.
+  mallopt(M_ARENA_MAX, 1);
   gchar *rig = nullptr, *block = nullptr, *size = nullptr, *address = nullptr, *stun = nullptr,
         *source = nullptr, *token = nullptr;
   gchar** allow_origin = nullptr;

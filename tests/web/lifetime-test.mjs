@@ -108,12 +108,20 @@ const server = startServer();
 try {
   const port = await portOf(server);
   // Warm-up: the first viewers load the plugins and fill the allocator's
-  // pools; the idle level is taken after them.
-  await cycles4(port, 500);
+  // pools; the idle level is taken after them, twice (after 250 and 500
+  // cycles: RSS at rest varies by a few MiB with what the last viewers
+  // left in the allocator), and the higher of the two kept.
+  await cycles4(port, 250);
   await sleep(1500);
-  const idle = await settled(server.pid);
+  const idle1 = await settled(server.pid);
+  await cycles4(port, 250);
+  await sleep(1500);
+  const idle2 = await settled(server.pid);
+  const idle = { threads: Math.max(idle1.threads, idle2.threads), fds: Math.max(idle1.fds, idle2.fds),
+    rssMiB: Math.max(idle1.rssMiB, idle2.rssMiB) };
+  console.log(`idle after 250 and 500 warm-up cycles: ${JSON.stringify(idle1)}, ${JSON.stringify(idle2)}`);
   const idleCpu = await cpuOver(server.pid, 2000);
-  console.log(`idle after 500 warm-up cycles: ${JSON.stringify(idle)}, ${(100 * idleCpu).toFixed(1)} % CPU`);
+  console.log(`idle CPU ${(100 * idleCpu).toFixed(1)} %`);
 
   const t0 = Date.now();
   for (let done = 0; done < cycles; done += 500) {
@@ -125,12 +133,14 @@ try {
   await sleep(2000);  // "2 s after the last viewer leaves"
   const after = await settled(server.pid);
   const cpuAfter = await cpuOver(server.pid, 2000);
-  const within = (a, b) => Math.abs(a - b) <= 0.05 * b;
+  // Back to the idle level: not above it by more than 5 % (below is fine:
+  // the allocator may hand back more than it held at rest).
+  const within = (a, b) => a <= 1.05 * b;
   check(`${cycles} connect/close cycles`, within(after.threads, idle.threads) &&
     within(after.fds, idle.fds) && within(after.rssMiB, idle.rssMiB),
   `${secs.toFixed(0)} s (${(1000 * secs / cycles).toFixed(1)} ms a cycle, 4 at a time, ${retries} upgrades retried after a 429); threads ` +
     `${idle.threads} -> ${after.threads}, fds ${idle.fds} -> ${after.fds}, RSS ` +
-    `${idle.rssMiB.toFixed(1)} -> ${after.rssMiB.toFixed(1)} MiB (each within 5 %)`);
+    `${idle.rssMiB.toFixed(1)} -> ${after.rssMiB.toFixed(1)} MiB (each at most 5 % above)`);
   check('quiet after the last viewer left', cpuAfter < 0.05,
     `${(100 * cpuAfter).toFixed(1)} % of a core over 2 s, 2 s after (idle before: ${(100 * idleCpu).toFixed(1)} %; < 5 %)`);
 
