@@ -205,8 +205,16 @@ void post(Control& c, std::string text) {
 
 // ---- WebRTC negotiation ---------------------------------------------------
 
+// The offer's promise holds only a weak reference: webrtcbin may drop a
+// promise it never answers (a viewer removed while its offer was being
+// made), and a strong one would then keep the Control, and through it the
+// webrtcbin with its ICE agent's sockets, for ever.
 void on_offer(GstPromise* promise, gpointer data) {
-  auto ctl = *static_cast<std::shared_ptr<Control>*>(data);
+  auto ctl = static_cast<std::weak_ptr<Control>*>(data)->lock();
+  if (!ctl) {
+    gst_promise_unref(promise);
+    return;
+  }
   GstWebRTCSessionDescription* offer = nullptr;
   if (gst_promise_wait(promise) == GST_PROMISE_RESULT_REPLIED)
     gst_structure_get(gst_promise_get_reply(promise), "offer", GST_TYPE_WEBRTC_SESSION_DESCRIPTION,
@@ -241,7 +249,9 @@ void delete_ref_closure(gpointer data, GClosure*) {
 }
 
 void on_negotiation_needed(GstElement* webrtc, gpointer data) {
-  GstPromise* p = gst_promise_new_with_change_func(on_offer, new_ref(ref_of(data)), delete_ref);
+  GstPromise* p = gst_promise_new_with_change_func(
+      on_offer, new std::weak_ptr<Control>(ref_of(data)),
+      [](gpointer d) { delete static_cast<std::weak_ptr<Control>*>(d); });
   g_signal_emit_by_name(webrtc, "create-offer", nullptr, p);
 }
 
