@@ -174,6 +174,22 @@ struct Priv {
   bool have_vinfo = false;
   bool video_eos = false;
   bool flushing = false;
+  // The requests ended: the camera's frames are no longer needed, and its
+  // chain answers EOS (a still camera in a non-live pipeline would otherwise
+  // push copies of its image for ever, and the pipeline never end).
+  bool requests_eos = false;
+  // Whether the camera is live (its upstream's latency query), asked at its
+  // caps: -1 unknown (no camera linked). Not live: a request waits for its
+  // frame without a deadline, as GstAggregator waits without a latency.
+  int camera_live = -1;
+  // Not live: the camera is held (its chain waits) once it is kAhead frames
+  // ahead of the requests, unless a request waits for a frame: a non-live
+  // camera (a still repeated, a file) then makes about one frame a request
+  // instead of as many as the CPU allows, which starved the warping (64
+  // still cameras took 37 s for 60 requests of one viewer).
+  static constexpr int kAhead = 2;
+  int ahead = 0;    // frames since a request last took one
+  int waiting = 0;  // requests waiting for a frame
   Priv() {
     g_mutex_init(&lock);
     g_cond_init(&cond);
@@ -225,7 +241,7 @@ LF_DEFINE_ELEMENT_GLUE(lf_fragment, LF_FRAGMENT)
 
 // ---- camera frames -------------------------------------------------------
 
-static gboolean lf_fragment_sink_event(GstPad*, GstObject* parent, GstEvent* event) {
+static gboolean lf_fragment_sink_event(GstPad* pad, GstObject* parent, GstEvent* event) {
   LfFragment* self = LF_FRAGMENT(parent);
   Priv* p = self->priv;
   switch (GST_EVENT_TYPE(event)) {
@@ -250,9 +266,18 @@ static gboolean lf_fragment_sink_event(GstPad*, GstObject* parent, GstEvent* eve
           return FALSE;
         }
       }
+      GstQuery* q = gst_query_new_latency();
+      int live = -1;
+      if (gst_pad_peer_query(pad, q)) {
+        gboolean is_live = FALSE;
+        gst_query_parse_latency(q, &is_live, nullptr, nullptr);
+        live = is_live ? 1 : 0;
+      }
+      gst_query_unref(q);
       g_mutex_lock(&p->lock);
       p->vinfo = info;
       p->have_vinfo = true;
+      p->camera_live = live;
       g_mutex_unlock(&p->lock);
       break;
     }
@@ -271,6 +296,7 @@ static gboolean lf_fragment_sink_event(GstPad*, GstObject* parent, GstEvent* eve
       g_mutex_lock(&p->lock);
       p->flushing = false;
       p->video_eos = false;
+      p->requests_eos = false;
       g_mutex_unlock(&p->lock);
       break;
     default:
@@ -299,10 +325,15 @@ static GstFlowReturn lf_fragment_sink_chain(GstPad*, GstObject* parent, GstBuffe
       p->ring.pop_front();
     }
     g_cond_broadcast(&p->cond);
+    ++p->ahead;
+    while (p->camera_live == 0 && p->ahead >= Priv::kAhead && p->waiting == 0 && !p->flushing &&
+           !p->requests_eos)
+      g_cond_wait(&p->cond, &p->lock);
   }
+  const bool done = p->requests_eos;
   g_mutex_unlock(&p->lock);
   gst_buffer_unref(buf);
-  return flushing ? GST_FLOW_FLUSHING : GST_FLOW_OK;
+  return flushing ? GST_FLOW_FLUSHING : done ? GST_FLOW_EOS : GST_FLOW_OK;
 }
 
 // ---- view requests -------------------------------------------------------
@@ -362,8 +393,19 @@ static gboolean lf_fragment_request_event(GstPad* pad, GstObject* parent, GstEve
       self->priv->set_flushing(true);
       return gst_pad_push_event(self->srcpad, event);
     case GST_EVENT_FLUSH_STOP:
+      g_mutex_lock(&self->priv->lock);
+      self->priv->requests_eos = false;
+      g_mutex_unlock(&self->priv->lock);
       self->priv->set_flushing(false);
       return gst_pad_push_event(self->srcpad, event);
+    case GST_EVENT_EOS:
+      // Every request is answered (the request chain runs before this
+      // event): the fragment stream ends, and so does the camera's.
+      g_mutex_lock(&self->priv->lock);
+      self->priv->requests_eos = true;
+      g_cond_broadcast(&self->priv->cond);  // a camera held by kAhead goes on, to its EOS
+      g_mutex_unlock(&self->priv->lock);
+      return gst_pad_event_default(pad, parent, event);
     default:
       return gst_pad_event_default(pad, parent, event);
   }
@@ -404,22 +446,44 @@ static int64_t capture_time_of(LfFragment* self, GstBuffer* frame, int camera_id
 // ring) the oldest kept. With `exact`, only the frame of t's own tick
 // (captured within a frame period before t; a camera that skipped that
 // frame, being late, has none). A new reference, or nullptr.
+// With p->lock held: when a wait for a camera frame gives up (monotonic
+// time, us): frame-timeout from now, or never (-1) when the camera is known
+// not to be live: a non-live pipeline has no deadline, and a request there
+// waits for its frame as GstAggregator waits without a latency (before, the
+// wall clock dropped requests that nothing made late).
+static gint64 frame_deadline(const Priv* p) {
+  if (p->camera_live == 0) return -1;
+  return g_get_monotonic_time() + static_cast<gint64>(p->state->s.frame_timeout / GST_USECOND);
+}
+
+// Waits on p->cond (p->lock held) until woken or `deadline` (-1: no
+// deadline); false when the deadline passed.
+static bool wait_until(Priv* p, gint64 deadline) {
+  // A camera held for being ahead goes on while a request waits.
+  if (p->waiting++ == 0) g_cond_broadcast(&p->cond);
+  bool woken = true;
+  if (deadline < 0)
+    g_cond_wait(&p->cond, &p->lock);
+  else
+    woken = g_cond_wait_until(&p->cond, &p->lock, deadline);
+  --p->waiting;
+  return woken;
+}
+
 static GstBuffer* frame_at(Priv* p, int64_t t, bool exact = false) {
-  const State* st = p->state.get();
   const int64_t period =
       p->have_vinfo && GST_VIDEO_INFO_FPS_N(&p->vinfo) > 0
           ? static_cast<int64_t>(gst_util_uint64_scale_int(
                 GST_SECOND, GST_VIDEO_INFO_FPS_D(&p->vinfo), GST_VIDEO_INFO_FPS_N(&p->vinfo)))
           : -1;
-  const gint64 deadline =
-      g_get_monotonic_time() + static_cast<gint64>(st->s.frame_timeout / GST_USECOND);
+  const gint64 deadline = frame_deadline(p);
   auto settled = [&] {
     if (p->ring.empty()) return false;
     const int64_t newest = p->ring.back().first;
     return newest > t || (period > 0 && newest > t - period);
   };
   while (!settled() && !p->flushing && !p->video_eos)
-    if (!g_cond_wait_until(&p->cond, &p->lock, deadline)) break;
+    if (!wait_until(p, deadline)) break;
   if (p->ring.empty() || (exact && p->ring.front().first > t)) return nullptr;
   GstBuffer* best = p->ring.front().second;
   int64_t best_time = p->ring.front().first;
@@ -559,11 +623,10 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
   // Wait for a camera frame, at most frame-timeout (woken by a frame, end of
   // stream, flushing or PAUSED->READY): a camera that never delivers (unlinked,
   // refused caps, dead) must not hold the request thread forever.
-  const gint64 deadline =
-      g_get_monotonic_time() + static_cast<gint64>(st->s.frame_timeout / GST_USECOND);
   g_mutex_lock(&p->lock);
+  const gint64 deadline = frame_deadline(p);
   while (p->ring.empty() && !p->flushing && !p->video_eos)
-    if (!g_cond_wait_until(&p->cond, &p->lock, deadline)) break;
+    if (!wait_until(p, deadline)) break;
   if (p->flushing) {
     g_mutex_unlock(&p->lock);
     return GST_FLOW_FLUSHING;
@@ -594,6 +657,10 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
     }
   } else if (!p->ring.empty())
     frame = gst_buffer_ref(p->ring.back().second);
+  if (frame) {  // a frame taken: a camera held for being ahead may make the next
+    p->ahead = 0;
+    g_cond_broadcast(&p->cond);
+  }
   GstVideoInfo info = p->vinfo;
   const bool have_info = p->have_vinfo;
   g_mutex_unlock(&p->lock);
@@ -835,6 +902,9 @@ static void lf_fragment_stop(LfFragment* self) {
   g_mutex_lock(&p->lock);
   p->clear_ring();
   p->video_eos = false;
+  p->requests_eos = false;
+  p->camera_live = -1;
+  p->ahead = p->waiting = 0;
   p->have_vinfo = false;
   g_mutex_unlock(&p->lock);
   p->state.reset();
@@ -899,8 +969,11 @@ static void lf_fragment_class_init(LfFragmentClass* klass) {
             g_param_spec_uint64("frame-timeout", "Frame timeout",
                                 "How long a request waits for a camera frame (the first one; with "
                                 "frame-select=capture-time or for a focus probe, the one of its "
-                                "time), ns; a request without a frame is dropped with a warning "
-                                "(with defer, answered with an empty fragment)",
+                                "time), ns, when the camera is live; a request without a frame is "
+                                "dropped with a warning (with defer, answered with an empty "
+                                "fragment). A non-live camera has no deadline: the request waits "
+                                "for its frame, and the camera is held two frames ahead of the "
+                                "requests; the requests' end of stream ends the camera's",
                                 0, G_MAXUINT64, DEFAULT_FRAME_TIMEOUT, lfgst::kReadWriteReady));
   props.add(oc, &Settings::frame_select,
             g_param_spec_enum("frame-select", "Frame selection",

@@ -875,6 +875,60 @@ TEST_F(Gst, OneRequestThreadKeepsTheCamerasInStep) {
   }
 }
 
+// Non-live: a still camera makes about one frame a request, not as many as
+// the CPU allows (64 such cameras took 37 s for 60 requests of one viewer,
+// 0.5 s now), requests are never dropped on the wall clock, and the end of
+// the requests ends the camera's stream too.
+TEST_F(Gst, NonLiveCamerasFollowTheRequests) {
+  const lf::Rig rig = lf::load_rig(rig_path_);
+  const std::string id = std::to_string(rig.cameras[0].id);
+  constexpr int kRequests = 20;
+  GstElement* p = gst_parse_launch(
+      ("lfviewrequest rig=" + rig_path_ + " num-buffers=" + std::to_string(kRequests) +
+       " width=160 height=120 ! f.request lffragment name=f rig=" + rig_path_ + " camera-id=" + id +
+       " ! fakesink name=out lfcamsrc name=cam rig=" + rig_path_ + " camera-id=" + id +
+       " mode=dataset ! f.sink")
+          .c_str(),
+      nullptr);
+  ASSERT_NE(p, nullptr);
+  std::atomic<int> frames{0}, fragments{0};
+  GstElement* cam = gst_bin_get_by_name(GST_BIN(p), "cam");
+  GstElement* out = gst_bin_get_by_name(GST_BIN(p), "out");
+  GstPad* cam_src = gst_element_get_static_pad(cam, "src");
+  GstPad* out_sink = gst_element_get_static_pad(out, "sink");
+  auto count = +[](GstPad*, GstPadProbeInfo*, gpointer n) {
+    ++*static_cast<std::atomic<int>*>(n);
+    return GST_PAD_PROBE_OK;
+  };
+  gst_pad_add_probe(cam_src, GST_PAD_PROBE_TYPE_BUFFER, count, &frames, nullptr);
+  gst_pad_add_probe(out_sink, GST_PAD_PROBE_TYPE_BUFFER, count, &fragments, nullptr);
+  gst_element_set_state(p, GST_STATE_PLAYING);
+  GstBus* bus = gst_element_get_bus(p);
+  GstMessage* m = gst_bus_timed_pop_filtered(
+      bus, 60 * GST_SECOND,
+      static_cast<GstMessageType>(GST_MESSAGE_EOS | GST_MESSAGE_ERROR | GST_MESSAGE_WARNING));
+  ASSERT_NE(m, nullptr) << "no end in 60 s";
+  EXPECT_EQ(GST_MESSAGE_TYPE(m), GST_MESSAGE_EOS)
+      << (GST_MESSAGE_TYPE(m) == GST_MESSAGE_EOS
+              ? ""
+              : testing_lf::take_error_debug(gst_message_ref(m)));
+  gst_message_unref(m);
+  // The camera's stream ended too (its task stopped on EOS from lffragment).
+  const int frames_at_eos = frames.load();
+  g_usleep(300000);
+  EXPECT_EQ(frames.load(), frames_at_eos) << "the camera went on after the requests ended";
+  EXPECT_EQ(fragments.load(), kRequests);
+  // At most a request's frame and the two a camera may be ahead.
+  EXPECT_LE(frames_at_eos, kRequests + 3) << "a non-live still camera flooded the pipeline";
+  gst_object_unref(bus);
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(cam_src);
+  gst_object_unref(out_sink);
+  gst_object_unref(cam);
+  gst_object_unref(out);
+  gst_object_unref(p);
+}
+
 TEST_F(Gst, BadPropertiesGiveClearErrors) {
   std::string err;
   run("lfviewrequest num-buffers=1 ! fakesink", 1, nullptr, &err);
