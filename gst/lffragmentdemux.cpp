@@ -21,7 +21,7 @@
  *
  * ## Example launch line
  * |[
- * gst-launch-1.0 funnel name=reqs ! lfcamerahost rig=rig.json ! lffragmentdemux name=d \
+ * gst-launch-1.0 lfrequestmux name=reqs ! lfcamerahost rig=rig.json ! lffragmentdemux name=d \
  *   lfviewrequest viewer-id=0 rig=rig.json ! reqs. \
  *   lfviewrequest viewer-id=1 rig=rig.json orbit=0.5 ! reqs. \
  *   d.src_0 ! queue ! lfcompositor viewer-id=0 rig=rig.json ! videoconvert ! autovideosink \

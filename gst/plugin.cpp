@@ -1,7 +1,7 @@
 // The lightfield plugin: lfcamsrc, lffragment, lfcompositor, lfviewrequest,
 // the bins built from a rig, lfcamerahost and lfarray, lffragmentdemux
-// (fragments routed to one pad per viewer) and lfpartialsum (a camera
-// host's fragments added up).
+// (fragments routed to one pad per viewer), lfpartialsum (a camera host's
+// fragments added up) and lfrequestmux (viewers' requests joined in turn).
 // Package, version and origin come from the build (meson.build,
 // meson_options.txt: package-name, package-origin) through config.h.
 #include <gst/gst.h>
@@ -16,6 +16,7 @@ GST_ELEMENT_REGISTER_DECLARE(lfcamerahost);
 GST_ELEMENT_REGISTER_DECLARE(lfarray);
 GST_ELEMENT_REGISTER_DECLARE(lffragmentdemux);
 GST_ELEMENT_REGISTER_DECLARE(lfpartialsum);
+GST_ELEMENT_REGISTER_DECLARE(lfrequestmux);
 
 static gboolean plugin_init(GstPlugin* plugin) {
   gboolean ok = FALSE;
@@ -27,6 +28,7 @@ static gboolean plugin_init(GstPlugin* plugin) {
   ok |= GST_ELEMENT_REGISTER(lfarray, plugin);
   ok |= GST_ELEMENT_REGISTER(lffragmentdemux, plugin);
   ok |= GST_ELEMENT_REGISTER(lfpartialsum, plugin);
+  ok |= GST_ELEMENT_REGISTER(lfrequestmux, plugin);
   return ok;
 }
 

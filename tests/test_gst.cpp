@@ -929,6 +929,69 @@ TEST_F(Gst, NonLiveCamerasFollowTheRequests) {
   gst_object_unref(p);
 }
 
+// Several non-live viewers through lfrequestmux (the README's line, with
+// fakesink and num-buffers): every viewer gets all its frames, in seconds
+// and without a warning. Through a funnel one viewer could run ahead and the
+// pipeline stalled in preroll (1 run in 3 of the 64-camera line).
+TEST_F(Gst, SeveralNonLiveViewersThroughTheRequestMux) {
+  constexpr int kFrames = 30;
+  const std::string rig = " rig=" + rig_path_ + " ";
+  const std::string n = " num-buffers=" + std::to_string(kFrames) + " width=160 height=120 ";
+  for (int run = 0; run < 3; ++run) {
+    GstElement* p = gst_parse_launch(("lfrequestmux name=reqs ! lfcamerahost" + rig +
+                                      "! lffragmentdemux name=d "
+                                      "lfviewrequest viewer-id=0" +
+                                      rig + n +
+                                      "! reqs. "
+                                      "lfviewrequest viewer-id=1 orbit=0.5" +
+                                      rig + n +
+                                      "! reqs. "
+                                      "d.src_0 ! queue ! lfcompositor viewer-id=0" +
+                                      rig +
+                                      "! fakesink name=s0 "
+                                      "d.src_1 ! queue ! lfcompositor viewer-id=1" +
+                                      rig + "! fakesink name=s1")
+                                         .c_str(),
+                                     nullptr);
+    ASSERT_NE(p, nullptr);
+    std::atomic<int> frames[2] = {{0}, {0}};
+    for (int v = 0; v < 2; ++v) {
+      GstElement* sink = gst_bin_get_by_name(GST_BIN(p), v ? "s1" : "s0");
+      GstPad* pad = gst_element_get_static_pad(sink, "sink");
+      gst_pad_add_probe(
+          pad, GST_PAD_PROBE_TYPE_BUFFER,
+          +[](GstPad*, GstPadProbeInfo*, gpointer c) {
+            ++*static_cast<std::atomic<int>*>(c);
+            return GST_PAD_PROBE_OK;
+          },
+          &frames[v], nullptr);
+      gst_object_unref(pad);
+      gst_object_unref(sink);
+    }
+    gst_element_set_state(p, GST_STATE_PLAYING);
+    GstBus* bus = gst_element_get_bus(p);
+    GstMessage* m = gst_bus_timed_pop_filtered(
+        bus, 60 * GST_SECOND,
+        static_cast<GstMessageType>(GST_MESSAGE_EOS | GST_MESSAGE_ERROR | GST_MESSAGE_WARNING));
+    ASSERT_NE(m, nullptr) << "run " << run << ": no end in 60 s";
+    EXPECT_EQ(GST_MESSAGE_TYPE(m), GST_MESSAGE_EOS)
+        << (GST_MESSAGE_TYPE(m) == GST_MESSAGE_EOS
+                ? ""
+                : testing_lf::take_error_debug(gst_message_ref(m)));
+    gst_message_unref(m);
+    EXPECT_EQ(frames[0].load(), kFrames) << "run " << run;
+    EXPECT_EQ(frames[1].load(), kFrames) << "run " << run;
+    GstElement* mux = gst_bin_get_by_name(GST_BIN(p), "reqs");
+    guint64 forwarded = 0;
+    g_object_get(mux, "forwarded", &forwarded, nullptr);
+    EXPECT_EQ(forwarded, 2u * kFrames);
+    gst_object_unref(mux);
+    gst_object_unref(bus);
+    gst_element_set_state(p, GST_STATE_NULL);
+    gst_object_unref(p);
+  }
+}
+
 TEST_F(Gst, BadPropertiesGiveClearErrors) {
   std::string err;
   run("lfviewrequest num-buffers=1 ! fakesink", 1, nullptr, &err);

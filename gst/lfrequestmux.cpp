@@ -1,0 +1,166 @@
+/**
+ * SECTION:element-lfrequestmux
+ * @title: lfrequestmux
+ *
+ * Joins several viewers' view requests into the one stream a camera host
+ * answers (Yang et al. 2002, Section 1: "multiple viewers navigate virtual
+ * cameras" over one set of cameras), taking the viewers in turn, as a fair
+ * `funnel`. Request a pad `sink_%u` per viewer (an `lfviewrequest`).
+ *
+ * Not live: one request of every viewer each round (a GstAggregator without
+ * latency waits for every pad), so no viewer runs ahead of another. With a
+ * `funnel` one non-live viewer could send many requests before the other's
+ * first; its compositor, prerolled, blocked its queue, and the camera host,
+ * pushing into that queue, never answered the other viewer: the pipeline
+ * stalled (the README's "several viewers" line, issue 41).
+ * Live: at each round every viewer's newest request (older ones queued
+ * behind it are dropped and counted in `dropped`: the newest request wins),
+ * the viewers in turn, so one viewer's flood takes no other's turn.
+ *
+ * Caps (width, height and frame rate of the viewer's view) go downstream
+ * with each viewer's requests when they differ from the last viewer's, as
+ * `funnel` forwards sticky events. Events from downstream (navigation,
+ * `lf-view`, `lf-focus`) go to every viewer, as through `funnel`.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 lfrequestmux name=reqs ! lfcamerahost rig=rig.json ! lffragmentdemux name=d \
+ *   lfviewrequest viewer-id=0 rig=rig.json ! reqs. \
+ *   lfviewrequest viewer-id=1 rig=rig.json orbit=0.5 ! reqs. \
+ *   d.src_0 ! queue ! lfcompositor viewer-id=0 rig=rig.json ! videoconvert ! autovideosink \
+ *   d.src_1 ! queue ! lfcompositor viewer-id=1 rig=rig.json ! videoconvert ! autovideosink
+ * ]|
+ */
+#include <gst/base/gstaggregator.h>
+#include <gst/gst.h>
+
+#include <atomic>
+
+GST_DEBUG_CATEGORY_STATIC(lf_request_mux_debug);
+#define GST_CAT_DEFAULT lf_request_mux_debug
+
+G_BEGIN_DECLS
+#define LF_TYPE_REQUEST_MUX (lf_request_mux_get_type())
+G_DECLARE_FINAL_TYPE(LfRequestMux, lf_request_mux, LF, REQUEST_MUX, GstAggregator)
+G_END_DECLS
+
+namespace {
+enum { PROP_0, PROP_FORWARDED, PROP_DROPPED };
+}  // namespace
+
+struct _LfRequestMux {
+  GstAggregator parent;
+  guint next = 0;           // the pad (by index) served first in the next round
+  GstCaps* caps = nullptr;  // the caps sent downstream last (aggregate thread)
+  std::atomic<guint64> forwarded{0}, dropped{0};
+};
+
+G_DEFINE_TYPE(LfRequestMux, lf_request_mux, GST_TYPE_AGGREGATOR)
+GST_ELEMENT_REGISTER_DEFINE(lfrequestmux, "lfrequestmux", GST_RANK_NONE, LF_TYPE_REQUEST_MUX)
+
+static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE(
+    "sink_%u", GST_PAD_SINK, GST_PAD_REQUEST, GST_STATIC_CAPS("application/x-lf-view-request"));
+static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE(
+    "src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS("application/x-lf-view-request"));
+
+// One request of `pad` downstream, after its caps when they differ from the
+// last ones sent.
+static GstFlowReturn forward(LfRequestMux* self, GstAggregatorPad* pad, GstBuffer* buf) {
+  GstCaps* caps = gst_pad_get_current_caps(GST_PAD(pad));
+  if (caps && (!self->caps || !gst_caps_is_equal(caps, self->caps))) {
+    gst_aggregator_set_src_caps(GST_AGGREGATOR(self), caps);
+    gst_caps_replace(&self->caps, caps);
+  }
+  if (caps) gst_caps_unref(caps);
+  self->forwarded++;
+  return gst_aggregator_finish_buffer(GST_AGGREGATOR(self), buf);
+}
+
+static GstFlowReturn lf_request_mux_aggregate(GstAggregator* agg, gboolean) {
+  LfRequestMux* self = LF_REQUEST_MUX(agg);
+  const bool live = GST_CLOCK_TIME_IS_VALID(gst_aggregator_get_latency(agg));
+  GST_OBJECT_LOCK(agg);
+  GList* pads = g_list_copy_deep(
+      GST_ELEMENT(agg)->sinkpads,
+      [](gconstpointer p, gpointer) -> gpointer { return gst_object_ref(const_cast<gpointer>(p)); },
+      nullptr);
+  GST_OBJECT_UNLOCK(agg);
+  const guint n = g_list_length(pads);
+  GstFlowReturn ret = GST_FLOW_OK;
+  bool all_eos = n > 0;
+  // The viewers in turn, starting one further each round.
+  for (guint k = 0; k < n && ret == GST_FLOW_OK; ++k) {
+    auto* pad = GST_AGGREGATOR_PAD(g_list_nth_data(pads, (self->next + k) % n));
+    GstBuffer* buf = gst_aggregator_pad_pop_buffer(pad);
+    if (live)  // the newest request wins: older ones queued behind it go
+      while (GstBuffer* newer = gst_aggregator_pad_pop_buffer(pad)) {
+        gst_buffer_unref(buf);
+        buf = newer;
+        self->dropped++;
+      }
+    if (buf) ret = forward(self, pad, buf);
+    if (!gst_aggregator_pad_is_eos(pad)) all_eos = false;
+  }
+  self->next = n ? (self->next + 1) % n : 0;
+  g_list_free_full(pads, gst_object_unref);
+  if (ret == GST_FLOW_OK && all_eos) return GST_FLOW_EOS;
+  return ret;
+}
+
+static gboolean lf_request_mux_stop(GstAggregator* agg) {
+  LfRequestMux* self = LF_REQUEST_MUX(agg);
+  gst_caps_replace(&self->caps, nullptr);
+  self->next = 0;
+  return TRUE;
+}
+
+static void lf_request_mux_get_property(GObject* obj, guint id, GValue* v, GParamSpec* ps) {
+  LfRequestMux* self = LF_REQUEST_MUX(obj);
+  switch (id) {
+    case PROP_FORWARDED:
+      g_value_set_uint64(v, self->forwarded.load());
+      break;
+    case PROP_DROPPED:
+      g_value_set_uint64(v, self->dropped.load());
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
+  }
+}
+
+static void lf_request_mux_finalize(GObject* obj) {
+  gst_caps_replace(&LF_REQUEST_MUX(obj)->caps, nullptr);
+  G_OBJECT_CLASS(lf_request_mux_parent_class)->finalize(obj);
+}
+
+static void lf_request_mux_class_init(LfRequestMuxClass* klass) {
+  GObjectClass* oc = G_OBJECT_CLASS(klass);
+  GstElementClass* ec = GST_ELEMENT_CLASS(klass);
+  GstAggregatorClass* ac = GST_AGGREGATOR_CLASS(klass);
+  oc->get_property = lf_request_mux_get_property;
+  oc->finalize = lf_request_mux_finalize;
+  g_object_class_install_property(
+      oc, PROP_FORWARDED,
+      g_param_spec_uint64("forwarded", "Forwarded", "View requests sent downstream so far", 0,
+                          G_MAXUINT64, 0,
+                          static_cast<GParamFlags>(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
+  g_object_class_install_property(
+      oc, PROP_DROPPED,
+      g_param_spec_uint64("dropped", "Dropped",
+                          "Live: view requests dropped because a newer one of the same viewer "
+                          "was queued behind them (the newest request wins)",
+                          0, G_MAXUINT64, 0,
+                          static_cast<GParamFlags>(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
+  gst_element_class_add_static_pad_template_with_gtype(ec, &sink_template, GST_TYPE_AGGREGATOR_PAD);
+  gst_element_class_add_static_pad_template_with_gtype(ec, &src_template, GST_TYPE_AGGREGATOR_PAD);
+  gst_element_class_set_static_metadata(
+      ec, "Light field view request mux", "Mixer",
+      "Joins several viewers' view requests into one stream, the viewers in turn (a fair "
+      "funnel; not live: one request of each viewer a round)",
+      "lightfield-gst");
+  ac->aggregate = lf_request_mux_aggregate;
+  ac->stop = lf_request_mux_stop;
+  GST_DEBUG_CATEGORY_INIT(lf_request_mux_debug, "lfrequestmux", 0, "light field view request mux");
+}
+
+static void lf_request_mux_init(LfRequestMux*) {}
