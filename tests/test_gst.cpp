@@ -169,6 +169,7 @@ TEST_F(Gst, ElementsAreDocumented) {
             {"sink", "request", "src"}},
            {"lfcompositor", {"rig", "viewer-id", "framerate", "latency"}, {"sink_%u", "src"}},
            {"lfpartialsum", {"encoding", "jpeg-quality", "latency"}, {"sink_%u", "src"}},
+           {"lfrequestmux", {"forwarded", "dropped"}, {"sink_%u", "src"}},
            {"lfviewrequest",
             {"rig", "viewer-id", "width", "height", "position", "look-at", "vfov", "focal-plane",
              "path", "orbit", "dolly", "framerate", "is-live"},
