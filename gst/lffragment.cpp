@@ -190,6 +190,15 @@ struct Priv {
   static constexpr int kAhead = 2;
   int ahead = 0;    // frames since a request last took one
   int waiting = 0;  // requests waiting for a frame
+  // What the waiting request needs: a frame captured after `want` (ns), or
+  // any frame. Once the ring has it, the camera is held again: a camera
+  // left to run while the request thread woke up made hundreds of frames
+  // (it takes the lock back before the woken thread runs).
+  static constexpr int64_t kAnyFrame = INT64_MIN;
+  int64_t want = kAnyFrame;
+  bool wanted_is_here() const {
+    return !ring.empty() && (want == kAnyFrame || ring.back().first > want);
+  }
   Priv() {
     g_mutex_init(&lock);
     g_cond_init(&cond);
@@ -326,8 +335,8 @@ static GstFlowReturn lf_fragment_sink_chain(GstPad*, GstObject* parent, GstBuffe
     }
     g_cond_broadcast(&p->cond);
     ++p->ahead;
-    while (p->camera_live == 0 && p->ahead >= Priv::kAhead && p->waiting == 0 && !p->flushing &&
-           !p->requests_eos)
+    while (p->camera_live == 0 && p->ahead >= Priv::kAhead &&
+           (p->waiting == 0 || p->wanted_is_here()) && !p->flushing && !p->requests_eos)
       g_cond_wait(&p->cond, &p->lock);
   }
   const bool done = p->requests_eos;
@@ -457,9 +466,11 @@ static gint64 frame_deadline(const Priv* p) {
 }
 
 // Waits on p->cond (p->lock held) until woken or `deadline` (-1: no
-// deadline); false when the deadline passed.
-static bool wait_until(Priv* p, gint64 deadline) {
-  // A camera held for being ahead goes on while a request waits.
+// deadline) for a frame captured after `want` (ns; Priv::kAnyFrame: any
+// frame); false when the deadline passed. A camera held for being ahead
+// goes on meanwhile, until it has made such a frame.
+static bool wait_until(Priv* p, gint64 deadline, int64_t want = Priv::kAnyFrame) {
+  p->want = want;
   if (p->waiting++ == 0) g_cond_broadcast(&p->cond);
   bool woken = true;
   if (deadline < 0)
@@ -483,7 +494,7 @@ static GstBuffer* frame_at(Priv* p, int64_t t, bool exact = false) {
     return newest > t || (period > 0 && newest > t - period);
   };
   while (!settled() && !p->flushing && !p->video_eos)
-    if (!wait_until(p, deadline)) break;
+    if (!wait_until(p, deadline, period > 0 ? t - period : t)) break;
   if (p->ring.empty() || (exact && p->ring.front().first > t)) return nullptr;
   GstBuffer* best = p->ring.front().second;
   int64_t best_time = p->ring.front().first;
