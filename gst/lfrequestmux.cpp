@@ -35,6 +35,7 @@
 #include <gst/gst.h>
 
 #include <atomic>
+#include <new>
 
 GST_DEBUG_CATEGORY_STATIC(lf_request_mux_debug);
 #define GST_CAT_DEFAULT lf_request_mux_debug
@@ -163,4 +164,8 @@ static void lf_request_mux_class_init(LfRequestMuxClass* klass) {
   GST_DEBUG_CATEGORY_INIT(lf_request_mux_debug, "lfrequestmux", 0, "light field view request mux");
 }
 
-static void lf_request_mux_init(LfRequestMux*) {}
+static void lf_request_mux_init(LfRequestMux* self) {
+  // (GObject zeroes the instance; the atomics are constructed in place.)
+  new (&self->forwarded) std::atomic<guint64>(0);
+  new (&self->dropped) std::atomic<guint64>(0);
+}
