@@ -283,7 +283,7 @@ static GstElement* adopt(GstBin* bin, Priv* p, GstElement* e) {
 struct RequestLimit {
   GstElement* host = nullptr;  // not owned: the probe dies with its child
   double rate = 0;
-  lfgst::TokenBucket bucket;
+  lfgst::ViewerBuckets buckets;
   lfgst::WarnLimiter warned;
 };
 
@@ -292,13 +292,20 @@ static GstPadProbeReturn limit_requests(GstPad*, GstPadProbeInfo* info, gpointer
   const guint n = (GST_PAD_PROBE_INFO_TYPE(info) & GST_PAD_PROBE_TYPE_BUFFER_LIST)
                       ? gst_buffer_list_length(GST_PAD_PROBE_INFO_BUFFER_LIST(info))
                       : 1;
-  for (guint i = 0; i < n; ++i)
-    if (!l->bucket.take(l->rate)) {
+  for (guint i = 0; i < n; ++i) {
+    GstBuffer* buf = (GST_PAD_PROBE_INFO_TYPE(info) & GST_PAD_PROBE_TYPE_BUFFER_LIST)
+                         ? gst_buffer_list_get(GST_PAD_PROBE_INFO_BUFFER_LIST(info), i)
+                         : GST_PAD_PROBE_INFO_BUFFER(info);
+    guint8 head[12] = {};
+    const gsize got = buf ? gst_buffer_extract(buf, 0, head, sizeof head) : 0;
+    const guint32 viewer = lfgst::request_viewer(head, got);
+    if (!l->buckets.take(viewer, l->rate)) {
       LF_ELEMENT_WARNING_LIMITED(l->host, l->warned, STREAM, DECODE,
                                  ("Dropping view requests above max-rate"),
-                                 "more than %g requests a second", l->rate);
+                                 "viewer %u sends more than %g requests a second", viewer, l->rate);
       return GST_PAD_PROBE_DROP;
     }
+  }
   return GST_PAD_PROBE_OK;
 }
 

@@ -140,7 +140,7 @@ struct State {
   cv::Mat corrected;
   // Request rate limit: max_rate per second, bursts of one second's worth
   // (request thread only).
-  lfgst::TokenBucket rate;
+  lfgst::ViewerBuckets rate;
   // The GL renderer (backend gl, or auto on a hardware GPU; else null) and
   // the frame in its texture, by buffer and PTS (request thread only).
   std::unique_ptr<lf::GlRenderer> gl;
@@ -519,10 +519,10 @@ static bool admit(LfFragment* self, State* st, const lf::ViewRequest& req) {
         req.viewer_id, req.view.width, req.view.height, px, s.max_pixels);
     return false;
   }
-  if (!st->rate.take(s.max_rate)) {
+  if (!st->rate.take(req.viewer_id, s.max_rate)) {
     LF_ELEMENT_WARNING_LIMITED(
         self, st->too_fast, STREAM, DECODE, ("Dropping view requests above max-rate"),
-        "more than %g requests a second (viewer %u)", s.max_rate, req.viewer_id);
+        "viewer %u sends more than %g requests a second", req.viewer_id, s.max_rate);
     return false;
   }
   return true;
@@ -972,9 +972,9 @@ static void lf_fragment_class_init(LfFragmentClass* klass) {
                                 1, G_MAXUINT64, DEFAULT_MAX_PIXELS, lfgst::kReadWriteReady));
   props.add(oc, &Settings::max_rate,
             g_param_spec_double("max-rate", "Maximum request rate",
-                                "Requests per second answered, over all viewers (bursts up to "
-                                "one second's worth); more are dropped with a warning (0: no "
-                                "limit)",
+                                "Requests per second answered for each viewer (bursts up to one "
+                                "second's worth; one viewer's flood never spends another's); more "
+                                "are dropped with a warning (0: no limit)",
                                 0, 1e6, DEFAULT_MAX_RATE, lfgst::kReadWriteReady));
   props.add(oc, &Settings::frame_timeout,
             g_param_spec_uint64("frame-timeout", "Frame timeout",
