@@ -65,13 +65,13 @@ class ViewerBuckets {
 };
 
 // The viewer id of a view request buffer (lib/lf/wire.h: "LFVR", then the
-// viewer id at byte 8, little-endian), or G_MAXUINT32 when it is none (the
-// parser drops it later).
+// viewer id at byte 8, big-endian as every integer there), or G_MAXUINT32
+// when it is none (the parser drops it later).
 inline guint32 request_viewer(const guint8* data, gsize size) {
   if (size < 12 || data[0] != 'L' || data[1] != 'F' || data[2] != 'V' || data[3] != 'R')
     return G_MAXUINT32;
-  return static_cast<guint32>(data[8]) | static_cast<guint32>(data[9]) << 8 |
-         static_cast<guint32>(data[10]) << 16 | static_cast<guint32>(data[11]) << 24;
+  return static_cast<guint32>(data[8]) << 24 | static_cast<guint32>(data[9]) << 16 |
+         static_cast<guint32>(data[10]) << 8 | static_cast<guint32>(data[11]);
 }
 
 }  // namespace lfgst

@@ -18,9 +18,10 @@
  * the viewers in turn, so one viewer's flood takes no other's turn.
  *
  * Tested with every viewer's pad requested before the pipeline plays (not
- * live and live). A pad requested while playing is not: lf-web, which adds
- * its viewers while playing, keeps a `funnel`, since with this element there
- * a browser added while playing got no frame (not yet understood).
+ * live and live). A pad requested while playing forwarded its viewer's
+ * requests in a small live pipeline, but lf-web, which adds its viewers
+ * while playing, keeps a `funnel`: with this element there, a browser added
+ * beside silent connections got no frame (not yet understood).
  *
  * Caps (width, height and frame rate of the viewer's view) go downstream
  * with each viewer's requests when they differ from the last viewer's, as

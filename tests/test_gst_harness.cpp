@@ -23,6 +23,7 @@
 #include "lf/synthetic.h"
 #include "lf/view_builder.h"
 #include "lf/wire.h"
+#include "lfrate.h"
 #include "lfrig.h"
 
 namespace {
@@ -802,6 +803,34 @@ TEST_F(Harness, FragmentDemuxRoutesByViewer) {
 }
 
 }  // namespace
+
+// The per-viewer request limit (gst/lfrate.h): a request's viewer id read
+// from its header as the wire format writes it (big-endian), and a bucket
+// per viewer that another viewer's flood does not spend; made-up ids beyond
+// kViewers share one bucket.
+TEST(RequestLimit, ViewerIdAndBucketsPerViewer) {
+  lf::ViewRequest r;
+  r.viewer_id = 0x01020304;
+  r.view.width = 64, r.view.height = 48, r.view.vfov_deg = 40;
+  const auto bytes = lf::serialize_request(r);
+  EXPECT_EQ(lfgst::request_viewer(bytes.data(), bytes.size()), 0x01020304u);
+  EXPECT_EQ(lfgst::request_viewer(bytes.data(), 11), G_MAXUINT32);
+  lfgst::ViewerBuckets b;
+  const gint64 t = 1000000;
+  int passed1 = 0, passed2 = 0;
+  for (int i = 0; i < 100; ++i) passed1 += b.take(1, 10, t);
+  for (int i = 0; i < 5; ++i) passed2 += b.take(2, 10, t);
+  EXPECT_EQ(passed1, 10);
+  EXPECT_EQ(passed2, 5);
+  // 64 viewers with buckets of their own (1, 2 and 62 more); ids beyond
+  // share one bucket.
+  for (guint32 v = 3; v < 1 + lfgst::ViewerBuckets::kViewers; ++v) EXPECT_TRUE(b.take(v, 10, t));
+  int shared = 0;
+  for (guint32 v = 1000; v < 1100; ++v) shared += b.take(v, 10, t);
+  EXPECT_EQ(shared, 10) << "made-up ids get no fresh tokens";
+  // Idle ids give their bucket up: a new viewer gets one later.
+  EXPECT_TRUE(b.take(5000, 10, t + 2 * lfgst::ViewerBuckets::kIdleUs));
+}
 
 // The elements' rig cache (gst/lfrig.h): one entry per file whatever the
 // name used, and an edited file is loaded again.
