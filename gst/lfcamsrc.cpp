@@ -136,14 +136,11 @@ struct State {
   GstElement* decoder = nullptr;
   GstElement* appsink = nullptr;
   GstBuffer* last = nullptr;  // newest decoded frame (not the sample: appsink reuses those)
-  // File mode: which input frame the decoder is on (image sequences: one
-  // buffer a file), for the error that names a damaged one; the frames
-  // skipped (skip-bad-frames) and their warnings, taken by create().
-  std::atomic<guint64> entered{0};
+  // File mode, skip-bad-frames: the decoders' warnings of frames they
+  // skipped, taken by create() and posted with the count so far.
   std::mutex bad_lock;
   std::vector<std::string> bad;  // warnings not yet posted
   guint64 skipped = 0;
-  gint64 error_frame = -1;  // the input frame of the decoder's error (-1: none or unknown)
   // File mode with PNG or JPEG stills (one file, or a sequence): decoded here
   // by lf::read_image, so a damaged, truncated or wrong-sized frame is an
   // error naming its file (GStreamer's parsers drop such a frame silently,
@@ -154,7 +151,7 @@ struct State {
   // (The pattern is never a printf format: lf::camera_file_name; open_input
   // has checked it.)
   std::string frame_path(gint64 k) const {
-    if (s.location.find('%') == std::string::npos || k < 0) return s.location;
+    if (s.location.find('%') == std::string::npos) return s.location;
     try {
       return lf::camera_file_name(s.location, static_cast<int>(k), "location");
     } catch (const std::exception&) {
@@ -162,7 +159,7 @@ struct State {
     }
   }
   std::string frame_name(gint64 k) const {
-    if (s.location.find('%') == std::string::npos || k < 0) return s.location;
+    if (s.location.find('%') == std::string::npos) return s.location;
     return frame_path(k) + " (frame " + std::to_string(k) + ")";
   }
   ~State() {
@@ -214,29 +211,18 @@ static void on_decoder_element(GstBin*, GstBin*, GstElement* e, gpointer skip) {
     g_object_set(e, "max-errors", GPOINTER_TO_INT(skip) ? -1 : 0, nullptr);
 }
 
-// Messages of the internal pipeline, in the decoding thread as they are
-// posted: which input frame an error or warning is about, and with
-// skip-bad-frames the warnings kept for create() to post.
+// With skip-bad-frames, the internal pipeline's warnings (a decoder's
+// skipped frame), in the decoding thread as they are posted: kept for
+// create() to post as this element's, never dropped unseen.
 static GstBusSyncReply on_decoder_message(GstBus*, GstMessage* m, gpointer data) {
   auto* st = static_cast<State*>(data);
-  const gint64 frame = static_cast<gint64>(st->entered.load()) - 1;
-  if (GST_MESSAGE_TYPE(m) == GST_MESSAGE_ERROR) {
-    std::lock_guard<std::mutex> l(st->bad_lock);
-    if (st->error_frame < 0) st->error_frame = frame;
-  } else if (GST_MESSAGE_TYPE(m) == GST_MESSAGE_WARNING && st->s.skip_bad_frames) {
-    GError* e = nullptr;
-    gst_message_parse_warning(m, &e, nullptr);
-    std::lock_guard<std::mutex> l(st->bad_lock);
-    st->bad.push_back(st->frame_name(frame) + ": " + (e ? e->message : "not decoded"));
-    g_clear_error(&e);
-    return GST_BUS_DROP;
-  }
-  return GST_BUS_PASS;
-}
-
-static GstPadProbeReturn count_input(GstPad*, GstPadProbeInfo*, gpointer data) {
-  static_cast<State*>(data)->entered++;
-  return GST_PAD_PROBE_OK;
+  if (GST_MESSAGE_TYPE(m) != GST_MESSAGE_WARNING || !st->s.skip_bad_frames) return GST_BUS_PASS;
+  GError* e = nullptr;
+  gst_message_parse_warning(m, &e, nullptr);
+  std::lock_guard<std::mutex> l(st->bad_lock);
+  st->bad.push_back(st->s.location + ": " + (e ? e->message : "not decoded"));
+  g_clear_error(&e);
+  return GST_BUS_DROP;
 }
 
 static GstElement* build_decoder(State* st, const lf::Camera& cam, GstElement** sink) {
@@ -268,9 +254,6 @@ static GstElement* build_decoder(State* st, const lf::Camera& cam, GstElement** 
     g_object_set(src, "location", s.location.c_str(), "loop", s.loop, nullptr);
     gst_bin_add_many(GST_BIN(pipe), src, dec, nullptr);
     gst_element_link(src, dec);
-    GstPad* out = gst_element_get_static_pad(src, "src");  // one buffer a file
-    gst_pad_add_probe(out, GST_PAD_PROBE_TYPE_BUFFER, count_input, st, nullptr);
-    gst_object_unref(out);
     g_signal_connect(dec, "deep-element-added", G_CALLBACK(on_decoder_element),
                      GINT_TO_POINTER(s.skip_bad_frames));
     lfgst::link_decoded_video(dec, convert);
@@ -484,13 +467,8 @@ static GstSample* pull_or_error(LfCamSrc* self, State* st, GstClockTime timeout)
     if (GstSample* s = gst_app_sink_try_pull_sample(sink, 50 * GST_MSECOND)) return s;
     if (gst_app_sink_is_eos(sink)) return nullptr;
     if (const std::string why = decoder_error(st->decoder); !why.empty()) {
-      gint64 frame;
-      {
-        std::lock_guard<std::mutex> l(st->bad_lock);
-        frame = st->error_frame;
-      }
       GST_ELEMENT_ERROR(self, STREAM, DECODE, ("Cannot decode the camera input"),
-                        ("%s: %s%s", st->frame_name(frame).c_str(), why.c_str(),
+                        ("%s: %s%s", st->s.location.c_str(), why.c_str(),
                          st->s.skip_bad_frames ? "" : " (skip-bad-frames=true skips such frames)"));
       return nullptr;
     }

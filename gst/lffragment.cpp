@@ -138,8 +138,8 @@ struct State {
   // request; guarded by Priv::lock.
   GstBuffer* corrected_of = nullptr;  // the frame it was made from (not owned, compared only)
   cv::Mat corrected;
-  // Request rate limit: max_rate per second, bursts of one second's worth
-  // (request thread only).
+  // Request rate limit: max_rate per second for each viewer, bursts of one
+  // second's worth (request thread only).
   lfgst::ViewerBuckets rate;
   // The GL renderer (backend gl, or auto on a hardware GPU; else null) and
   // the frame in its texture, by buffer and PTS (request thread only).
@@ -447,14 +447,6 @@ static int64_t capture_time_of(LfFragment* self, GstBuffer* frame, int camera_id
   return GST_BUFFER_PTS_IS_VALID(frame) ? static_cast<int64_t>(GST_BUFFER_PTS(frame)) : -1;
 }
 
-// frame-select=capture-time, with p->lock held: the frame for request time
-// `t` (ns): the newest captured at or before t. Waits (at most
-// frame-timeout) until that frame is known to be the one: a later frame has
-// come, or one within the frame period (from the caps) before t. Then the
-// newest at or before t, or when all are later (a request older than the
-// ring) the oldest kept. With `exact`, only the frame of t's own tick
-// (captured within a frame period before t; a camera that skipped that
-// frame, being late, has none). A new reference, or nullptr.
 // With p->lock held: when a wait for a camera frame gives up (monotonic
 // time, us): frame-timeout from now, or never (-1) when the camera is known
 // not to be live: a non-live pipeline has no deadline, and a request there
@@ -481,6 +473,14 @@ static bool wait_until(Priv* p, gint64 deadline, int64_t want = Priv::kAnyFrame)
   return woken;
 }
 
+// frame-select=capture-time, with p->lock held: the frame for request time
+// `t` (ns): the newest captured at or before t. Waits (at most
+// frame-timeout) until that frame is known to be the one: a later frame has
+// come, or one within the frame period (from the caps) before t. Then the
+// newest at or before t, or when all are later (a request older than the
+// ring) the oldest kept. With `exact`, only the frame of t's own tick
+// (captured within a frame period before t; a camera that skipped that
+// frame, being late, has none). A new reference, or nullptr.
 static GstBuffer* frame_at(Priv* p, int64_t t, bool exact = false) {
   const int64_t period =
       p->have_vinfo && GST_VIDEO_INFO_FPS_N(&p->vinfo) > 0
@@ -631,9 +631,10 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
   const lf::Rig& rig = *st->rig;
   const lf::Camera& cam = rig.cameras[st->index];
   lfgst::trace(GST_ELEMENT(self), "request-in", req.viewer_id, req.sequence, cam.id);
-  // Wait for a camera frame, at most frame-timeout (woken by a frame, end of
-  // stream, flushing or PAUSED->READY): a camera that never delivers (unlinked,
-  // refused caps, dead) must not hold the request thread forever.
+  // Wait for a camera frame (woken by a frame, end of stream, flushing or
+  // PAUSED->READY): from a live camera at most frame-timeout, so one that
+  // never delivers (unlinked, refused caps, dead) does not hold the request
+  // thread for ever; from a non-live one as long as it takes.
   g_mutex_lock(&p->lock);
   const gint64 deadline = frame_deadline(p);
   while (p->ring.empty() && !p->flushing && !p->video_eos)

@@ -37,6 +37,15 @@ function startServer(extra = []) {
   return server;
 }
 
+// SIGINT, then SIGKILL if it has not exited within 10 s.
+function stopServer(server) {
+  server.kill('SIGINT');
+  return new Promise((r) => {
+    const t = setTimeout(() => { server.kill('SIGKILL'); r(); }, 10000);
+    server.on('exit', () => { clearTimeout(t); r(); });
+  });
+}
+
 async function portOf(server) {
   for (let k = 0; k < 600; ++k) {
     const m = server.out.match(/open http:\/\/[^:]+:(\d+)\//);
@@ -176,8 +185,7 @@ try {
 } catch (e) {
   check('test ran to the end', false, e.stack);
 } finally {
-  server.kill('SIGINT');
-  await new Promise((r) => { const t = setTimeout(() => { server.kill('SIGKILL'); r(); }, 10000); server.on('exit', () => { clearTimeout(t); r(); }); });
+  await stopServer(server);
 }
 
 // --token: without it, or with a wrong one, 401; with it, 101.
@@ -193,8 +201,7 @@ try {
 } catch (e) {
   check('token test ran to the end', false, e.stack);
 } finally {
-  guarded.kill('SIGINT');
-  await new Promise((r) => { const t = setTimeout(() => { guarded.kill('SIGKILL'); r(); }, 10000); guarded.on('exit', () => { clearTimeout(t); r(); }); });
+  await stopServer(guarded);
 }
 console.log(`\nweb-lifetime: ${results.length - failures} passed, ${failures} failed`);
 process.exit(failures ? 1 : 0);
