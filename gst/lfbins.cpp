@@ -760,6 +760,15 @@ static void lf_camera_host_class_init(LfCameraHostClass* klass) {
       "camera, view requests in on one pad, their fragments out on one (Yang et al. 2002, "
       "Figure 2)",
       "lightfield-gst");
+  gst_element_class_add_static_metadata(
+      ec, "Example",
+      "gst-launch-1.0 lfviewrequest rig=../shared/data/stanford-chess num-buffers=60 ! "
+      "lfcamerahost rig=../shared/data/stanford-chess encoding=jpeg ! lfcompositor "
+      "rig=../shared/data/stanford-chess ! videoconvert ! autovideosink");
+  gst_element_class_add_static_metadata(
+      ec, "Events",
+      "Posts its children's warnings and errors (see lfcamsrc, lffragment, lfpartialsum); an error "
+      "at READY when the rig cannot be read or cameras names no camera of it.");
   GST_DEBUG_CATEGORY_INIT(lf_bins_debug, "lfbins", 0, "light field bins");
 }
 
@@ -804,4 +813,12 @@ static void lf_array_class_init(LfArrayClass* klass) {
       "per selected camera and an lfcompositor; view requests in, composited video out (Yang "
       "et al. 2002, Figure 2)",
       "lightfield-gst");
+  gst_element_class_add_static_metadata(
+      ec, "Example",
+      "gst-launch-1.0 lfviewrequest rig=../shared/data/stanford-chess orbit=0.5 num-buffers=60 ! "
+      "lfarray rig=../shared/data/stanford-chess ! videoconvert ! autovideosink");
+  gst_element_class_add_static_metadata(
+      ec, "Events",
+      "Forwards navigation and lf-view events from the video sink to the request source; posts its "
+      "children's warnings and errors (see lfcamsrc, lffragment, lfcompositor).");
 }

@@ -725,6 +725,16 @@ static void lf_cam_src_class_init(LfCamSrcClass* klass) {
       "One camera of a light field rig (dataset stills as video, a synthetic dynamic scene, a "
       "video file or a V4L2 device), captured on a clock-aligned schedule",
       "lightfield-gst");
+  gst_element_class_add_static_metadata(
+      ec, "Example",
+      "gst-launch-1.0 lfcamsrc rig=../shared/data/stanford-chess row=4 col=4 num-buffers=30 ! "
+      "videoconvert ! autovideosink");
+  gst_element_class_add_static_metadata(
+      ec, "Events",
+      "Error message when the rig, the camera or the input (file, device, still) cannot be opened "
+      "or decoded, naming it; with skip-bad-frames=true a damaged frame of an image sequence is a "
+      "counted warning instead. Each buffer carries an LfCaptureMeta (camera-id, capture-time, "
+      "ns).");
   bc->start = lf_cam_src_start;
   bc->stop = lf_cam_src_stop;
   bc->get_caps = lf_cam_src_get_caps;

@@ -1378,6 +1378,22 @@ static void lf_compositor_class_init(LfCompositorClass* klass) {
       "composites incomplete requests at the deadline (one request period, or the 'latency' "
       "property, ns) in live pipelines (Yang et al. 2002, 4.3)",
       "lightfield-gst");
+  gst_element_class_add_static_metadata(
+      ec, "Example",
+      "gst-launch-1.0 lfviewrequest rig=../shared/data/stanford-chess num-buffers=60 ! tee name=t "
+      "t. ! queue ! a.request t. ! queue ! b.request lfcamsrc rig=../shared/data/stanford-chess "
+      "row=4 col=4 ! lffragment name=a rig=../shared/data/stanford-chess row=4 col=4 ! c. "
+      "lfcamsrc rig=../shared/data/stanford-chess row=4 col=5 ! lffragment name=b "
+      "rig=../shared/data/stanford-chess row=4 col=5 ! c. lfcompositor name=c ! videoconvert ! "
+      "autovideosink");
+  gst_element_class_add_static_metadata(
+      ec, "Events",
+      "Upstream custom events it sends: lf-focus (viewer-id, probe-id, inverse-depth, "
+      "capture-time) and lf-surface (a focal surface: tile, cols, rows, planes, plane-of) "
+      "answering the probes of lfviewrequest; navigation and lf-view events from the video sink go "
+      "upstream tagged with its viewer-id. Warning messages, rate-limited, name what was dropped: "
+      "a malformed fragment, a fragment of another size or outside the sequence window, a camera's "
+      "second fragment for one request, a click that cannot be focused.");
   ec->request_new_pad = lf_compositor_request_new_pad;
   ac->start = lf_compositor_start;
   ac->stop = lf_compositor_stop;

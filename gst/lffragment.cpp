@@ -1025,6 +1025,18 @@ static void lf_fragment_class_init(LfFragmentClass* klass) {
       "Random access camera: renders this camera's fragment of each requested view from its "
       "newest frame (Yang et al. 2002, 4.2)",
       "lightfield-gst");
+  gst_element_class_add_static_metadata(
+      ec, "Example",
+      "gst-launch-1.0 lfviewrequest rig=../shared/data/stanford-chess num-buffers=60 ! f.request "
+      "lfcamsrc rig=../shared/data/stanford-chess row=4 col=4 ! lffragment name=f "
+      "rig=../shared/data/stanford-chess row=4 col=4 ! lfcompositor ! videoconvert ! "
+      "autovideosink");
+  gst_element_class_add_static_metadata(
+      ec, "Events",
+      "Warning messages, rate-limited, for each kind of request it drops: malformed, larger than "
+      "max-pixels, above max-rate for its viewer, or without a camera frame within frame-timeout. "
+      "An error at READY when the rig or the camera cannot be read. Nothing a peer sends ends the "
+      "element.");
   ec->change_state = lf_fragment_change_state;
   GST_DEBUG_CATEGORY_INIT(lf_fragment_debug, "lffragment", 0, "light field fragments");
 }

@@ -243,6 +243,19 @@ static void lf_fragment_demux_class_init(LfFragmentDemuxClass* klass) {
       "Routes fragments to one source pad per viewer (src_<viewer id>), so viewers sharing the "
       "cameras each get only their own (Yang et al. 2002)",
       "lightfield-gst");
+  gst_element_class_add_static_metadata(
+      ec, "Example",
+      "gst-launch-1.0 lfrequestmux name=m ! lfcamerahost rig=../shared/data/stanford-chess "
+      "is-live=true ! lffragmentdemux name=d lfviewrequest rig=../shared/data/stanford-chess "
+      "viewer-id=0 is-live=true num-buffers=30 ! m. lfviewrequest "
+      "rig=../shared/data/stanford-chess viewer-id=1 orbit=0.5 is-live=true num-buffers=30 ! m. "
+      "d.src_0 ! queue ! lfcompositor rig=../shared/data/stanford-chess viewer-id=0 ! videoconvert "
+      "! autovideosink d.src_1 ! queue ! lfcompositor rig=../shared/data/stanford-chess "
+      "viewer-id=1 ! videoconvert ! autovideosink");
+  gst_element_class_add_static_metadata(
+      ec, "Events",
+      "A rate-limited warning message for a malformed buffer; fragments of a viewer without a pad "
+      "are counted in unrouted. Events from downstream go upstream unchanged.");
   GST_DEBUG_CATEGORY_INIT(lf_fragment_demux_debug, "lffragmentdemux", 0,
                           "light field fragment demuxer");
 }

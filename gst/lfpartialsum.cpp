@@ -363,6 +363,17 @@ static void lf_partial_sum_class_init(LfPartialSumClass* klass) {
       "colour and weight), for lfcompositor; sends incomplete sums at the deadline ('latency', "
       "ns) in live pipelines",
       "lightfield-gst");
+  gst_element_class_add_static_metadata(
+      ec, "Example",
+      "gst-launch-1.0 lfviewrequest rig=../shared/data/stanford-chess num-buffers=60 ! tee name=t "
+      "t. ! queue ! a.request t. ! queue ! b.request lfcamsrc rig=../shared/data/stanford-chess "
+      "row=4 col=4 ! lffragment name=a rig=../shared/data/stanford-chess row=4 col=4 ! s. "
+      "lfcamsrc rig=../shared/data/stanford-chess row=4 col=5 ! lffragment name=b "
+      "rig=../shared/data/stanford-chess row=4 col=5 ! s. lfpartialsum name=s encoding=jpeg ! "
+      "lfcompositor ! videoconvert ! autovideosink");
+  gst_element_class_add_static_metadata(
+      ec, "Events",
+      "A rate-limited warning message for a malformed fragment, which is left out of the sum.");
   ac->start = lf_partial_sum_start;
   ac->stop = lf_partial_sum_stop;
   ac->aggregate = lf_partial_sum_aggregate;

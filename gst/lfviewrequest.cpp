@@ -1202,6 +1202,17 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
       "eye on the camera plane, the wheel (buttons 4/5) the focal plane, arrow keys the eye by "
       "1/4 camera spacing, Page_Up/Page_Down (Prior/Next, +/-) along the normal, r resets",
       "lightfield-gst");
+  gst_element_class_add_static_metadata(
+      ec, "Example",
+      "gst-launch-1.0 lfviewrequest rig=../shared/data/stanford-chess orbit=0.5 sampling=bicubic "
+      "num-buffers=60 ! lfarray rig=../shared/data/stanford-chess ! videoconvert ! autovideosink");
+  gst_element_class_add_static_metadata(
+      ec, "Events",
+      "Upstream custom events it takes: lf-view (any view property as a field of the same name and "
+      "type, and viewer-id, uint: applied whole, or refused with a warning message naming the bad "
+      "field), lf-focus and lf-surface (lfcompositor's answers to its probes), and navigation "
+      "events (drag, wheel, keys, click to focus). An error message at READY for each bad property "
+      "value; a warning when the focal plane lies behind the cameras.");
   bc->start = lf_view_request_start;
   bc->stop = lf_view_request_stop;
   bc->get_caps = lf_view_request_get_caps;
