@@ -57,7 +57,7 @@
  * once, no fragment read back, no GL context per camera;
  * lib/lf/gl_render.h). Planning is cheap, so one request thread plans
  * every camera (not one thread per camera: one hand-off per request
- * instead of 64, issue 12's profile in docs/speed.md), with the request
+ * instead of 64, which a profile of the pipeline showed to cost), with the request
  * rate limit (`max-rate`) kept once for all cameras; only where frames are
  * picked by capture time (`record`, `playback`, `frame-select`), a request
  * may wait for a camera's frame and each camera keeps its own request
@@ -629,13 +629,22 @@ static void lf_camera_host_init(LfCameraHost* self) {
 }
 
 // A copy of a child's property (same name, type, range, default and text),
-// readable, writable and changeable in NULL or READY on the bin.
+// readable, writable and changeable in NULL or READY on the bin (the bin
+// sets it on its children when it builds them); the text says so where the
+// child itself takes changes while playing.
 static GParamSpec* copy_spec(GParamSpec* t) {
-  const GParamFlags rw = static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
-                                                  GST_PARAM_MUTABLE_READY);
+  const GParamFlags rw = static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_NAME |
+                                                  G_PARAM_STATIC_NICK | GST_PARAM_MUTABLE_READY);
   const gchar* n = g_param_spec_get_name(t);
   const gchar* nick = g_param_spec_get_nick(t);
-  const gchar* blurb = g_param_spec_get_blurb(t);
+  // GLib copies a blurb without G_PARAM_STATIC_BLURB; this one lives as long
+  // as the class.
+  std::string text = g_param_spec_get_blurb(t);
+  if (t->flags & GST_PARAM_MUTABLE_PLAYING)
+    text +=
+        ". On this bin: read when the bin builds its children (NULL to READY); change it "
+        "while playing on the child element";
+  const gchar* blurb = text.c_str();
   if (G_IS_PARAM_SPEC_ENUM(t))
     return g_param_spec_enum(n, nick, blurb, t->value_type, G_PARAM_SPEC_ENUM(t)->default_value,
                              rw);

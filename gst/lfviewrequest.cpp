@@ -1162,10 +1162,11 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
                               "How the cameras resample their images into fragments (the "
                               "requests carry it; focus and surface probes stay bilinear)",
                               LF_TYPE_SAMPLING, static_cast<gint>(lf::Sampling::kBilinear), ctrl));
-  props.add(oc, &Settings::path,
-            g_param_spec_string("path", "Camera path",
-                                "Keyframed camera path (JSON, see README); overrides position",
-                                nullptr, play));
+  props.add(
+      oc, &Settings::path,
+      g_param_spec_string("path", "Camera path",
+                          "Keyframed camera path (JSON, docs/rendering.md); overrides position",
+                          nullptr, play));
   props.add(oc, &Settings::orbit,
             g_param_spec_double("orbit", "Orbit",
                                 "Circular path on the camera plane, radius as a fraction of the "

@@ -63,9 +63,7 @@
 #                packet and waited out their latency for the gap: round trip
 #                +18 ms without any loss); their latency adds to the
 #                compositor's deadline.
-#                Measured (docs/netbench.md (e)): under 5 % loss FEC=25 brings
-#                28 % of the fragment bytes in the frames to 86 %, FEC=50 to
-#                87 %, for 1.19x and 1.45x the bytes (RTX=1: 100 % at 1.00x).
+#                Its effect under loss: docs/results.md (Deployment, (e)).
 #                Every stream's SSRC is in its receiver's caps, and lf-launch
 #                drops packets of any other SSRC before the jitter buffers and
 #                depayloaders (lf-netem.sh's hostile run: every frame
@@ -97,9 +95,7 @@
 #                stream's own SSRC only, not its retransmissions'); without
 #                it, forged packets with a stream's SSRC upset the jitter
 #                buffer as with FEC: net-host.sh warns.
-#                Measured (docs/netbench.md (e)): under 5 % loss 100 % of the
-#                fragment bytes in the frames, every frame complete and
-#                identical to the lossless run's, at 1.00x the bytes        [0]
+#                Its effect under loss: docs/results.md (Deployment, (e)) [0]
 #   RTX_LATENCY_MS  how long the compositor waits for a missing packet
 #                (rtpjitterbuffer latency; adds to its deadline when a packet
 #                is missing). The jitter buffer counts it from the packet's

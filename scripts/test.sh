@@ -9,6 +9,8 @@ build="$LF_BUILD_DIR"
 # The browser test's browser and driver (tests/web-check.sh): Debian's
 # chromium, Node.js where the machine has none, playwright-core from npm.
 ./scripts/install-packages.sh chromium
+# The format check (tests/format-check.sh).
+command -v clang-format > /dev/null || ./scripts/install-packages.sh clang-format
 command -v node >/dev/null && command -v npm >/dev/null || ./scripts/install-packages.sh nodejs npm
 [ -d tests/web/node_modules/playwright-core ] || (cd tests/web && npm ci --no-audit --no-fund --loglevel=error)
 # The real data is read in place from ../shared/data; without it (a fresh

@@ -9,8 +9,7 @@
 # in every frame it still wins on a static background), and partial sums
 # of two hosts of 2x2 cameras take fewer bytes than per-camera fragments
 # and composite the Chess images no more than 2.5 dB below per-camera JPEG
-# fragments' PSNR (measured: 2.3 dB above here, 43.7 against 41.4 dB, and
-# 2.0 dB above at 64 cameras, docs/netbench.md (f)).
+# fragments' PSNR (the figures at 4-64 cameras: docs/results.md, Deployment (f)).
 # usage: baseline-check.sh BUILD_DIR   (LF_SHARED_DATA: the shared data)
 set -euo pipefail
 build="$(cd "$1" && pwd)"

@@ -205,9 +205,7 @@ check "$work/sums.txt" "every request composited with partial sums" \
   'v["composited"] >= v["issued"] - 1 && v["issued"] >= 0.7 * '"$FPS * $normal_s"
 check "$work/sums.txt" "frames complete with partial sums (the sums count 64 cameras)" \
   'v["complete"] >= 0.95 * v["composited"]'
-# Measured here 0.45-0.46x in five runs (2026-11-23), two of them beside a
-# niced busy loop (every step-6 check passed); 0.46-0.47x at 640x480
-# (docs/netbench.md (f), (g)).
+# (The figure at 640x480: docs/results.md, Deployment (g).)
 check "$work/sums.txt" "partial sums take under 0.7x the bytes of per-camera fragments" \
   'v["composited-bytes-per-frame"] < 0.7 * '"$normal_bytes"
 exit $fail

@@ -931,7 +931,7 @@ TEST_F(Gst, NonLiveCamerasFollowTheRequests) {
   gst_object_unref(p);
 }
 
-// Several non-live viewers through lfrequestmux (the README's line, with
+// Several non-live viewers through lfrequestmux (the line of docs/steering.md made non-live, with
 // fakesink and num-buffers): every viewer gets all its frames, in seconds
 // and without a warning. Through a funnel one viewer could run ahead and the
 // pipeline stalled in preroll (1 run in 3 of the 64-camera line).

@@ -1,6 +1,6 @@
 // Real data (../shared/data): leave-one-out quality on the Stanford "Chess"
 // light field (real capture) and HCI "cotton" (with ground-truth disparity).
-// Floors were measured on this renderer (see the README's "Quality" table)
+// Floors were measured on this renderer (docs/results.md, Quality per method)
 // and sit about 1 dB under the measured values: a regression in geometry,
 // sampling or weighting costs several dB and trips them.
 #include <gtest/gtest.h>

@@ -269,6 +269,12 @@ void print_pads(GstElementFactory* f) {
   std::vector<GstStaticPadTemplate*> pads;
   for (const GList* l = gst_element_factory_get_static_pad_templates(f); l; l = l->next)
     pads.push_back(static_cast<GstStaticPadTemplate*>(l->data));
+  // The registry's order differs between a fresh load and its cache: sink
+  // pads first, then source pads, each by name.
+  std::sort(pads.begin(), pads.end(), [](GstStaticPadTemplate* a, GstStaticPadTemplate* b) {
+    if (a->direction != b->direction) return a->direction == GST_PAD_SINK;
+    return g_strcmp0(a->name_template, b->name_template) < 0;
+  });
   for (GstStaticPadTemplate* t : pads) {
     GstCaps* caps = gst_static_caps_get(&t->static_caps);
     std::string c;
@@ -303,8 +309,14 @@ void print_element(GstElementFactory* f) {
   std::printf("**Properties** (besides those of %s)\n\n", g_type_name(gstreamer_base(type)));
   print_properties(props);
   // Request pads of our own pad type carry properties of their own.
-  for (const GList* l = gst_element_factory_get_static_pad_templates(f); l; l = l->next) {
-    auto* t = static_cast<GstStaticPadTemplate*>(l->data);
+  std::vector<GstStaticPadTemplate*> templates;
+  for (const GList* l = gst_element_factory_get_static_pad_templates(f); l; l = l->next)
+    templates.push_back(static_cast<GstStaticPadTemplate*>(l->data));
+  std::sort(templates.begin(), templates.end(),
+            [](GstStaticPadTemplate* a, GstStaticPadTemplate* b) {
+              return g_strcmp0(a->name_template, b->name_template) < 0;
+            });
+  for (GstStaticPadTemplate* t : templates) {
     GstPadTemplate* pt =
         gst_element_class_get_pad_template(GST_ELEMENT_GET_CLASS(e), t->name_template);
     GType pad_type = pt ? GST_PAD_TEMPLATE_GTYPE(pt) : G_TYPE_NONE;

@@ -37,7 +37,7 @@ view (one of; default: --orbit 0.6)
                         metres); orientation and intrinsics follow the cameras
                         (interpolated between the surrounding ones)
   --eye X,Y,Z --look-at X,Y,Z [--vfov DEG]   one view with a full pose
-  --path FILE           keyframed camera path (JSON, see README)
+  --path FILE           keyframed camera path (JSON, docs/rendering.md)
   --orbit R             circular path on the camera plane, radius R x half the
                         array's extent
   --dolly D             with --orbit: also move +-D rig units along the plane normal

@@ -8,7 +8,7 @@
 // into the binary as a GResource), /ws the signalling WebSocket (SDP offer
 // from the server, answer and ICE candidates from the browser, JSON). View
 // control travels on a WebRTC data channel ("control") beside the video:
-// protocol in tools/web/viewer.js and README.md. Everything from a browser is
+// protocol in tools/web/viewer.js and docs/web.md. Everything from a browser is
 // hostile: bounded message sizes and rates, every field checked, a bad
 // message refused with a warning to that browser and on stderr, never an
 // effect on another viewer.
@@ -312,7 +312,7 @@ bool point_fields(const Control& c, const json& j, double* x, double* y, std::st
 }
 
 // Upstream events go straight to this viewer's lfviewrequest, which handles
-// them as it handles those from a video sink (README: navigation, lf-view).
+// them as it handles those from a video sink (docs/steering.md: navigation, lf-view).
 void to_request(Control& c, GstEvent* ev) {
   GstPad* pad = gst_element_get_static_pad(c.request, "src");
   gst_pad_send_event(pad, ev);

@@ -22,7 +22,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
-static void send_view_event(GstElement *sink, double x, double y, double z, double depth) {
+static void send_view_event(GstElement* sink, double x, double y, double z, double depth) {
   GValue position = G_VALUE_INIT, c = G_VALUE_INIT;
   gst_value_array_init(&position, 3);
   for (int i = 0; i < 3; ++i) {
@@ -30,41 +30,41 @@ static void send_view_event(GstElement *sink, double x, double y, double z, doub
     g_value_set_double(&c, i == 0 ? x : i == 1 ? y : z);
     gst_value_array_append_and_take_value(&position, &c);
   }
-  GstStructure *s = gst_structure_new("lf-view", "focal-depth", G_TYPE_DOUBLE, depth, NULL);
+  GstStructure* s = gst_structure_new("lf-view", "focal-depth", G_TYPE_DOUBLE, depth, NULL);
   gst_structure_take_value(s, "position", &position);
   /* Upstream from the sink, through lfarray, to lfviewrequest. */
   gst_element_send_event(sink, gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, s));
 }
 
-int main(int argc, char **argv) {
+int main(int argc, char** argv) {
   gst_init(&argc, &argv);
   if (argc < 2) {
     fprintf(stderr, "usage: %s RIG.json [MODE] [FRAMES]\n", argv[0]);
     return 2;
   }
-  const char *rig = argv[1];
-  const char *mode = argc > 2 ? argv[2] : "dataset";
+  const char* rig = argv[1];
+  const char* mode = argc > 2 ? argv[2] : "dataset";
   const int frames = argc > 3 ? atoi(argv[3]) : 60;
-  gchar *desc = g_strdup_printf(
+  gchar* desc = g_strdup_printf(
       "lfviewrequest name=view rig=%s is-live=true framerate=30/1 width=160 height=120 ! "
       "lfarray rig=%s mode=%s is-live=true framerate=30/1 ! "
       "appsink name=out sync=false max-buffers=4 drop=true",
       rig, rig, mode);
-  GError *err = NULL;
-  GstElement *pipe = gst_parse_launch(desc, &err);
+  GError* err = NULL;
+  GstElement* pipe = gst_parse_launch(desc, &err);
   g_free(desc);
   if (!pipe) {
     fprintf(stderr, "steer: %s\n", err->message);
     return 1;
   }
-  GstElement *view = gst_bin_get_by_name(GST_BIN(pipe), "view");
-  GstElement *sink = gst_bin_get_by_name(GST_BIN(pipe), "out");
+  GstElement* view = gst_bin_get_by_name(GST_BIN(pipe), "view");
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(pipe), "out");
   gst_element_set_state(pipe, GST_STATE_PLAYING);
 
-  GstControlSource *move = NULL;
+  GstControlSource* move = NULL;
   int got = 0;
   while (got < frames) {
-    GstSample *sample = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 5 * GST_SECOND);
+    GstSample* sample = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 5 * GST_SECOND);
     if (!sample) {
       fprintf(stderr, "steer: no frame for 5 s\n");
       return 1;
@@ -85,13 +85,13 @@ int main(int argc, char **argv) {
     } else if (got == 30) { /* a camera move: eye-t from 0 to 0.02 over 1 s */
       move = gst_interpolation_control_source_new();
       g_object_set(move, "mode", GST_INTERPOLATION_MODE_LINEAR, NULL);
-      GstTimedValueControlSource *tv = GST_TIMED_VALUE_CONTROL_SOURCE(move);
+      GstTimedValueControlSource* tv = GST_TIMED_VALUE_CONTROL_SOURCE(move);
       /* Control values are 0..1, mapped onto the property's range; use an
        * absolute binding to give rig units directly. */
       gst_timed_value_control_source_set(tv, pts, 0.0);
       gst_timed_value_control_source_set(tv, pts + GST_SECOND, 0.02);
-      gst_object_add_control_binding(
-          GST_OBJECT(view), gst_direct_control_binding_new_absolute(GST_OBJECT(view), "eye-t", move));
+      gst_object_add_control_binding(GST_OBJECT(view), gst_direct_control_binding_new_absolute(
+                                                           GST_OBJECT(view), "eye-t", move));
     } else if (got > 30) {
       double t;
       g_object_get(view, "eye-t", &t, NULL);

@@ -1,0 +1,239 @@
+#!/usr/bin/env bash
+# Regenerates docs/results.md, every figure the README and docs quote, on
+# this machine, with the command behind each table and plots as PNG:
+#  1. speed of the kernels against OpenCV's warpPerspective and a naive
+#     full-frame design, one core (lf-bench);
+#  2. quality per rendering method on Chess and HCI cotton: leave-one-out
+#     PSNR/SSIM, time and bytes per frame, the plot of speed against error,
+#     the focal surface's disparity error against cotton's ground truth
+#     (lf-bench);
+#  3. the GStreamer pipeline against the kernel bound, and its latency
+#     (lf-gst-bench);
+#  4. the deployment across emulated hosts: bytes against camera count
+#     (paper Figure 6), the all-viewpoints baselines, round trip (Figure 5),
+#     overload, loss, partial sums, rejoin (tools/lf-netbench.sh; root, as
+#     it makes network namespaces; left out with a note otherwise);
+#  5. calibration accuracy on the real and simulated data (tests/test_calib,
+#     whose assertions bound every figure it prints);
+#  6. lf-web's viewer lifetime: connect/close cycles, threads, fds, memory
+#     (tests/web/lifetime-test.mjs; needs Node.js);
+#  7. full mode, root: the deployment under attack, SRTP on
+#     (scripts/soak.sh: 5 minutes with tools/lf-hostile beside 2 without).
+# usage: scripts/bench.sh [--quick] [OUT.md]   (default docs/results.md)
+#   --quick: fewer held-out views, methods, frames and seconds (< 10 min on
+#   2 cores); full: every method, 1920x1080 too, the speed runs three times.
+# Plots go to docs/results/ (beside OUT.md: OUT's folder/results/).
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+build="${LF_BUILD_DIR:-$root/build}"
+quick=0
+[ "${1:-}" = "--quick" ] && { quick=1; shift; }
+out="${1:-$root/docs/results.md}"
+data="${DATA:-$root/../shared/data}"
+[ -d "$data/stanford-chess" ] || { echo "bench: needs the real data in $data (scripts/get-data.sh)" >&2; exit 1; }
+[ -x "$build/tools/lf-bench" ] || "$root/scripts/setup.sh"
+plots="$(dirname "$out")/results"; mkdir -p "$plots"
+rel="results"  # plots as the page links them
+export GST_PLUGIN_PATH="$build/gst"
+tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
+t_start=$SECONDS
+
+if [ "$quick" = 1 ]; then
+  loo=6; runs=1; frames=150; sizes=640x480; seconds=4
+  methods=(--focal auto,surface --samplings bilinear,bicubic --apertures 1,ulr4)
+else
+  loo=12; runs=3; frames=300; sizes=640x480,1920x1080; seconds=8
+  methods=(--focal auto,best,surface,surface2 --samplings bilinear,bicubic --apertures 1,2,ulr4)
+fi
+
+step() { echo "bench: [$(( (SECONDS - t_start) / 60 )) min] $*" >&2; }
+# Runs a command, keeps its standard output (the tables) in $tmp/$1.md and
+# the command line, as written here, in $tmp/$1.cmd.
+bench() {
+  local name="$1"; shift
+  printf '%s' "$*" | sed "s|$build/|build/|g; s|$root/||g; s|$data|../shared/data|g; s|$tmp/||g" > "$tmp/$name.cmd"
+  "$@" > "$tmp/$name.md" 2> "$tmp/$name.err" || {
+    echo "bench: $name failed:" >&2; tail -20 "$tmp/$name.err" >&2; return 1; }
+}
+section() {  # name title: the command and its tables
+  echo "Command: \`$(cat "$tmp/$1.cmd")\`"
+  echo
+  sed 's/^## /### /; s/^# /### /' "$tmp/$1.md"
+  echo
+}
+
+step "1/7 kernels against OpenCV, $runs run(s)"
+for r in $(seq 1 "$runs"); do
+  bench "speed$r" "$build/tools/lf-bench" --input "$data/stanford-chess" --sizes 640x480 \
+    --skip-quality --skip-bandwidth --plot "$tmp/unused.png"
+done
+step "2/7 quality per method: Chess, then cotton"
+bench chess "$build/tools/lf-bench" --input "$data/stanford-chess" --sizes 640x480 \
+  --encodings none,jpeg90 "${methods[@]}" --loo "$loo" --skip-speed --plot "$plots/speed-error-chess.png"
+bench cotton "$build/tools/lf-bench" --input "$data/hci-cotton" --sizes 512x512 --encodings none \
+  --focal auto,best,surface --samplings bilinear,bicubic --loo "$loo" --skip-speed --skip-bandwidth \
+  --plot "$plots/speed-error-cotton.png"
+step "3/7 the GStreamer pipeline, $runs run(s)"
+for r in $(seq 1 "$runs"); do
+  bench "pipe$r" "$build/tools/lf-gst-bench" --input "$data/stanford-chess" --sizes "$sizes" \
+    --encodings raw,jpeg90 --frames "$frames"
+done
+step "4/7 the deployment across emulated hosts ($seconds s per run)"
+net=0
+if [ "$(id -u)" = 0 ] && command -v ip > /dev/null; then
+  if bench net env DATA="$data" LF_BUILD_DIR="$build" "$root/tools/lf-netbench.sh" "$tmp/net" "$seconds"; then
+    cp "$tmp/net/figure6.png" "$plots/bytes-per-camera-count.png"
+    cp "$tmp/net/latency-jpeg64.png" "$plots/round-trip-jpeg64.png"
+    net=1
+  fi
+fi
+step "5/7 calibration accuracy"
+bench calib "$build/tests/test_calib" \
+  --gtest_filter='Intrinsics.Caltech*:Intrinsics.OpenCv*:Bundle.Ladybug*:SelfCal.Synthetic8x8*:SelfCal.EndToEnd*:Colour.Cameras*:Colour.Samples*:Tracking.*'
+web=0
+if command -v node > /dev/null && [ -x "$build/tools/lf-web" ]; then
+  cycles=$([ "$quick" = 1 ] && echo 1000 || echo 10000)
+  step "6/7 lf-web's viewer lifetime, $cycles connect/close cycles"
+  bench web node "$root/tests/web/lifetime-test.mjs" "$build/tools/lf-web" "$data/stanford-chess" \
+    --cycles "$cycles" && web=1
+fi
+soak=0
+if [ "$quick" = 0 ] && [ "$net" = 1 ]; then
+  step "7/7 the deployment under attack (7 min)"
+  bench soak "$root/scripts/soak.sh" 300 "$tmp/soak" 120 && soak=1
+fi
+
+# Ratios first: pulled from the tables above.
+col() {  # file, row pattern, column number (1-based, of the |-separated table)
+  awk -F'|' -v p="$2" -v c="$3" 'index($0, p) {gsub(/ /, "", $(c + 1)); print $(c + 1); exit}' "$1"
+}
+ratios=$(for r in $(seq 1 "$runs"); do
+  sed -n 's/^ours (avx2) \/ warpPerspective = \([0-9.]*\).*/\1/p; s/^ours (sse2) \/ warpPerspective = \([0-9.]*\).*/\1/p' "$tmp/speed$r.md"
+done | paste -sd, | sed 's/,/, /g')
+naive=$(for r in $(seq 1 "$runs"); do sed -n 's/.*naive \/ ours = \([0-9.]*\).*/\1/p' "$tmp/speed$r.md"; done | paste -sd, | sed 's/,/, /g')
+eff=$(for r in $(seq 1 "$runs"); do
+  awk -F'|' '/efficiency/ && !h {for (i = 1; i <= NF; i++) if ($i ~ /pipeline efficiency/) c = i; h = 1; next}
+             h && c && $2 ~ /640x480/ && $3 ~ /raw/ {gsub(/ /, "", $c); print $c; exit}' "$tmp/pipe$r.md"
+done | paste -sd, | sed 's/,/, /g')
+auto_db=$(col "$tmp/chess.md" "| 640x480 | none | auto |" 4)
+surf_db=$(col "$tmp/chess.md" "| 640x480 | none | surface, bicubic |" 4)
+cot_auto=$(col "$tmp/cotton.md" "| none | auto |" 4)
+cot_surf=$(col "$tmp/cotton.md" "| none | surface, bicubic |" 4)
+
+{
+  echo "# Results"
+  echo
+  echo "Generated by \`scripts/bench.sh$([ "$quick" = 1 ] && echo " --quick")\`; do not edit. Every figure the README and the other pages"
+  echo "quote comes from here. Ratios are measured side by side in one run; absolute figures"
+  echo "hold for this machine only (shared, noisy VMs: a throughput measured on one was half as"
+  echo "high on the next)."
+  echo
+  echo "| machine | |"
+  echo "|---|---|"
+  echo "| CPU | $(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -1) |"
+  echo "| cores | $(nproc) ($(grep -o -w 'avx512f\|avx2\|sse2' /proc/cpuinfo | sort -u | paste -sd' ')) |"
+  echo "| memory | $(awk '/MemTotal/ {printf "%.1f GiB", $2 / 1048576}' /proc/meminfo) |"
+  echo "| GPU | none used (the GL backend's figures below, if any, are Mesa's llvmpipe) |"
+  echo "| date | $(date -u '+%Y-%m-%d %H:%M UTC') |"
+  echo "| commit | $(git -C "$root" rev-parse --short HEAD)$(git -C "$root" diff --quiet HEAD -- lib gst tools calib || echo ' (with local changes)') |"
+  echo "| mode | $([ "$quick" = 1 ] && echo "quick ($loo held-out views, $frames frames, $seconds s per network run, one run each)" || echo "full ($loo held-out views, $frames frames, $seconds s per network run, speed runs x$runs)") |"
+  echo
+  echo "## Ratios"
+  echo
+  echo "| what | ratio | from |"
+  echo "|---|---|---|"
+  echo "| our fragment kernels / OpenCV \`warpPerspective\`, same pixel count, one core (lower is faster) | $ratios | [Kernels](#kernels) |"
+  echo "| naive full-frame warping of every camera / ours | $naive | [Kernels](#kernels) |"
+  echo "| pipeline throughput / kernel bound, 640x480 raw (pipeline efficiency) | $eff | [Pipeline](#pipeline) |"
+  echo "| Chess, leave-one-out: focal surface + bicubic against the paper's auto-focused plane | ${surf_db:-?} dB against ${auto_db:-?} dB | [Quality](#quality-per-method) |"
+  echo "| HCI cotton, leave-one-out: focal surface + bicubic against auto-focus | ${cot_surf:-?} dB against ${cot_auto:-?} dB | [Quality](#quality-per-method) |"
+  if [ "$net" = 1 ]; then
+    echo "| all-viewpoints JPEG bytes / fragment bytes, 64 cameras | $(sed -n 's/^| fragments, JPEG (64 cameras) | [0-9]* | \([0-9.]*x\) less.*/\1/p' "$tmp/net.md" | head -1) | [Deployment](#deployment) |"
+  fi
+  echo
+  echo "## Kernels"
+  echo
+  for r in $(seq 1 "$runs"); do
+    [ "$runs" -gt 1 ] && { echo "Run $r of $runs."; echo; }
+    section "speed$r"
+  done
+  echo "## Quality per method"
+  echo
+  echo "Leave-one-out: each held-out camera's image rendered from the others and compared."
+  echo
+  echo "![PSNR against time per frame, Chess]($rel/speed-error-chess.png)"
+  echo
+  section chess
+  echo "![PSNR against time per frame, HCI cotton]($rel/speed-error-cotton.png)"
+  echo
+  section cotton
+  echo "## Pipeline"
+  echo
+  echo "64 Chess cameras in one process (lfviewrequest ! lfarray ! appsink): throughput against"
+  echo "the kernel bound measured in the same run, CPU efficiency, latency."
+  echo
+  for r in $(seq 1 "$runs"); do
+    [ "$runs" -gt 1 ] && { echo "Run $r of $runs."; echo; }
+    section "pipe$r"
+  done
+  echo "## Deployment"
+  echo
+  if [ "$net" = 1 ]; then
+    echo "Hosts in network namespaces on this machine (tools/lf-netem.sh): 4 camera hosts, a"
+    echo "compositor host and a viewer."
+    echo
+    echo "![Fragment bytes per output frame against the number of cameras]($rel/bytes-per-camera-count.png)"
+    echo
+    echo "![Round trip, 64 cameras, JPEG fragments]($rel/round-trip-jpeg64.png)"
+    echo
+    section net
+  else
+    echo "Not measured in this run: the emulated deployment needs root (network namespaces)."
+    echo
+  fi
+  echo "## lf-web viewer lifetime"
+  echo
+  if [ "$web" = 1 ]; then
+    echo "WebSocket connections opened and closed four at a time in four ways (closed before the"
+    echo "offer, dropped without a close frame, after the offer, after a bogus answer), then"
+    echo "hostile ones; the server's threads, fds and RSS against the idle level (the higher of"
+    echo "the readings after 250 and 500 warm-up cycles)."
+    echo
+    echo "Command: \`$(cat "$tmp/web.cmd")\`"
+    echo
+    echo '```'
+    cat "$tmp/web.md"
+    echo '```'
+    echo
+  else
+    echo "Not measured in this run (needs Node.js)."
+    echo
+  fi
+  echo "## Under attack"
+  echo
+  if [ "$soak" = 1 ]; then
+    echo "The emulated deployment, live, SRTP on, with tools/lf-hostile sending 1,000 hostile"
+    echo "packets a second (random, crafted and bit-flipped requests and fragments, spoofed caps)"
+    echo "to every host; every host's memory sampled every 5 s."
+    echo
+    section soak
+  else
+    echo "Not measured in this run (full mode, root: \`scripts/bench.sh\`)."
+    echo
+  fi
+  echo "## Calibration"
+  echo
+  echo "What \`tests/test_calib\` prints (its assertions bound each figure): Zhang intrinsics"
+  echo "against the Caltech toolbox's and OpenCV's own results, the BAL Ladybug problem against"
+  echo "Ceres' reference solve, self-calibration of a synthetic 8x8 rig with noise and outliers,"
+  echo "simulated point-light videos through lf-calibrate to renders, colour."
+  echo
+  echo "Command: \`$(cat "$tmp/calib.cmd")\`"
+  echo
+  echo '```'
+  grep -v '^\[\|^Note: \|^$\|Running main\|^Running' "$tmp/calib.md" | sed 's/[[:space:]]*$//'
+  echo '```'
+  echo
+  echo "This report took $(( (SECONDS - t_start) / 60 )) min."
+} > "$out"
+step "wrote $out and $plots/"
