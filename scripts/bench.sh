@@ -24,6 +24,9 @@
 #   2 cores); full: every method, 1920x1080 too, the speed runs three times.
 # Plots go to docs/results/ (beside OUT.md: OUT's folder/results/).
 set -euo pipefail
+# One compound command: bash reads it whole before running it, so editing this
+# file while a report runs does not change the run.
+{
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build="${LF_BUILD_DIR:-$root/build}"
 quick=0
@@ -237,3 +240,5 @@ cot_surf=$(col "$tmp/cotton.md" "| none | surface, bicubic |" 4)
   echo "This report took $(( (SECONDS - t_start) / 60 )) min."
 } > "$out"
 step "wrote $out and $plots/"
+exit 0
+}

@@ -2,7 +2,7 @@
 # The documentation runs as written (issue: a README a newcomer reads):
 #  1. docs/elements.md is what tools/lf-elements prints from the built
 #     plugin (a diff otherwise: regenerate it with the command the page
-#     names);
+#     names), and README.md's element table names each element and klass;
 #  2. every element's example pipeline (its "Example" metadata, shown by
 #     gst-inspect-1.0 and on that page) runs to the end: exit status 0, no
 #     ERROR or WARNING message;
@@ -34,6 +34,15 @@ else
   echo "  GST_PLUGIN_PATH=build/gst build/tools/lf-elements -o docs/elements.md):"
   head -40 "$work/elements.diff"; fail=1
 fi
+
+# The README's element table names every element with its klass.
+while IFS='|' read -r _ link klass _; do
+  el="$(sed -n 's/.*`\([a-z]*\)`.*/\1/p' <<< "$link")"; klass="$(xargs <<< "$klass")"
+  if ! grep -qF "| [\`$el\`](docs/elements.md#$el) | $klass |" "$root/README.md"; then
+    echo "FAIL: README.md's element table lacks | [\`$el\`](docs/elements.md#$el) | $klass |"; fail=1
+  fi
+done < <(grep '^| \[`' "$work/elements.md")
+[ "$fail" = 0 ] && echo "ok: README.md's element table names every element and its klass"
 
 if [ ! -d "$data" ]; then
   echo "SKIP: the examples read the real data $data (absent; scripts/get-data.sh fetches it)"
