@@ -10,6 +10,7 @@
 //     OpenCV's warpPerspective for the same number of output pixels, and vs
 //     the naive approach (warp every camera to the full frame, then blend).
 #include <algorithm>
+#include <cmath>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -467,7 +468,7 @@ int main(int argc, char** argv) {
           const lf::SurfaceEstimate est = surf.estimate(req);
           surface_ms.push_back(ms_since(t1));
           if (W == W0) surface_planes.push_back(est.planes_used);
-          double p_auto = 0, p_best = 0;
+          double p_auto = NAN, p_best = NAN;  // NAN: not among --focal
           for (const std::string& fs : focals) {
             req.surface = {};
             if (fs == "auto")
@@ -515,7 +516,8 @@ int main(int argc, char** argv) {
                 }
           }
           if (W == W0) {
-            gap_auto.push_back(p_best - p_auto);
+            // The gap only where both auto and best were rendered.
+            if (std::isfinite(p_best) && std::isfinite(p_auto)) gap_auto.push_back(p_best - p_auto);
             // Nearest-camera baseline through the auto plane.
             int nearest = 0;
             for (size_t i = 0; i < rj.cameras.size(); ++i)

@@ -150,7 +150,7 @@ base_bytes=${base% *}; base_cams=${base#* }
       "$(key "$out/$r.txt" round-trip-p95-ms) |"
   done
   awk -v q="$(key "$out/jpeg64.txt" round-trip-p95-ms)" -v b="$(key "$out/busy64.txt" round-trip-p95-ms)" \
-    'BEGIN{printf "\np95 beside the loop / alone: %.2f (issue 15: at most 2)\n", b / q}'
+    'BEGIN{printf "\np95 beside the loop / alone: %.2f (target: at most 2)\n", b / q}'
   echo
   echo "## (e) Loss: ${LOSS:-0.05} of the RTP packets dropped on every link, 64 cameras, JPEG fragments"
   echo
