@@ -10,8 +10,8 @@
 //     OpenCV's warpPerspective for the same number of output pixels, and vs
 //     the naive approach (warp every camera to the full frame, then blend).
 #include <algorithm>
-#include <cmath>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
