@@ -245,13 +245,9 @@ static void lf_fragment_demux_class_init(LfFragmentDemuxClass* klass) {
       "lightfield-gst");
   gst_element_class_add_static_metadata(
       ec, "Example",
-      "gst-launch-1.0 lfrequestmux name=m ! lfcamerahost rig=../shared/data/stanford-chess "
-      "is-live=true ! lffragmentdemux name=d lfviewrequest rig=../shared/data/stanford-chess "
-      "viewer-id=0 is-live=true num-buffers=30 ! m. lfviewrequest "
-      "rig=../shared/data/stanford-chess viewer-id=1 orbit=0.5 is-live=true num-buffers=30 ! m. "
-      "d.src_0 ! queue ! lfcompositor rig=../shared/data/stanford-chess viewer-id=0 ! videoconvert "
-      "! autovideosink d.src_1 ! queue ! lfcompositor rig=../shared/data/stanford-chess "
-      "viewer-id=1 ! videoconvert ! autovideosink");
+      "gst-launch-1.0 lfviewrequest rig=../shared/data/stanford-chess viewer-id=3 num-buffers=30 ! "
+      "lfcamerahost rig=../shared/data/stanford-chess ! lffragmentdemux name=d d.src_3 ! "
+      "lfcompositor rig=../shared/data/stanford-chess viewer-id=3 ! videoconvert ! autovideosink");
   gst_element_class_add_static_metadata(
       ec, "Events",
       "A rate-limited warning message for a malformed buffer; fragments of a viewer without a pad "

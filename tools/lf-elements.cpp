@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 namespace {
@@ -75,33 +76,30 @@ std::string type_name(GParamSpec* p) {
   return g_type_name(t);
 }
 
+// "min to max" of a numeric GParamSpec (its minimum and maximum fields).
+template <typename Spec>
+std::string bounds(const Spec* s) {
+  if constexpr (std::is_floating_point_v<decltype(s->minimum)>)
+    return fmt_double(s->minimum) + " to " + fmt_double(s->maximum);
+  else
+    return std::to_string(s->minimum) + " to " + std::to_string(s->maximum);
+}
+
 std::string range(GParamSpec* p) {
   const GType t = G_PARAM_SPEC_VALUE_TYPE(p);
   switch (G_TYPE_FUNDAMENTAL(t)) {
-    case G_TYPE_INT: {
-      auto* s = G_PARAM_SPEC_INT(p);
-      return std::to_string(s->minimum) + " to " + std::to_string(s->maximum);
-    }
-    case G_TYPE_UINT: {
-      auto* s = G_PARAM_SPEC_UINT(p);
-      return std::to_string(s->minimum) + " to " + std::to_string(s->maximum);
-    }
-    case G_TYPE_INT64: {
-      auto* s = G_PARAM_SPEC_INT64(p);
-      return std::to_string(s->minimum) + " to " + std::to_string(s->maximum);
-    }
-    case G_TYPE_UINT64: {
-      auto* s = G_PARAM_SPEC_UINT64(p);
-      return std::to_string(s->minimum) + " to " + std::to_string(s->maximum);
-    }
-    case G_TYPE_DOUBLE: {
-      auto* s = G_PARAM_SPEC_DOUBLE(p);
-      return fmt_double(s->minimum) + " to " + fmt_double(s->maximum);
-    }
-    case G_TYPE_FLOAT: {
-      auto* s = G_PARAM_SPEC_FLOAT(p);
-      return fmt_double(s->minimum) + " to " + fmt_double(s->maximum);
-    }
+    case G_TYPE_INT:
+      return bounds(G_PARAM_SPEC_INT(p));
+    case G_TYPE_UINT:
+      return bounds(G_PARAM_SPEC_UINT(p));
+    case G_TYPE_INT64:
+      return bounds(G_PARAM_SPEC_INT64(p));
+    case G_TYPE_UINT64:
+      return bounds(G_PARAM_SPEC_UINT64(p));
+    case G_TYPE_DOUBLE:
+      return bounds(G_PARAM_SPEC_DOUBLE(p));
+    case G_TYPE_FLOAT:
+      return bounds(G_PARAM_SPEC_FLOAT(p));
     case G_TYPE_ENUM: {
       GEnumClass* k = G_ENUM_CLASS(g_type_class_ref(t));
       std::string out;
