@@ -103,8 +103,10 @@ web=0
 if command -v node > /dev/null && [ -x "$build/tools/lf-web" ]; then
   cycles=$([ "$quick" = 1 ] && echo 1000 || echo 10000)
   step "6/7 lf-web's viewer lifetime, $cycles connect/close cycles"
-  bench web node "$root/tests/web/lifetime-test.mjs" "$build/tools/lf-web" "$data/stanford-chess" \
-    --cycles "$cycles" && web=1
+  # Its bounds are the CI test's (written for 1,000 cycles); a longer run
+  # that exceeds them is still reported, with that said.
+  if bench web node "$root/tests/web/lifetime-test.mjs" "$build/tools/lf-web" "$data/stanford-chess" \
+    --cycles "$cycles"; then web=1; else web=2; fi
 fi
 soak=0
 if [ "$quick" = 0 ] && [ "$net" = 1 ]; then
@@ -204,7 +206,7 @@ cot_best=$(col "$tmp/cotton.md" "| none | best |" 4)
   fi
   echo "## lf-web viewer lifetime"
   echo
-  if [ "$web" = 1 ]; then
+  if [ "$web" != 0 ] && [ -s "$tmp/web.md" ]; then
     echo "WebSocket connections opened and closed four at a time in four ways (closed before the"
     echo "offer, dropped without a close frame, after the offer, after a bogus answer), then"
     echo "hostile ones; the server's threads, fds and RSS against the idle level (the higher of"
@@ -212,12 +214,18 @@ cot_best=$(col "$tmp/cotton.md" "| none | best |" 4)
     echo
     echo "Command: \`$(cat "$tmp/web.cmd")\`"
     echo
+    if [ "$web" = 2 ]; then
+      echo "Over $cycles cycles some of the CI test's bounds (threads no more, fds at most 9 and RSS at"
+      echo "most 10 % above the idle level; written for 1,000 cycles) were exceeded: the lines marked"
+      echo "FAIL below (the known gaps of docs/reliability.md)."
+      echo
+    fi
     echo '```'
     clean < "$tmp/web.md"
     echo '```'
     echo
   else
-    echo "Not measured in this run (needs Node.js)."
+    echo "Not measured in this run (needs Node.js, or the test printed nothing)."
     echo
   fi
   echo "## Under attack"
