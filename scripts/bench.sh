@@ -250,7 +250,7 @@ cot_best=$(col "$tmp/cotton.md" "| none | best |" 4)
   echo "Command: \`$(cat "$tmp/calib.cmd")\`"
   echo
   echo '```'
-  grep -v '^\[\|^Note: \|^$\|Running main\|^Running' "$tmp/calib.md" | clean | sed 's/[[:space:]]*$//'
+  grep -v '\[#\|^\[\|^Note: \|^$\|Running main\|^Running' "$tmp/calib.md" | clean | sed 's/[[:space:]]*$//'
   echo '```'
   echo
   echo "This report took $(( (SECONDS - t_start) / 60 )) min."
