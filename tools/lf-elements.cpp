@@ -85,6 +85,15 @@ std::string bounds(const Spec* s) {
     return std::to_string(s->minimum) + " to " + std::to_string(s->maximum);
 }
 
+// "`nick`: NAME; ..." of an enum's or a flags type's values.
+template <typename Value>
+std::string values(const Value* v, guint n) {
+  std::string out;
+  for (guint i = 0; i < n; ++i)
+    out += std::string(i ? "; `" : "`") + v[i].value_nick + "`: " + v[i].value_name;
+  return out;
+}
+
 std::string range(GParamSpec* p) {
   const GType t = G_PARAM_SPEC_VALUE_TYPE(p);
   switch (G_TYPE_FUNDAMENTAL(t)) {
@@ -102,21 +111,13 @@ std::string range(GParamSpec* p) {
       return bounds(G_PARAM_SPEC_FLOAT(p));
     case G_TYPE_ENUM: {
       GEnumClass* k = G_ENUM_CLASS(g_type_class_ref(t));
-      std::string out;
-      for (guint i = 0; i < k->n_values; ++i) {
-        if (i) out += "; ";
-        out += std::string("`") + k->values[i].value_nick + "`: " + k->values[i].value_name;
-      }
+      std::string out = values(k->values, k->n_values);
       g_type_class_unref(k);
       return out;
     }
     case G_TYPE_FLAGS: {
       GFlagsClass* k = G_FLAGS_CLASS(g_type_class_ref(t));
-      std::string out;
-      for (guint i = 0; i < k->n_values; ++i) {
-        if (i) out += "; ";
-        out += std::string("`") + k->values[i].value_nick + "`: " + k->values[i].value_name;
-      }
+      std::string out = values(k->values, k->n_values);
       g_type_class_unref(k);
       return out;
     }
