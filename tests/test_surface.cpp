@@ -419,7 +419,34 @@ TEST(Surface, EyeAtACameraOrOutsideTheArrayAndSaturatedImages) {
     expect_finite(e, "eye outside the array");
     lf::apply(e, req);
     const cv::Mat out = lf::render_view(rig, images, req);
-    EXPECT_EQ(out.type(), CV_8UC4);
+    ASSERT_EQ(out.type(), CV_8UC4);
+    // An eye on the plane outside the triangulation is weighed as at the
+    // nearest point of it (camera 14): its picture, not a black one.
+    std::vector<cv::Mat> ch;
+    cv::split(out, ch);
+    const double covered = cv::countNonZero(ch[3]) / static_cast<double>(out.total());
+    std::printf("eye outside the array: %.1f %% of the view covered\n", 100 * covered);
+    EXPECT_GT(covered, 0.6);
+    // Just outside a border edge (between cameras 4 and 9, 1e-4 spacings
+    // out, as an in-between camera of a sparser grid whose border cameras
+    // are not exactly in a line): as just inside it.
+    lf::ViewRequest in, out_req;
+    const cv::Vec2d a = rig.plane_positions()[4], b = rig.plane_positions()[9];
+    cv::Vec2d centre(0, 0);
+    for (const cv::Vec2d& q : rig.plane_positions()) centre += q * (1.0 / rig.cameras.size());
+    const cv::Vec2d mid = (a + b) * 0.5;
+    const cv::Vec2d across = (mid - centre) * (rig.typical_spacing() / cv::norm(mid - centre));
+    for (auto [r, side] : {std::pair{&in, -1e-4}, std::pair{&out_req, 1e-4}}) {
+      r->view = lf::VirtualView::from_camera(rig.cameras[14], 320, 240);
+      const cv::Vec2d p = mid + across * side;
+      r->view.position = rig.plane().origin + rig.plane().u * p[0] + rig.plane().v * p[1];
+      r->focal_plane = lf::plane_at_inverse_depth(rig, 1 / 3.0);
+    }
+    const cv::Mat inside = lf::render_view(rig, images, in);
+    const cv::Mat beyond = lf::render_view(rig, images, out_req);
+    const double p = lf::psnr(beyond, inside, 6);
+    std::printf("eye 1e-4 spacings outside a border edge: PSNR %.2f dB against just inside\n", p);
+    EXPECT_GT(p, 40.0);
   }
   for (int v : {255, 0, 3}) {
     std::vector<cv::Mat> flat(rig.cameras.size(),

@@ -10,6 +10,47 @@ namespace {
 PixelForm form_from(const cv::Vec3d& coeffs) {
   return {coeffs[0], coeffs[1], coeffs[2]};
 }
+
+// The point of segment ab nearest p.
+cv::Vec2d nearest_on_segment(const cv::Vec2d& p, const cv::Vec2d& a, const cv::Vec2d& b) {
+  const cv::Vec2d d = b - a;
+  const double len2 = d.dot(d);
+  const double t = len2 > 0 ? std::clamp((p - a).dot(d) / len2, 0.0, 1.0) : 0.0;
+  return a + d * t;
+}
+
+// An eye on the camera plane sees every ray cross the plane at the eye, so
+// the tent weighs all of its pixels with the barycentrics of that one point
+// (plan_parts). Outside the triangulation they are all zero somewhere and
+// the view would be black, also for an eye that is on the hull's border
+// up to the cameras' scatter (an in-between camera of a sparser grid). Such
+// an eye is moved to the nearest point of the nearest triangle, nudged a
+// millionth of a spacing towards its centroid so that the two cameras of
+// the nearest edge weigh it (and not a rounding error): the view is then
+// the boundary's, as the nearest cameras see it.
+cv::Vec2d into_triangulation(const Rig& rig, const cv::Vec2d& e) {
+  const auto& pos = rig.plane_positions();
+  double best = INFINITY;
+  cv::Vec2d snapped = e;
+  for (const Simplex& sx : rig.simplices()) {
+    if (sx.size != 3) continue;
+    bool inside = true;
+    for (int k = 0; k < 3; ++k) inside = inside && rig.facets()[sx.facet[k]](e) * sx.sign[k] >= 0;
+    if (inside) return e;
+    const cv::Vec2d a = pos[sx.cams[0]], b = pos[sx.cams[1]], c = pos[sx.cams[2]];
+    for (const cv::Vec2d& q :
+         {nearest_on_segment(e, a, b), nearest_on_segment(e, b, c), nearest_on_segment(e, c, a)}) {
+      const double d = cv::norm(q - e);
+      if (d < best) {
+        best = d;
+        const cv::Vec2d centre = (a + b + c) * (1.0 / 3.0);
+        const double to_centre = cv::norm(centre - q);
+        snapped = to_centre > 0 ? q + (centre - q) * (1e-6 * rig.typical_spacing() / to_centre) : q;
+      }
+    }
+  }
+  return snapped;
+}
 }  // namespace
 
 ViewGeometry::ViewGeometry(const Rig& rig, const ViewRequest& request, int only_camera,
@@ -26,6 +67,7 @@ ViewGeometry::ViewGeometry(const Rig& rig, const ViewRequest& request, int only_
   const double scale = std::max(cv::norm(E - P.origin), rig.typical_spacing());
   if (std::abs(eye_dist_) <= 1e-15 * scale) eye_dist_ = 0.0;
   eye2d_ = P.to_plane(E);
+  if (eye_dist_ == 0.0 && rig.dimension() == 2) eye2d_ = into_triangulation(rig, eye2d_);
   const cv::Matx33d Mt = M_.t();
   dn_ = form_from(Mt * P.normal);
   const PixelForm ds = form_from(Mt * P.u), dt = form_from(Mt * P.v);

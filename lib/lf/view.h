@@ -72,7 +72,10 @@ struct FocalSurface {
 // camera and overlaps its neighbours'; the compositor's renormalisation
 // makes the weights a partition of unity again. Off-surface content then
 // blurs over more cameras instead of doubling (a synthetic large aperture,
-// Vaish et al. 2004); scale 1 is the paper's, the smallest.
+// Vaish et al. 2004); scale 1 is the paper's, the smallest. An eye on the
+// camera plane but outside the triangulation (beyond the array, or on its
+// border up to the cameras' scatter) is weighed as at the nearest point of
+// the triangulation, so its view is the border cameras', not black.
 //
 // kUlr: Unstructured Lumigraph weights (Buehler et al. 2001) for rigs
 // without a grid and for covering a lost camera: at the vertices of a grid
