@@ -54,6 +54,10 @@ usage: lf-bench [options]
   --samplings LIST    sampling filters to add to each focal choice: bilinear
                       (default), bicubic (lib/lf/view.h Sampling)
   --loo N             number of held-out cameras, spread over the block's interior (12)
+  --hold-out MODE     one: each held-out view rendered from all the other cameras
+                      (default); subgrid: from the sub-grid of every other row and
+                      column only (the in-between views of a sparser rig; the
+                      held-out cameras are those inside it that it leaves out)
   --sweep-steps N     planes in the exhaustive sweep (default 96)
   --plot FILE         write a PNG plot (default lf-bench.png)
   --skip-quality, --skip-bandwidth, --skip-speed   leave out a section
@@ -333,10 +337,11 @@ struct SettingStats {
 int main(int argc, char** argv) {
   if (cli::help_requested(argc, argv, kHelp)) return 0;
   try {
-    cli::Args args(argc, argv,
-                   {"--input", "--block", "--input-scale", "--sizes", "--encodings", "--focal",
-                    "--loo", "--sweep-steps", "--plot", "--backend", "--apertures", "--samplings"},
-                   {"--skip-quality", "--skip-bandwidth", "--skip-speed"});
+    cli::Args args(
+        argc, argv,
+        {"--input", "--block", "--input-scale", "--sizes", "--encodings", "--focal", "--loo",
+         "--sweep-steps", "--plot", "--backend", "--apertures", "--samplings", "--hold-out"},
+        {"--skip-quality", "--skip-bandwidth", "--skip-speed"});
     cv::setNumThreads(1);
     const lf::Rig rig = cli::select_cameras(
         lf::load_rig_or_dataset(args.get("--input", "../shared/data/stanford-chess")), args, true);
@@ -407,17 +412,39 @@ int main(int argc, char** argv) {
     if (!args.has("--skip-quality")) {
       // Held-out cameras: interior of the grid (their viewpoint lies inside
       // the remaining cameras' triangulation), spread evenly.
-      std::vector<int> interior;
+      // With --hold-out subgrid: the cameras on even rows and columns of
+      // the grid render, the others inside their hull are held out.
+      const std::string hold_out = args.get("--hold-out", "one");
+      if (hold_out != "one" && hold_out != "subgrid")
+        throw std::invalid_argument("--hold-out: one or subgrid");
+      const bool subgrid = hold_out == "subgrid";
+      if (subgrid && (rig.grid.rows < 3 || rig.grid.cols < 3))
+        throw std::invalid_argument("--hold-out subgrid needs a grid of at least 3x3 cameras");
+      std::vector<int> interior, kept;
       for (size_t i = 0; i < rig.cameras.size(); ++i) {
-        bool border = false;
+        bool border = false, on_subgrid = false, inside = false;
         if (!rig.grid.empty()) {
           for (int r = 0; r < rig.grid.rows; ++r)
             for (int c = 0; c < rig.grid.cols; ++c)
-              if (rig.grid.at(r, c) == static_cast<int>(i))
+              if (rig.grid.at(r, c) == static_cast<int>(i)) {
                 border = r == 0 || c == 0 || r == rig.grid.rows - 1 || c == rig.grid.cols - 1;
+                on_subgrid = r % 2 == 0 && c % 2 == 0;
+                inside = r <= (rig.grid.rows - 1) / 2 * 2 && c <= (rig.grid.cols - 1) / 2 * 2;
+              }
         }
-        if (!border) interior.push_back(static_cast<int>(i));
+        if (subgrid) {
+          if (on_subgrid)
+            kept.push_back(static_cast<int>(i));
+          else if (inside)
+            interior.push_back(static_cast<int>(i));
+        } else if (!border) {
+          interior.push_back(static_cast<int>(i));
+        }
       }
+      std::vector<int> others;  // with subgrid: every camera not kept
+      for (size_t i = 0; i < rig.cameras.size(); ++i)
+        if (std::find(kept.begin(), kept.end(), static_cast<int>(i)) == kept.end())
+          others.push_back(static_cast<int>(i));
       const int n_loo = std::min<int>(args.integer("--loo", 12), interior.size());
       std::vector<int> held;
       for (int k = 0; k < n_loo; ++k)
@@ -428,14 +455,22 @@ int main(int argc, char** argv) {
       std::vector<std::string> order;
       std::vector<double> gap_auto, af_ms, nearest_psnr, surface_ms, surface_planes;
       std::vector<double> sweep_mean(steps, 0.0), auto_q, best_q;
-      std::printf("\n## Leave-one-out on %s (%zu cameras, %d held out; border %s)\n\n",
-                  rig.name.c_str(), rig.cameras.size(), n_loo, "2.5% of the height cut");
+      if (subgrid)
+        std::printf(
+            "\n## In-between views on %s (%zu cameras: the %zu of every other row and column "
+            "render, %d of the others held out; border %s)\n\n",
+            rig.name.c_str(), rig.cameras.size(), kept.size(), n_loo, "2.5% of the height cut");
+      else
+        std::printf("\n## Leave-one-out on %s (%zu cameras, %d held out; border %s)\n\n",
+                    rig.name.c_str(), rig.cameras.size(), n_loo, "2.5% of the height cut");
       for (int k = 0; k < n_loo; ++k) {
         const int j = held[k];
-        const lf::Rig rj = rig.without({j});
+        const std::vector<int> drop = subgrid ? others : std::vector<int>{j};
+        const lf::Rig rj = rig.without(drop);
         std::vector<cv::Mat> ij;
         for (size_t i = 0; i < images.size(); ++i)
-          if (static_cast<int>(i) != j) ij.push_back(images[i]);
+          if (std::find(drop.begin(), drop.end(), static_cast<int>(i)) == drop.end())
+            ij.push_back(images[i]);
         const lf::AutofocusContext af(rj, ij);
         lf::SurfaceOptions surf_opt;
         surf_opt.second_planes = true;  // "surface" leaves them out
