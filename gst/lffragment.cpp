@@ -662,7 +662,10 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
     // frame the camera skipped: this camera sits the probe out rather than
     // answer from another instant (the scene moves: cameras seeing it at
     // different instants disagree at the true depth).
-    frame = frame_at(p, req_time, probe);
+    // A non-live camera has no instants to miss: it is held a frame or two
+    // ahead of the requests (Priv::kAhead) and keeps two frames, so a probe
+    // that follows its tick's request takes the frame nearest its time.
+    frame = frame_at(p, req_time, probe && p->camera_live != 0);
     if (probe && frame) {
       p->probe_key = probe_key;
       gst_buffer_replace(&p->probe_frame, frame);
@@ -1027,7 +1030,8 @@ static void lf_fragment_class_init(LfFragmentClass* klass) {
       "lightfield-gst");
   gst_element_class_add_static_metadata(
       ec, "Example",
-      "gst-launch-1.0 lfviewrequest rig=../shared/data/stanford-chess num-buffers=60 ! f.request "
+      "gst-launch-1.0 lfviewrequest rig=../shared/data/stanford-chess num-buffers=60 "
+      "focal-surface=false ! f.request "
       "lfcamsrc rig=../shared/data/stanford-chess row=4 col=4 ! lffragment name=f "
       "rig=../shared/data/stanford-chess row=4 col=4 ! lfcompositor ! videoconvert ! "
       "autovideosink");
