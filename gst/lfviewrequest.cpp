@@ -68,9 +68,11 @@
  *
  * ## Focal surface
  *
- * `focal-surface=true` focuses each 16-pixel tile of the view on its own
- * plane, estimated from the cameras' fragments (Yang et al. use one focal
- * plane per view; lib/lf/surface_probe.h): with the first request and then
+ * By default (`focal-surface=true`) each 16-pixel tile of the view is
+ * focused on its own plane, estimated from the cameras' fragments (Yang et
+ * al. use one focal plane per view: `focal-surface=false`, the focal plane
+ * of `focal-plane` or `focal-depth`; lib/lf/surface_probe.h): with the
+ * first request and then
  * every `surface-interval` requests, a surface probe goes out with the
  * tick's request: 32 requests for the view at 160 pixels wide, one per
  * candidate plane parallel to the camera plane (0 to 24 px of neighbour
@@ -95,7 +97,15 @@
  * estimate keeps one plane. A live source goes on while the answer is on
  * its way; a non-live one (an offline render) makes its next request only
  * once the answer has come (at most 2 s, once per probe), so every request
- * after the first probe carries a surface.
+ * after the first probe carries a surface. With no answer at all (no
+ * `lfcompositor` downstream in this pipeline, as a viewer whose compositor
+ * is on another host), the probes stop with one warning and `focal-plane`
+ * holds: after the first probe's wait when non-live, after 3 probes and
+ * 5 s when live. Refocusing while playing (the wheel, a click to focus,
+ * continuous focus, `focal-depth` or `focal-plane` set) means one plane:
+ * it sets `focal-surface` to false (notified); set it true again to return
+ * to the surface. The surface's cost: about 1.2x the single plane's CPU per
+ * frame in the renderer (docs/results.md).
  *
  * ## Aperture
  *
@@ -201,7 +211,7 @@ struct Settings {
   bool live = DEFAULT_IS_LIVE;
   gdouble stereo_baseline = DEFAULT_STEREO_BASELINE;
   bool continuous_focus = false;
-  bool focal_surface = false;
+  bool focal_surface = true;
   guint surface_interval = DEFAULT_SURFACE_INTERVAL;
   guint surface_planes = 0;           // read-only: planes of the surface in use (object lock)
   guint surface_two_plane_tiles = 0;  // read-only: its tiles with a second plane
@@ -253,6 +263,16 @@ struct State {
   guint32 waited_surface_probe = 0;  // non-live: the last probe whose answer was waited for
   bool surface_sent = false;
   guint64 surface_tick = 0;
+  // No lf-surface answer ever came (no lfcompositor downstream in this
+  // pipeline): no more probes until focal-surface is set again.
+  bool surface_given_up = false;
+  // The focus settings of the last request: a change while playing (the
+  // wheel, a click's answer, focal-depth or focal-plane set) takes the view
+  // off the surface.
+  bool focus_known = false;
+  double last_focal_depth = 0;
+  std::string last_focal_plane;
+  gint64 first_surface_probe_us = 0;  // monotonic time of the first probe
   lf::FocalSurface surface;
   ~State() {
     for (GstBuffer* b : rest_of_tick) gst_buffer_unref(b);
@@ -271,6 +291,12 @@ constexpr guint64 kClickRetryTicks = 5;
 constexpr int kClickRetries = 2;
 // A non-live source waits this long at most for a surface probe's answer.
 constexpr GstClockTime kSurfaceWaitNonLive = 2 * GST_SECOND;
+// Surface probes stop, with one warning, when none of the first has been
+// answered: non-live, the first probe's wait; live, kSurfaceGiveUpProbes
+// probes and kSurfaceGiveUpAfter after the first (an answer takes a frame
+// period or a few on a busy host).
+constexpr guint32 kSurfaceGiveUpProbes = 3;
+constexpr GstClockTime kSurfaceGiveUpAfter = 5 * GST_SECOND;
 
 struct Priv {
   Settings settings;  // properties (object lock)
@@ -840,6 +866,7 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   // ahead of the pipeline would make every request of a short run before
   // the answer came. Live sources never wait: the answer applies when it
   // comes.
+  bool give_up_surface = false;  // non-live: the first probe had no answer
   if (!fixed.live) {
     g_mutex_lock(&p->lock);
     if (st->surface_sent && st->surface_probe > st->applied_surface_probe &&
@@ -850,6 +877,7 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
         if (!g_cond_wait_until(&p->surface_cond, &p->lock, until)) break;
       if (st->surface_probe > st->applied_surface_probe)
         GST_DEBUG_OBJECT(self, "surface probe %u: no answer, going on", st->surface_probe);
+      if (st->applied_surface_probe == 0) give_up_surface = true;
     }
     const bool unlocked = p->unlocked;
     g_mutex_unlock(&p->lock);
@@ -896,10 +924,14 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   // click's, else every kContinuousFocusEvery ticks a continuous one), as
   // are a surface probe's; each probe in one buffer (lib/lf/probe_bundle.h).
   std::vector<std::vector<lf::ViewRequest>> probes;
+  bool warn_no_surface = false, refocused = false;
   const bool continuous =
       lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::continuous_focus);
-  const bool want_surface =
-      lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::focal_surface);
+  bool want_surface = lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::focal_surface);
+  const double focal_depth =
+      lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::focal_depth);
+  const std::string focal_plane =
+      lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::focal_plane);
   const guint interval =
       lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::surface_interval);
   g_mutex_lock(&p->lock);
@@ -934,8 +966,21 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   // Focal surface: a probe every surface-interval ticks (the first at once),
   // of the view without its surface; the surface in use, if any, goes into
   // the request.
-  if (!want_surface) st->surface = {}, st->surface_sent = false;
-  if (want_surface && (!st->surface_sent || k >= st->surface_tick + interval)) {
+  if (want_surface && st->focus_known &&
+      (focal_depth != st->last_focal_depth || focal_plane != st->last_focal_plane))
+    refocused = true, want_surface = false;
+  st->focus_known = true, st->last_focal_depth = focal_depth, st->last_focal_plane = focal_plane;
+  if (!want_surface) st->surface = {}, st->surface_sent = false, st->surface_given_up = false;
+  if (want_surface && !st->surface_given_up && st->applied_surface_probe == 0 &&
+      (give_up_surface || (st->surface_probe >= kSurfaceGiveUpProbes &&
+                           g_get_monotonic_time() - st->first_surface_probe_us >=
+                               static_cast<gint64>(kSurfaceGiveUpAfter / GST_USECOND)))) {
+    st->surface_given_up = true;
+    warn_no_surface = true;
+  }
+  if (want_surface && !st->surface_given_up &&
+      (!st->surface_sent || k >= st->surface_tick + interval)) {
+    if (st->surface_probe == 0) st->first_surface_probe_us = g_get_monotonic_time();
     const guint32 id = st->next_surface_probe++;
     st->surface_probe = id, st->surface_tick = k, st->surface_sent = true;
     std::vector<lf::ViewRequest> sp;
@@ -951,6 +996,18 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   }
   const lf::FocalSurface surface = st->surface;
   g_mutex_unlock(&p->lock);
+  if (refocused) {
+    GST_INFO_OBJECT(self, "refocused on a plane: focal-surface off");
+    g_object_set(self, "focal-surface", FALSE, nullptr);
+  }
+  if (warn_no_surface)
+    GST_ELEMENT_WARNING(
+        self, STREAM, FAILED, ("No answer to the focal surface probes: using focal-plane"),
+        ("%u surface probes sent, none answered: no lfcompositor downstream in this pipeline "
+         "answers them (across hosts, the compositor's answers cannot reach this element), or "
+         "it could not estimate a surface (its warning says why); set focal-surface=false to "
+         "focus on focal-plane without probing",
+         st->surface_probe));
   guint surface_planes = 0, two_plane_tiles = 0;
   if (!surface.empty()) {
     lf::ViewRequest with = req;
@@ -1106,8 +1163,13 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
                 "plane, in one buffer) goes out with the request, lfcompositor estimates the "
                 "surface from the answers and sends it back (an lf-surface event), and the "
                 "requests carry it "
-                "from then on (view request version 3) in place of focal-plane and focal-depth",
-                FALSE, play));
+                "from then on (view request version 3) in place of focal-plane and focal-depth. "
+                "false: the paper's one focal plane per view (focal-plane, focal-depth); "
+                "refocusing while playing (the wheel, a click, focal-depth or focal-plane set) "
+                "sets it false. Without "
+                "an lfcompositor downstream in this pipeline to answer, the probes stop after "
+                "the first few, with a warning, and focal-plane is used",
+                TRUE, play));
   props.add(oc, &Settings::surface_interval,
             g_param_spec_uint("surface-interval", "Surface interval",
                               "Requests from one surface probe to the next with focal-surface "
@@ -1205,7 +1267,7 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
       "lightfield-gst");
   gst_element_class_add_static_metadata(
       ec, "Example",
-      "gst-launch-1.0 lfviewrequest rig=../shared/data/stanford-chess orbit=0.5 sampling=bicubic "
+      "gst-launch-1.0 lfviewrequest rig=../shared/data/stanford-chess orbit=0.5 "
       "num-buffers=60 ! lfarray rig=../shared/data/stanford-chess ! videoconvert ! autovideosink");
   gst_element_class_add_static_metadata(
       ec, "Events",

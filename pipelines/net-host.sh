@@ -365,7 +365,9 @@ case "$role" in
       for ip in ${REQUESTS//,/ }; do clients+="${clients:+,}$ip:$REQUEST_PORT"; done
       dest="multiudpsink clients=$clients $sender"
     fi
-    desc="lfviewrequest rig=$RIG is-live=true framerate=$FPS/1 $VIEW"
+    # The compositor is on another host: its focal-surface answers cannot
+    # come back here, so the viewer focuses on its focal plane (VIEW).
+    desc="lfviewrequest rig=$RIG is-live=true framerate=$FPS/1 focal-surface=false $VIEW"
     desc+=" ! rtpgstpay config-interval=1 ssrc=$SSRC_REQUESTS ! $(fec_send "$REQ_FEC")$(protect)$loss$dest"
     desc+="  udpsrc port=$VIDEO_PORT buffer-size=4194304 $(receive_ssrc "$jpeg_caps" $SSRC_VIDEO)"
     desc+="$(fec_receive "$FEC") ! rtpjpegdepay ! jpegdec ! $OUTPUT"

@@ -78,8 +78,10 @@ class Gst : public ::testing::Test {
                               const std::string& extra_fragment = "",
                               const std::string& comp_props = "", bool live = false) {
     const lf::Rig rig = lf::load_rig(rig_path_);
-    std::string d = "lfviewrequest name=req rig=" + rig_path_ + " " + request_props +
-                    (live ? " is-live=true" : "") +
+    // The paper's focal plane unless request_props says focal-surface=true:
+    // these tests compare with renders through one plane.
+    std::string d = "lfviewrequest name=req rig=" + rig_path_ + " focal-surface=false " +
+                    request_props + (live ? " is-live=true" : "") +
                     " ! tee name=t lfcompositor name=comp rig=" + rig_path_ + " " + comp_props +
                     " ! video/x-raw,format=RGBA ! appsink name=out sync=false";
     for (size_t i = 0; i < rig.cameras.size(); ++i) {
@@ -524,7 +526,8 @@ TEST_F(Gst, CameraFromImageSequenceAndVideoFile) {
 // compositor, which counts a sum's cameras towards a complete request.
 TEST_F(Gst, PartialSumsGiveTheFramesOfTheCameras) {
   const std::string req = "lfviewrequest rig=" + rig_path_ +
-                          " num-buffers=3 width=320 height=240 focal-plane=param:-0.2 orbit=0.5";
+                          " num-buffers=3 width=320 height=240 focal-plane=param:-0.2 orbit=0.5 "
+                          "focal-surface=false";
   const std::string out = " ! video/x-raw,format=RGBA ! appsink name=out sync=false";
   auto array = [&](const std::string& props) {
     std::string err;
@@ -592,12 +595,12 @@ TEST_F(Gst, CameraHostSendsItsCapsOnce) {
   } count;
   for (const char* size : {"width=320 height=240", "width=160 height=120"}) {
     count.caps = 0, count.buffers = 0;
-    GstElement* p =
-        gst_parse_launch(("lfviewrequest rig=" + rig_path_ + " num-buffers=12 " + size +
-                          " focal-plane=param:-0.2 orbit=0.5 ! lfcamerahost rig=" + rig_path_ +
-                          " cameras=0-3 num-buffers=1 ! fakesink name=out sync=false")
-                             .c_str(),
-                         nullptr);
+    GstElement* p = gst_parse_launch(
+        ("lfviewrequest rig=" + rig_path_ + " num-buffers=12 " + size +
+         " focal-plane=param:-0.2 orbit=0.5 focal-surface=false ! lfcamerahost rig=" + rig_path_ +
+         " cameras=0-3 num-buffers=1 ! fakesink name=out sync=false")
+            .c_str(),
+        nullptr);
     ASSERT_NE(p, nullptr);
     GstElement* sink = gst_bin_get_by_name(GST_BIN(p), "out");
     GstPad* pad = gst_element_get_static_pad(sink, "sink");
@@ -886,9 +889,9 @@ TEST_F(Gst, NonLiveCamerasFollowTheRequests) {
   constexpr int kRequests = 20;
   GstElement* p = gst_parse_launch(
       ("lfviewrequest rig=" + rig_path_ + " num-buffers=" + std::to_string(kRequests) +
-       " width=160 height=120 ! f.request lffragment name=f rig=" + rig_path_ + " camera-id=" + id +
-       " ! fakesink name=out lfcamsrc name=cam rig=" + rig_path_ + " camera-id=" + id +
-       " mode=dataset ! f.sink")
+       " width=160 height=120 focal-surface=false ! f.request lffragment name=f rig=" + rig_path_ +
+       " camera-id=" + id + " ! fakesink name=out lfcamsrc name=cam rig=" + rig_path_ +
+       " camera-id=" + id + " mode=dataset ! f.sink")
           .c_str(),
       nullptr);
   ASSERT_NE(p, nullptr);
@@ -938,7 +941,8 @@ TEST_F(Gst, NonLiveCamerasFollowTheRequests) {
 TEST_F(Gst, SeveralNonLiveViewersThroughTheRequestMux) {
   constexpr int kFrames = 30;
   const std::string rig = " rig=" + rig_path_ + " ";
-  const std::string n = " num-buffers=" + std::to_string(kFrames) + " width=160 height=120 ";
+  const std::string n =
+      " num-buffers=" + std::to_string(kFrames) + " width=160 height=120 focal-surface=false ";
   for (int run = 0; run < 3; ++run) {
     GstElement* p = gst_parse_launch(("lfrequestmux name=reqs ! lfcamerahost" + rig +
                                       "! lffragmentdemux name=d "
@@ -992,6 +996,42 @@ TEST_F(Gst, SeveralNonLiveViewersThroughTheRequestMux) {
     gst_element_set_state(p, GST_STATE_NULL);
     gst_object_unref(p);
   }
+}
+
+// With no focus property, lfviewrequest ! lfarray focuses on a focal
+// surface (the best picture by default, docs/rendering.md): the compositor
+// answers the surface probes, the requests carry several planes, and no
+// warning is posted (non-live: the first probe's answer is waited for).
+TEST_F(Gst, TheDefaultPipelineFocusesOnASurface) {
+  GstElement* p = gst_parse_launch(("lfviewrequest name=req rig=" + rig_path_ +
+                                    " num-buffers=8 width=160 height=120 orbit=0.3 ! lfarray "
+                                    "rig=" +
+                                    rig_path_ + " ! fakesink")
+                                       .c_str(),
+                                   nullptr);
+  ASSERT_NE(p, nullptr);
+  gst_element_set_state(p, GST_STATE_PLAYING);
+  GstBus* bus = gst_element_get_bus(p);
+  GstMessage* m = gst_bus_timed_pop_filtered(
+      bus, 60 * GST_SECOND,
+      static_cast<GstMessageType>(GST_MESSAGE_EOS | GST_MESSAGE_ERROR | GST_MESSAGE_WARNING));
+  ASSERT_NE(m, nullptr) << "no end in 60 s";
+  EXPECT_EQ(GST_MESSAGE_TYPE(m), GST_MESSAGE_EOS)
+      << (GST_MESSAGE_TYPE(m) == GST_MESSAGE_EOS
+              ? ""
+              : testing_lf::take_error_debug(gst_message_ref(m)));
+  gst_message_unref(m);
+  GstElement* req = gst_bin_get_by_name(GST_BIN(p), "req");
+  gboolean surface = FALSE;
+  guint planes = 0;
+  g_object_get(req, "focal-surface", &surface, "surface-planes", &planes, nullptr);
+  EXPECT_TRUE(surface);
+  std::printf("default pipeline: %u planes in the last request's focal surface\n", planes);
+  EXPECT_GE(planes, 2u) << "the Chess block has depth: a surface, not one plane";
+  gst_object_unref(req);
+  gst_object_unref(bus);
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(p);
 }
 
 TEST_F(Gst, BadPropertiesGiveClearErrors) {

@@ -188,7 +188,7 @@ TEST_F(Harness, ViewRequestApertureAndFNumber) {
   for (const std::string& path : {rig_path_, mm_path}) {
     GstHarness* h = gst_harness_new("lfviewrequest");
     g_object_set(h->element, "rig", path.c_str(), "width", 64, "height", 48, "vfov", 30.0,
-                 "is-live", TRUE, nullptr);
+                 "is-live", TRUE, "focal-surface", FALSE, nullptr);
     gst_util_set_object_arg(G_OBJECT(h->element), "framerate", "100/1");
     gst_harness_use_systemclock(h);  // live: requests on the clock
     gst_harness_play(h);
@@ -362,7 +362,7 @@ TEST_F(Harness, AnUnansweredClickIsProbedAgainTwice) {
   for (bool answer : {false, true}) {
     GstHarness* h = gst_harness_new("lfviewrequest");
     g_object_set(h->element, "rig", rig_path_.c_str(), "viewer-id", 2u, "is-live", TRUE, "width",
-                 64, "height", 48, nullptr);
+                 64, "height", 48, "focal-surface", FALSE, nullptr);
     gst_util_set_object_arg(G_OBJECT(h->element), "framerate", "25/1");
     gst_harness_use_systemclock(h);  // live: requests on the clock
     gst_harness_play(h);

@@ -128,7 +128,7 @@ lf::Backend backend_from(const std::string& text, bool quiet) {
 FocalSpec parse_focal(const std::string& s, const lf::Rig& rig) {
   FocalSpec f;
   f.text = s;
-  if (s == "auto") return f;
+  if (s == "auto" || s == "plane") return f;  // the paper's: one plane, auto-focused
   if (s == "surface") {
     f.kind = FocalSpec::kSurface;
     return f;

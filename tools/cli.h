@@ -52,7 +52,8 @@ void parse_size(const std::string& s, int& w, int& h);
 // terminal, a few lines otherwise).
 void progress(const std::string& label, int done, int total);
 
-// Focal-plane specification: "auto", "infinity", "depth:Z", "param:A"
+// Focal-plane specification: "surface", "auto" (or "plane": the paper's one
+// auto-focused plane), "infinity", "depth:Z", "param:A"
 // (light-slab focal parameter), "plane:nx,ny,nz,d".
 struct FocalSpec {
   enum Kind { kAuto, kPlane, kSurface } kind = kAuto;

@@ -216,10 +216,11 @@ int main(int argc, char** argv) {
 
     // Fragments: every camera answers every request.
     // The requests: the same orbit for every design.
-    const std::string req = "lfviewrequest rig=" + rig_path + " framerate=" + std::to_string(fps) +
-                            "/1 num-buffers=" + std::to_string(frames) +
-                            " orbit=0.6 dolly=15 path-frames=120 width=" + std::to_string(W) +
-                            " height=" + std::to_string(H);
+    const std::string req =
+        "lfviewrequest rig=" + rig_path + " framerate=" + std::to_string(fps) +
+        "/1 num-buffers=" + std::to_string(frames) +
+        " orbit=0.6 dolly=15 path-frames=120 focal-surface=false width=" + std::to_string(W) +
+        " height=" + std::to_string(H);
     std::fprintf(stderr, "lf-baseline: fragments from %d cameras (%d requests)\n", n, frames);
     const Run fr =
         run(req + " ! lfcamerahost rig=" + rig_path +

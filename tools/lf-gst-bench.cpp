@@ -132,7 +132,8 @@ std::string pipeline(const std::string& rig, int W, int H, const std::string& en
   std::ostringstream d;
   d << "lfviewrequest name=req rig=" << rig << " width=" << W << " height=" << H
     << " orbit=" << kOrbit << " path-frames=" << kPathFrames << " focal-plane=" << kFocalPlane
-    << (surface > 0 ? " focal-surface=true surface-interval=" + std::to_string(surface) : "")
+    << (surface > 0 ? " focal-surface=true surface-interval=" + std::to_string(surface)
+                    : " focal-surface=false")
     << (props.empty() ? "" : " " + props) << " framerate=" << rate << "/1"
     << (live ? " is-live=true" : "") << " num-buffers=" << frames << " ! lfarray rig=" << rig
     << " num-buffers=1 max-rate=0 " << fr << " " << backend_properties(backend)
@@ -151,7 +152,8 @@ std::string viewers_pipeline(const std::string& rig, int W, int H, const std::st
   for (int v = 0; v < viewers; ++v) {
     d << " lfviewrequest viewer-id=" << v << " rig=" << rig << " width=" << W << " height=" << H
       << " orbit=" << 0.3 + 0.05 * v
-      << " path-frames=120 focal-plane=param:-0.2 num-buffers=" << frames << " ! reqs.";
+      << " path-frames=120 focal-plane=param:-0.2 focal-surface=false num-buffers=" << frames
+      << " ! reqs.";
     d << " lfcompositor name=c" << v << " viewer-id=" << v << " rig=" << rig
       << " ! appsink name=out" << v << " sync=false async=false max-buffers=4";
     d << " ft." << (tee ? "" : "src_" + std::to_string(v)) << " ! queue max-size-buffers=64 ! c"

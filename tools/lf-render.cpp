@@ -45,13 +45,14 @@ view (one of; default: --orbit 0.6)
 
 rendering
   --size WxH            output size in pixels (default 640x480)
-  --focal SPEC          focal plane: auto (default; photo-consistency, chosen from
-                        the images), infinity, depth:Z (rig units from the camera
-                        plane), param:A (light-slab focal parameter: Stanford's
-                        pixels of shift per position unit), plane:nx,ny,nz,d;
-                        or surface: a focal surface from the images, one plane
-                        per 16-pixel tile (lib/lf/focal_surface.h; a flat scene
-                        keeps one plane)
+  --focal SPEC          surface (default): a focal surface from the images, one
+                        plane per 16-pixel tile (lib/lf/focal_surface.h; a flat
+                        scene keeps one plane); plane (or auto): the paper's one
+                        focal plane per view, chosen from the images by
+                        photo-consistency; or a fixed plane: infinity, depth:Z
+                        (rig units from the camera plane), param:A (light-slab
+                        focal parameter: Stanford's pixels of shift per position
+                        unit), plane:nx,ny,nz,d
   --second-planes       with --focal surface: tiles next to a depth edge or with
                         a thin structure inside get a second plane, chosen per pixel (lib/lf/composite.h
                         LayerCompositor; CPU backend)
@@ -66,7 +67,8 @@ rendering
   --ulr K               Unstructured Lumigraph weights over the K cameras nearest each
                         ray in angle (2..16; lib/lf/view.h), for rigs without a grid
   --sampling S          bilinear (default, the paper's) or bicubic (Keys, a = -0.5:
-                        sharper, slower to warp)
+                        sharper edges, twice the warping time; on held-out views
+                        bilinear scores higher: docs/rendering.md)
   --threads N           render cameras in parallel (default: all cores)
   --backend B           auto (default: GL on a hardware GPU, else CPU), cpu, or gl
                         (EGL/GLES 3, lib/lf/gl_render.h: fragments drawn and blended
@@ -146,7 +148,7 @@ int main(int argc, char** argv) {
     }
     const std::vector<lf::VirtualView> views = lf::build_views(rig, vs).views;
 
-    const cli::FocalSpec focal = cli::parse_focal(args.get("--focal", "auto"), rig);
+    const cli::FocalSpec focal = cli::parse_focal(args.get("--focal", "surface"), rig);
     std::unique_ptr<lf::AutofocusContext> af;
     std::unique_ptr<lf::FocalSurfaceEstimator> surface;
     if (focal.kind == cli::FocalSpec::kAuto)

@@ -430,6 +430,12 @@ std::string apply_control(Control& c, const json& j) {
                             j["filter"].get<std::string>().c_str());
     return "";
   }
+  if (type == "surface") {  // a focal surface (true) or the focal plane of the slider (false)
+    if (!only_fields(j, {"type", "on"}, &err)) return err;
+    if (!j.contains("on") || !j["on"].is_boolean()) return "'on' must be true or false";
+    g_object_set(c.request, "focal-surface", j["on"].get<bool>() ? TRUE : FALSE, nullptr);
+    return "";
+  }
   if (type == "ping") {  // round trip of the control path, measured by the page
     if (!only_fields(j, {"type", "t"}, &err) || !number_field(j, "t", &x, &err)) return err;
     c.send({{"type", "pong"}, {"t", x}});
@@ -881,9 +887,10 @@ gboolean send_stats(gpointer data) {
     guint cams = 0;
     gdouble es = 0, et = 0, ew = 0, depth = 0, aperture = 0;
     gint sampling = 0;
+    gboolean surface = FALSE;
     g_object_get(c.compositor, "frames", &frames, "last-cameras", &cams, nullptr);
     g_object_get(c.request, "eye-s", &es, "eye-t", &et, "eye-w", &ew, "focal-depth", &depth,
-                 "aperture", &aperture, "sampling", &sampling, nullptr);
+                 "aperture", &aperture, "sampling", &sampling, "focal-surface", &surface, nullptr);
     c.send({{"type", "stats"},
             {"viewer", c.viewer_id},
             {"frames", frames},
@@ -895,6 +902,7 @@ gboolean send_stats(gpointer data) {
             {"aperture", aperture},
             {"sampling",
              sampling == static_cast<gint>(lf::Sampling::kBicubic) ? "bicubic" : "bilinear"},
+            {"focal_surface", surface != FALSE},
             {"stereo", c.stereo.load()},
             {"refused", c.refused.load()}});
   }

@@ -13,6 +13,7 @@
 //   {type: "key", key}               Left, Right, Up, Down, Page_Up, Page_Down, r (reset)
 //   {type: "set", "focal-depth": d, "eye-s": s, "aperture": D, ...}  view properties (rig units)
 //   {type: "sampling", filter: "bilinear"|"bicubic"}
+//   {type: "surface", on: true|false}  a focal surface (the default) or the focal plane
 //   {type: "stereo", on: true|false}  {type: "ping", t}
 // and the server sends {type: "stats", ...} twice a second, {type: "pong", t},
 // {type: "warning", message} when it refused something.
@@ -24,6 +25,7 @@
   const focal = document.getElementById('focal');
   const aperture = document.getElementById('aperture');
   const bicubic = document.getElementById('bicubic');
+  const surface = document.getElementById('surface');
   const stereo = document.getElementById('stereo');
   let stereoWanted = null, stereoSince = 0; // a toggle not yet confirmed by the server
   const statusLine = document.getElementById('status');
@@ -116,6 +118,7 @@
       if (stereoWanted === null && stereo.checked !== m.stereo) stereo.checked = m.stereo;
       if (document.activeElement !== focal && m.focal_depth > 0) focal.value = depthToSlider(m.focal_depth);
       if (document.activeElement !== aperture && m.aperture !== undefined) aperture.value = apertureToSlider(m.aperture);
+      if (document.activeElement !== surface && m.focal_surface !== undefined) surface.checked = m.focal_surface;
       if (document.activeElement !== bicubic && m.sampling) bicubic.checked = m.sampling === 'bicubic';
     } else if (m.type === 'pong') {
       lf.rttMs = performance.now() - m.t;
@@ -198,6 +201,7 @@
     return d <= a ? 0 : Math.round(1000 * (d - a) / (b - a));
   }
   aperture.addEventListener('input', () => lf.send({ type: 'set', aperture: sliderToAperture(Number(aperture.value)) }));
+  surface.addEventListener('change', () => lf.send({ type: 'surface', on: surface.checked }));
   bicubic.addEventListener('change', () => lf.send({ type: 'sampling', filter: bicubic.checked ? 'bicubic' : 'bilinear' }));
   function setStereo(on) {
     stereo.checked = on;
