@@ -23,10 +23,10 @@ if [ ! -d ../shared/data/stanford-chess ]; then
 fi
 ./pipelines/chess64.sh out/chess64.avi 120
 "$build/tools/lf-render" --input ../shared/data/stanford-chess --block 0,0,8,8 \
-  --at -3320,-812 --size 640x480 --focal auto --out out/chess-still.png --quiet
-# The same view through a focal surface (one plane per 16-pixel tile): the
-# near pieces and the board's edge sharp as well as the middle.
+  --at -3320,-812 --size 640x480 --focal plane --out out/chess-still.png --quiet
+# The same view through a focal surface (one plane per 16-pixel tile, the
+# default): the near pieces and the board's edge sharp as well as the middle.
 "$build/tools/lf-render" --input ../shared/data/stanford-chess --block 0,0,8,8 \
-  --at -3320,-812 --size 640x480 --focal surface --out out/chess-still-surface.png --quiet
+  --at -3320,-812 --size 640x480 --out out/chess-still-surface.png --quiet
 echo "demo: wrote out/chess64.avi (GStreamer pipeline), out/chess-still.png (lf-render, one" \
-  "focal plane) and out/chess-still-surface.png (lf-render --focal surface)"
+  "focal plane: --focal plane) and out/chess-still-surface.png (lf-render's default focal surface)"

@@ -55,7 +55,7 @@ export RIG="$work/rig.json" FPS=10 LATENCY_MS=300 ENCODING=jpeg QUALITY=90
 export RTX_LATENCY_MS=150
 normal_s=8 kill_s=15 loss_s=8
 export START_MS=6000  # hosts load their images before the shared base time, even when busy
-view="orbit=0.6 dolly=15 path-frames=120 width=320 height=240"  # the paper's output size
+view="orbit=0.6 dolly=15 path-frames=120 width=320 height=240 focal-surface=false"  # the paper's output size and focal plane
 export VIEW="$view"
 "$build/tools/lf-rig" --input "$data/stanford-chess" --block 0,0,8,8 --input-scale 0.5 --out "$RIG"
 period=$(awk -v f=$FPS 'BEGIN{print 1000 / f}')

@@ -681,7 +681,9 @@ TEST_F(Gst, GlBackendPipelineEqualsTheCpuPipeline) {
 // with the other GL pipeline tests: scripts/test-san.sh.)
 TEST_F(Gst, GlBackendWholeViewModeEqualsEveryFragmentDrawingWithGl) {
   ASSERT_TRUE(lf::gl_info().available) << lf::gl_info().error;
-  const std::string view = "num-buffers=3 width=320 height=240 focal-plane=param:-0.2 orbit=0.5";
+  const std::string view =
+      "num-buffers=3 width=320 height=240 focal-plane=param:-0.2 orbit=0.5 "
+      "focal-surface=false";
   std::string err;
   const auto gl = run(pipeline(view, "backend=gl", "backend=gl"), 100, nullptr, &err);
   ASSERT_EQ(gl.size(), 3u) << err;
@@ -761,7 +763,9 @@ TEST_F(Gst, GlBackendWholeViewModeEqualsEveryFragmentDrawingWithGl) {
 // arrive as the empty fragments they are on the wire, and the frame is
 // empty (no weight anywhere: all zero), never garbage.
 TEST_F(Gst, DeferredFragmentsWithoutGlAndOverRtp) {
-  const std::string view = "num-buffers=2 width=320 height=240 focal-plane=param:-0.2 orbit=0.5";
+  const std::string view =
+      "num-buffers=2 width=320 height=240 focal-plane=param:-0.2 orbit=0.5 "
+      "focal-surface=false";
   std::string err;
   const auto want = run(pipeline(view, "backend=cpu", "backend=cpu"), 100, nullptr, &err);
   ASSERT_EQ(want.size(), 2u) << err;
