@@ -177,9 +177,11 @@ class Runtime : public ::testing::Test {
                               const std::string& sink_caps = "format=RGBA", bool tee = false) {
     std::string d = "funnel name=reqs ! tee name=t";
     for (int v = 0; v < viewers; ++v) {
+      // The paper's focal plane (the outputs are compared with lf-render
+      // of the requests), unless props(v) sets focal-surface.
       d += " lfviewrequest name=req" + std::to_string(v) + " rig=" + rig_path_ +
-           " viewer-id=" + std::to_string(v) + " " + props(v) + (live ? " is-live=true" : "") +
-           " ! reqs.";
+           " viewer-id=" + std::to_string(v) + " focal-surface=false " + props(v) +
+           (live ? " is-live=true" : "") + " ! reqs.";
       // Live: complete frames leave at once; the deadline (300 ms instead
       // of one 33 ms period) is only for fragments late on a busy machine,
       // which would otherwise be composited without them.
@@ -596,7 +598,10 @@ TEST_F(Runtime, BinsBuildTheSameGraphAsTheHandBuiltOne) {
   {
     Running r(
         pipeline(
-            1, [](int) { return std::string("width=160 height=120 num-buffers=3 orbit=0.3"); },
+            1,
+            [](int) {
+              return std::string("width=160 height=120 num-buffers=3 orbit=0.3 focal-surface=true");
+            },
             false),
         1);
     Frame f;
