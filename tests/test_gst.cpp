@@ -33,6 +33,20 @@
 
 namespace {
 
+// Waits up to 60 s for the end of a pipeline's stream on `bus`: EOS, with
+// no error or warning before it.
+void expect_eos(GstBus* bus) {
+  GstMessage* m = gst_bus_timed_pop_filtered(
+      bus, 60 * GST_SECOND,
+      static_cast<GstMessageType>(GST_MESSAGE_EOS | GST_MESSAGE_ERROR | GST_MESSAGE_WARNING));
+  ASSERT_NE(m, nullptr) << "no end in 60 s";
+  EXPECT_EQ(GST_MESSAGE_TYPE(m), GST_MESSAGE_EOS)
+      << (GST_MESSAGE_TYPE(m) == GST_MESSAGE_EOS
+              ? ""
+              : testing_lf::take_error_debug(gst_message_ref(m)));
+  gst_message_unref(m);
+}
+
 using testing_lf::data_path;
 
 class Gst : public ::testing::Test {
@@ -912,15 +926,7 @@ TEST_F(Gst, NonLiveCamerasFollowTheRequests) {
   gst_pad_add_probe(out_sink, GST_PAD_PROBE_TYPE_BUFFER, count, &fragments, nullptr);
   gst_element_set_state(p, GST_STATE_PLAYING);
   GstBus* bus = gst_element_get_bus(p);
-  GstMessage* m = gst_bus_timed_pop_filtered(
-      bus, 60 * GST_SECOND,
-      static_cast<GstMessageType>(GST_MESSAGE_EOS | GST_MESSAGE_ERROR | GST_MESSAGE_WARNING));
-  ASSERT_NE(m, nullptr) << "no end in 60 s";
-  EXPECT_EQ(GST_MESSAGE_TYPE(m), GST_MESSAGE_EOS)
-      << (GST_MESSAGE_TYPE(m) == GST_MESSAGE_EOS
-              ? ""
-              : testing_lf::take_error_debug(gst_message_ref(m)));
-  gst_message_unref(m);
+  expect_eos(bus);
   // The camera's stream ended too (its task stopped on EOS from lffragment).
   const int frames_at_eos = frames.load();
   g_usleep(300000);
@@ -1016,15 +1022,7 @@ TEST_F(Gst, TheDefaultPipelineFocusesOnASurface) {
   ASSERT_NE(p, nullptr);
   gst_element_set_state(p, GST_STATE_PLAYING);
   GstBus* bus = gst_element_get_bus(p);
-  GstMessage* m = gst_bus_timed_pop_filtered(
-      bus, 60 * GST_SECOND,
-      static_cast<GstMessageType>(GST_MESSAGE_EOS | GST_MESSAGE_ERROR | GST_MESSAGE_WARNING));
-  ASSERT_NE(m, nullptr) << "no end in 60 s";
-  EXPECT_EQ(GST_MESSAGE_TYPE(m), GST_MESSAGE_EOS)
-      << (GST_MESSAGE_TYPE(m) == GST_MESSAGE_EOS
-              ? ""
-              : testing_lf::take_error_debug(gst_message_ref(m)));
-  gst_message_unref(m);
+  expect_eos(bus);
   GstElement* req = gst_bin_get_by_name(GST_BIN(p), "req");
   gboolean surface = FALSE;
   guint planes = 0;
