@@ -270,7 +270,7 @@ TEST_F(ClickToFocus, ARightClickFocusesOnThePointUnderIt) {
   const std::string desc =
       "lfviewrequest name=req rig=" + rig_path + " is-live=true framerate=10/" +
       std::to_string(kSlow) + " width=320 height=240 vfov=20" +
-      " focal-depth=1.25 ! lfarray rig=" + rig_path + " " + kCameras +
+      " focal-depth=1.25 focal-surface=false ! lfarray rig=" + rig_path + " " + kCameras +
       " latency=" + std::to_string(1000000000LL * kSlow) +
       " ! video/x-raw,format=RGBA ! appsink name=out sync=false max-buffers=4 drop=true";
   GstElement* p = gst_parse_launch(desc.c_str(), nullptr);
@@ -446,7 +446,7 @@ TEST_F(ClickToFocus, ContinuousFocusConvergesOnTheCentre) {
   const std::string desc =
       "lfviewrequest name=req rig=" + rig_path + " " + kLive + " vfov=" + std::to_string(vfov) +
       " focal-depth=" + std::to_string(scene.far_depth) +
-      " continuous-focus=true ! lfarray rig=" + rig_path + " " + kCameras +
+      " continuous-focus=true focal-surface=false ! lfarray rig=" + rig_path + " " + kCameras +
       " latency=" + std::to_string(3000000000LL * kSlow) + " ! fakesink async=false";
   GError* err = nullptr;
   GstElement* p = gst_parse_launch(desc.c_str(), &err);

@@ -834,7 +834,7 @@ TEST_F(Gst, OneRequestThreadKeepsTheCamerasInStep) {
   // frame-timeout (20 ms) there, then gets its empty fragment.
   std::string d = "lfviewrequest rig=" + rig_path_ +
                   " num-buffers=4 width=160 height=120 focal-plane=param:-0.2 orbit=0.5"
-                  " ! tee name=t lfcompositor name=comp rig=" +
+                  " focal-surface=false ! tee name=t lfcompositor name=comp rig=" +
                   rig_path_ +
                   " backend=cpu ! video/x-raw,format=RGBA ! appsink name=out sync=false";
   for (size_t i = 0; i < rig.cameras.size(); ++i) {
@@ -867,7 +867,7 @@ TEST_F(Gst, OneRequestThreadKeepsTheCamerasInStep) {
   const auto limited =
       run("lfviewrequest rig=" + rig_path_ +
               " num-buffers=2000 framerate=1000/1 width=160 height=120 focal-plane=param:-0.2"
-              " orbit=0.5 ! lfarray rig=" +
+              " orbit=0.5 focal-surface=false ! lfarray rig=" +
               rig_path_ +
               " num-buffers=1 max-rate=50 ! video/x-raw,format=RGBA ! appsink name=out "
               "sync=false",
