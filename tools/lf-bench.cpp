@@ -463,18 +463,36 @@ int main(int argc, char** argv) {
       else
         std::printf("\n## Leave-one-out on %s (%zu cameras, %d held out; border %s)\n\n",
                     rig.name.c_str(), rig.cameras.size(), n_loo, "2.5% of the height cut");
-      for (int k = 0; k < n_loo; ++k) {
-        const int j = held[k];
-        const std::vector<int> drop = subgrid ? others : std::vector<int>{j};
-        const lf::Rig rj = rig.without(drop);
-        std::vector<cv::Mat> ij;
+      // The rig without the dropped cameras, its images, auto-focus and the
+      // surface estimator (which keep pointers to the rig: built in place).
+      struct Without {
+        lf::Rig rig;
+        std::vector<cv::Mat> images;
+        std::unique_ptr<lf::AutofocusContext> af;
+        std::unique_ptr<lf::FocalSurfaceEstimator> surf;
+      };
+      auto without = [&](const std::vector<int>& drop) {
+        auto w = std::make_unique<Without>();
+        w->rig = rig.without(drop);
         for (size_t i = 0; i < images.size(); ++i)
           if (std::find(drop.begin(), drop.end(), static_cast<int>(i)) == drop.end())
-            ij.push_back(images[i]);
-        const lf::AutofocusContext af(rj, ij);
+            w->images.push_back(images[i]);
+        w->af = std::make_unique<lf::AutofocusContext>(w->rig, w->images);
         lf::SurfaceOptions surf_opt;
         surf_opt.second_planes = true;  // "surface" leaves them out
-        const lf::FocalSurfaceEstimator surf(rj, ij, surf_opt);
+        w->surf = std::make_unique<lf::FocalSurfaceEstimator>(w->rig, w->images, surf_opt);
+        return w;
+      };
+      // subgrid: one sub-grid renders every held-out view.
+      const std::unique_ptr<Without> shared = subgrid ? without(others) : nullptr;
+      for (int k = 0; k < n_loo; ++k) {
+        const int j = held[k];
+        const std::unique_ptr<Without> own = subgrid ? nullptr : without({j});
+        const Without& w = subgrid ? *shared : *own;
+        const lf::Rig& rj = w.rig;
+        const std::vector<cv::Mat>& ij = w.images;
+        const lf::AutofocusContext& af = *w.af;
+        const lf::FocalSurfaceEstimator& surf = *w.surf;
         // Exhaustive sweep at the smallest size (an oracle: it sees the truth).
         const auto [ws, hs] = sizes.front();
         lf::ViewRequest sreq;
