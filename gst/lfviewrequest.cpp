@@ -104,8 +104,8 @@
  * 5 s when live. Refocusing while playing (the wheel, a click to focus,
  * continuous focus, `focal-depth` or `focal-plane` set) means one plane:
  * it sets `focal-surface` to false (notified); set it true again to return
- * to the surface. The surface's cost: about 1.2x the single plane's CPU per
- * frame in the renderer (docs/results.md).
+ * to the surface. The surface's cost: about 1.5x the single plane's CPU
+ * per frame in the pipeline, probes included (docs/results.md).
  *
  * ## Aperture
  *
