@@ -689,7 +689,7 @@ TEST_F(Hostile, BadCameraFilesAreErrorsNamingThem) {
     r.cameras[0].image = f;
     const std::string rig = (dir / "rig.json").string();
     lf::save_rig(r, rig);
-    for (const std::string mode :
+    for (const std::string& mode :
          {"mode=dataset still-cache=" + (dir / "cache").string(), "mode=file location=" + f}) {
       const int runs = f.find("garbage") != std::string::npos ? 20 : 1;
       for (int k = 0; k < runs; ++k) {

@@ -503,7 +503,9 @@ TEST(Surface, TinyAndCollinearRigs) {
       std::printf("%s: single q %.4f (truth %.4f), %d planes\n", c.name, e.single_q, 1 / 3.0,
                   e.planes_used);
       // With two cameras or more the plane is measured, not guessed.
-      if (c.rig.cameras.size() >= 2) EXPECT_NEAR(e.single_q, 1 / 3.0, est.candidate_q(1)) << c.name;
+      if (c.rig.cameras.size() >= 2) {
+        EXPECT_NEAR(e.single_q, 1 / 3.0, est.candidate_q(1)) << c.name;
+      }
     } catch (const std::invalid_argument& ex) {
       std::printf("%s: refused: %s\n", c.name, ex.what());
       EXPECT_LT(c.rig.cameras.size(), 2u) << c.name << " refused: " << ex.what();
