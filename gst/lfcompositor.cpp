@@ -140,8 +140,9 @@ struct Settings {
 // A fragment waiting for its frame. Raw fragments are parsed in place: their
 // pixels stay in the received buffer, which stays mapped (and referenced)
 // until the frame is composited; JPEG ones are decoded into `f.pixels`.
-// A buffer holding a camera's two layers (lib/lf/wire.h) gives two pieces;
-// the first keeps the mapping, the second's raw pixels point into it.
+// A buffer holding a camera's two layers, or its fragments of a quilt's
+// eyes (lib/lf/wire.h), gives a piece each; the first keeps the mapping,
+// the others' raw pixels point into it.
 struct Piece {
   lf::Fragment f;
   std::optional<lfgst::MappedBuffer> buffer;
@@ -918,9 +919,14 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
   lf::Fragment f;
   lf::Encoding enc = lf::Encoding::kEmpty;
   const uint8_t* pixels = nullptr;
-  std::optional<lf::Fragment> second;  // layer 1, after layer 0 in the same buffer
-  lf::Encoding second_enc = lf::Encoding::kEmpty;
-  const uint8_t* second_pixels = nullptr;
+  // After the first fragment in the same buffer: its layer 1, or a quilt's
+  // further eyes (lib/lf/wire.h).
+  struct More {
+    lf::Fragment f;
+    lf::Encoding enc = lf::Encoding::kEmpty;
+    const uint8_t* pixels = nullptr;
+  };
+  std::vector<More> more;
   int w = 0, h = 0;
   const gint64 t0 = g_get_monotonic_time();
   if (!lfgst::guard([&] { head = lf::peek_fragment_header(data, size); }, &err)) {
@@ -949,23 +955,38 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
                    head.sequence);
   } else if (!lfgst::guard(
                  [&] {
-                   // One fragment, or a camera's layer 0 then its layer 1
-                   // (a surface with second planes): the first's header
-                   // says where it ends.
+                   // One fragment, a camera's layer 0 then its layer 1
+                   // (a surface with second planes), or its fragments of
+                   // a quilt's eyes: each header says where it ends. All
+                   // of them together carry at most the frame's pixels.
                    const size_t pixel_limit = static_cast<size_t>(w) * static_cast<size_t>(h);
                    const bool sealed = lfgst::has_sealed_meta(buf);
-                   const size_t first = head.size();
-                   f = lf::parse_fragment_in_place(data, std::min(first, size), &pixels, &enc,
-                                                   pixel_limit, !sealed);
-                   if (first < size) {
-                     second.emplace(lf::parse_fragment_in_place(data + first, size - first,
-                                                                &second_pixels, &second_enc,
-                                                                pixel_limit, !sealed));
-                     if (f.layer != 0 || second->layer != 1 || second->viewer_id != f.viewer_id ||
-                         second->sequence != f.sequence || second->camera_id != f.camera_id)
+                   const std::vector<lf::FragmentSpan> spans =
+                       lf::split_fragments(data, size, lf::Quilt::kMaxViews);
+                   size_t pixels_left = pixel_limit;
+                   // (A layer pair's two may each cover the frame.)
+                   auto parse = [&](const lf::FragmentSpan& sp, const uint8_t** px,
+                                    lf::Encoding* e) {
+                     const size_t limit = spans.size() == 2 ? pixel_limit : pixels_left;
+                     lf::Fragment one = lf::parse_fragment_in_place(data + sp.offset, sp.size, px,
+                                                                    e, limit, !sealed);
+                     pixels_left -= std::min(pixels_left, static_cast<size_t>(one.rect.area()));
+                     return one;
+                   };
+                   f = parse(spans[0], &pixels, &enc);
+                   for (size_t k = 1; k < spans.size(); ++k) {
+                     More m;
+                     m.f = parse(spans[k], &m.pixels, &m.enc);
+                     const bool layer_pair = spans.size() == 2 && f.layer == 0 && m.f.layer == 1;
+                     const bool quilt_eye = f.layer == 0 && m.f.layer == 0 && !f.empty() &&
+                                            !m.f.empty() && f.cameras == 1 && m.f.cameras == 1;
+                     if (!(layer_pair || quilt_eye) || m.f.viewer_id != f.viewer_id ||
+                         m.f.sequence != f.sequence || m.f.camera_id != f.camera_id)
                        throw lf::WireError(
-                           "fragment: a buffer's second fragment must be the same camera's layer "
-                           "1 of the same request, after its layer 0");
+                           "fragment: a buffer's further fragments must be the same camera's "
+                           "layer 1 of the same request, after its layer 0, or its fragments of "
+                           "other eyes of the same quilt request");
+                     more.push_back(std::move(m));
                    }
                  },
                  &err)) {
@@ -977,7 +998,9 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
                                "camera %u: a partial sum of %u cameras, the rig has %zu",
                                f.camera_id, f.cameras, st->rig->cameras.size());
   } else if (f.out_width != w || f.out_height != h ||
-             (second && (second->out_width != w || second->out_height != h))) {
+             std::any_of(more.begin(), more.end(), [&](const More& m) {
+               return m.f.out_width != w || m.f.out_height != h;
+             })) {
     LF_ELEMENT_WARNING_LIMITED(self, st->wrong_size, STREAM, DECODE,
                                ("Dropping a fragment for another output size"),
                                "camera %u: fragment for %dx%d, the output is %dx%d", f.camera_id,
@@ -1028,19 +1051,22 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
           g.running_time = gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, g.pts);
       }
       const bool raw = enc == lf::Encoding::kRaw;
-      const bool raw2 = second && second_enc == lf::Encoding::kRaw;
+      const bool any_raw = raw || std::any_of(more.begin(), more.end(), [](const More& m) {
+                             return m.enc == lf::Encoding::kRaw;
+                           });
       Piece piece{std::move(f), std::nullopt, raw ? pixels : nullptr};
-      if (raw || raw2) piece.buffer.emplace(std::move(*mapped));
+      if (any_raw) piece.buffer.emplace(std::move(*mapped));
       // A drawing left to us: only on an empty fragment this process made
       // (the meta is never copied), for this camera and this view size.
-      if (piece.f.empty() && !second)
+      if (piece.f.empty() && more.empty())
         if (auto d = lfgst::deferred_of(buf); d &&
                                               d->camera.id == static_cast<int>(piece.f.camera_id) &&
                                               d->plan.out_width == w && d->plan.out_height == h)
           piece.deferred = std::move(d);
       g.fragments.push_back(std::move(piece));
-      if (second)
-        g.fragments.push_back({std::move(*second), std::nullopt, raw2 ? second_pixels : nullptr});
+      for (More& m : more)
+        g.fragments.push_back(
+            {std::move(m.f), std::nullopt, m.enc == lf::Encoding::kRaw ? m.pixels : nullptr});
     }
   }
 }

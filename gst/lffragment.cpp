@@ -719,32 +719,57 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
                             GST_VIDEO_FRAME_PLANE_STRIDE(&vf, 0));
         const cv::Mat rgba = camera_image(p, st, frame, image,
                                           GST_VIDEO_INFO_FORMAT(&info) == GST_VIDEO_FORMAT_RGBx);
-        // Shared with the process's other cameras where it pays
-        // (geometry_for).
-        const std::shared_ptr<const lf::ViewGeometry> geometry =
-            geometry_for(st->rig, req, st->index, key);
-        const lf::ViewGeometry& g = *geometry;
         lf::Fragment f;
         f.viewer_id = req.viewer_id;
         f.sequence = req.sequence;
         f.capture_time_ns = capture_time_of(self, frame, cam.id);
         // A surface with second planes: this camera's layer-0 and layer-1
-        // fragments, back to back in one buffer (lib/lf/wire.h).
+        // fragments, back to back in one buffer (lib/lf/wire.h); a quilt:
+        // its fragment of each eye it sees, each moved to the eye's tile.
         std::vector<lf::FragmentPlan> plans;
-        if (req.surface.two_planes()) {
-          auto both = lf::plan_fragment_layers(g, st->index);
-          plans.push_back(std::move(both[0]));
-          if (!both[1].empty()) plans.push_back(std::move(both[1]));  // else nothing to add
+        std::vector<cv::Point> tile_of;  // a quilt's: each plan's tile origin
+        if (!req.quilt.empty()) {
+          for (int i = 0; i < req.quilt.views; ++i) {
+            lf::FragmentPlan plan = lf::plan_fragment(
+                lf::ViewGeometry(rig, lf::quilt_eye(req, i), st->index), st->index);
+            if (plan.empty()) continue;
+            plans.push_back(std::move(plan));
+            tile_of.push_back(lf::quilt_tile(req.quilt, req.view.width, req.view.height, i).tl());
+          }
+          if (plans.empty()) {  // sees none of the eyes
+            out = empty_fragment(req, cam, f.capture_time_ns);
+            return;
+          }
         } else {
-          plans.push_back(lf::plan_fragment(g, st->index));
+          // Shared with the process's other cameras where it pays
+          // (geometry_for).
+          const std::shared_ptr<const lf::ViewGeometry> g =
+              geometry_for(st->rig, req, st->index, key);
+          if (req.surface.two_planes()) {
+            auto both = lf::plan_fragment_layers(*g, st->index);
+            plans.push_back(std::move(both[0]));
+            if (!both[1].empty()) plans.push_back(std::move(both[1]));  // else nothing to add
+          } else {
+            plans.push_back(lf::plan_fragment(*g, st->index));
+          }
         }
+        // The header of plan k's fragment (in the quilt frame for a quilt).
+        auto describe = [&](size_t k, lf::Fragment& head) {
+          lf::describe_fragment(plans[k], head);
+          if (tile_of.empty()) return;
+          head.out_width = req.view.width, head.out_height = req.view.height;
+          head.rect.x += tile_of[k].x, head.rect.y += tile_of[k].y;
+          for (auto& span : head.spans)  // [begin, end) in output x
+            span = {static_cast<uint16_t>(span[0] + tile_of[k].x),
+                    static_cast<uint16_t>(span[1] + tile_of[k].x)};
+        };
         size_t warped = 0;
         // defer (lfarray's whole-view mode): no pixels here; the plan and
         // the image go on an empty fragment to the compositor, which draws
         // them (probes, which are scored from pixels, and layer pairs are
         // drawn here as always).
         if (st->s.defer && st->s.encoding == Encoding::kRaw && !probe && plans.size() == 1 &&
-            !plans[0].empty()) {
+            tile_of.empty() && !plans[0].empty()) {
           auto d = std::make_shared<lfgst::DeferredDraw>();
           if (rgba.data == image.data) {  // the frame itself: mapped while the drawing waits
             if (!gst_video_frame_map(&d->frame, &info, frame, GST_MAP_READ))
@@ -780,8 +805,9 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
             lf::render_pixels(plan, cam, rgba, px);
         };
         if (st->s.encoding == Encoding::kJpeg) {
-          for (const lf::FragmentPlan& plan : plans) {
-            lf::describe_fragment(plan, f);
+          for (size_t k = 0; k < plans.size(); ++k) {
+            const lf::FragmentPlan& plan = plans[k];
+            describe(k, f);
             f.camera_id = static_cast<uint32_t>(cam.id);
             std::vector<uint8_t> one;
             if (st->gl) {
@@ -811,7 +837,7 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
           std::vector<size_t> sizes(plans.size());
           size_t size = 0;
           for (size_t k = 0; k < plans.size(); ++k) {
-            lf::describe_fragment(plans[k], heads[k]);
+            describe(k, heads[k]);
             size += sizes[k] = lf::raw_fragment_size(heads[k]);
           }
           out = gst_buffer_new_allocate(nullptr, size, nullptr);

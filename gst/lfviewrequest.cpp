@@ -215,6 +215,10 @@ struct Settings {
   guint surface_interval = DEFAULT_SURFACE_INTERVAL;
   guint surface_planes = 0;           // read-only: planes of the surface in use (object lock)
   guint surface_two_plane_tiles = 0;  // read-only: its tiles with a second plane
+  // A quilt (lib/lf/quilt.h): 0 views for one view; width x height is then
+  // the quilt frame, of quilt_cols x quilt_rows tiles.
+  guint quilt_views = 0, quilt_cols = 8, quilt_rows = 6;
+  gdouble view_cone = 0, quilt_baseline = 0;  // degrees; rig units (0 and 0: the array's width)
 };
 
 // The views and focal plane that the view settings describe.
@@ -348,6 +352,14 @@ static std::optional<cv::Vec3d> point(const std::vector<double>& p, const char* 
   return cv::Vec3d(p[0], p[1], p[2]);
 }
 
+// The quilt layout of the settings (its baseline is set per request).
+static lf::Quilt quilt_of(const Settings& s) {
+  lf::Quilt q;
+  q.views = static_cast<int>(s.quilt_views);
+  q.cols = static_cast<int>(s.quilt_cols), q.rows = static_cast<int>(s.quilt_rows);
+  return q;
+}
+
 // Builds the views of settings `s` (throws std::exception when they are bad).
 static std::shared_ptr<const Views> build(const Settings& s, const lf::Rig& rig) {
   auto v = std::make_shared<Views>();
@@ -355,6 +367,13 @@ static std::shared_ptr<const Views> build(const Settings& s, const lf::Rig& rig)
   lf::ViewSettings vs;
   vs.width = s.width;
   vs.height = s.height;
+  if (s.quilt_views > 0) {  // each eye has the tile's size
+    lf::validate_quilt(quilt_of(s), s.width, s.height);
+    if (s.stereo_baseline > 0)
+      throw std::invalid_argument("a quilt (quilt-views) and stereo-baseline cannot be combined");
+    vs.width = s.width / static_cast<int>(s.quilt_cols);
+    vs.height = s.height / static_cast<int>(s.quilt_rows);
+  }
   vs.position = point(s.position, "position");
   vs.look_at = point(s.look_at, "look-at");
   vs.vfov_deg = s.vfov;
@@ -927,7 +946,9 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   bool warn_no_surface = false, refocused = false;
   const bool continuous =
       lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::continuous_focus);
-  bool want_surface = lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::focal_surface);
+  // A quilt's eyes share one focal plane (lib/lf/quilt.h): no surface.
+  bool want_surface = s.quilt_views == 0 &&
+                      lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::focal_surface);
   const double focal_depth =
       lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::focal_depth);
   const std::string focal_plane =
@@ -1032,6 +1053,19 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   p->settings.surface_planes = surface_planes;
   p->settings.surface_two_plane_tiles = two_plane_tiles;
   GST_OBJECT_UNLOCK(self);
+  if (s.quilt_views > 0) {
+    // The centre eye, of the tile's size so far, becomes the quilt request.
+    req.quilt = quilt_of(s);
+    const cv::Vec3d x(req.view.R(0, 0), req.view.R(0, 1), req.view.R(0, 2));
+    req.quilt.baseline = s.quilt_baseline > 0 ? s.quilt_baseline
+                         : s.view_cone > 0
+                             ? lf::baseline_for_cone(lf::convergence_distance(req), s.view_cone)
+                             : lf::array_extent(rig, x);
+    if (!(req.quilt.baseline > 0))  // a cone focused at infinity, a one-camera rig
+      req.quilt.baseline = rig.typical_spacing();
+    req.view.width *= req.quilt.cols;
+    req.view.height *= req.quilt.rows;
+  }
   std::vector<lf::ViewRequest> tick{req};
   if (s.stereo_baseline > 0) {
     // Left and right eyes along the view's x axis (viewer ids v, v + 1).
@@ -1256,6 +1290,36 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
                                 "right (viewer-id + 1) request per tick, for lfcompositor "
                                 "stereo=true",
                                 0, MAX_COORD, DEFAULT_STEREO_BASELINE, ctrl));
+  props.add(oc, &Settings::quilt_views,
+            g_param_spec_uint(
+                "quilt-views", "Quilt views",
+                "0: one view. 2..128: a quilt for a light-field display (docs/displays.md): this "
+                "many eyes along the view's x axis, each answered by every camera in the same "
+                "request round, tiled in the width x height frame in quilt-columns x "
+                "quilt-rows tiles, the first (leftmost) eye at the bottom-left, then left to "
+                "right and upward; the eyes share the focal plane (no focal surface)",
+                0, lf::Quilt::kMaxViews, 0, rw));
+  props.add(oc, &Settings::quilt_cols,
+            g_param_spec_uint("quilt-columns", "Quilt columns",
+                              "Tiles across the quilt; width must be a multiple", 1,
+                              lf::Quilt::kMaxTiles, 8, rw));
+  props.add(oc, &Settings::quilt_rows,
+            g_param_spec_uint("quilt-rows", "Quilt rows",
+                              "Tiles down the quilt; height must be a multiple", 1,
+                              lf::Quilt::kMaxTiles, 6, rw));
+  props.add(oc, &Settings::view_cone,
+            g_param_spec_double("view-cone", "View cone",
+                                "Quilt: the angle (degrees) between the first and the last eye "
+                                "seen from the focal plane's point on the view axis (a "
+                                "display's view cone, e.g. 40); 0: the baseline is the camera "
+                                "array's width along the view's x axis (all the parallax it "
+                                "captured, none made up). quilt-baseline, if set, wins",
+                                0, 120, 0, ctrl));
+  props.add(oc, &Settings::quilt_baseline,
+            g_param_spec_double("quilt-baseline", "Quilt baseline",
+                                "Quilt: first eye to last in rig units; 0: from view-cone (one "
+                                "camera spacing where the cone is focused at infinity)",
+                                0, MAX_COORD, 0, ctrl));
   gst_element_class_add_static_pad_template(ec, &src_template);
   gst_element_class_set_static_metadata(
       ec, "Light field view requests", "Source/Metadata",

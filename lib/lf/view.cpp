@@ -97,6 +97,14 @@ void validate(const ViewRequest& req) {
     bad("aperture scale " + std::to_string(req.aperture_scale) + " is outside 1.." +
         std::to_string(static_cast<int>(kMaxApertureScale)));
   const FocalSurface& fs = req.surface;
+  if (!req.quilt.empty()) {
+    if (!fs.empty()) bad("a quilt has one focal plane for all its eyes, not a focal surface");
+    try {
+      validate_quilt(req.quilt, v.width, v.height);
+    } catch (const std::invalid_argument& e) {
+      bad(e.what());
+    }
+  }
   if (fs.empty()) return;
   if (fs.tile < FocalSurface::kMinTile || fs.tile > FocalSurface::kMaxTile)
     bad("focal surface tile " + std::to_string(fs.tile) + " px is outside " +

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "lf/camera.h"
+#include "lf/quilt.h"
 
 namespace lf {
 
@@ -168,6 +169,10 @@ struct ViewRequest {
   // frame-select=capture-time every camera warps the frame captured at or
   // before it, all from one capture instant.
   int64_t time_ns = -1;
+  // A quilt of eyes along a baseline (lf/quilt.h): `view` is then the
+  // centre eye with the quilt frame's width and height, and each camera
+  // answers every eye in one buffer. Empty: one view.
+  Quilt quilt;
 };
 
 // Throws std::invalid_argument naming the field when a request cannot be
@@ -177,7 +182,8 @@ struct ViewRequest {
 // a surface whose tile size is outside kMinTile..kMaxTile, whose grid does
 // not match the output size, with 0 or more than kMaxPlanes planes, a bad
 // plane, or a tile naming a plane that is not there (a second plane must
-// name another plane than the tile's first).
+// name another plane than the tile's first), or a quilt that
+// lf::validate_quilt refuses or that has a focal surface.
 void validate(const ViewRequest& req);
 
 }  // namespace lf

@@ -794,7 +794,8 @@ std::vector<uint8_t> serialize_request(const ViewRequest& req) {
   out.reserve(kRequestSize + (block ? block + 4 : 0));
   Writer w(out);
   w.bytes("LFVR", 4);
-  w.u16(sf.empty() ? 2 : 3);
+  const Quilt& qt = req.quilt;
+  w.u16(!qt.empty() ? 4 : sf.empty() ? 2 : 3);
   w.u16(kRequestSize);
   w.u32(req.viewer_id);
   w.u64(req.sequence);
@@ -827,6 +828,14 @@ std::vector<uint8_t> serialize_request(const ViewRequest& req) {
     w.bytes(sf.plane_of.data(), sf.plane_of.size());
     if (second) w.bytes(sf.second_of.data(), sf.second_of.size());
   }
+  if (!qt.empty()) {
+    w.u32(kQuiltBlockSize);
+    w.u8(static_cast<uint8_t>(qt.views));
+    w.u8(static_cast<uint8_t>(qt.cols));
+    w.u8(static_cast<uint8_t>(qt.rows));
+    w.u8(0);
+    w.f64(qt.baseline);
+  }
   w.u32(crc(out.data(), out.size()));
   return out;
 }
@@ -849,8 +858,8 @@ ViewRequest parse_request(const uint8_t* data, size_t size) {
   Reader r(data, size, "view request");
   for (int i = 0; i < 4; ++i) r.u8();
   const uint16_t version = r.u16();
-  if (version != 2 && version != 3)
-    bad("unsupported version " + std::to_string(version) + " (this build speaks versions 2, 3)");
+  if (version < 2 || version > 4)
+    bad("unsupported version " + std::to_string(version) + " (this build speaks versions 2..4)");
   const uint16_t fixed = r.u16();
   if (fixed != kRequestSize || (version == 2 && size != kRequestSize))
     bad("size " + std::to_string(size) + " (announced " + std::to_string(fixed) + "), expected " +
@@ -872,7 +881,21 @@ ViewRequest parse_request(const uint8_t* data, size_t size) {
   const uint8_t sampling = r.u8();
   const uint16_t scale_q8 = r.u16();
   req.time_ns = static_cast<int64_t>(r.u64());
-  if (version == 3) {
+  if (version == 4) {
+    const uint32_t block = r.u32();
+    if (block != kQuiltBlockSize || size != kRequestSize + kQuiltBlockSize + 4)
+      bad("quilt block of " + std::to_string(block) + " bytes in " + std::to_string(size) +
+          " (expected " + std::to_string(kQuiltBlockSize) + " in " +
+          std::to_string(kRequestSize + kQuiltBlockSize + 4) + ")");
+    Reader tail(data + size - 4, 4, "view request");
+    if (crc(data, size - 4) != tail.u32()) bad("CRC mismatch (corrupt data)");
+    req.quilt.views = r.u8();
+    req.quilt.cols = r.u8();
+    req.quilt.rows = r.u8();
+    if (r.u8() != 0) bad("unknown quilt flags");
+    req.quilt.baseline = r.f64();
+    if (req.quilt.views < 2) bad("a quilt of " + std::to_string(req.quilt.views) + " views");
+  } else if (version == 3) {
     // The surface block: its size first, checked against what came and the
     // limit, then the CRC over all of it, before anything is allocated.
     const uint32_t block = r.u32();

@@ -76,6 +76,16 @@
 // S = 8 + 32 P + cols * rows (x 2 with flag 1), at most kMaxSurfaceBytes (the grid is checked
 // against the view before anything is allocated: a peer cannot make the
 // parser allocate more than it sent).
+//
+// View request, version 4: a quilt request (view.h ViewRequest::quilt,
+// lf/quilt.h; never with a focal surface). Bytes 0..147 as version 2
+// (version = 4, size = 152), then 148 block size u32 = 12, 152 views u8
+// (2..128), 153 cols u8, 154 rows u8, 155 flags u8 (0), 156 baseline f64
+// (rig units), 164 crc32 u32 (bytes 0..163): 168 bytes. A camera answers it
+// with its fragment of each eye it sees, back to back in one buffer, each
+// a rectangle of the quilt frame (out_width x out_height the quilt's), all
+// layer 0, of the same viewer, request and camera; or one empty fragment
+// when it sees none.
 #pragma once
 
 #include <cstdint>
@@ -101,6 +111,8 @@ constexpr size_t kRequestSize = 152;           // version 2 (no focal surface)
 // Version 3's surface block: 16384 x 16384 pixels in tiles of 16, or
 // 4096 x 4096 in tiles of 4 (1 MiB).
 constexpr size_t kMaxSurfaceBytes = 8 + 32 * 64 + (size_t{1} << 20);
+// Version 4's quilt block (after its size field).
+constexpr size_t kQuiltBlockSize = 12;
 constexpr size_t kMaxPayload = 64u << 20;
 // Default cap on a parsed fragment's rectangle: 8192 x 8192 pixels.
 constexpr size_t kMaxFragmentPixels = size_t{8192} * 8192;
@@ -197,10 +209,10 @@ FragmentHeader peek_fragment_header(const uint8_t* data, size_t size);
 // std::invalid_argument outside 1..kMaxApertureScale.
 uint16_t aperture_scale_q8(double scale);
 
-// Version 2, or 3 with a focal surface. Throws std::invalid_argument on a
+// Version 2, 3 with a focal surface, 4 with a quilt. Throws std::invalid_argument on a
 // request lf::validate() refuses or a surface over kMaxSurfaceBytes.
 std::vector<uint8_t> serialize_request(const ViewRequest& r);
-// Parses and validates (including lf::validate()); versions 2 and 3.
+// Parses and validates (including lf::validate()); versions 2 to 4.
 ViewRequest parse_request(const uint8_t* data, size_t size);
 
 }  // namespace lf
