@@ -17,6 +17,7 @@ GST_ELEMENT_REGISTER_DECLARE(lfarray);
 GST_ELEMENT_REGISTER_DECLARE(lffragmentdemux);
 GST_ELEMENT_REGISTER_DECLARE(lfpartialsum);
 GST_ELEMENT_REGISTER_DECLARE(lfrequestmux);
+GST_ELEMENT_REGISTER_DECLARE(lflenticular);
 
 static gboolean plugin_init(GstPlugin* plugin) {
   gboolean ok = FALSE;
@@ -29,6 +30,7 @@ static gboolean plugin_init(GstPlugin* plugin) {
   ok |= GST_ELEMENT_REGISTER(lffragmentdemux, plugin);
   ok |= GST_ELEMENT_REGISTER(lfpartialsum, plugin);
   ok |= GST_ELEMENT_REGISTER(lfrequestmux, plugin);
+  ok |= GST_ELEMENT_REGISTER(lflenticular, plugin);
   return ok;
 }
 

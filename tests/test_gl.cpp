@@ -21,6 +21,7 @@
 #include "helpers.h"
 #include "lf/composite.h"
 #include "lf/gl_render.h"
+#include "lf/lenticular.h"
 #include "lf/plan.h"
 #include "lf/render.h"
 #include "lf/render_view.h"
@@ -445,6 +446,54 @@ TEST(GlBackend, PlannedFragmentsEqualDrawnAndCompositedOnes) {
 }
 
 // Meson runs this suite with EGL_PLATFORM=nowhere: no context can be made.
+TEST(GlBackend, InterleaveMatchesTheCpuKernel) {
+  // A Looking Glass Portrait-sized panel from a 48-view quilt: the shader
+  // picks the CPU kernel's view for every sub-pixel but those within float
+  // rounding of a view boundary, and there the neighbouring view.
+  lf::GlRenderer gl;
+  lf::Quilt q;
+  q.views = 48, q.cols = 8, q.rows = 6;
+  const int tw = 160, th = 120;
+  cv::Mat views(th * q.rows, tw * q.cols, CV_8UC4);  // view i: channel values 5i + 1, 2, 3
+  cv::Mat noise(views.size(), CV_8UC4);
+  cv::randu(noise, 0, 256);
+  for (int i = 0; i < q.views; ++i)
+    views(lf::quilt_tile(q, views.cols, views.rows, i))
+        .setTo(cv::Scalar(5 * i + 1, 5 * i + 2, 5 * i + 3, 255));
+  for (int variant = 0; variant < 3; ++variant) {
+    lf::DisplayCalibration c;
+    c.pitch = 52.58, c.slope = -7.19, c.center = 0.565, c.dpi = 324;
+    c.screen_w = 1536, c.screen_h = 2048;
+    c.inv_view = variant != 1, c.flip_subp = variant == 2, c.flip_image_x = variant == 1;
+    cv::Mat cpu, gpu;
+    lf::interleave_quilt(c, q, views, cpu);
+    gl.interleave(c, q, views, gpu);
+    ASSERT_EQ(gpu.size(), cpu.size());
+    long differ = 0, not_neighbour = 0;
+    for (int y = 0; y < cpu.rows; ++y)
+      for (int x = 0; x < cpu.cols; ++x)
+        for (int ch = 0; ch < 4; ++ch) {
+          const int a = cpu.ptr<uint8_t>(y)[4 * x + ch], b = gpu.ptr<uint8_t>(y)[4 * x + ch];
+          if (a == b) continue;
+          differ++;
+          const int step = std::abs(a - b) / 5;
+          if (ch == 3 || std::abs(a - b) % 5 != 0 || (step != 1 && step != q.views - 1))
+            not_neighbour++;
+        }
+    const double fraction = static_cast<double>(differ) / (3.0 * cpu.total());
+    std::printf("interleave variant %d: %ld of %zu sub-pixels differ (%.2e)\n", variant, differ,
+                3 * cpu.total(), fraction);
+    EXPECT_EQ(not_neighbour, 0) << variant;
+    EXPECT_LT(fraction, 1e-3) << variant;
+    // Texture content is sampled alike: on a noise quilt the same share.
+    lf::interleave_quilt(c, q, noise, cpu);
+    gl.interleave(c, q, noise, gpu);
+    cv::Mat diff;
+    cv::absdiff(cpu, gpu, diff);
+    EXPECT_LT(cv::countNonZero(diff.reshape(1)), 3.0 * cpu.total() * 1e-3) << variant;
+  }
+}
+
 TEST(GlAbsent, AutoFallsBackAndGlFailsClearly) {
   const char* platform = std::getenv("EGL_PLATFORM");
   ASSERT_TRUE(platform && std::string(platform) == "nowhere")

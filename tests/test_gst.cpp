@@ -20,6 +20,7 @@
 #include "lf/datasets.h"
 #include "lf/focus.h"
 #include "lf/gl_render.h"
+#include "lf/lenticular.h"
 #include "lf/parse.h"
 #include "lf/probe_bundle.h"
 #include "lf/quality.h"
@@ -366,7 +367,40 @@ TEST_F(Gst, QuiltTilesAreTheEyesRenderedDirectly) {
     ASSERT_EQ(gl.size(), 2u) << err;
     EXPECT_EQ(cv::norm(gl[1], frames[1], cv::NORM_INF), 0);
   }
+  // lflenticular: the panel is the CPU interleave of the quilt (GL, where
+  // it is asked for, the same bytes).
+  const std::string cal_path =
+      (std::filesystem::temp_directory_path() / "lf-test-lenticular.json").string();
+  std::ofstream(cal_path) << R"({"pitch": {"value": 49.96}, "slope": {"value": 5.5025},
+      "center": {"value": 0.1435}, "DPI": {"value": 355}, "screenW": {"value": 320},
+      "screenH": {"value": 200}, "invView": {"value": 1}})";
+  const lf::DisplayCalibration cal = lf::load_display_calibration(cal_path);
+  cv::Mat expected;
+  lf::interleave_quilt(cal, req.quilt, array[1], expected);
+  for (const char* backend : {"cpu", "gl"}) {
+    if (std::string(backend) == "gl" && !lf::gl_info().available) continue;
+    const auto panel = run(request + " ! lfarray rig=" + rig_path_ +
+                               " num-buffers=1 ! lflenticular calibration=" + cal_path +
+                               " quilt-columns=3 quilt-rows=2 backend=" + backend + out,
+                           100, nullptr, &err);
+    ASSERT_EQ(panel.size(), 2u) << err;
+    ASSERT_EQ(panel[1].cols, 320);
+    ASSERT_EQ(panel[1].rows, 200);
+    EXPECT_EQ(cv::norm(panel[1], expected, cv::NORM_INF), 0) << backend;
+  }
+  // Its errors: a quilt of another layout, a calibration that is not there.
+  err.clear();
+  run(request + " ! lfarray rig=" + rig_path_ + " num-buffers=1 ! lflenticular calibration=" +
+          cal_path + " quilt-columns=5 quilt-rows=2" + out,
+      10, nullptr, &err);
+  EXPECT_NE(err.find("not a quilt of this layout"), std::string::npos) << err;
+  err.clear();
+  run("videotestsrc num-buffers=1 ! video/x-raw,format=RGBA ! lflenticular "
+      "calibration=/nonexistent/visual.json ! fakesink",
+      10, nullptr, &err);
+  EXPECT_NE(err.find("Cannot use the display calibration"), std::string::npos) << err;
   // A layout that does not fit the frame is an error at start.
+  err.clear();
   run("lfviewrequest rig=" + rig_path_ +
           " num-buffers=1 width=290 height=144 quilt-views=6 quilt-columns=3 quilt-rows=2 ! "
           "fakesink",

@@ -116,6 +116,7 @@ cv::Mat GlRenderer::render_view(const Rig&, const std::vector<cv::Mat>&, const V
                                 RenderStats*, int) {
   return {};
 }
+void GlRenderer::interleave(const DisplayCalibration&, const Quilt&, const cv::Mat&, cv::Mat&) {}
 
 #else
 
@@ -460,6 +461,42 @@ void main() {
 }
 )";
 
+// lf::interleave_quilt() (lf/lenticular.h), the same expressions in the
+// same order; output row y is gl_FragCoord.y (read back top row first).
+const char* kInterleaveFragment = R"(#version 300 es
+precision highp float;
+precision highp int;
+uniform highp sampler2D u_quilt;
+uniform vec4 u_k;        // pitch, tilt, subp, center
+uniform ivec4 u_screen;  // width, height, flip x, inverted views
+uniform ivec4 u_layout;  // views, cols, rows, BGR sub-pixels
+out vec4 o;
+int view_of(float u, float v, int c) {
+  float a = (u + float(c) * u_k.z + v * u_k.y) * u_k.x - u_k.w;
+  a = a - floor(a);
+  if (u_screen.w != 0) a = 1.0 - a;
+  return clamp(int(floor(a * float(u_layout.x))), 0, u_layout.x - 1);
+}
+void main() {
+  ivec2 p = ivec2(gl_FragCoord.xy);
+  ivec2 size = textureSize(u_quilt, 0);
+  int tw = size.x / u_layout.y, th = size.y / u_layout.z;
+  float u = (float(p.x) + 0.5) / float(u_screen.x);
+  if (u_screen.z != 0) u = 1.0 - u;
+  float v = 1.0 - (float(p.y) + 0.5) / float(u_screen.y);
+  int ty = min(th - 1, int(floor((1.0 - v) * float(th))));
+  int tx = min(tw - 1, int(floor(u * float(tw))));
+  vec4 rgb;
+  for (int ch = 0; ch < 3; ++ch) {
+    int view = view_of(u, v, u_layout.w != 0 ? 2 - ch : ch);
+    int col = view - (view / u_layout.y) * u_layout.y, row = view / u_layout.y;
+    ivec2 t = ivec2(col * tw + tx, (u_layout.z - 1 - row) * th + ty);
+    rgb[ch] = texelFetch(u_quilt, t, 0)[ch];
+  }
+  o = vec4(rgb.rgb, 1.0);
+}
+)";
+
 // lf::Compositor::resolve(): colour = min(sum * (255 / weight) + 0.5, 255),
 // truncated; alpha 255 where any weight arrived; all 0 where none did.
 const char* kResolveFragment = R"(#version 300 es
@@ -591,6 +628,7 @@ struct GlRenderer::Impl {
   std::mutex mutex;
   Context context;
   GLuint run_program = 0, resolve_program = 0, add_program = 0;
+  GLuint interleave_program = 0, quilt_texture = 0;  // made on first use
   GLuint vao = 0;
   GLuint run_table = 0, row_table = 0;     // textures (see kTableWidth)
   GLuint cubic_table = 0;                  // unit 5: kernels::cubic_taps()
@@ -846,6 +884,8 @@ struct GlRenderer::Impl {
       glDeleteProgram(run_program);
       glDeleteProgram(resolve_program);
       glDeleteProgram(add_program);
+      if (interleave_program) glDeleteProgram(interleave_program);
+      if (quilt_texture) glDeleteTextures(1, &quilt_texture);
     }
     context.destroy();
   }
@@ -870,6 +910,56 @@ GlRenderer::~GlRenderer() {
 
 const GlInfo& GlRenderer::info() const {
   return gl_info();
+}
+
+void GlRenderer::interleave(const DisplayCalibration& cal, const Quilt& layout,
+                            const cv::Mat& quilt, cv::Mat& out) {
+  if (quilt.type() != CV_8UC4 || quilt.empty())
+    throw std::invalid_argument("GlRenderer::interleave: the quilt must be RGBA (CV_8UC4)");
+  validate_quilt(layout, quilt.cols, quilt.rows);
+  const LenticularConstants k = lenticular_constants(cal);
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  Impl& m = *impl_;
+  Current cur(m.context);
+  GLint max_size = 0;
+  glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
+  if (quilt.cols > max_size || quilt.rows > max_size)
+    throw std::invalid_argument("GlRenderer::interleave: a " + std::to_string(quilt.cols) + "x" +
+                                std::to_string(quilt.rows) + " quilt exceeds this GL's " +
+                                std::to_string(max_size) + " texels");
+  if (!m.interleave_program) {
+    m.interleave_program = link(kFullVertex, kInterleaveFragment);
+    glUseProgram(m.interleave_program);
+    glUniform1i(glGetUniformLocation(m.interleave_program, "u_quilt"), 0);
+    glGenTextures(1, &m.quilt_texture);
+  }
+  // The target first: making it binds it to unit 0.
+  m.grow(m.fbo, m.target, m.target_w, m.target_h, cal.screen_w, cal.screen_h, GL_RGBA8);
+  glActiveTexture(GL_TEXTURE0);
+  glBindTexture(GL_TEXTURE_2D, m.quilt_texture);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glPixelStorei(GL_UNPACK_ROW_LENGTH, static_cast<GLint>(quilt.step / 4));
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, quilt.cols, quilt.rows, 0, GL_RGBA, GL_UNSIGNED_BYTE,
+               quilt.data);
+  glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  glDisable(GL_BLEND);
+  glBindFramebuffer(GL_FRAMEBUFFER, m.fbo);
+  glViewport(0, 0, cal.screen_w, cal.screen_h);
+  glUseProgram(m.interleave_program);
+  const GLuint prog = m.interleave_program;
+  glUniform4f(glGetUniformLocation(prog, "u_k"), k.pitch, k.tilt, k.subp, k.center);
+  glUniform4i(glGetUniformLocation(prog, "u_screen"), cal.screen_w, cal.screen_h,
+              cal.flip_image_x ? 1 : 0, cal.inv_view ? 1 : 0);
+  glUniform4i(glGetUniformLocation(prog, "u_layout"), layout.views, layout.cols, layout.rows,
+              cal.flip_subp ? 1 : 0);
+  glBindVertexArray(m.vao);
+  glDrawArrays(GL_TRIANGLES, 0, 3);
+  out.create(cal.screen_h, cal.screen_w, CV_8UC4);
+  if (!out.isContinuous()) throw std::logic_error("GlRenderer: output not continuous");
+  glReadPixels(0, 0, cal.screen_w, cal.screen_h, GL_RGBA, GL_UNSIGNED_BYTE, out.data);
+  check_gl("interleave");
 }
 
 void GlRenderer::set_image(int slot, const cv::Mat& image) {

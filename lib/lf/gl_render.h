@@ -34,6 +34,7 @@
 #include "lf/camera.h"
 #include "lf/composite.h"
 #include "lf/fragment.h"
+#include "lf/lenticular.h"
 #include "lf/plan.h"
 #include "lf/render_view.h"
 #include "lf/rig.h"
@@ -145,6 +146,13 @@ class GlRenderer {
   // The same after uploading images[i] into slot i.
   cv::Mat render_view(const Rig& rig, const std::vector<cv::Mat>& images,
                       const ViewRequest& request, RenderStats* stats = nullptr, int threads = 1);
+
+  // As lf::interleave_quilt() (lf/lenticular.h), as a fragment shader: the
+  // same single-precision expressions and nearest texel (texelFetch), so
+  // the panel differs from the CPU's only at sub-pixels within float
+  // rounding of a view boundary (fused multiply-adds), by one view.
+  void interleave(const DisplayCalibration& cal, const Quilt& layout, const cv::Mat& quilt,
+                  cv::Mat& out);
 
  private:
   struct Impl;
