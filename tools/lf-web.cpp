@@ -141,6 +141,10 @@ struct Viewer {
   guint deadline = 0;                       // the handshake deadline's GSource id (0: gone)
   bool answered = false;
   int candidates = 0;
+  // WHEP (no WebSocket): the POST waiting for its SDP answer (ref; null
+  // once answered), and the timer that answers with what ICE has gathered.
+  SoupServerMessage* whep_post = nullptr;
+  guint whep_timer = 0;
 };
 
 struct Server {
@@ -193,7 +197,8 @@ gboolean deliver(gpointer data) {
   if (it == p->server->viewers.end()) return G_SOURCE_REMOVE;
   if (p->text.empty()) {
     remove_viewer(p->server, p->serial, "its connection failed");
-  } else if (soup_websocket_connection_get_state(it->second->ws) == SOUP_WEBSOCKET_STATE_OPEN) {
+  } else if (it->second->ws &&
+             soup_websocket_connection_get_state(it->second->ws) == SOUP_WEBSOCKET_STATE_OPEN) {
     soup_websocket_connection_send_text(it->second->ws, p->text.c_str());
   }
   return G_SOURCE_REMOVE;
@@ -549,7 +554,13 @@ gboolean on_deadline(gpointer data) {
   return G_SOURCE_REMOVE;
 }
 
-bool add_viewer(Server* s, SoupWebsocketConnection* ws, const std::string& address) {
+void on_remote_channel(GstElement*, GstWebRTCDataChannel* ch, gpointer data);
+
+// A viewer's branch, in the pipeline and playing: its requests into the
+// funnel, its fragments from the demux; with `own_channel`, the control
+// data channel made here (the WebSocket page, where the server offers),
+// else the peer's (WHEP: the player offers and opens it).
+std::unique_ptr<Viewer> build_viewer(Server* s, const std::string& address, bool own_channel) {
   auto v = std::make_unique<Viewer>();
   auto ctl = std::make_shared<Control>();
   ctl->server = s;
@@ -561,7 +572,7 @@ bool add_viewer(Server* s, SoupWebsocketConnection* ws, const std::string& addre
   if (!bin) {
     std::fprintf(stderr, "lf-web: cannot build a viewer: %s\n", err->message);
     g_error_free(err);
-    return false;
+    return nullptr;
   }
   gchar* name = g_strdup_printf("viewer%u", ctl->viewer_id);
   gst_object_set_name(GST_OBJECT(bin), name);
@@ -592,13 +603,18 @@ bool add_viewer(Server* s, SoupWebsocketConnection* ws, const std::string& addre
   // The data channel: after READY, before PLAYING (webrtcbin).
   gst_element_set_state(bin, GST_STATE_READY);
   GstWebRTCDataChannel* ch = nullptr;
-  GstStructure* opts = gst_structure_new("options", "ordered", G_TYPE_BOOLEAN, TRUE, nullptr);
-  g_signal_emit_by_name(ctl->webrtc, "create-data-channel", "control", opts, &ch);
-  gst_structure_free(opts);
-  if (!ch) {
+  if (own_channel) {
+    GstStructure* opts = gst_structure_new("options", "ordered", G_TYPE_BOOLEAN, TRUE, nullptr);
+    g_signal_emit_by_name(ctl->webrtc, "create-data-channel", "control", opts, &ch);
+    gst_structure_free(opts);
+  } else {
+    g_signal_connect_data(ctl->webrtc, "on-data-channel", G_CALLBACK(on_remote_channel),
+                          new_ref(ctl), delete_ref_closure, GConnectFlags(0));
+  }
+  if (!ch && own_channel) {
     std::fprintf(stderr,
                  "lf-web: webrtcbin made no data channel (is gstreamer1.0-nice installed?)\n");
-  } else {
+  } else if (ch) {
     g_signal_connect_data(ch, "on-open", G_CALLBACK(on_channel_open), new_ref(ctl),
                           delete_ref_closure, GConnectFlags(0));
     g_signal_connect_data(ch, "on-close", G_CALLBACK(on_channel_close), new_ref(ctl),
@@ -609,10 +625,12 @@ bool add_viewer(Server* s, SoupWebsocketConnection* ws, const std::string& addre
                           delete_ref_closure, GConnectFlags(0));
     v->channel = ch;  // our reference: remove_viewer disconnects these handlers
   }
-  g_signal_connect_data(ctl->webrtc, "on-negotiation-needed", G_CALLBACK(on_negotiation_needed),
-                        new_ref(ctl), delete_ref_closure, GConnectFlags(0));
-  g_signal_connect_data(ctl->webrtc, "on-ice-candidate", G_CALLBACK(on_ice_candidate), new_ref(ctl),
-                        delete_ref_closure, GConnectFlags(0));
+  if (own_channel) {  // the server offers (the page); WHEP's player offers
+    g_signal_connect_data(ctl->webrtc, "on-negotiation-needed", G_CALLBACK(on_negotiation_needed),
+                          new_ref(ctl), delete_ref_closure, GConnectFlags(0));
+    g_signal_connect_data(ctl->webrtc, "on-ice-candidate", G_CALLBACK(on_ice_candidate),
+                          new_ref(ctl), delete_ref_closure, GConnectFlags(0));
+  }
   g_signal_connect_data(ctl->webrtc, "notify::ice-connection-state", G_CALLBACK(on_ice_state),
                         new_ref(ctl), delete_ref_closure, GConnectFlags(0));
   gst_element_sync_state_with_parent(bin);
@@ -624,17 +642,24 @@ bool add_viewer(Server* s, SoupWebsocketConnection* ws, const std::string& addre
     g_free(pn);
     if (v->demux_pads[eye]) gst_pad_link(v->demux_pads[eye], eye ? sink_r : sink_l);
   }
+  v->ctl = ctl;
+  v->address = address;
+  v->deadline = g_timeout_add_seconds_full(G_PRIORITY_DEFAULT, s->opt.handshake_s, on_deadline,
+                                           new Deadline{s, ctl->serial},
+                                           [](gpointer d) { delete static_cast<Deadline*>(d); });
+  return v;
+}
+
+bool add_viewer(Server* s, SoupWebsocketConnection* ws, const std::string& address) {
+  std::unique_ptr<Viewer> v = build_viewer(s, address, true);
+  if (!v) return false;
+  const std::shared_ptr<Control> ctl = v->ctl;
   v->ws = SOUP_WEBSOCKET_CONNECTION(g_object_ref(ws));
   soup_websocket_connection_set_max_incoming_payload_size(ws, kMaxSignalBytes);
   soup_websocket_connection_set_keepalive_interval(ws, 15);
   g_signal_connect(ws, "message", G_CALLBACK(on_ws_message),
                    reinterpret_cast<gpointer>(ctl->serial));
   g_signal_connect(ws, "closed", G_CALLBACK(on_ws_closed), reinterpret_cast<gpointer>(ctl->serial));
-  v->ctl = ctl;
-  v->address = address;
-  v->deadline = g_timeout_add_seconds_full(G_PRIORITY_DEFAULT, s->opt.handshake_s, on_deadline,
-                                           new Deadline{s, ctl->serial},
-                                           [](gpointer d) { delete static_cast<Deadline*>(d); });
   const double dmin = s->opt.fx * s->opt.spacing / 24, dmax = s->opt.fx * s->opt.spacing / 0.1;
   soup_websocket_connection_send_text(
       ws,
@@ -653,6 +678,237 @@ bool add_viewer(Server* s, SoupWebsocketConnection* ws, const std::string& addre
       s->viewers.size() + 1, s->viewers.empty() ? "" : "s");
   s->viewers[ctl->serial] = std::move(v);
   return true;
+}
+
+// ---- WHEP (RFC 9725: WebRTC-HTTP Egress Protocol) ---------------------------
+//
+// POST /whep/<view> with an SDP offer (application/sdp) makes a viewer
+// whose webrtcbin answers; the answer, with every ICE candidate gathered
+// (no trickle: PATCH is 405), comes back as 201 Created with Location
+// /whep/resource/<id>; DELETE there ends the viewer. The player's data
+// channel, if its offer has one, speaks the page's control protocol.
+
+// The viewer of a serial and its main-thread work, from a GStreamer thread.
+struct WhepEvent {
+  Server* server;
+  guint64 serial;
+  GstWebRTCDataChannel* channel;  // (ref) on-data-channel's, or null: gathering complete
+};
+
+void answer_whep(Server* s, guint64 serial);
+
+gboolean on_whep_event(gpointer data) {
+  std::unique_ptr<WhepEvent> e(static_cast<WhepEvent*>(data));
+  auto it = e->server->viewers.find(e->serial);
+  if (!e->channel) {
+    if (it != e->server->viewers.end()) answer_whep(e->server, e->serial);
+    return G_SOURCE_REMOVE;
+  }
+  if (it != e->server->viewers.end() && !it->second->channel) {
+    it->second->channel = e->channel;  // remove_viewer disconnects its handlers
+    return G_SOURCE_REMOVE;
+  }
+  // The viewer is gone (or has a channel already): no handler may keep its
+  // Control alive.
+  for (gpointer f :
+       {reinterpret_cast<gpointer>(on_channel_open), reinterpret_cast<gpointer>(on_channel_close),
+        reinterpret_cast<gpointer>(on_control_message),
+        reinterpret_cast<gpointer>(on_control_bytes)})
+    g_signal_handlers_disconnect_matched(e->channel, G_SIGNAL_MATCH_FUNC, 0, 0, nullptr, f,
+                                         nullptr);
+  g_object_unref(e->channel);
+  return G_SOURCE_REMOVE;
+}
+
+// The player's data channel (announced open): the control protocol on it.
+void on_remote_channel(GstElement*, GstWebRTCDataChannel* ch, gpointer data) {
+  const ControlRef& ctl = ref_of(data);
+  g_signal_connect_data(ch, "on-open", G_CALLBACK(on_channel_open), new_ref(ctl),
+                        delete_ref_closure, GConnectFlags(0));
+  g_signal_connect_data(ch, "on-close", G_CALLBACK(on_channel_close), new_ref(ctl),
+                        delete_ref_closure, GConnectFlags(0));
+  g_signal_connect_data(ch, "on-message-string", G_CALLBACK(on_control_message), new_ref(ctl),
+                        delete_ref_closure, GConnectFlags(0));
+  g_signal_connect_data(ch, "on-message-data", G_CALLBACK(on_control_bytes), new_ref(ctl),
+                        delete_ref_closure, GConnectFlags(0));
+  on_channel_open(ch, data);  // a channel the peer opened is open already
+  g_main_context_invoke(
+      nullptr, on_whep_event,
+      new WhepEvent{ctl->server, ctl->serial, GST_WEBRTC_DATA_CHANNEL(g_object_ref(ch))});
+}
+
+void on_gathering(GstElement* webrtc, GParamSpec*, gpointer data) {
+  GstWebRTCICEGatheringState state;
+  g_object_get(webrtc, "ice-gathering-state", &state, nullptr);
+  if (state == GST_WEBRTC_ICE_GATHERING_STATE_COMPLETE)
+    g_main_context_invoke(nullptr, on_whep_event,
+                          new WhepEvent{ref_of(data)->server, ref_of(data)->serial, nullptr});
+}
+
+// Once: the local description (the answer with its candidates) as 201.
+void answer_whep(Server* s, guint64 serial) {
+  auto it = s->viewers.find(serial);
+  if (it == s->viewers.end() || !it->second->whep_post) return;
+  Viewer& v = *it->second;
+  if (v.whep_timer) g_source_remove(v.whep_timer), v.whep_timer = 0;
+  GstWebRTCSessionDescription* local = nullptr;
+  g_object_get(v.ctl->webrtc, "local-description", &local, nullptr);
+  if (!local) {
+    remove_viewer(s, serial, "webrtcbin made no answer to the offer");
+    return;
+  }
+  gchar* sdp = gst_sdp_message_as_text(local->sdp);
+  gst_webrtc_session_description_free(local);
+  SoupServerMessage* msg = v.whep_post;
+  v.whep_post = nullptr;
+  const std::string where = "/whep/resource/" + std::to_string(serial);
+  SoupMessageHeaders* h = soup_server_message_get_response_headers(msg);
+  soup_message_headers_replace(h, "Location", where.c_str());
+  soup_message_headers_replace(h, "Cache-Control", "no-store");
+  soup_server_message_set_status(msg, SOUP_STATUS_CREATED, nullptr);
+  soup_server_message_set_response(msg, "application/sdp", SOUP_MEMORY_COPY, sdp, strlen(sdp));
+  soup_server_message_unpause(msg);
+  g_object_unref(msg);
+  g_free(sdp);
+  say(s, "WHEP viewer %u answered (%s)", v.ctl->viewer_id, where.c_str());
+}
+
+gboolean on_whep_timer(gpointer data) {
+  const auto* d = static_cast<const Deadline*>(data);
+  auto it = d->server->viewers.find(d->serial);
+  if (it != d->server->viewers.end()) it->second->whep_timer = 0;
+  answer_whep(d->server, d->serial);  // with the candidates gathered so far
+  return G_SOURCE_REMOVE;
+}
+
+void on_answer_made(GstPromise* promise, gpointer data) {
+  auto ctl = static_cast<std::weak_ptr<Control>*>(data)->lock();
+  GstWebRTCSessionDescription* answer = nullptr;
+  if (gst_promise_wait(promise) == GST_PROMISE_RESULT_REPLIED)
+    gst_structure_get(gst_promise_get_reply(promise), "answer", GST_TYPE_WEBRTC_SESSION_DESCRIPTION,
+                      &answer, nullptr);
+  gst_promise_unref(promise);
+  if (!ctl) {
+    if (answer) gst_webrtc_session_description_free(answer);
+    return;
+  }
+  if (!answer) {
+    std::fprintf(stderr,
+                 "lf-web: WHEP viewer %u: webrtcbin made no answer (an offer without a "
+                 "video m-line it can send VP8 on?)\n",
+                 ctl->viewer_id);
+    post(*ctl, "");
+    return;
+  }
+  g_signal_emit_by_name(ctl->webrtc, "set-local-description", answer, nullptr);
+  gst_webrtc_session_description_free(answer);
+}
+
+void reply(SoupServerMessage* msg, guint status, const std::string& why) {
+  soup_server_message_set_status(msg, status, status == 429 ? "Too Many Requests" : nullptr);
+  soup_message_headers_replace(soup_server_message_get_response_headers(msg), "Connection",
+                               "close");
+  if (!why.empty())
+    soup_server_message_set_response(msg, "text/plain; charset=utf-8", SOUP_MEMORY_COPY,
+                                     why.c_str(), why.size());
+}
+
+std::string refusal(const Server* s, SoupServerMessage* msg, const char* token, guint* status);
+bool same_secret(const std::string& a, const std::string& b);
+
+// The bearer token of a WHEP request (Authorization: Bearer T), or ?token=.
+const char* whep_token(SoupServerMessage* msg, GHashTable* query) {
+  const char* auth =
+      soup_message_headers_get_one(soup_server_message_get_request_headers(msg), "Authorization");
+  if (auth && g_ascii_strncasecmp(auth, "Bearer ", 7) == 0) return auth + 7;
+  return query ? static_cast<const char*>(g_hash_table_lookup(query, "token")) : nullptr;
+}
+
+void on_whep(SoupServer*, SoupServerMessage* msg, const char* path, GHashTable* query,
+             gpointer data) {
+  Server* s = static_cast<Server*>(data);
+  const std::string method = soup_server_message_get_method(msg);
+  const std::string p = path;
+  const std::string resource = "/whep/resource/";
+  if (method == "OPTIONS") {
+    SoupMessageHeaders* h = soup_server_message_get_response_headers(msg);
+    soup_message_headers_replace(h, "Accept-Post", "application/sdp");
+    soup_message_headers_replace(h, "Allow", "OPTIONS, POST, DELETE");
+    soup_server_message_set_status(msg, SOUP_STATUS_NO_CONTENT, nullptr);
+    return;
+  }
+  if (p.compare(0, resource.size(), resource) == 0) {  // a session
+    if (method == "PATCH")
+      return reply(msg, SOUP_STATUS_METHOD_NOT_ALLOWED,
+                   "no trickle ICE: the answer carries every candidate");
+    if (method != "DELETE") return reply(msg, SOUP_STATUS_METHOD_NOT_ALLOWED, "DELETE ends it");
+    const char* t = whep_token(msg, query);
+    if (!s->opt.token.empty() && (!t || !same_secret(t, s->opt.token)))
+      return reply(msg, SOUP_STATUS_UNAUTHORIZED, "no or a wrong token (--token)");
+    const std::string id = p.substr(resource.size());
+    guint64 serial = 0;
+    if (id.empty() || id.size() > 19 || id.find_first_not_of("0123456789") != std::string::npos ||
+        !s->viewers.count(serial = std::stoull(id)) || s->viewers[serial]->ws)
+      return reply(msg, SOUP_STATUS_NOT_FOUND, "no such WHEP session");
+    remove_viewer(s, serial, "the WHEP player ended the session (DELETE)");
+    soup_server_message_set_status(msg, SOUP_STATUS_OK, nullptr);
+    return;
+  }
+  // POST /whep/<view>: the views a player may ask for.
+  static const std::map<std::string, const char*> views = {
+      {"/whep", ""}, {"/whep/default", ""}, {"/whep/orbit", "orbit"}};
+  auto view = views.find(p);
+  if (view == views.end())
+    return reply(msg, SOUP_STATUS_NOT_FOUND, "views: /whep/default, /whep/orbit");
+  if (method != "POST") return reply(msg, SOUP_STATUS_METHOD_NOT_ALLOWED, "POST an SDP offer");
+  SoupMessageHeaders* req = soup_server_message_get_request_headers(msg);
+  const char* type = soup_message_headers_get_content_type(req, nullptr);
+  if (!type || g_ascii_strcasecmp(type, "application/sdp") != 0)
+    return reply(msg, SOUP_STATUS_UNSUPPORTED_MEDIA_TYPE, "the offer must be application/sdp");
+  SoupMessageBody* body = soup_server_message_get_request_body(msg);
+  if (!body || body->length <= 0 || static_cast<gsize>(body->length) > kMaxSignalBytes)
+    return reply(msg, SOUP_STATUS_REQUEST_ENTITY_TOO_LARGE,
+                 "an SDP offer of 1.." + std::to_string(kMaxSignalBytes) + " bytes");
+  guint status = 0;
+  const std::string why = refusal(s, msg, whep_token(msg, query), &status);
+  if (!why.empty()) {
+    std::fprintf(stderr, "lf-web: refused a WHEP player: %s\n", why.c_str());
+    return reply(msg, status, why);
+  }
+  const std::string text(body->data, body->length);
+  GstSDPMessage* sdp = nullptr;
+  if (gst_sdp_message_new_from_text(text.c_str(), &sdp) != GST_SDP_OK || !sdp ||
+      gst_sdp_message_medias_len(sdp) == 0) {
+    if (sdp) gst_sdp_message_free(sdp);
+    return reply(msg, SOUP_STATUS_BAD_REQUEST, "the offer is not an SDP with media");
+  }
+  const char* address = soup_server_message_get_remote_host(msg);
+  std::unique_ptr<Viewer> v = build_viewer(s, address ? address : "", false);
+  if (!v) {
+    gst_sdp_message_free(sdp);
+    return reply(msg, SOUP_STATUS_INTERNAL_SERVER_ERROR, "cannot build a viewer");
+  }
+  const std::shared_ptr<Control> ctl = v->ctl;
+  if (*view->second) g_object_set(ctl->request, "orbit", 0.5, nullptr);
+  v->answered = true;  // the offer is here; the deadline waits for ICE
+  v->whep_post = SOUP_SERVER_MESSAGE(g_object_ref(msg));
+  soup_server_message_pause(msg);
+  g_signal_connect_data(ctl->webrtc, "notify::ice-gathering-state", G_CALLBACK(on_gathering),
+                        new_ref(ctl), delete_ref_closure, GConnectFlags(0));
+  v->whep_timer =
+      g_timeout_add_seconds_full(G_PRIORITY_DEFAULT, 5, on_whep_timer, new Deadline{s, ctl->serial},
+                                 [](gpointer d) { delete static_cast<Deadline*>(d); });
+  say(s, "WHEP viewer %u from %s (%zu viewer%s)", ctl->viewer_id, address ? address : "?",
+      s->viewers.size() + 1, s->viewers.empty() ? "" : "s");
+  s->viewers[ctl->serial] = std::move(v);
+  GstWebRTCSessionDescription* offer =
+      gst_webrtc_session_description_new(GST_WEBRTC_SDP_TYPE_OFFER, sdp);
+  g_signal_emit_by_name(ctl->webrtc, "set-remote-description", offer, nullptr);
+  gst_webrtc_session_description_free(offer);
+  GstPromise* made = gst_promise_new_with_change_func(
+      on_answer_made, new std::weak_ptr<Control>(ctl),
+      [](gpointer d) { delete static_cast<std::weak_ptr<Control>*>(d); });
+  g_signal_emit_by_name(ctl->webrtc, "create-answer", nullptr, made);
 }
 
 void remove_viewer(Server* s, guint64 serial, const char* why) {
@@ -680,6 +936,18 @@ void remove_viewer(Server* s, guint64 serial, const char* why) {
                                        reinterpret_cast<gpointer>(on_ice_candidate), nullptr);
   g_signal_handlers_disconnect_matched(v->ctl->webrtc, G_SIGNAL_MATCH_FUNC, 0, 0, nullptr,
                                        reinterpret_cast<gpointer>(on_ice_state), nullptr);
+  g_signal_handlers_disconnect_matched(v->ctl->webrtc, G_SIGNAL_MATCH_FUNC, 0, 0, nullptr,
+                                       reinterpret_cast<gpointer>(on_remote_channel), nullptr);
+  g_signal_handlers_disconnect_matched(v->ctl->webrtc, G_SIGNAL_MATCH_FUNC, 0, 0, nullptr,
+                                       reinterpret_cast<gpointer>(on_gathering), nullptr);
+  if (v->whep_timer) g_source_remove(v->whep_timer);
+  if (v->whep_post) {  // removed before its answer: the player hears why
+    soup_server_message_set_status(v->whep_post, SOUP_STATUS_SERVICE_UNAVAILABLE, nullptr);
+    soup_server_message_set_response(v->whep_post, "text/plain; charset=utf-8", SOUP_MEMORY_COPY,
+                                     why, strlen(why));
+    soup_server_message_unpause(v->whep_post);
+    g_object_unref(v->whep_post);
+  }
   if (v->channel) {
     for (gpointer f :
          {reinterpret_cast<gpointer>(on_channel_open), reinterpret_cast<gpointer>(on_channel_close),
@@ -689,13 +957,13 @@ void remove_viewer(Server* s, guint64 serial, const char* why) {
                                            nullptr);
     g_object_unref(v->channel);
   }
-  g_signal_handlers_disconnect_by_data(v->ws, reinterpret_cast<gpointer>(serial));
+  if (v->ws) g_signal_handlers_disconnect_by_data(v->ws, reinterpret_cast<gpointer>(serial));
   gst_element_release_request_pad(s->funnel, v->funnel_pad);
   gst_object_unref(v->funnel_pad);
   gst_bin_remove(GST_BIN(s->pipeline), v->bin);
-  if (soup_websocket_connection_get_state(v->ws) == SOUP_WEBSOCKET_STATE_OPEN)
+  if (v->ws && soup_websocket_connection_get_state(v->ws) == SOUP_WEBSOCKET_STATE_OPEN)
     soup_websocket_connection_close(v->ws, SOUP_WEBSOCKET_CLOSE_NORMAL, why);
-  g_object_unref(v->ws);
+  if (v->ws) g_object_unref(v->ws);
   // The branch's memory back to the system: glibc keeps freed memory in its
   // per-thread arenas, and a viewer's threads leave arenas of their own
   // (without this the RSS rose by about half after a few hundred viewers).
@@ -779,7 +1047,7 @@ bool same_secret(const std::string& a, const std::string& b) {
 // Why an upgrade to /ws is refused, or empty: the Origin (a page of another
 // site must not steer a viewer: cross-site WebSocket hijacking), the token,
 // the viewer slots and the slots of one address.
-std::string refusal(const Server* s, SoupServerMessage* msg, GHashTable* query, guint* status) {
+std::string refusal(const Server* s, SoupServerMessage* msg, const char* token, guint* status) {
   SoupMessageHeaders* h = soup_server_message_get_request_headers(msg);
   const char* origin = soup_message_headers_get_one(h, "Origin");
   const char* host = soup_message_headers_get_one(h, "Host");
@@ -792,9 +1060,8 @@ std::string refusal(const Server* s, SoupServerMessage* msg, GHashTable* query, 
     return std::string("Origin '") + std::string(origin).substr(0, 128) +
            "' is not this page's (--allow-origin widens it)";
   if (!s->opt.token.empty()) {
-    const char* t = query ? static_cast<const char*>(g_hash_table_lookup(query, "token")) : nullptr;
     *status = SOUP_STATUS_UNAUTHORIZED;
-    if (!t || !same_secret(t, s->opt.token)) return "no or a wrong token (--token)";
+    if (!token || !same_secret(token, s->opt.token)) return "no or a wrong token (--token)";
   }
   *status = SOUP_STATUS_SERVICE_UNAVAILABLE;
   if (static_cast<int>(s->viewers.size()) >= s->opt.max_viewers)
@@ -813,7 +1080,9 @@ void on_ws_gate(SoupServer*, SoupServerMessage* msg, const char*, GHashTable* qu
                 gpointer data) {
   const Server* s = static_cast<const Server*>(data);
   guint status = 0;
-  const std::string why = refusal(s, msg, query, &status);
+  const char* token =
+      query ? static_cast<const char*>(g_hash_table_lookup(query, "token")) : nullptr;
+  const std::string why = refusal(s, msg, token, &status);
   if (why.empty()) return;  // the upgrade goes on
   const char* address = soup_server_message_get_remote_host(msg);
   static gint64 last_warning = 0;  // at most one line a second: a flood is no log flood
@@ -1117,6 +1386,7 @@ int main(int argc, char** argv) {
   s.soup = soup_server_new("server-header", "lf-web ", nullptr);
   soup_server_add_handler(s.soup, nullptr, on_http, &s, nullptr);
   soup_server_add_handler(s.soup, "/ws", on_ws_gate, &s, nullptr);
+  soup_server_add_handler(s.soup, "/whep", on_whep, &s, nullptr);
   soup_server_add_websocket_handler(s.soup, "/ws", nullptr, nullptr, on_websocket, &s, nullptr);
   GInetAddress* ia = g_inet_address_new_from_string(o.address.c_str());
   if (!ia) {
