@@ -824,11 +824,17 @@ const char* whep_token(SoupServerMessage* msg, GHashTable* query) {
   return query ? static_cast<const char*>(g_hash_table_lookup(query, "token")) : nullptr;
 }
 
-void on_whep(SoupServer*, SoupServerMessage* msg, const char* path, GHashTable* query,
+void on_http(SoupServer*, SoupServerMessage* msg, const char* path, GHashTable*, gpointer);
+
+void on_whep(SoupServer* server, SoupServerMessage* msg, const char* path, GHashTable* query,
              gpointer data) {
   Server* s = static_cast<Server*>(data);
   const std::string method = soup_server_message_get_method(msg);
   const std::string p = path;
+  // libsoup hands this handler every path that starts with "/whep", the
+  // page /whep.html included.
+  if (p != "/whep" && p.compare(0, 6, "/whep/") != 0)
+    return on_http(server, msg, path, query, data);
   const std::string resource = "/whep/resource/";
   if (method == "OPTIONS") {
     SoupMessageHeaders* h = soup_server_message_get_response_headers(msg);
@@ -1127,6 +1133,7 @@ void on_http(SoupServer*, SoupServerMessage* msg, const char* path, GHashTable*,
       {"/", {"/lf-web/index.html", "text/html; charset=utf-8"}},
       {"/index.html", {"/lf-web/index.html", "text/html; charset=utf-8"}},
       {"/viewer.js", {"/lf-web/viewer.js", "text/javascript; charset=utf-8"}},
+      {"/whep.html", {"/lf-web/whep.html", "text/html; charset=utf-8"}},
       {"/favicon.ico", {"/lf-web/favicon.svg", "image/svg+xml"}}};
   auto it = files.find(path);
   GBytes* body = it == files.end() ? nullptr
@@ -1218,7 +1225,9 @@ const char* kSummary =
     "plane; wheel or slider: focal plane; right click or Ctrl+click: focus there;\n"
     "stereo; reset). The cameras are shared by every browser; each browser has its own\n"
     "view requests, compositor, VP8 encoder and webrtcbin. One TCP port serves the page\n"
-    "(/), the signalling WebSocket (/ws); video and control go over WebRTC (UDP).\n"
+    "(/), the signalling WebSocket (/ws) and a WHEP endpoint (POST /whep/default or\n"
+    "/whep/orbit, RFC 9725; a WHEP player page at /whep.html); video and control go\n"
+    "over WebRTC (UDP).\n"
     "\n"
     "Example (the bundled Chess light field, an 8x8 block of its 17x17 cameras):\n"
     "  lf-web --rig ../shared/data/stanford-chess\n"

@@ -336,6 +336,39 @@ try {
   check('a browser leaving frees its viewer', s.stats.viewers === 2 && /viewer \d+ left/.test(serverOut) && fB2 > fB,
     `server: ${s.stats.viewers} viewers; B decoded ${fB2 - fB} frames after C left`);
 
+  // 6b. The WHEP player page (/whep.html): a standard WHEP client in the
+  // browser (POST an offer, 201 with answer and Location, DELETE) plays a
+  // view; its data channel steers it with the same control protocol.
+  {
+    const context = await browser.newContext({ viewport: { width: 900, height: 700 } });
+    const page = await context.newPage();
+    page.on('pageerror', (e) => console.log(`  WHEP page error: ${e.message}`));
+    await page.goto(url + 'whep.html');
+    const t0 = Date.now();
+    await page.click('#play');
+    const state = () => page.evaluate(() => JSON.parse(JSON.stringify(whep)));
+    const until = async (what, pred, seconds) => {
+      const end = Date.now() + seconds * 1000;
+      let x;
+      while (Date.now() < end) { x = await state(); if (pred(x)) return x; await page.waitForTimeout(250); }
+      throw new Error(`WHEP page: timed out after ${seconds} s waiting for ${what}: ${JSON.stringify(x)}`);
+    };
+    let w = await until('frames', (x) => x.framesDecoded > 2 * FPS || x.error, 30);
+    const firstS = (Date.now() - t0) / 1000;
+    check('the WHEP page plays a view', w.status === 201 && /^\/whep\/resource\/\d+$/.test(w.location) &&
+      w.frameWidth === 640 && w.frameHeight === 480,
+    `POST ${w.status}, Location ${w.location}, ${w.framesDecoded} frames of ${w.frameWidth}x${w.frameHeight} decoded ${firstS.toFixed(1)} s after Play`);
+    await page.click('#right');
+    w = await until('the eye to move', (x) => x.stats && Math.abs(x.stats.eye[0] - 0.25) < 1e-9, 15);
+    check('the WHEP page steers over its data channel', true, `stats: eye ${w.stats.eye.join(', ')}`);
+    await page.click('#stop');
+    w = await until('the DELETE', (x) => x.deleted !== null, 15);
+    await page.waitForTimeout(500);
+    check('the WHEP page ends its session with DELETE', w.deleted === 200 && /ended the session \(DELETE\)/.test(serverOut),
+      `DELETE ${w.deleted}`);
+    await context.close();
+  }
+
   // 7. N browsers at once (the scaling figure): every one plays 640x480.
   while (viewers.length < nBrowsers) {
     const v = await openViewer(String.fromCharCode(65 + viewers.length + 1));
