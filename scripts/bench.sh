@@ -9,6 +9,8 @@
 #     (lf-bench);
 #  3. the GStreamer pipeline against the kernel bound, and its latency
 #     (lf-gst-bench);
+#  3b. quilts: N eyes in one request round against N viewers
+#     (scripts/quilt-bench.sh);
 #  4. the deployment across emulated hosts: bytes against camera count
 #     (paper Figure 6), the all-viewpoints baselines, round trip (Figure 5),
 #     overload, loss, partial sums, rejoin (tools/lf-netbench.sh; root, as
@@ -95,6 +97,10 @@ done
 step "4/8 the pipeline's focus modes side by side (the default focal surface, the paper's plane)"
 bench focus "$build/tools/lf-gst-bench" --input "$data/stanford-chess" --sizes 640x480 \
   --encodings raw --frames "$frames" --focal plane,surface:60,surface:60+sampling=bicubic --skip-bound
+step "4b/8 quilts: N eyes in one request round against N viewers of the same eyes"
+qruns=$([ "$quick" = 1 ] && echo 1 || echo 2)
+bench quilt8 "$root/scripts/quilt-bench.sh" 8 4 2 240 180 20 "$qruns" 5/1
+bench quilt48 "$root/scripts/quilt-bench.sh" 48 8 6 240 180 10 "$qruns" 1/1
 step "5/8 the deployment across emulated hosts ($seconds s per run)"
 net=0
 if [ "$(id -u)" = 0 ] && command -v ip > /dev/null; then
@@ -123,6 +129,19 @@ if [ "$quick" = 0 ] && [ "$net" = 1 ]; then
 fi
 
 # Ratios first: pulled from the tables above.
+# quilt-bench's CPU per round, quilt / viewers, per run ("0.31, 0.33").
+quilt_ratio() {
+  python3 - "$tmp/$1.md" <<'PY'
+import re, sys
+runs = {}
+for line in open(sys.argv[1]):
+    m = re.match(r"run (\d+) (quilt|\d+ independent).*CPU (\d+) ms", line)
+    if m:
+        runs.setdefault(m.group(1), {})[m.group(2) == "quilt"] = float(m.group(3))
+print(", ".join(f"{r[True] / r[False]:.2f}" for r in runs.values() if True in r and False in r) or "?")
+PY
+}
+
 col() {  # file, row pattern, column number (1-based, of the |-separated table)
   awk -F'|' -v p="$2" -v c="$3" 'index($0, p) {gsub(/ /, "", $(c + 1)); print $(c + 1); exit}' "$1"
 }
@@ -179,6 +198,7 @@ live() {  # row of the focus table: its live fps
     echo "| $scene, in-between views (5 x 5 sub-grid renders the others): the default focal surface, bilinear (bicubic) against the paper's auto-focused plane | $(between "$scene" surface) dB ($(between "$scene" "surface, bicubic") dB) against $(between "$scene" auto) dB | [Held-out in-between views](#held-out-in-between-views) |"
   done
   echo "| live 640x480 pipeline, 64 cameras, 30 requests/s: fps with the default focal surface against the paper's plane | $(live "| surface, a probe every 60 |") against $(live "| plane |") | [Focus modes in the pipeline](#focus-modes-in-the-pipeline) |"
+  echo "| CPU per round: 8 eyes as one quilt request / as 8 viewers (5 rounds/s); 48 eyes (1 round/s) | $(quilt_ratio quilt8); $(quilt_ratio quilt48) | [Quilts](#quilts-many-views-in-one-request-round) |"
   if [ "$net" = 1 ]; then
     echo "| all-viewpoints JPEG bytes / fragment bytes, 64 cameras | $(sed -n 's/^| fragments, JPEG (64 cameras) | [0-9]* | \([0-9.]*x\) less.*/\1/p' "$tmp/net.md" | head -1) | [Deployment](#deployment) |"
   fi
@@ -213,6 +233,20 @@ live() {  # row of the focus table: its live fps
   echo "requests a second, CPU per frame."
   echo
   section focus
+  echo "## Quilts: many views in one request round"
+  echo
+  echo "A quilt request (docs/displays.md) against the same number of independent viewers of the"
+  echo "same eyes through one lfcamerahost (64 Chess cameras), live, side by side: CPU of the whole"
+  echo "process and fragment bytes per quilt's worth of views, frames out in a second run."
+  echo
+  for q in quilt8 quilt48; do
+    echo "Command: \`$(cat "$tmp/$q.cmd")\`"
+    echo
+    echo '```'
+    clean < "$tmp/$q.md"
+    echo '```'
+    echo
+  done
   echo "## Pipeline"
   echo
   echo "64 Chess cameras in one process (lfviewrequest ! lfarray ! appsink): throughput against"
