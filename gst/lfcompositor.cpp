@@ -978,14 +978,20 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
                      More m;
                      m.f = parse(spans[k], &m.pixels, &m.enc);
                      const bool layer_pair = spans.size() == 2 && f.layer == 0 && m.f.layer == 1;
-                     const bool quilt_eye = f.layer == 0 && m.f.layer == 0 && !f.empty() &&
-                                            !m.f.empty() && f.cameras == 1 && m.f.cameras == 1;
+                     // Each eye of a quilt lies in a tile of its own:
+                     // its fragment overlaps none of the others.
+                     auto apart = [&](const cv::Rect& r) { return (r & m.f.rect).area() == 0; };
+                     const bool quilt_eye =
+                         f.layer == 0 && m.f.layer == 0 && !f.empty() && !m.f.empty() &&
+                         f.cameras == 1 && m.f.cameras == 1 && apart(f.rect) &&
+                         std::all_of(more.begin(), more.end(),
+                                     [&](const More& o) { return apart(o.f.rect); });
                      if (!(layer_pair || quilt_eye) || m.f.viewer_id != f.viewer_id ||
                          m.f.sequence != f.sequence || m.f.camera_id != f.camera_id)
                        throw lf::WireError(
                            "fragment: a buffer's further fragments must be the same camera's "
                            "layer 1 of the same request, after its layer 0, or its fragments of "
-                           "other eyes of the same quilt request");
+                           "other eyes of the same quilt request, each in a tile of its own");
                      more.push_back(std::move(m));
                    }
                  },
