@@ -19,6 +19,10 @@
 //            generic NACK (RFC 4585) naming 100 runs of 17 packets of the
 //            given stream, to make a camera host that resends lost packets
 //            (net-host.sh RTX=1) resend its history.
+// A target given as HOST:PORT/SSRC gets its RTP packets with that SSRC, the
+// stream's real one (net-host.sh's fixed SSRCs: requests 4096, camera host
+// K's fragments 8192 + K, video 12288), as an attacker who has seen one
+// packet of the stream would send them; without it, rtpgstpay's random SSRC.
 // Counts per kind are printed at the end ("sent KIND N").
 #include <gio/gio.h>
 #include <gst/app/gstappsrc.h>
@@ -43,6 +47,7 @@ namespace {
 struct Target {
   std::string host;
   int port = 0;
+  int64_t ssrc = -1;  // the RTP packets' SSRC (-1: rtpgstpay's random one)
 };
 
 bool parse_target(const char* s, Target* t) {
@@ -63,6 +68,17 @@ bool parse_nack_target(const char* s, Target* t, uint32_t* ssrc) {
   if (end == colon + 1 || *end || v > 0xffffffffUL) return false;
   *ssrc = static_cast<uint32_t>(v);
   return parse_target(std::string(s, colon).c_str(), t);
+}
+
+// HOST:PORT[/SSRC] of --requests and --fragments.
+bool parse_rtp_target(const char* s, Target* t) {
+  const char* slash = std::strchr(s, '/');
+  if (!slash) return parse_target(s, t);
+  char* end = nullptr;
+  const unsigned long v = std::strtoul(slash + 1, &end, 10);
+  if (end == slash + 1 || *end || v > 0xffffffffUL) return false;
+  t->ssrc = static_cast<int64_t>(v);
+  return parse_target(std::string(s, slash).c_str(), t);
 }
 
 // An appsrc ! rtpgstpay ! udpsink branch per target.
@@ -254,10 +270,13 @@ int main(int argc, char** argv) {
   gint seed = 1;
   const GOptionEntry entries[] = {
       {"requests", 0, 0, G_OPTION_ARG_STRING_ARRAY, &request_opts,
-       "Where camera hosts listen for view requests (multicast group or unicast; repeatable)",
-       "HOST:PORT"},
+       "Where camera hosts listen for view requests (multicast group or unicast; repeatable); "
+       "/SSRC: forge that stream SSRC",
+       "HOST:PORT[/SSRC]"},
       {"fragments", 0, 0, G_OPTION_ARG_STRING_ARRAY, &fragment_opts,
-       "Where the compositor host listens for fragments (repeatable)", "HOST:PORT"},
+       "Where the compositor host listens for fragments (repeatable); /SSRC: forge that stream "
+       "SSRC",
+       "HOST:PORT[/SSRC]"},
       {"nacks", 0, 0, G_OPTION_ARG_STRING_ARRAY, &nack_opts,
        "Where a camera host reads RTCP NACKs, and the SSRC of its stream: every other packet "
        "is a forged NACK there (repeatable)",
@@ -287,16 +306,16 @@ int main(int argc, char** argv) {
   std::vector<std::pair<Target, bool>> targets;  // (target, is the request port)
   for (gchar** s = request_opts; s && *s; ++s) {
     Target t;
-    if (!parse_target(*s, &t)) {
-      std::fprintf(stderr, "lf-hostile: error: --requests %s is not HOST:PORT\n", *s);
+    if (!parse_rtp_target(*s, &t)) {
+      std::fprintf(stderr, "lf-hostile: error: --requests %s is not HOST:PORT[/SSRC]\n", *s);
       return 2;
     }
     targets.push_back({t, true});
   }
   for (gchar** s = fragment_opts; s && *s; ++s) {
     Target t;
-    if (!parse_target(*s, &t)) {
-      std::fprintf(stderr, "lf-hostile: error: --fragments %s is not HOST:PORT\n", *s);
+    if (!parse_rtp_target(*s, &t)) {
+      std::fprintf(stderr, "lf-hostile: error: --fragments %s is not HOST:PORT[/SSRC]\n", *s);
       return 2;
     }
     targets.push_back({t, false});
@@ -350,6 +369,7 @@ int main(int argc, char** argv) {
                  "max-bytes", static_cast<guint64>(8 << 20), nullptr);
     gst_caps_unref(caps);
     g_object_set(pay, "config-interval", 1, nullptr);
+    if (t.ssrc >= 0) g_object_set(pay, "ssrc", static_cast<guint>(t.ssrc), nullptr);
     g_object_set(sink, "host", t.host.c_str(), "port", t.port, "sync", FALSE, "async", FALSE,
                  "auto-multicast", TRUE, "ttl-mc", 1, nullptr);
     gst_bin_add_many(GST_BIN(pipe), src, pay, sink, nullptr);
