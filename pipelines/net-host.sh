@@ -49,7 +49,13 @@
 #                a depayloader; `head -c 30 /dev/urandom | od -An -tx1 |
 #                tr -d ' \n'` makes one. Each stream has a fixed SSRC
 #                (requests 4096, camera host K's fragments 8192 + K, video
-#                12288). Unset: plain RTP, as on a trusted network    [unset]
+#                12288). Unset: the compositor host makes a fresh key and
+#                prints it ("srtp-key HEX", beside "base-time NS"); every
+#                other host refuses to start without it        [made by the compositor]
+#   INSECURE=1   plain RTP instead, only on a trusted network: anyone who can
+#                send to a host's ports with a stream's SSRC can then forge
+#                requests and fragments (docs/reliability.md). RTX=1 and
+#                BASELINE need it (neither works with SRTP)                 [0]
 #   FEC          forward error correction on every RTP stream, in percent of
 #                its packets (RFC 5109 ULPFEC: rtpulpfecenc; the receivers
 #                rtpstorage ! rtpjitterbuffer ! rtpulpfecdec ! rtpptdemux,
@@ -137,9 +143,37 @@ PHASE_NS="${PHASE_NS:-$((500000000 / FPS))}"; OUTPUT="${OUTPUT:-fakesink}"
 export GST_PLUGIN_PATH="$build/gst${GST_PLUGIN_PATH:+:$GST_PLUGIN_PATH}"
 rtp_caps="application/x-rtp,media=application,clock-rate=90000,encoding-name=X-GST"
 jpeg_caps="application/x-rtp,media=video,clock-rate=90000,encoding-name=JPEG,payload=26"
-SRTP_KEY="${SRTP_KEY:-}"
+SRTP_KEY="${SRTP_KEY:-}"; INSECURE="${INSECURE:-0}"
+if [ "$INSECURE" != 0 ] && [ "$INSECURE" != 1 ]; then
+  echo "net-host.sh: INSECURE must be 0 or 1" >&2; exit 2
+fi
 if [ -n "$SRTP_KEY" ] && ! [[ "$SRTP_KEY" =~ ^[0-9a-fA-F]{60}$ ]]; then
   echo "net-host.sh: SRTP_KEY must be 60 hex digits (30 bytes: AES-128 key + salt)" >&2; exit 2
+fi
+if [ -n "$SRTP_KEY" ] && [ "$INSECURE" = 1 ]; then
+  echo "net-host.sh: give one of SRTP_KEY and INSECURE=1" >&2; exit 2
+fi
+if [ "$INSECURE" = 0 ] && { [ "${RTX:-0}" = 1 ] || [ -n "${BASELINE:-}" ]; }; then
+  echo "net-host.sh: RTX=1 and BASELINE send plain RTP (srtpdec knows each stream's own SSRC" \
+    "only, not its retransmissions'; the baseline streams stock RTP/JPEG): add INSECURE=1," \
+    "on a trusted network only" >&2; exit 2
+fi
+# Authenticated by default: the compositor host (started first, it prints
+# the base time too) makes the session's key; the other hosts must be given it.
+if [ -z "$SRTP_KEY" ] && [ "$INSECURE" = 0 ]; then
+  case "$role" in
+    compositor)
+      SRTP_KEY=$(head -c 30 /dev/urandom | od -An -tx1 | tr -d ' \n')
+      echo "srtp-key $SRTP_KEY"
+      echo "net-host.sh: give every other host SRTP_KEY=$SRTP_KEY (a fresh key for this session;" \
+        "INSECURE=1 everywhere for plain RTP on a trusted network)" >&2
+      ;;
+    camera | viewer)
+      echo "net-host.sh: SRTP_KEY is not set: give this host the key the compositor host printed" \
+        "(\"srtp-key HEX\"), or INSECURE=1 on every host for plain RTP on a trusted network" >&2
+      exit 2
+      ;;
+  esac
 fi
 SSRC_REQUESTS=4096; SSRC_FRAGMENTS=8192; SSRC_VIDEO=12288; SSRC_RTX=16384
 srtp_params="srtp-key=(buffer)$SRTP_KEY,srtp-cipher=(string)aes-128-icm,srtp-auth=(string)hmac-sha1-80"

@@ -29,6 +29,8 @@ export VIEW="orbit=0.6 dolly=15 path-frames=120 width=640 height=480"
 "$build/tools/lf-rig" --input "$data/stanford-chess" --block 0,0,8,8 --input-scale 0.5 --out "$RIG"
 if [ "${SRTP:-1}" = 1 ]; then
   SRTP_KEY=$(head -c 30 /dev/urandom | od -An -tx1 | tr -d ' \n'); export SRTP_KEY
+else
+  export INSECURE=1  # net-host.sh: plain RTP only when asked
 fi
 fail=0
 for run in baseline hostile; do

@@ -65,11 +65,13 @@ kill "$busy"
 "$trace" --cameras 64 --fps "$FPS" "$out"/busy64/*.trace > "$out/busy64.txt"
 
 # recovery RUN SCENARIO SETTING...: a 64-camera JPEG run with net-host.sh
-# settings, its frames compared with (c)'s (same requests).
+# settings, its frames compared with (c)'s (same requests). Plain RTP
+# (INSECURE=1) for all of them: RTX works only without SRTP, and FEC and RTX
+# are compared on the same transport.
 recovery() {
   local run="$1" scenario="$2"; shift 2
   echo "== $scenario, 64 cameras, jpeg fragments, $* ($seconds s)" >&2
-  env RIG="$out/rig64.json" HOSTS=4 ENCODING=jpeg "$@" "$root/tools/lf-netem.sh" run "$out/$run" "$seconds" "$scenario"
+  env RIG="$out/rig64.json" HOSTS=4 ENCODING=jpeg INSECURE=1 "$@" "$root/tools/lf-netem.sh" run "$out/$run" "$seconds" "$scenario"
   "$trace" --cameras 64 --fps "$FPS" --reference "$out/jpeg64/comp.trace" "$out/$run"/*.trace > "$out/$run.txt"
 }
 for f in 0 25 50; do recovery "loss-fec$f" loss FEC=$f; done
@@ -96,7 +98,7 @@ done
 
 echo "== all-viewpoints baseline, 64 cameras, jpegenc quality=$QUALITY ($seconds s)" >&2
 rm -rf "$out/baseline-frames"
-RIG="$out/rig64.json" HOSTS=4 BASELINE="$out/baseline-frames" \
+RIG="$out/rig64.json" HOSTS=4 BASELINE="$out/baseline-frames" INSECURE=1 \
   "$root/tools/lf-netem.sh" run "$out/baseline" "$seconds" normal
 if ! ls "$out"/baseline-frames/cam*-*.jpg > /dev/null 2>&1; then
   echo "lf-netbench.sh: the baseline run delivered no JPEG frames (see $out/baseline/*.log)" >&2

@@ -14,12 +14,16 @@
 #             beside the others: random and crafted requests and fragments at
 #             HOSTILE_RATE packets/s, default 1000, to the request group, every
 #             camera host, the compositor's fragment ports and the viewer;
-#             with RTX=1 half of them forged NACKs to the camera hosts)
+#             with RTX=1 half of them forged NACKs to the camera hosts;
+#             HOSTILE_SSRC=real: with the streams' real SSRCs)
 # Every scenario samples each host's resident memory every 5 s (OUTDIR/rss:
 # seconds, host, VmRSS kB) and writes its peak (OUTDIR/rss-peak: host,
 # VmHWM kB), and each host's UDP counters at the end (OUTDIR/udp: datagrams
 # received, dropped for a full socket buffer, errors) and the bytes its
 # link carried (OUTDIR/link-bytes: host, received, sent).
+# Every RTP stream is authenticated (SRTP) with the key the compositor host
+# makes for the session, unless SRTP_KEY is given or INSECURE=1 (plain RTP;
+# RTX=1 needs it); OUTDIR/transport says which (srtp | plain).
 # Environment: RIG (required), HOSTS [4], REQUESTS=unicast for a unicast
 # fan-out of the view requests (default: multicast), and net-host.sh's settings (FPS,
 # ENCODING, VIEW, LATENCY_MS, ...). Writes OUTDIR/{comp,view,cam*}.trace,
@@ -32,7 +36,7 @@ root="$(cd "$(dirname "$0")/.." && pwd)"
 build="${LF_BUILD_DIR:-$root/build}"  # the build directory (scripts/setup.sh: LF_BUILD_DIR)
 cmd="${1:-}"; out="${2:-}"; seconds="${3:-}"; scenario="${4:-normal}"
 if [ "$cmd" != run ] || [ -z "$out" ] || [ -z "$seconds" ]; then
-  sed -n '2,20p' "$0" | sed 's/^# \{0,1\}//'
+  sed -n '2,/^set -euo/{/^set -euo/!p}' "$0" | sed 's/^# \{0,1\}//'
   exit 2
 fi
 : "${RIG:?RIG must name the rig file}"
@@ -49,7 +53,11 @@ declare -A ip pid
 ip[comp]=10.77.0.2; ip[view]=10.77.0.3; ip[evil]=10.77.0.9
 for ((k = 0; k < HOSTS; k++)); do ip[cam$k]=10.77.0.$((10 + k)); done
 
+sampler=""
 cleanup() {
+  # The memory sampler first: left running, it would hold the caller's
+  # output open (meson waits for it) after an error.
+  if [ -n "$sampler" ]; then kill "$sampler" 2>/dev/null || true; fi
   # The viewer first, so the requests it issued last are answered and
   # composited before the cameras and the compositor go.
   if [ -n "${pid[view]:-}" ]; then kill "${pid[view]}" 2>/dev/null || true; sleep 0.5; fi
@@ -114,6 +122,14 @@ BASE_TIME="$(awk '/^base-time /{print $2; exit}' "$out/comp.log")"
 if [ -z "$BASE_TIME" ]; then echo "lf-netem.sh: the compositor host did not start:" >&2; cat "$out/comp.log" >&2; exit 1; fi
 export BASE_TIME
 echo "$BASE_TIME" > "$out/base-time"
+# The session's SRTP key, made and printed by the compositor host (unless
+# SRTP_KEY was given, or INSECURE=1 asks for plain RTP), handed to every other host.
+if [ -z "${SRTP_KEY:-}" ] && [ "${INSECURE:-0}" != 1 ]; then
+  SRTP_KEY="$(awk '/^srtp-key /{print $2; exit}' "$out/comp.log")"
+  if [ -z "$SRTP_KEY" ]; then echo "lf-netem.sh: the compositor host printed no srtp-key:" >&2; cat "$out/comp.log" >&2; exit 1; fi
+  export SRTP_KEY
+fi
+if [ -n "${SRTP_KEY:-}" ]; then echo srtp; else echo plain; fi > "$out/transport"
 : > "$out/clock-offsets"
 for ((k = 0; k < HOSTS; k++)); do
   ip netns exec "$tag"cam$k "$build/tools/lf-launch" --clock-client "${ip[comp]}:${CLOCK_PORT:-5300}" \
@@ -136,13 +152,18 @@ sample_rss() {  # every 5 s: seconds since start, host, VmRSS (kB)
 sample_rss &
 sampler=$!
 if [ "$scenario" = hostile ]; then
-  targets=(--fragments "${ip[view]}:${VIDEO_PORT:-5100}")
+  # HOSTILE_SSRC=real: every forged RTP packet carries its stream's real
+  # SSRC (net-host.sh's fixed ones), as after seeing one packet of it.
+  real=0
+  if [ "${HOSTILE_SSRC:-random}" = real ]; then real=1; fi
+  ssrc() { if [ "$real" = 1 ]; then echo "/$1"; fi; }
+  targets=(--fragments "${ip[view]}:${VIDEO_PORT:-5100}$(ssrc 12288)")
   group=""  # the multicast group of the view requests, if they use one
   if [[ "${REQUESTS:-239.255.42.1}" =~ ^2(2[4-9]|3[0-9])\. ]]; then group="${REQUESTS:-239.255.42.1}"; fi
-  if [ -n "$group" ]; then targets+=(--requests "$group:${REQUEST_PORT:-5000}"); fi
+  if [ -n "$group" ]; then targets+=(--requests "$group:${REQUEST_PORT:-5000}$(ssrc 4096)"); fi
   for ((k = 0; k < HOSTS; k++)); do
-    targets+=(--requests "${ip[cam$k]}:${REQUEST_PORT:-5000}")
-    targets+=(--fragments "${ip[comp]}:$((${FRAGMENT_PORT:-5200} + k))")
+    targets+=(--requests "${ip[cam$k]}:${REQUEST_PORT:-5000}$(ssrc 4096)")
+    targets+=(--fragments "${ip[comp]}:$((${FRAGMENT_PORT:-5200} + k))$(ssrc $((8192 + k)))")
     # RTX=1: forged NACKs for each camera host's stream (SSRC 8192 + K),
     # where it reads them (the request group, or its own address).
     if [ "${RTX:-0}" = 1 ]; then
