@@ -260,7 +260,8 @@ live() {  # row of the focus table: its live fps
   echo
   if [ "$net" = 1 ]; then
     echo "Hosts in network namespaces on this machine (tools/lf-netem.sh): 4 camera hosts, a"
-    echo "compositor host and a viewer."
+    echo "compositor host and a viewer; SRTP (the default) except the loss-recovery runs and the"
+    echo "all-viewpoints baseline, which run on plain RTP (INSECURE=1: RTX needs it)."
     echo
     echo "![Fragment bytes per output frame against the number of cameras]($rel/bytes-per-camera-count.png)"
     echo
