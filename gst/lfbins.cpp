@@ -128,13 +128,14 @@ struct Forward {
   const char* name;
 };
 const Forward kCameraHostForwards[] = {
-    {lf_cam_src_get_type, "mode"},          {lf_cam_src_get_type, "framerate"},
-    {lf_cam_src_get_type, "phase"},         {lf_cam_src_get_type, "is-live"},
-    {lf_cam_src_get_type, "num-buffers"},   {lf_cam_src_get_type, "loop"},
-    {lf_cam_src_get_type, "noise"},         {lf_fragment_get_type, "encoding"},
-    {lf_fragment_get_type, "jpeg-quality"}, {lf_fragment_get_type, "max-pixels"},
-    {lf_fragment_get_type, "max-rate"},     {lf_fragment_get_type, "frame-timeout"},
-    {lf_fragment_get_type, "frame-select"}, {lf_fragment_get_type, "backend"}};
+    {lf_cam_src_get_type, "mode"},           {lf_cam_src_get_type, "framerate"},
+    {lf_cam_src_get_type, "phase"},          {lf_cam_src_get_type, "is-live"},
+    {lf_cam_src_get_type, "num-buffers"},    {lf_cam_src_get_type, "loop"},
+    {lf_cam_src_get_type, "noise"},          {lf_fragment_get_type, "encoding"},
+    {lf_fragment_get_type, "jpeg-quality"},  {lf_fragment_get_type, "max-pixels"},
+    {lf_fragment_get_type, "max-rate"},      {lf_fragment_get_type, "max-pixel-rate"},
+    {lf_fragment_get_type, "frame-timeout"}, {lf_fragment_get_type, "frame-select"},
+    {lf_fragment_get_type, "backend"}};
 const Forward kArrayForwards[] = {
     {lf_compositor_get_type, "viewer-id"}, {lf_compositor_get_type, "latency"},
     {lf_compositor_get_type, "stereo"},    {lf_compositor_get_type, "second-planes"},
@@ -276,14 +277,14 @@ static GstElement* adopt(GstBin* bin, Priv* p, GstElement* e) {
 }
 
 // lfarray with one request thread for all cameras: the request rate limit
-// (lffragment max-rate) is kept here, once for all cameras, on the requests
+// (lffragment max-rate and max-pixel-rate) is kept here, once for all cameras, on the requests
 // coming in, and the lffragments have none: each of 64 buckets deciding
 // alone could drop a request in some cameras and not in others, and a
 // non-live compositor's pads out of step hold the request thread for ever.
 struct RequestLimit {
   GstElement* host = nullptr;  // not owned: the probe dies with its child
-  double rate = 0;
-  lfgst::ViewerBuckets buckets;
+  double rate = 0, pixel_rate = 0;
+  lfgst::ViewerBuckets buckets, pixel_buckets;
   lfgst::WarnLimiter warned;
 };
 
@@ -296,13 +297,20 @@ static GstPadProbeReturn limit_requests(GstPad*, GstPadProbeInfo* info, gpointer
     GstBuffer* buf = (GST_PAD_PROBE_INFO_TYPE(info) & GST_PAD_PROBE_TYPE_BUFFER_LIST)
                          ? gst_buffer_list_get(GST_PAD_PROBE_INFO_BUFFER_LIST(info), i)
                          : GST_PAD_PROBE_INFO_BUFFER(info);
-    guint8 head[12] = {};
+    guint8 head[88] = {};
     const gsize got = buf ? gst_buffer_extract(buf, 0, head, sizeof head) : 0;
     const guint32 viewer = lfgst::request_viewer(head, got);
-    if (!l->buckets.take(viewer, l->rate)) {
+    const gint64 now = g_get_monotonic_time();
+    if (!l->buckets.take(viewer, l->rate, now)) {
       LF_ELEMENT_WARNING_LIMITED(l->host, l->warned, STREAM, DECODE,
                                  ("Dropping view requests above max-rate"),
                                  "viewer %u sends more than %g requests a second", viewer, l->rate);
+      return GST_PAD_PROBE_DROP;
+    }
+    if (!l->pixel_buckets.take(viewer, l->pixel_rate, now, lfgst::request_pixels(head, got))) {
+      LF_ELEMENT_WARNING_LIMITED(
+          l->host, l->warned, STREAM, DECODE, ("Dropping view requests above max-pixel-rate"),
+          "viewer %u asks for more than %.0f output pixels a second", viewer, l->pixel_rate);
       return GST_PAD_PROBE_DROP;
     }
   }
@@ -541,8 +549,10 @@ static bool build(LfCameraHost* self) {
             if (one_thread && !frags.empty()) {
               auto* limit = new RequestLimit;
               limit->host = GST_ELEMENT(self);
-              g_object_get(frags.front(), "max-rate", &limit->rate, nullptr);
-              for (GstElement* f : frags) g_object_set(f, "max-rate", 0.0, nullptr);
+              g_object_get(frags.front(), "max-rate", &limit->rate, "max-pixel-rate",
+                           &limit->pixel_rate, nullptr);
+              for (GstElement* f : frags)
+                g_object_set(f, "max-rate", 0.0, "max-pixel-rate", 0.0, nullptr);
               gst_pad_add_probe(tsink,
                                 static_cast<GstPadProbeType>(GST_PAD_PROBE_TYPE_BUFFER |
                                                              GST_PAD_PROBE_TYPE_BUFFER_LIST),

@@ -122,6 +122,7 @@ struct Settings : lfgst::CameraAddress {
   gint quality = DEFAULT_JPEG_QUALITY;  // mutable in PLAYING: read live
   guint64 max_pixels = DEFAULT_MAX_PIXELS;
   gdouble max_rate = DEFAULT_MAX_RATE;
+  gdouble max_pixel_rate = lfgst::kDefaultMaxPixelRate;
   guint64 frame_timeout = DEFAULT_FRAME_TIMEOUT;
   FrameSelect frame_select = DEFAULT_FRAME_SELECT;
   lf::Backend backend = DEFAULT_BACKEND;
@@ -141,6 +142,7 @@ struct State {
   // Request rate limit: max_rate per second for each viewer, bursts of one
   // second's worth (request thread only).
   lfgst::ViewerBuckets rate;
+  lfgst::ViewerBuckets pixel_rate;  // max_pixel_rate, the same way
   // The GL renderer (backend gl, or auto on a hardware GPU; else null) and
   // the frame in its texture, by buffer and PTS (request thread only).
   std::unique_ptr<lf::GlRenderer> gl;
@@ -506,9 +508,11 @@ static GstBuffer* frame_at(Priv* p, int64_t t, bool exact = false) {
   return gst_buffer_ref(best);
 }
 
-// Requests beyond the element's limits (a view larger than max-pixels, or
-// more than max-rate requests a second) are dropped with a warning: a peer
-// must not make a camera host allocate or compute without bound.
+// Requests beyond the element's limits (a view larger than max-pixels, more
+// than max-rate requests a second, or more than max-pixel-rate output
+// pixels a second, for their viewer) are dropped with a warning: a peer
+// must not make a camera host allocate or compute without bound, nor take
+// another viewer's share.
 static bool admit(LfFragment* self, State* st, const lf::ViewRequest& req) {
   const Settings& s = st->s;
   const guint64 px = static_cast<guint64>(req.view.width) * req.view.height;
@@ -523,6 +527,15 @@ static bool admit(LfFragment* self, State* st, const lf::ViewRequest& req) {
     LF_ELEMENT_WARNING_LIMITED(
         self, st->too_fast, STREAM, DECODE, ("Dropping view requests above max-rate"),
         "viewer %u sends more than %g requests a second", req.viewer_id, s.max_rate);
+    return false;
+  }
+  if (!st->pixel_rate.take(req.viewer_id, s.max_pixel_rate, g_get_monotonic_time(),
+                           static_cast<double>(px))) {
+    LF_ELEMENT_WARNING_LIMITED(self, st->too_fast, STREAM, DECODE,
+                               ("Dropping view requests above max-pixel-rate"),
+                               "viewer %u asks for more than %.0f output pixels a second (%dx%d "
+                               "views)",
+                               req.viewer_id, s.max_pixel_rate, req.view.width, req.view.height);
     return false;
   }
   return true;
@@ -1006,6 +1019,15 @@ static void lf_fragment_class_init(LfFragmentClass* klass) {
                                 "second's worth; one viewer's flood never spends another's); more "
                                 "are dropped with a warning (0: no limit)",
                                 0, 1e6, DEFAULT_MAX_RATE, lfgst::kReadWriteReady));
+  props.add(oc, &Settings::max_pixel_rate,
+            g_param_spec_double(
+                "max-pixel-rate", "Maximum output pixel rate",
+                "Output pixels (width x height of each request) per second answered for each "
+                "viewer, so that a viewer of large views cannot take another's share of the host "
+                "(bursts up to one second's worth; a request larger than one second's worth never "
+                "passes); more are dropped with a warning. Default: 1920x1080 at 60 requests a "
+                "second (0: no limit)",
+                0, 1e12, lfgst::kDefaultMaxPixelRate, lfgst::kReadWriteReady));
   props.add(oc, &Settings::frame_timeout,
             g_param_spec_uint64("frame-timeout", "Frame timeout",
                                 "How long a request waits for a camera frame (the first one; with "

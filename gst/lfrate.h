@@ -1,6 +1,7 @@
 // Request rate limit (input from the network is bounded in rate): a token
 // bucket holding up to `rate` tokens (a burst of one second's worth),
-// refilled at `rate` per second; each admitted request takes one. Not
+// refilled at `rate` per second; each admitted request takes its cost (one
+// for a count of requests, its output pixels for a pixel budget). Not
 // thread-safe: one streaming thread uses it.
 #pragma once
 
@@ -14,15 +15,16 @@ namespace lfgst {
 
 class TokenBucket {
  public:
-  // True if a request may pass now (a token taken); `rate` in requests per
-  // second, 0: no limit. The bucket starts full.
-  bool take(double rate, gint64 now_us = g_get_monotonic_time()) {
+  // True if a request of `cost` tokens may pass now (they are taken);
+  // `rate` in tokens per second, 0: no limit. The bucket starts full; a
+  // request costing more than `rate` never passes.
+  bool take(double rate, gint64 now_us = g_get_monotonic_time(), double cost = 1) {
     if (rate <= 0) return true;
     tokens_ =
         refilled_us_ < 0 ? rate : std::min(rate, tokens_ + rate * (now_us - refilled_us_) / 1e6);
     refilled_us_ = now_us;
-    if (tokens_ < 1) return false;
-    tokens_ -= 1;
+    if (tokens_ < cost) return false;
+    tokens_ -= cost;
     return true;
   }
 
@@ -42,17 +44,17 @@ class ViewerBuckets {
  public:
   static constexpr size_t kViewers = 64;
   static constexpr gint64 kIdleUs = 10 * G_USEC_PER_SEC;
-  bool take(guint32 viewer, double rate, gint64 now_us = g_get_monotonic_time()) {
+  bool take(guint32 viewer, double rate, gint64 now_us = g_get_monotonic_time(), double cost = 1) {
     if (rate <= 0) return true;
     auto it = buckets_.find(viewer);
     if (it == buckets_.end()) {
       for (auto i = buckets_.begin(); buckets_.size() >= kViewers && i != buckets_.end();)
         i = now_us - i->second.used_us > kIdleUs ? buckets_.erase(i) : std::next(i);
-      if (buckets_.size() >= kViewers) return overflow_.take(rate, now_us);
+      if (buckets_.size() >= kViewers) return overflow_.take(rate, now_us, cost);
       it = buckets_.emplace(viewer, Entry{}).first;
     }
     it->second.used_us = now_us;
-    return it->second.bucket.take(rate, now_us);
+    return it->second.bucket.take(rate, now_us, cost);
   }
 
  private:
@@ -73,5 +75,18 @@ inline guint32 request_viewer(const guint8* data, gsize size) {
   return static_cast<guint32>(data[8]) << 24 | static_cast<guint32>(data[9]) << 16 |
          static_cast<guint32>(data[10]) << 8 | static_cast<guint32>(data[11]);
 }
+
+// The output pixels (width x height) of a view request buffer (lib/lf/wire.h:
+// width and height as u16 at bytes 84 and 86), or 0 when it has none.
+inline double request_pixels(const guint8* data, gsize size) {
+  if (size < 88 || request_viewer(data, size) == G_MAXUINT32) return 0;
+  const guint w = static_cast<guint>(data[84]) << 8 | data[85];
+  const guint h = static_cast<guint>(data[86]) << 8 | data[87];
+  return static_cast<double>(w) * h;
+}
+
+// The default pixel budget per viewer (lffragment max-pixel-rate): a
+// 1920x1080 view 60 times a second (a 3840x2160 view 15 times).
+constexpr double kDefaultMaxPixelRate = 1920.0 * 1080 * 60;
 
 }  // namespace lfgst

@@ -350,6 +350,36 @@ TEST_F(Hostile, OneViewersFloodLeavesAnotherItsRequests) {
   EXPECT_GE(cam.count(GST_MESSAGE_WARNING), 1);
 }
 
+// Requests are priced in output pixels too (max-pixel-rate): a viewer of
+// large views (here 640x480, 64 times the quiet viewer's 80x60) spends its
+// own pixel budget of ten such views a second, never the quiet viewer's,
+// although it stays under max-rate.
+TEST_F(Hostile, OneViewersLargeViewsLeaveAnotherItsPixels) {
+  const double budget = 10.0 * 640 * 480;
+  Camera cam(rig1_path_, "max-rate=1000 max-pixel-rate=" + std::to_string(budget));
+  const auto t0 = std::chrono::steady_clock::now();
+  for (uint64_t s = 1; s <= 60; ++s)
+    push(cam.src, lf::serialize_request(request(rig1_, s, 1, 640, 480)));
+  for (uint64_t s = 1; s <= 5; ++s) push(cam.src, lf::serialize_request(request(rig1_, s, 0)));
+  gst_app_src_end_of_stream(GST_APP_SRC(cam.src));
+  int answered[2] = {0, 0};
+  while (GstSample* smp = gst_app_sink_try_pull_sample(GST_APP_SINK(cam.sink), 3 * GST_SECOND)) {
+    GstMapInfo m;
+    GstBuffer* b = gst_sample_get_buffer(smp);
+    gst_buffer_map(b, &m, GST_MAP_READ);
+    const lf::FragmentHeader h = lf::peek_fragment_header(m.data, m.size);
+    if (h.viewer_id < 2) ++answered[h.viewer_id];
+    gst_buffer_unmap(b, &m);
+    gst_sample_unref(smp);
+  }
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_EQ(answered[0], 5) << "the quiet viewer's requests all pass";
+  EXPECT_GE(answered[1], 10);
+  EXPECT_LE(answered[1], 10 + static_cast<int>(10 * secs) + 1)
+      << "the large views are cut at max-pixel-rate";
+  EXPECT_GE(cam.count(GST_MESSAGE_WARNING), 1);
+}
+
 // 3. Fragments announcing another output size (8192x8192, 16384x16384, 2x2):
 // the output size comes from the caps; they are dropped before decoding, no
 // allocation follows them, and legitimate fragments are composited.
