@@ -1028,9 +1028,15 @@ TEST_F(Gst, NonLiveCamerasFollowTheRequests) {
   GstBus* bus = gst_element_get_bus(p);
   expect_eos(bus);
   // The camera's stream ended too (its task stopped on EOS from lffragment).
+  // A push already on its way when the end of stream reached the bus is
+  // refused and counted (the probe counts before the push is answered):
+  // once, under load (2 runs in 20 with two busy loops on 2 cores).
   const int frames_at_eos = frames.load();
   g_usleep(300000);
-  EXPECT_EQ(frames.load(), frames_at_eos) << "the camera went on after the requests ended";
+  const int frames_after = frames.load();
+  g_usleep(300000);
+  EXPECT_LE(frames_after, frames_at_eos + 1) << "the camera went on after the requests ended";
+  EXPECT_EQ(frames.load(), frames_after) << "the camera went on after the requests ended";
   EXPECT_EQ(fragments.load(), kRequests);
   // The camera is held two frames ahead of the requests: at most two new
   // frames a request, and the first two (the old code: thousands).
