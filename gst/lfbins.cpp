@@ -448,21 +448,21 @@ static bool build(LfCameraHost* self) {
             if (!playback.empty()) lf::camera_file_name(playback, 0, "playback");
             GstElement* tee = make("tee", "requests");
             g_object_set(tee, "allow-not-linked", TRUE, nullptr);
-            // Live: a request that waits behind requests request-max-age
-            // newer is stale (the oldest go first). Bounded in time, not
-            // in count: the requests of several viewers arrive in the
-            // same tick (a two-request queue dropped two of four
-            // viewers' requests at every camera, lf-web with four
-            // browsers). Not live: the queue's defaults (requests of
+            // Live: lfrequestqueue, the viewers in turn, and a viewer's
+            // request that waits behind one of the same viewer
+            // request-max-age newer is stale. Bounded in time per
+            // viewer, not in count: the requests of several viewers
+            // arrive in the same tick (a two-request queue dropped two of
+            // four viewers' requests at every camera, lf-web with four
+            // browsers), and in turns, so one viewer's flood does not
+            // push another's requests out (a queue in arrival order
+            // did). Not live: a queue with its defaults (requests of
             // several viewers interleave; a short queue here can stall
             // them behind one another).
             auto request_queue = [&](const std::string& name) {
-              GstElement* q = adopt(GST_BIN(self), p, make("queue", name));
-              if (live) {
-                g_object_set(q, "max-size-buffers", 64, "max-size-bytes", 0, "max-size-time",
-                             max_age, nullptr);
-                gst_util_set_object_arg(G_OBJECT(q), "leaky", "downstream");
-              }
+              GstElement* q =
+                  adopt(GST_BIN(self), p, make(live ? "lfrequestqueue" : "queue", name));
+              if (live) g_object_set(q, "max-age", max_age, nullptr);
               return q;
             };
             GstElement* out = composite_of(self) ? make("lfcompositor", "compositor")
@@ -551,6 +551,7 @@ static bool build(LfCameraHost* self) {
               limit->host = GST_ELEMENT(self);
               g_object_get(frags.front(), "max-rate", &limit->rate, "max-pixel-rate",
                            &limit->pixel_rate, nullptr);
+              if (!live) limit->pixel_rate = 0;  // (as lffragment: live only)
               for (GstElement* f : frags)
                 g_object_set(f, "max-rate", 0.0, "max-pixel-rate", 0.0, nullptr);
               gst_pad_add_probe(tsink,
@@ -735,10 +736,11 @@ static void install_properties(GObjectClass* oc) {
       oc, PROP_REQUEST_MAX_AGE,
       g_param_spec_uint64(
           "request-max-age", "Request max age",
-          "Live (is-live): a view request still waiting for its camera behind requests this "
-          "much newer (ns, by their PTS) is dropped as stale, oldest first; at most 64 wait. "
-          "lfarray uses at least its latency (a request its compositor still waits for is not "
-          "stale). 0: only the count bound",
+          "Live (is-live): a view request still waiting for its camera behind a request of the "
+          "same viewer this much newer (ns, by their PTS) is dropped as stale; the viewers' "
+          "requests are served in turn, at most 64 wait (lfrequestqueue). lfarray uses at least "
+          "its latency (a request its compositor still waits for is not stale). 0: only each "
+          "viewer's newest request waits (the newest request wins)",
           0, G_MAXUINT64, DEFAULT_REQUEST_MAX_AGE, rw));
   g_object_class_install_property(
       oc, PROP_PARTIAL_SUMS,

@@ -529,8 +529,13 @@ static bool admit(LfFragment* self, State* st, const lf::ViewRequest& req) {
         "viewer %u sends more than %g requests a second", req.viewer_id, s.max_rate);
     return false;
   }
-  if (!st->pixel_rate.take(req.viewer_id, s.max_pixel_rate, g_get_monotonic_time(),
-                           static_cast<double>(px))) {
+  // The pixel budget shares a live host's time; a non-live pipeline renders
+  // every request.
+  g_mutex_lock(&self->priv->lock);
+  const bool live = self->priv->camera_live != 0;
+  g_mutex_unlock(&self->priv->lock);
+  if (live && !st->pixel_rate.take(req.viewer_id, s.max_pixel_rate, g_get_monotonic_time(),
+                                   static_cast<double>(px))) {
     LF_ELEMENT_WARNING_LIMITED(self, st->too_fast, STREAM, DECODE,
                                ("Dropping view requests above max-pixel-rate"),
                                "viewer %u asks for more than %.0f output pixels a second (%dx%d "
@@ -1022,11 +1027,11 @@ static void lf_fragment_class_init(LfFragmentClass* klass) {
   props.add(oc, &Settings::max_pixel_rate,
             g_param_spec_double(
                 "max-pixel-rate", "Maximum output pixel rate",
-                "Output pixels (width x height of each request) per second answered for each "
-                "viewer, so that a viewer of large views cannot take another's share of the host "
-                "(bursts up to one second's worth; a request larger than one second's worth never "
-                "passes); more are dropped with a warning. Default: 1920x1080 at 60 requests a "
-                "second (0: no limit)",
+                "Live: output pixels (width x height of each request) per second answered for "
+                "each viewer, so that a viewer of large views cannot take another's share of the "
+                "host (bursts up to one second's worth; a request larger than one second's worth "
+                "never passes); more are dropped with a warning. Default: 1920x1080 at 60 "
+                "requests a second (0: no limit; not live: none, every request is rendered)",
                 0, 1e12, lfgst::kDefaultMaxPixelRate, lfgst::kReadWriteReady));
   props.add(oc, &Settings::frame_timeout,
             g_param_spec_uint64("frame-timeout", "Frame timeout",

@@ -1,7 +1,8 @@
 // The lightfield plugin: lfcamsrc, lffragment, lfcompositor, lfviewrequest,
 // the bins built from a rig, lfcamerahost and lfarray, lffragmentdemux
 // (fragments routed to one pad per viewer), lfpartialsum (a camera host's
-// fragments added up) and lfrequestmux (viewers' requests joined in turn).
+// fragments added up), lfrequestmux (viewers' requests joined in turn),
+// lfrequestqueue (requests queued per viewer, load shed) and lflenticular.
 // Package, version and origin come from the build (meson.build,
 // meson_options.txt: package-name, package-origin) through config.h.
 #include <gst/gst.h>
@@ -17,6 +18,7 @@ GST_ELEMENT_REGISTER_DECLARE(lfarray);
 GST_ELEMENT_REGISTER_DECLARE(lffragmentdemux);
 GST_ELEMENT_REGISTER_DECLARE(lfpartialsum);
 GST_ELEMENT_REGISTER_DECLARE(lfrequestmux);
+GST_ELEMENT_REGISTER_DECLARE(lfrequestqueue);
 GST_ELEMENT_REGISTER_DECLARE(lflenticular);
 
 static gboolean plugin_init(GstPlugin* plugin) {
@@ -30,6 +32,7 @@ static gboolean plugin_init(GstPlugin* plugin) {
   ok |= GST_ELEMENT_REGISTER(lffragmentdemux, plugin);
   ok |= GST_ELEMENT_REGISTER(lfpartialsum, plugin);
   ok |= GST_ELEMENT_REGISTER(lfrequestmux, plugin);
+  ok |= GST_ELEMENT_REGISTER(lfrequestqueue, plugin);
   ok |= GST_ELEMENT_REGISTER(lflenticular, plugin);
   return ok;
 }

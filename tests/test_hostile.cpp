@@ -144,13 +144,14 @@ class Hostile : public ::testing::Test {
   struct Camera {
     GstElement *pipe = nullptr, *src = nullptr, *sink = nullptr;
     explicit Camera(const std::string& rig, const std::string& frag_props = "",
-                    bool with_frames = true) {
+                    bool with_frames = true, const std::string& cam_props = "") {
       std::string desc =
           "appsrc name=in format=time caps=application/x-lf-view-request ! f.request "
           "lffragment name=f rig=" +
           rig + " camera-id=0 " + frag_props + " ! appsink name=out sync=false";
       if (with_frames)
-        desc += " lfcamsrc rig=" + rig + " camera-id=0 mode=synthetic num-buffers=1 ! f.sink";
+        desc += " lfcamsrc rig=" + rig + " camera-id=0 mode=synthetic num-buffers=1 " + cam_props +
+                " ! f.sink";
       pipe = gst_parse_launch(desc.c_str(), nullptr);
       src = gst_bin_get_by_name(GST_BIN(pipe), "in");
       sink = gst_bin_get_by_name(GST_BIN(pipe), "out");
@@ -353,10 +354,12 @@ TEST_F(Hostile, OneViewersFloodLeavesAnotherItsRequests) {
 // Requests are priced in output pixels too (max-pixel-rate): a viewer of
 // large views (here 640x480, 64 times the quiet viewer's 80x60) spends its
 // own pixel budget of ten such views a second, never the quiet viewer's,
-// although it stays under max-rate.
+// although it stays under max-rate. (Live: a non-live pipeline renders
+// every request.)
 TEST_F(Hostile, OneViewersLargeViewsLeaveAnotherItsPixels) {
   const double budget = 10.0 * 640 * 480;
-  Camera cam(rig1_path_, "max-rate=1000 max-pixel-rate=" + std::to_string(budget));
+  Camera cam(rig1_path_, "max-rate=1000 max-pixel-rate=" + std::to_string(budget), true,
+             "is-live=true");
   const auto t0 = std::chrono::steady_clock::now();
   for (uint64_t s = 1; s <= 60; ++s)
     push(cam.src, lf::serialize_request(request(rig1_, s, 1, 640, 480)));
