@@ -88,6 +88,27 @@ class Hostile : public ::testing::Test {
     GST_BUFFER_PTS(b) = pts;
     ASSERT_EQ(gst_app_src_push_buffer(GST_APP_SRC(appsrc), b), GST_FLOW_OK);
   }
+  // Viewer 1 floods 60 requests (of flood_w x flood_h), viewer 0 then sends 5
+  // (80x60), and the stream ends; counts the fragments of each that come out
+  // of the camera until none has come for 3 s. Returns the seconds it took.
+  static double flood_and_count(const lf::Rig& rig, GstElement* src, GstElement* sink, int flood_w,
+                                int flood_h, int answered[2]) {
+    const auto t0 = std::chrono::steady_clock::now();
+    for (uint64_t s = 1; s <= 60; ++s)
+      push(src, lf::serialize_request(request(rig, s, 1, flood_w, flood_h)));
+    for (uint64_t s = 1; s <= 5; ++s) push(src, lf::serialize_request(request(rig, s, 0)));
+    gst_app_src_end_of_stream(GST_APP_SRC(src));
+    while (GstSample* smp = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 3 * GST_SECOND)) {
+      GstMapInfo m;
+      GstBuffer* b = gst_sample_get_buffer(smp);
+      gst_buffer_map(b, &m, GST_MAP_READ);
+      const lf::FragmentHeader h = lf::peek_fragment_header(m.data, m.size);
+      if (h.viewer_id < 2) ++answered[h.viewer_id];
+      gst_buffer_unmap(b, &m);
+      gst_sample_unref(smp);
+    }
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
   // Pulls one frame; its request sequence (buffer offset), or -1 on time-out.
   static int64_t pull(GstElement* sink, cv::Mat* rgba = nullptr, double seconds = 5) {
     GstSample* s =
@@ -330,21 +351,8 @@ TEST_F(Hostile, HugeRequestsAreDroppedNotFatal) {
 // viewer's requests with it).
 TEST_F(Hostile, OneViewersFloodLeavesAnotherItsRequests) {
   Camera cam(rig1_path_, "max-rate=10");
-  const auto t0 = std::chrono::steady_clock::now();
-  for (uint64_t s = 1; s <= 60; ++s) push(cam.src, lf::serialize_request(request(rig1_, s, 1)));
-  for (uint64_t s = 1; s <= 5; ++s) push(cam.src, lf::serialize_request(request(rig1_, s, 0)));
-  gst_app_src_end_of_stream(GST_APP_SRC(cam.src));
   int answered[2] = {0, 0};
-  while (GstSample* smp = gst_app_sink_try_pull_sample(GST_APP_SINK(cam.sink), 3 * GST_SECOND)) {
-    GstMapInfo m;
-    GstBuffer* b = gst_sample_get_buffer(smp);
-    gst_buffer_map(b, &m, GST_MAP_READ);
-    const lf::FragmentHeader h = lf::peek_fragment_header(m.data, m.size);
-    if (h.viewer_id < 2) ++answered[h.viewer_id];
-    gst_buffer_unmap(b, &m);
-    gst_sample_unref(smp);
-  }
-  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double secs = flood_and_count(rig1_, cam.src, cam.sink, 80, 60, answered);
   EXPECT_EQ(answered[0], 5) << "the quiet viewer's requests all pass";
   EXPECT_GE(answered[1], 10);
   EXPECT_LE(answered[1], 10 + static_cast<int>(10 * secs) + 1) << "the flood is cut at max-rate";
@@ -360,22 +368,8 @@ TEST_F(Hostile, OneViewersLargeViewsLeaveAnotherItsPixels) {
   const double budget = 10.0 * 640 * 480;
   Camera cam(rig1_path_, "max-rate=1000 max-pixel-rate=" + std::to_string(budget), true,
              "is-live=true");
-  const auto t0 = std::chrono::steady_clock::now();
-  for (uint64_t s = 1; s <= 60; ++s)
-    push(cam.src, lf::serialize_request(request(rig1_, s, 1, 640, 480)));
-  for (uint64_t s = 1; s <= 5; ++s) push(cam.src, lf::serialize_request(request(rig1_, s, 0)));
-  gst_app_src_end_of_stream(GST_APP_SRC(cam.src));
   int answered[2] = {0, 0};
-  while (GstSample* smp = gst_app_sink_try_pull_sample(GST_APP_SINK(cam.sink), 3 * GST_SECOND)) {
-    GstMapInfo m;
-    GstBuffer* b = gst_sample_get_buffer(smp);
-    gst_buffer_map(b, &m, GST_MAP_READ);
-    const lf::FragmentHeader h = lf::peek_fragment_header(m.data, m.size);
-    if (h.viewer_id < 2) ++answered[h.viewer_id];
-    gst_buffer_unmap(b, &m);
-    gst_sample_unref(smp);
-  }
-  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double secs = flood_and_count(rig1_, cam.src, cam.sink, 640, 480, answered);
   EXPECT_EQ(answered[0], 5) << "the quiet viewer's requests all pass";
   EXPECT_GE(answered[1], 10);
   EXPECT_LE(answered[1], 10 + static_cast<int>(10 * secs) + 1)

@@ -482,6 +482,20 @@ void on_channel_close(GstWebRTCDataChannel*, gpointer data) {
   if (c.channel) g_object_unref(c.channel), c.channel = nullptr;
 }
 
+// The control protocol on a data channel (the server's own, or the one a
+// WHEP player opened): each handler holds a reference to the viewer's
+// Control, dropped with the handler.
+void connect_channel(GstWebRTCDataChannel* ch, const ControlRef& ctl) {
+  g_signal_connect_data(ch, "on-open", G_CALLBACK(on_channel_open), new_ref(ctl),
+                        delete_ref_closure, GConnectFlags(0));
+  g_signal_connect_data(ch, "on-close", G_CALLBACK(on_channel_close), new_ref(ctl),
+                        delete_ref_closure, GConnectFlags(0));
+  g_signal_connect_data(ch, "on-message-string", G_CALLBACK(on_control_message), new_ref(ctl),
+                        delete_ref_closure, GConnectFlags(0));
+  g_signal_connect_data(ch, "on-message-data", G_CALLBACK(on_control_bytes), new_ref(ctl),
+                        delete_ref_closure, GConnectFlags(0));
+}
+
 // ---- viewers --------------------------------------------------------------
 
 // The smallest even viewer id in use by nobody (id + 1 is its right eye).
@@ -615,14 +629,7 @@ std::unique_ptr<Viewer> build_viewer(Server* s, const std::string& address, bool
     std::fprintf(stderr,
                  "lf-web: webrtcbin made no data channel (is gstreamer1.0-nice installed?)\n");
   } else if (ch) {
-    g_signal_connect_data(ch, "on-open", G_CALLBACK(on_channel_open), new_ref(ctl),
-                          delete_ref_closure, GConnectFlags(0));
-    g_signal_connect_data(ch, "on-close", G_CALLBACK(on_channel_close), new_ref(ctl),
-                          delete_ref_closure, GConnectFlags(0));
-    g_signal_connect_data(ch, "on-message-string", G_CALLBACK(on_control_message), new_ref(ctl),
-                          delete_ref_closure, GConnectFlags(0));
-    g_signal_connect_data(ch, "on-message-data", G_CALLBACK(on_control_bytes), new_ref(ctl),
-                          delete_ref_closure, GConnectFlags(0));
+    connect_channel(ch, ctl);
     v->channel = ch;  // our reference: remove_viewer disconnects these handlers
   }
   if (own_channel) {  // the server offers (the page); WHEP's player offers
@@ -723,14 +730,7 @@ gboolean on_whep_event(gpointer data) {
 // The player's data channel (announced open): the control protocol on it.
 void on_remote_channel(GstElement*, GstWebRTCDataChannel* ch, gpointer data) {
   const ControlRef& ctl = ref_of(data);
-  g_signal_connect_data(ch, "on-open", G_CALLBACK(on_channel_open), new_ref(ctl),
-                        delete_ref_closure, GConnectFlags(0));
-  g_signal_connect_data(ch, "on-close", G_CALLBACK(on_channel_close), new_ref(ctl),
-                        delete_ref_closure, GConnectFlags(0));
-  g_signal_connect_data(ch, "on-message-string", G_CALLBACK(on_control_message), new_ref(ctl),
-                        delete_ref_closure, GConnectFlags(0));
-  g_signal_connect_data(ch, "on-message-data", G_CALLBACK(on_control_bytes), new_ref(ctl),
-                        delete_ref_closure, GConnectFlags(0));
+  connect_channel(ch, ctl);
   on_channel_open(ch, data);  // a channel the peer opened is open already
   g_main_context_invoke(
       nullptr, on_whep_event,
