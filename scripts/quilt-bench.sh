@@ -5,8 +5,10 @@
 # time per frame (the process's, over the frames asked for), fragment bytes
 # per frame (the camera host's output, written to a file) and request bytes
 # per frame. The viewers' requests join in a `funnel`, as lf-web joins its
-# viewers': through lfrequestmux, 8 live viewers of this line produced no
-# frame in 30 s (not live it stalls: its known limit, gst/lfrequestmux.cpp).
+# viewers' (the camera host takes them in turn, lfrequestqueue). One early
+# run through lfrequestmux produced no frame in 30 s; 8 later runs of the
+# same line finished in 4 s each (not understood). Not live, lfrequestmux
+# can stall: its known limit, gst/lfrequestmux.cpp.
 #
 # usage: scripts/quilt-bench.sh [VIEWS COLS ROWS TILE_W TILE_H [FRAMES [RUNS [FPS]]]]
 #   defaults: 48 8 6 240 180 20 3 5/1
