@@ -182,10 +182,7 @@ static gboolean lf_request_queue_sink_event(GstPad* pad, GstObject* parent, GstE
     }
     case GST_EVENT_FLUSH_STOP: {
       const gboolean ok = gst_pad_push_event(self->srcpad, ev);
-      g_mutex_lock(&self->lock);
-      release(self->queue->clear());
-      g_mutex_unlock(&self->lock);
-      lf_request_queue_start(self);
+      lf_request_queue_start(self);  // (empties the queue)
       return ok;
     }
     case GST_EVENT_EOS:  // after the queued requests (the source pad's thread)

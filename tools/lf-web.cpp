@@ -496,6 +496,17 @@ void connect_channel(GstWebRTCDataChannel* ch, const ControlRef& ctl) {
                         delete_ref_closure, GConnectFlags(0));
 }
 
+// Undoes connect_channel (so no handler keeps the Control alive) and drops
+// our reference to the channel.
+void release_channel(GstWebRTCDataChannel* ch) {
+  for (gpointer f :
+       {reinterpret_cast<gpointer>(on_channel_open), reinterpret_cast<gpointer>(on_channel_close),
+        reinterpret_cast<gpointer>(on_control_message),
+        reinterpret_cast<gpointer>(on_control_bytes)})
+    g_signal_handlers_disconnect_matched(ch, G_SIGNAL_MATCH_FUNC, 0, 0, nullptr, f, nullptr);
+  g_object_unref(ch);
+}
+
 // ---- viewers --------------------------------------------------------------
 
 // The smallest even viewer id in use by nobody (id + 1 is its right eye).
@@ -717,13 +728,7 @@ gboolean on_whep_event(gpointer data) {
   }
   // The viewer is gone (or has a channel already): no handler may keep its
   // Control alive.
-  for (gpointer f :
-       {reinterpret_cast<gpointer>(on_channel_open), reinterpret_cast<gpointer>(on_channel_close),
-        reinterpret_cast<gpointer>(on_control_message),
-        reinterpret_cast<gpointer>(on_control_bytes)})
-    g_signal_handlers_disconnect_matched(e->channel, G_SIGNAL_MATCH_FUNC, 0, 0, nullptr, f,
-                                         nullptr);
-  g_object_unref(e->channel);
+  release_channel(e->channel);
   return G_SOURCE_REMOVE;
 }
 
@@ -954,15 +959,7 @@ void remove_viewer(Server* s, guint64 serial, const char* why) {
     soup_server_message_unpause(v->whep_post);
     g_object_unref(v->whep_post);
   }
-  if (v->channel) {
-    for (gpointer f :
-         {reinterpret_cast<gpointer>(on_channel_open), reinterpret_cast<gpointer>(on_channel_close),
-          reinterpret_cast<gpointer>(on_control_message),
-          reinterpret_cast<gpointer>(on_control_bytes)})
-      g_signal_handlers_disconnect_matched(v->channel, G_SIGNAL_MATCH_FUNC, 0, 0, nullptr, f,
-                                           nullptr);
-    g_object_unref(v->channel);
-  }
+  if (v->channel) release_channel(v->channel);
   if (v->ws) g_signal_handlers_disconnect_by_data(v->ws, reinterpret_cast<gpointer>(serial));
   gst_element_release_request_pad(s->funnel, v->funnel_pad);
   gst_object_unref(v->funnel_pad);
