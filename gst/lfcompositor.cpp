@@ -79,18 +79,17 @@
 
 #include <algorithm>
 #include <atomic>
-#include <deque>
 #include <map>
 #include <memory>
 #include <opencv2/imgproc.hpp>
 #include <optional>
-#include <set>
 
 #include "lf/composite.h"
 #include "lf/focus_probe.h"
 #include "lf/fragment.h"
 #include "lf/probe_bundle.h"
 #include "lf/render.h"
+#include "lf/session/frame_assembly.h"
 #include "lf/surface_probe.h"
 #include "lf/wire.h"
 #include "lfaggregate.h"
@@ -152,27 +151,12 @@ struct Piece {
   std::shared_ptr<const lfgst::DeferredDraw> deferred;
   const uint8_t* pixels() const { return raw_pixels ? raw_pixels : f.pixels.data(); }
 };
-struct Group {
-  std::vector<Piece> fragments;
-  std::set<uint64_t> cameras;  // (viewer << 32) | camera: each fragment (or partial sum) once
-  size_t count = 0;            // cameras in them: a partial sum counts its cameras
-  GstClockTime pts = GST_CLOCK_TIME_NONE, duration = GST_CLOCK_TIME_NONE;
-  GstClockTime running_time = GST_CLOCK_TIME_NONE;  // of its first fragment
-  bool conflicted = false;  // a camera sent two fragments: both dropped, never complete
-};
-// Request sequences are handled as RFC 3550 appendix A.1 handles RTP
-// sequence numbers, so that no single packet (forged with a stream's real
-// SSRC on plain RTP, or stray) can move the window:
-//  * accepted: (last emitted, last emitted + kMaxDropout];
-//  * late: up to kMaxMisorder behind: dropped;
-//  * anything else (a jump ahead, or far behind: a restarted viewer) is on
-//    probation: the window moves to it only when a fragment of the very
-//    next request (or the one after, one request lost) confirms it.
-// Before, any sequence up to 4096 ahead was accepted, and a stream outside
-// the window for a second was followed: one forged fragment 4000 ahead cost
-// a second of output.
-constexpr uint64_t kMaxDropout = 64;  // requests: 2 s at 30 fps
-constexpr uint64_t kMaxMisorder = 100;
+// A request waiting for its fragments (lib/lf/session/frame_assembly.h): a
+// buffer's pieces are filed under its camera (viewer << 32 | camera).
+using Request = lf::PendingRequest<Piece>;
+// The request window (lf::RequestWindow: RFC 3550 appendix A.1, so no
+// single forged or stray packet moves it) and at most this many requests
+// waiting.
 constexpr size_t kMaxPending = 16;
 // A focus probe is scored when every camera answered every step, or this long
 // (at least; the compositor's latency when longer) after its first fragment
@@ -181,61 +165,26 @@ constexpr gint64 kProbeDeadlineUs = G_USEC_PER_SEC;
 // Focus probes collected at once: on a busy machine the next (continuous
 // focus: every 5 requests) starts before the last has all its fragments;
 // beyond this many the one started first is scored with what came. The ids
-// of the last kFinishedProbes scored are remembered, so that late fragments
-// of a probe do not start it again (by id, not by order: a peer's id must
-// not make later probes look stale).
+// of the last ones scored are remembered (lf::ProbeCollector).
 constexpr size_t kMaxProbes = 4;
-constexpr size_t kFinishedProbes = 16;
 
 // Surface probes (lib/lf/surface_probe.h) collected at once: one every
 // `surface-interval` requests of lfviewrequest; a second may start before
 // the first is complete.
 constexpr size_t kMaxSurfaceProbes = 2;
 
-// A probe being collected: a focus probe (lib/lf/focus_probe.h) or a
-// surface probe (lib/lf/surface_probe.h).
-template <class Answers>
-struct Probe {
-  uint32_t id = 0;
-  guint viewer = 0;
-  gint64 started_us = 0;
-  Answers answers;
-};
-// The probes of one kind being collected, by id, and the ids of the last
-// kFinishedProbes scored.
-template <class Answers>
-struct Probes {
-  std::map<uint32_t, Probe<Answers>> open;
-  std::deque<uint32_t> finished;
-  using Iter = typename std::map<uint32_t, Probe<Answers>>::iterator;
-  bool scored(uint32_t id) const {
-    return std::find(finished.begin(), finished.end(), id) != finished.end();
-  }
-  // Takes probe `it` out of the open ones, to be scored.
-  Probe<Answers> take(Iter it) {
-    Probe<Answers> p = std::move(it->second);
-    open.erase(it);
-    finished.push_back(p.id);
-    if (finished.size() > kFinishedProbes) finished.pop_front();
-    return p;
-  }
-  Iter oldest() {
-    return std::min_element(open.begin(), open.end(), [](const auto& a, const auto& b) {
-      return a.second.started_us < b.second.started_us;
-    });
-  }
-};
+using FocusProbes = lf::ProbeCollector<lf::FocusProbeAnswers>;
+using SurfaceProbes = lf::ProbeCollector<lf::SurfaceProbeAnswers>;
 
 // From start (READY->PAUSED) to stop (PAUSED->READY); used on the aggregate
 // thread only (GstAggregator handles serialized sink events there too).
 struct State {
   Settings s;  // snapshot taken at start
   std::shared_ptr<const lf::Rig> rig;
-  std::map<uint64_t, Group> pending;  // by request sequence
-  int64_t last_emitted = -1;
-  int64_t probation = -1;  // the out-of-window sequence waiting for its confirmation
-  guint64 conflicts = 0;   // fragments dropped as a second copy of a camera's in a request
-  int64_t viewer = -1;     // the viewer composited (viewer-id, or the first seen)
+  lf::PendingRequests<uint64_t, Piece> pending{kMaxPending};  // by request sequence
+  lf::RequestWindow window;
+  guint64 conflicts = 0;       // fragments dropped as a second copy of a camera's in a request
+  lf::ViewerSelection viewer;  // the viewer composited (viewer-id, or the first seen)
   lf::Compositor comp, comp_right;
   lf::LayerCompositor layers[2];       // per eye, for frames with second-plane fragments
   std::unique_ptr<lf::GlRenderer> gl;  // backend gl (or auto on a hardware GPU)
@@ -252,15 +201,10 @@ struct State {
   GstVideoConverter* convert = nullptr;  // RGBA -> I420 when negotiated
   lfgst::Fraction caps_fps{0, 1};        // from the fragment caps (0/1: none yet)
   gint caps_width = 0, caps_height = 0;  // the view size from the fragment caps
-  guint64 late = 0, filled_frames = 0;
-  // Fragments of other viewers since the last one of ours, and when the
-  // first of them came (warned once when ours stay away).
-  guint64 foreign_count = 0;
-  gint64 foreign_since_us = -1;
-  bool warned_foreign = false;
+  guint64 filled_frames = 0;
   // Focus and surface probes being collected.
-  Probes<lf::FocusProbeAnswers> probes;
-  Probes<lf::SurfaceProbeAnswers> surface_probes;
+  FocusProbes probes{kMaxProbes};
+  SurfaceProbes surface_probes{kMaxSurfaceProbes};
   lfgst::WarnLimiter no_focus, no_surface, bad, foreign, unknown_camera, wrong_size, no_size,
       out_of_window, duplicate;
   ~State() {
@@ -340,7 +284,7 @@ static gboolean lf_compositor_start(GstAggregator* agg) {
     st->rig = lfgst::open_rig(GST_ELEMENT(self), st->s.rig);
     if (!st->rig) return FALSE;
   }
-  st->viewer = st->s.viewer_id;
+  st->viewer = lf::ViewerSelection(st->s.viewer_id);
   if (!lfgst::open_backend(GST_ELEMENT(self), st->s.backend, st->gl)) return FALSE;
   self->priv->state = std::move(st);
   return TRUE;
@@ -357,9 +301,9 @@ static gboolean lf_compositor_stop(GstAggregator* agg) {
 static void publish_acceptance(Priv* p, const State* st) {
   int w = 0, h = 0;
   p->accept_pixels = st->view_size(&w, &h) ? static_cast<uint64_t>(w) * h : 0;
-  p->accept_viewer = st->viewer;
+  p->accept_viewer = st->viewer.viewer();
   p->accept_stereo = st->s.stereo;
-  p->accept_after = st->last_emitted;
+  p->accept_after = st->window.last_emitted();
 }
 
 // The deadline: one frame period of the request rate, unless the `latency`
@@ -516,25 +460,25 @@ static gboolean lf_compositor_negotiate(GstAggregator* agg) {
   return TRUE;
 }
 
-static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool complete) {
+static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Request& g, bool complete) {
   State* st = self->priv->state.get();
   const gint64 t0 = g_get_monotonic_time();
   int w = 0, H = 0;
   if (!st->view_size(&w, &H)) return GST_FLOW_OK;  // nothing was accepted without a size
   const int W = st->s.stereo ? 2 * w : w;          // stereo: left | right side by side
   if (!ensure_caps(self, W, H)) return GST_FLOW_NOT_NEGOTIATED;
-  const guint left_id = static_cast<guint>(std::max<int64_t>(0, st->viewer));
+  const guint left_id = static_cast<guint>(std::max<int64_t>(0, st->viewer.viewer()));
   // Drawings left to us (lffragment defer): by GL below with the others,
   // each camera frame uploaded once; on the CPU, fused into the composite
   // (each band of rows draws its part of every camera's fragment straight
   // into its sums, on both cores); in a frame of layer pairs (the layer
   // compositor), drawn here into the piece first.
-  const bool layered_frame = std::any_of(g.fragments.begin(), g.fragments.end(),
+  const bool layered_frame = std::any_of(g.pieces.begin(), g.pieces.end(),
                                          [](const Piece& pc) { return pc.f.layer != 0; });
   GError* derr = nullptr;
   if (!lfgst::guard(
           [&] {
-            for (Piece& pc : g.fragments) {
+            for (Piece& pc : g.pieces) {
               if (!pc.deferred) continue;
               const lfgst::DeferredDraw& d = *pc.deferred;
               if (!layered_frame) {  // CPU: drawn in Compositor::composite
@@ -568,7 +512,7 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
   std::vector<lf::FragmentPixels> eye[2];
   std::vector<lf::PlannedFragment> planned[2];
   std::vector<lf::FragmentDrawing> drawings[2];
-  for (const Piece& piece : g.fragments) {
+  for (const Piece& piece : g.pieces) {
     const int e = st->s.stereo && piece.f.viewer_id != left_id;
     if (piece.deferred && st->gl)
       planned[e].push_back({&piece.deferred->plan, &piece.deferred->camera, piece.deferred->slot});
@@ -655,7 +599,7 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
   GST_BUFFER_PTS(out) = g.pts;
   GST_BUFFER_DURATION(out) = g.duration;
   GST_BUFFER_OFFSET(out) = seq;
-  st->last_emitted = static_cast<int64_t>(seq);
+  st->window.emitted(seq);
   // Before the frame goes out: whoever sees it and sends on can rely on
   // the new window (decode_on_arrival).
   publish_acceptance(self->priv, st);
@@ -668,53 +612,44 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Group& g, bool compl
     GstSegment* seg = &GST_AGGREGATOR_PAD(agg->srcpad)->segment;
     seg->position = g.pts + (GST_CLOCK_TIME_IS_VALID(g.duration) ? g.duration : 0);
   }
-  GST_LOG_OBJECT(self, "request %" G_GUINT64_FORMAT ": %zu fragments", seq, g.fragments.size());
+  GST_LOG_OBJECT(self, "request %" G_GUINT64_FORMAT ": %zu fragments", seq, g.pieces.size());
   return gst_aggregator_finish_buffer(agg, out);
 }
 
 // Whether a fragment's sequence is one to composite: inside the window after
-// the last frame emitted, or confirmed on probation (see kMaxDropout).
+// the last frame emitted, or confirmed on probation (lf::RequestWindow).
 static bool sequence_accepted(LfCompositor* self, State* st, uint64_t seq) {
-  if (st->last_emitted < 0) return true;
-  const auto last = static_cast<uint64_t>(st->last_emitted);
-  if (seq > last && seq - last <= kMaxDropout) return true;
-  if (seq <= last && last - seq <= kMaxMisorder) {
-    st->late++;
-    return false;
+  const int64_t cand = st->window.candidate();
+  switch (st->window.offer(seq)) {
+    case lf::RequestWindow::Verdict::kAccept:
+      return true;
+    case lf::RequestWindow::Verdict::kFollow:
+      LF_ELEMENT_WARNING_LIMITED(self, st->out_of_window, STREAM, DECODE,
+                                 ("Following a new request sequence"),
+                                 "fragments of requests %" G_GINT64_FORMAT " and %" G_GUINT64_FORMAT
+                                 " arrive, outside the window (a restarted viewer, or requests "
+                                 "lost for a while)",
+                                 cand, seq);
+      st->pending.clear();
+      return true;
+    default:
+      return false;
   }
-  const auto cand = st->probation;
-  if (cand >= 0 &&
-      (seq == static_cast<uint64_t>(cand) + 1 || seq == static_cast<uint64_t>(cand) + 2)) {
-    LF_ELEMENT_WARNING_LIMITED(self, st->out_of_window, STREAM, DECODE,
-                               ("Following a new request sequence"),
-                               "fragments of requests %" G_GINT64_FORMAT " and %" G_GUINT64_FORMAT
-                               " arrive, outside the window after %" G_GUINT64_FORMAT
-                               " (a restarted viewer, or requests lost for a while)",
-                               cand, seq, last);
-    st->pending.clear();
-    st->last_emitted = static_cast<int64_t>(std::min<uint64_t>(seq - 1, G_MAXINT64));
-    st->probation = -1;
-    return true;
-  }
-  st->probation = static_cast<int64_t>(std::min<uint64_t>(seq, G_MAXINT64));
-  return false;
 }
 
-// A fragment of another viewer: after kForeignWarnUs of only those, warn
-// once that viewer-id names a viewer that is not there (a misconfiguration
-// that would otherwise produce nothing, silently).
-constexpr gint64 kForeignWarnUs = 2 * G_USEC_PER_SEC;
+// A fragment of another viewer: after a while of only those
+// (lf::ViewerSelection), warn once that viewer-id names a viewer that is
+// not there (a misconfiguration that would otherwise produce nothing,
+// silently).
 static void note_foreign(LfCompositor* self, State* st, guint viewer) {
   const gint64 now = g_get_monotonic_time();
-  if (st->foreign_count++ == 0) st->foreign_since_us = now;
-  if (st->warned_foreign || now - st->foreign_since_us < kForeignWarnUs) return;
-  st->warned_foreign = true;
+  if (!st->viewer.foreign(now)) return;
   GST_ELEMENT_WARNING(self, STREAM, WRONG_TYPE,
-                      ("No fragments of viewer %" G_GINT64_FORMAT, st->viewer),
+                      ("No fragments of viewer %" G_GINT64_FORMAT, st->viewer.viewer()),
                       ("%" G_GUINT64_FORMAT " fragments in %.1f s, all of other viewers (such "
                        "as %u): check viewer-id (lfviewrequest viewer-id, or -1 here to "
                        "take the first viewer seen)",
-                       st->foreign_count, (now - st->foreign_since_us) / 1e6, viewer));
+                       st->viewer.foreign_count(), st->viewer.foreign_seconds(now), viewer));
 }
 
 // Sends `event` (taken) up every sink pad: to every camera branch and on to
@@ -737,7 +672,7 @@ static gboolean push_upstream(GstAggregator* agg, GstEvent* event) {
 // an lf-focus event (viewer-id, probe-id, inverse-depth, and capture-time:
 // the instant measured, ns, -1 unknown), which lfviewrequest applies as its
 // focal plane.
-static void finish_probe(LfCompositor* self, State* st, Probes<lf::FocusProbeAnswers>::Iter it) {
+static void finish_probe(LfCompositor* self, State* st, FocusProbes::Iter it) {
   const auto probe = st->probes.take(it);
   double q = 0;
   bool ok = false;
@@ -767,8 +702,8 @@ static void absorb_probe(LfCompositor* self, State* st, const guint8* data, gsiz
                          const lf::FragmentHeader& head) {
   const uint32_t id = lf::focus_probe_id(head.sequence);
   const int step = lf::focus_probe_step(head.sequence);
-  auto it = st->probes.open.find(id);
-  if (it == st->probes.open.end() && st->probes.scored(id)) return;
+  auto it = st->probes.find(id);
+  if (it == st->probes.end() && st->probes.scored(id)) return;
   lf::Fragment f;
   const size_t side = lf::kFocusProbeSide;
   GError* err = nullptr;
@@ -778,11 +713,9 @@ static void absorb_probe(LfCompositor* self, State* st, const guint8* data, gsiz
     g_error_free(err);
     return;
   }
-  if (it == st->probes.open.end()) {
-    if (st->probes.open.size() >= kMaxProbes) finish_probe(self, st, st->probes.oldest());
-    it = st->probes.open
-             .emplace(id, Probe<lf::FocusProbeAnswers>{id, f.viewer_id, g_get_monotonic_time(), {}})
-             .first;
+  if (it == st->probes.end()) {
+    if (st->probes.full()) finish_probe(self, st, st->probes.oldest());
+    it = st->probes.open({id, f.viewer_id, g_get_monotonic_time(), {}});
   }
   auto& pr = it->second;
   if (!pr.answers.add(step, std::move(f))) return;
@@ -795,8 +728,7 @@ static void absorb_probe(LfCompositor* self, State* st, const guint8* data, gsiz
 // (lf::SurfaceProbeAnswers: the cameras that answered every step) and sends
 // it upstream as an lf-surface event (gst/lfsurface.h), which lfviewrequest
 // puts into its requests.
-static void finish_surface_probe(LfCompositor* self, State* st,
-                                 Probes<lf::SurfaceProbeAnswers>::Iter it) {
+static void finish_surface_probe(LfCompositor* self, State* st, SurfaceProbes::Iter it) {
   const auto probe = st->surface_probes.take(it);
   lf::SurfaceEstimate e;
   bool ok = false;
@@ -841,24 +773,20 @@ static void finish_surface_probe(LfCompositor* self, State* st,
 static void absorb_surface_probe(LfCompositor* self, State* st, const guint8* data, gsize size,
                                  const lf::FragmentHeader& head, int w, int h) {
   const uint32_t id = lf::surface_probe_id(head.sequence);
-  auto it = st->surface_probes.open.find(id);
-  if (it == st->surface_probes.open.end() && st->surface_probes.scored(id)) return;
+  auto it = st->surface_probes.find(id);
+  if (it == st->surface_probes.end() && st->surface_probes.scored(id)) return;
   lf::Fragment f;
   GError* err = nullptr;
   if (!lfgst::guard(
           [&] {
-            if (it == st->surface_probes.open.end()) {
-              if (st->surface_probes.open.size() >= kMaxSurfaceProbes)
+            if (it == st->surface_probes.end()) {
+              if (st->surface_probes.full())
                 finish_surface_probe(self, st, st->surface_probes.oldest());
               lf::SurfaceOptions opt;
               opt.second_planes = lfgst::read_setting(GST_OBJECT(self), self->priv->settings,
                                                       &Settings::second_planes);
-              it = st->surface_probes.open
-                       .emplace(id,
-                                Probe<lf::SurfaceProbeAnswers>{id, head.viewer_id,
-                                                               g_get_monotonic_time(),
-                                                               lf::SurfaceProbeAnswers(w, h, opt)})
-                       .first;
+              it = st->surface_probes.open(
+                  {id, head.viewer_id, g_get_monotonic_time(), lf::SurfaceProbeAnswers(w, h, opt)});
             }
             const lf::SurfaceProbeAnswers& a = it->second.answers;
             f = lf::parse_fragment(data, size, nullptr,
@@ -933,8 +861,7 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
     LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE, ("Dropping a malformed fragment"),
                                "%s", err->message);
     g_error_free(err);
-  } else if (st->viewer >= 0 && head.viewer_id != st->viewer &&
-             !(st->s.stereo && head.viewer_id == st->viewer + 1)) {
+  } else if (!st->viewer.accepts(head.viewer_id, st->s.stereo)) {
     GST_LOG_OBJECT(self, "fragment of viewer %u: not ours", head.viewer_id);
     note_foreign(self, st, head.viewer_id);
   } else if (st->rig && st->rig->index_of(static_cast<int>(head.camera_id)) < 0) {
@@ -1018,61 +945,49 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
     lfgst::trace(GST_ELEMENT(self), "decoded", f.viewer_id, f.sequence,
                  static_cast<gint>(f.camera_id),
                  (g_get_monotonic_time() - t0) * 1000 + on_arrival_ns);
-    st->foreign_count = 0, st->foreign_since_us = -1;
-    if (st->viewer < 0) {  // viewer-id -1: the first viewer seen, then only it
-      st->viewer = f.viewer_id;
+    if (st->viewer.taken(f.viewer_id))  // viewer-id -1: the first viewer seen, then only it
       GST_INFO_OBJECT(self, "compositing viewer %u", f.viewer_id);
-    }
-    Group& g = st->pending[f.sequence];
-    const uint64_t key = (static_cast<uint64_t>(f.viewer_id) << 32) | f.camera_id;
-    if (!g.cameras.insert(key).second) {
+    const uint64_t seq = f.sequence;
+    const uint64_t source = (static_cast<uint64_t>(f.viewer_id) << 32) | f.camera_id;
+    const size_t cameras = f.cameras;
+    const uint32_t camera = f.camera_id;
+    const bool raw = enc == lf::Encoding::kRaw;
+    const bool any_raw = raw || std::any_of(more.begin(), more.end(), [](const More& m) {
+                           return m.enc == lf::Encoding::kRaw;
+                         });
+    std::vector<Piece> pieces;
+    pieces.push_back({std::move(f), std::nullopt, raw ? pixels : nullptr});
+    Piece& piece = pieces.front();
+    // A drawing left to us: only on an empty fragment this process made
+    // (the meta is never copied), for this camera and this view size.
+    if (piece.f.empty() && more.empty())
+      if (auto d = lfgst::deferred_of(buf); d &&
+                                            d->camera.id == static_cast<int>(piece.f.camera_id) &&
+                                            d->plan.out_width == w && d->plan.out_height == h)
+        piece.deferred = std::move(d);
+    for (More& m : more)
+      pieces.push_back(
+          {std::move(m.f), std::nullopt, m.enc == lf::Encoding::kRaw ? m.pixels : nullptr});
+    if (any_raw) piece.buffer.emplace(std::move(*mapped));
+    const GstClockTime pts = GST_BUFFER_PTS(buf);
+    const GstClockTime rt = GST_CLOCK_TIME_IS_VALID(pts)
+                                ? gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, pts)
+                                : GST_CLOCK_TIME_NONE;
+    if (st->pending.add(seq, source, cameras, std::move(pieces), rt, pts,
+                        GST_BUFFER_DURATION(buf)) ==
+        lf::PendingRequests<uint64_t, Piece>::Added::kDuplicate) {
       // A second fragment of this camera for this request: one of the two is
       // forged (plain RTP) or a stray copy, and nothing tells which. Neither
       // is used, so a forgery can cost a camera's part of one frame (filled
       // by the others) but never put its pixels in it.
-      const auto same = [&](const Piece& p) {
-        return p.f.camera_id == f.camera_id && p.f.viewer_id == f.viewer_id;
-      };
-      for (const Piece& p : g.fragments)
-        if (same(p) && p.f.layer == 0) g.count -= std::min<size_t>(g.count, p.f.cameras);
-      std::vector<Piece> kept;  // (a Piece moves but is not assigned)
-      kept.reserve(g.fragments.size());
-      for (Piece& p : g.fragments)
-        if (!same(p)) kept.push_back(std::move(p));
-      g.fragments = std::move(kept);
-      g.conflicted = true;
+      st->pending.discard(seq, source);
       st->conflicts++;
       LF_ELEMENT_WARNING_LIMITED(
           self, st->duplicate, STREAM, DECODE, ("Dropping both copies of a fragment"),
           "camera %u sent two fragments for request %" G_GUINT64_FORMAT " (%" G_GUINT64_FORMAT
           " so far): one is forged or a stray copy, so neither is used "
           "(on an untrusted network authenticate the streams: SRTP_KEY)",
-          f.camera_id, f.sequence, st->conflicts);
-    } else {
-      g.count += f.cameras;
-      if (!GST_CLOCK_TIME_IS_VALID(g.pts)) {
-        g.pts = GST_BUFFER_PTS(buf);
-        g.duration = GST_BUFFER_DURATION(buf);
-        if (GST_CLOCK_TIME_IS_VALID(g.pts))
-          g.running_time = gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, g.pts);
-      }
-      const bool raw = enc == lf::Encoding::kRaw;
-      const bool any_raw = raw || std::any_of(more.begin(), more.end(), [](const More& m) {
-                             return m.enc == lf::Encoding::kRaw;
-                           });
-      Piece piece{std::move(f), std::nullopt, raw ? pixels : nullptr};
-      if (any_raw) piece.buffer.emplace(std::move(*mapped));
-      // A drawing left to us: only on an empty fragment this process made
-      // (the meta is never copied), for this camera and this view size.
-      if (piece.f.empty() && more.empty())
-        if (auto d = lfgst::deferred_of(buf); d &&
-                                              d->camera.id == static_cast<int>(piece.f.camera_id) &&
-                                              d->plan.out_width == w && d->plan.out_height == h)
-          piece.deferred = std::move(d);
-      g.fragments.push_back(std::move(piece));
-      for (More& m : more)
-        g.fragments.push_back(
-            {std::move(m.f), std::nullopt, m.enc == lf::Encoding::kRaw ? m.pixels : nullptr});
+          camera, seq, st->conflicts);
     }
   }
 }
@@ -1125,13 +1040,12 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
     return timeout && (!GST_CLOCK_TIME_IS_VALID(rt) || !GST_CLOCK_TIME_IS_VALID(now) || !live ||
                        now >= rt + latency);
   };
-  const bool deadline =
-      !st->pending.empty() && past_deadline(st->pending.begin()->second.running_time);
+  const bool deadline = !st->pending.empty() && past_deadline(st->pending.front().running_time);
   // At the deadline (a silent pad: a dead host), also take every queued
   // fragment of the requests up to the one due, so the live pads' fragments
   // all make it into the frame (a pad may carry many cameras' fragments).
   if (deadline) {
-    const int64_t due = static_cast<int64_t>(st->pending.begin()->first);
+    const int64_t due = static_cast<int64_t>(st->pending.front_key());
     for (GList* l = pads; l; l = l->next) {
       GstAggregatorPad* pad = GST_AGGREGATOR_PAD(l->data);
       while (GstBuffer* peek = gst_aggregator_pad_peek_buffer(pad)) {
@@ -1153,36 +1067,29 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
   const gint64 probe_deadline_us =
       live ? std::max<gint64>(kProbeDeadlineUs, static_cast<gint64>(latency / GST_USECOND))
            : kProbeDeadlineUs;
-  for (auto it = st->probes.open.begin(); it != st->probes.open.end();) {
-    auto next = std::next(it);
-    if (g_get_monotonic_time() - it->second.started_us > probe_deadline_us)
-      finish_probe(self, st, it);
-    it = next;
-  }
-  for (auto it = st->surface_probes.open.begin(); it != st->surface_probes.open.end();) {
-    auto next = std::next(it);
-    if (g_get_monotonic_time() - it->second.started_us > probe_deadline_us)
-      finish_surface_probe(self, st, it);
-    it = next;
-  }
+  const gint64 now_us = g_get_monotonic_time();
+  for (uint32_t id : st->probes.expired(now_us, probe_deadline_us))
+    finish_probe(self, st, st->probes.find(id));
+  for (uint32_t id : st->surface_probes.expired(now_us, probe_deadline_us))
+    finish_surface_probe(self, st, st->surface_probes.find(id));
   const size_t expected = expected_fragments(self);
   GstFlowReturn ret = GST_FLOW_OK;
   // Complete requests, in order; at its deadline (or end of stream), also an
   // incomplete one, renormalised; too many pending: the oldest. Each request
   // has its own deadline: one that came late must not take the next ones,
   // still in time, with it (their fragments are on their way).
-  while (!st->pending.empty() && ret == GST_FLOW_OK) {
-    auto it = st->pending.begin();
-    const bool complete = it->second.count >= expected && !it->second.conflicted;
-    const bool due = past_deadline(it->second.running_time);
-    if (!(complete || due || all_eos || st->pending.size() > kMaxPending)) break;
+  bool complete = false;
+  while (ret == GST_FLOW_OK &&
+         st->pending.front_ready(expected, past_deadline, all_eos, &complete)) {
+    const uint64_t seq = st->pending.front_key();
+    Request& g = st->pending.front();
     if (!complete)
       GST_DEBUG_OBJECT(self,
                        "request %" G_GUINT64_FORMAT
-                       " incomplete: %zu of %zu fragments (deadline %d, eos %d, pending %zu)",
-                       it->first, it->second.count, expected, due, all_eos, st->pending.size());
-    ret = emit(self, it->first, it->second, complete);
-    st->pending.erase(it);
+                       " incomplete: %zu of %zu fragments (eos %d, pending %zu)",
+                       seq, g.count, expected, all_eos, st->pending.size());
+    ret = emit(self, seq, g, complete);
+    st->pending.pop_front();
   }
   publish_acceptance(self->priv, st);
   if (ret == GST_FLOW_OK && all_eos && st->pending.empty()) return GST_FLOW_EOS;
@@ -1203,12 +1110,8 @@ static GstClockTime lf_compositor_get_next_time(GstAggregator* agg) {
   // would deadlock here: the caller holds the aggregator's source lock.)
   if (lfgst::any_pad_queued(GST_ELEMENT(self))) return 0;
   // Else the oldest pending request (aggregate() runs on this same thread).
-  GstClockTime t = GST_CLOCK_TIME_NONE;
-  if (State* st = self->priv->state.get())
-    for (const auto& entry : st->pending) {
-      const GstClockTime rt = entry.second.running_time;
-      if (GST_CLOCK_TIME_IS_VALID(rt) && (t == GST_CLOCK_TIME_NONE || rt < t)) t = rt;
-    }
+  State* st = self->priv->state.get();
+  const GstClockTime t = st ? st->pending.earliest_running_time() : GST_CLOCK_TIME_NONE;
   return t;
 }
 
@@ -1262,9 +1165,7 @@ static GstPadProbeReturn decode_on_arrival(GstPad*, GstPadProbeInfo* info, gpoin
                             (p->accept_stereo.load() && head.viewer_id == viewer + 1)))
           return;
         const int64_t after = p->accept_after.load();
-        if (after >= 0 && !(head.sequence > static_cast<uint64_t>(after) &&
-                            head.sequence - static_cast<uint64_t>(after) <= kMaxDropout))
-          return;
+        if (!lf::RequestWindow::inside(after, head.sequence)) return;
         const gint64 t0 = g_get_monotonic_time();
         // Unmapped before it is dropped (declared after it), on a throw too.
         std::unique_ptr<GstBuffer, decltype(&gst_buffer_unref)> out(nullptr, gst_buffer_unref);

@@ -39,14 +39,13 @@
  */
 #include <gst/base/gstaggregator.h>
 
-#include <map>
 #include <memory>
-#include <set>
 #include <utility>
 #include <vector>
 
 #include "lf/composite.h"
 #include "lf/probe_bundle.h"
+#include "lf/session/frame_assembly.h"
 #include "lf/wire.h"
 #include "lfaggregate.h"
 #include "lfbackend.h"
@@ -75,19 +74,21 @@ struct Settings {
   gint quality = DEFAULT_JPEG_QUALITY;
   guint64 sums = 0;  // read-only: sums sent
 };
-// A request's fragments so far (their buffers, kept until it leaves).
-struct Group {
-  std::vector<GstBuffer*> buffers;
-  std::set<uint32_t> cameras;
-  bool layered = false;  // some camera answered with two layers: passed on
-  GstClockTime running_time = GST_CLOCK_TIME_NONE;
-  ~Group() {
-    for (GstBuffer* b : buffers) gst_buffer_unref(b);
+// A fragment buffer held until its request leaves.
+struct Held {
+  GstBuffer* buffer = nullptr;
+  bool layered = false;  // the camera answered with two layers: passed on
+  explicit Held(GstBuffer* b, bool l) : buffer(gst_buffer_ref(b)), layered(l) {}
+  Held(Held&& o) noexcept : buffer(std::exchange(o.buffer, nullptr)), layered(o.layered) {}
+  Held(const Held&) = delete;
+  Held& operator=(const Held&) = delete;
+  ~Held() {
+    if (buffer) gst_buffer_unref(buffer);
   }
-  Group() = default;
-  Group(const Group&) = delete;
-  Group& operator=(const Group&) = delete;
 };
+// A request's fragments so far (lib/lf/session/frame_assembly.h), by
+// (sequence, viewer), one per camera.
+using Request = lf::PendingRequest<Held>;
 // At most this many requests wait; beyond, the oldest leaves as it is.
 constexpr size_t kMaxPending = 16;
 // The largest output frame summed before the caps give the view's size
@@ -96,7 +97,7 @@ constexpr size_t kDefaultMaxArea = size_t{3840} * 2160;
 struct State {
   Settings s;
   size_t max_area = kDefaultMaxArea;  // the view's area once the caps give it
-  std::map<std::pair<uint64_t, uint32_t>, std::unique_ptr<Group>> pending;  // (sequence, viewer)
+  lf::PendingRequests<std::pair<uint64_t, uint32_t>, Held> pending{kMaxPending};
   lfgst::WarnLimiter bad;
 };
 struct Priv {
@@ -187,50 +188,53 @@ static GstFlowReturn absorb(LfPartialSum* self, GstAggregatorPad* pad, GstBuffer
   }
   if (lf::is_focus_probe(head.sequence) || lf::is_surface_probe(head.sequence))
     return forward(self, buf);
-  auto& slot = st->pending[{head.sequence, head.viewer_id}];
-  if (!slot) slot = std::make_unique<Group>();
-  Group& g = *slot;
-  if (g.buffers.size() >= npads) {
+  const std::pair<uint64_t, uint32_t> key{head.sequence, head.viewer_id};
+  if (st->pending.count_of(key) >= npads) {
     LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE, ("Dropping a fragment"),
                                "request %" G_GUINT64_FORMAT
                                " has %zu fragments already, one per "
                                "sink pad (camera %u)",
-                               head.sequence, g.buffers.size(), head.camera_id);
+                               head.sequence, st->pending.count_of(key), head.camera_id);
     return GST_FLOW_OK;
   }
-  if (!g.cameras.insert(head.camera_id).second) return GST_FLOW_OK;  // a duplicate
-  g.buffers.push_back(gst_buffer_ref(buf));
-  g.layered |= head.size() < size;
-  if (!GST_CLOCK_TIME_IS_VALID(g.running_time) && GST_BUFFER_PTS_IS_VALID(buf))
-    g.running_time =
-        gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, GST_BUFFER_PTS(buf));
+  std::vector<Held> held;
+  held.emplace_back(buf, head.size() < size);
+  const GstClockTime pts = GST_BUFFER_PTS(buf);
+  // A second fragment of a camera (a duplicate): dropped.
+  st->pending.add(key, head.camera_id, 1, std::move(held),
+                  GST_CLOCK_TIME_IS_VALID(pts)
+                      ? gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, pts)
+                      : GST_CLOCK_TIME_NONE,
+                  pts);
   return GST_FLOW_OK;
 }
 
 // Sends a request's sum (or its buffers as they are).
-static GstFlowReturn emit(LfPartialSum* self, Group& g) {
+static GstFlowReturn emit(LfPartialSum* self, Request& g) {
   State* st = self->priv->state.get();
-  if (g.layered) {
+  std::vector<GstBuffer*> buffers;
+  for (const Held& h : g.pieces) buffers.push_back(h.buffer);
+  if (std::any_of(g.pieces.begin(), g.pieces.end(), [](const Held& h) { return h.layered; })) {
     GstFlowReturn ret = GST_FLOW_OK;
-    for (GstBuffer* b : g.buffers)
+    for (GstBuffer* b : buffers)
       if (ret == GST_FLOW_OK) ret = forward(self, b);
     return ret;
   }
   const gint64 t0 = g_get_monotonic_time();
   std::vector<std::unique_ptr<lfgst::MappedBuffer>> maps;
-  std::vector<lf::Fragment> parts(g.buffers.size());
+  std::vector<lf::Fragment> parts(buffers.size());
   std::vector<lf::FragmentPixels> in;
   std::vector<uint8_t> bytes;
   lf::Fragment sum;
   GError* err = nullptr;
   // Each fragment checked on its own (a bad one is left out, not the
   // request): for a frame no larger than the view's.
-  for (size_t i = 0; i < g.buffers.size(); ++i) {
+  for (size_t i = 0; i < buffers.size(); ++i) {
     if (!lfgst::guard(
             [&] {
-              auto m = std::make_unique<lfgst::MappedBuffer>(g.buffers[i], GST_MAP_READ);
+              auto m = std::make_unique<lfgst::MappedBuffer>(buffers[i], GST_MAP_READ);
               const uint8_t* px = nullptr;
-              const bool sealed = lfgst::has_sealed_meta(g.buffers[i]);
+              const bool sealed = lfgst::has_sealed_meta(buffers[i]);
               parts[i] = lf::parse_fragment_in_place(m->data(), m->size(), &px, nullptr,
                                                      st->max_area, !sealed);
               const size_t area = static_cast<size_t>(parts[i].out_width) * parts[i].out_height;
@@ -260,7 +264,7 @@ static GstFlowReturn emit(LfPartialSum* self, Group& g) {
     g_error_free(err);
     return GST_FLOW_OK;
   }
-  GstBuffer* first = g.buffers.front();
+  GstBuffer* first = buffers.front();
   GstBuffer* out = gst_buffer_new_memdup(bytes.data(), bytes.size());
   GST_BUFFER_PTS(out) = GST_BUFFER_PTS(first);
   GST_BUFFER_DURATION(out) = GST_BUFFER_DURATION(first);
@@ -299,19 +303,18 @@ static GstFlowReturn lf_partial_sum_aggregate(GstAggregator* agg, gboolean timeo
       timeout && live ? lfgst::running_now(GST_ELEMENT(agg)) : GST_CLOCK_TIME_NONE;
   // Requests in order: complete ones, and at its deadline (or at the end,
   // or with too many waiting) an incomplete one, summed from what came.
-  while (!st->pending.empty() && ret == GST_FLOW_OK) {
-    auto it = st->pending.begin();
-    Group& g = *it->second;
-    const bool complete = g.cameras.size() >= npads;
-    const bool due =
-        timeout && (!live || !GST_CLOCK_TIME_IS_VALID(now) ||
-                    !GST_CLOCK_TIME_IS_VALID(g.running_time) || now >= g.running_time + latency);
-    if (!(complete || due || all_eos || st->pending.size() > kMaxPending)) break;
+  auto due = [&](GstClockTime rt) {
+    return timeout && (!live || !GST_CLOCK_TIME_IS_VALID(now) || !GST_CLOCK_TIME_IS_VALID(rt) ||
+                       now >= rt + latency);
+  };
+  bool complete = false;
+  while (ret == GST_FLOW_OK && st->pending.front_ready(npads, due, all_eos, &complete)) {
+    Request& g = st->pending.front();
     if (!complete)
-      GST_DEBUG_OBJECT(self, "request %" G_GUINT64_FORMAT ": %zu of %zu cameras", it->first.first,
-                       g.cameras.size(), npads);
+      GST_DEBUG_OBJECT(self, "request %" G_GUINT64_FORMAT ": %zu of %zu cameras",
+                       st->pending.front_key().first, g.count, npads);
     ret = emit(self, g);
-    st->pending.erase(it);
+    st->pending.pop_front();
   }
   if (ret == GST_FLOW_OK && all_eos && st->pending.empty()) return GST_FLOW_EOS;
   return ret;
@@ -322,12 +325,8 @@ static GstFlowReturn lf_partial_sum_aggregate(GstAggregator* agg, gboolean timeo
 static GstClockTime lf_partial_sum_get_next_time(GstAggregator* agg) {
   LfPartialSum* self = LF_PARTIAL_SUM(agg);
   if (lfgst::any_pad_queued(GST_ELEMENT(self))) return 0;
-  GstClockTime t = GST_CLOCK_TIME_NONE;
-  if (State* st = self->priv->state.get())
-    for (const auto& entry : st->pending) {
-      const GstClockTime rt = entry.second->running_time;
-      if (GST_CLOCK_TIME_IS_VALID(rt) && (t == GST_CLOCK_TIME_NONE || rt < t)) t = rt;
-    }
+  State* st = self->priv->state.get();
+  const GstClockTime t = st ? st->pending.earliest_running_time() : GST_CLOCK_TIME_NONE;
   return t;
 }
 

@@ -3,7 +3,7 @@
  * @title: lfrequestqueue
  *
  * A queue of view requests for a live camera host that sheds load instead
- * of queueing it (lib/lf/request_queue.h): for each viewer (its frame
+ * of queueing it (lib/lf/session/request_queue.h): for each viewer (its frame
  * requests, and apart from them its focus and surface probes) it keeps only
  * the requests within `max-age` of that viewer's newest (0: the newest
  * alone), at most 64 in all, and serves the viewers in turn, each one's
@@ -30,7 +30,7 @@
 #include <new>
 
 #include "lf/focus_probe.h"
-#include "lf/request_queue.h"
+#include "lf/session/request_queue.h"
 #include "lf/surface_probe.h"
 #include "lfrate.h"
 

@@ -15,7 +15,6 @@
 #include "lf/quality.h"
 #include "lf/render.h"
 #include "lf/render_view.h"
-#include "lf/request_queue.h"
 #include "lf/surface_probe.h"
 #include "lf/synthetic.h"
 #include "lf/view_builder.h"
@@ -961,48 +960,3 @@ TEST(Wire, InvalidRequestsAreRejected) {
 }
 
 }  // namespace
-
-// lf::RequestQueue (lib/lf/request_queue.h): each key keeps its requests
-// within max_age of its newest (0: the newest alone), the keys are served in
-// turn, and the capacity takes the oldest of the longest queue.
-TEST(RequestQueue, NewestWinsPerKeyAndKeysTakeTurns) {
-  lf::RequestQueue<int> q(64, 0);
-  // Key 1 floods 10 requests, key 2 sends 2: only each key's newest waits.
-  std::vector<int> dropped;
-  for (int i = 0; i < 10; ++i)
-    for (int d : q.push(1, 1000 + i, 100 + i)) dropped.push_back(d);
-  for (int i = 0; i < 2; ++i)
-    for (int d : q.push(2, 1000 + i, 200 + i)) dropped.push_back(d);
-  EXPECT_EQ(q.size(), 2u);
-  EXPECT_EQ(dropped.size(), 10u);
-  EXPECT_EQ(q.pop(), 109);
-  EXPECT_EQ(q.pop(), 201);
-  EXPECT_TRUE(q.empty());
-}
-
-TEST(RequestQueue, AgeKeepsRecentRequestsInOrderAndTurnsAlternate) {
-  lf::RequestQueue<int> q(64, 100);  // 100 ns of age
-  for (int t : {0, 50, 100, 150, 250}) q.push(7, static_cast<uint64_t>(t), t);
-  // 0 went at 150; at 250, 50 and 100 are over 100 ns behind it, 150 is not.
-  EXPECT_EQ(q.size(), 2u);
-  q.push(9, 300, 900);
-  q.push(9, 310, 910);
-  // Turns: key 7's oldest, key 9's oldest, key 7, key 9.
-  EXPECT_EQ(q.pop(), 150);
-  EXPECT_EQ(q.pop(), 900);
-  EXPECT_EQ(q.pop(), 250);
-  EXPECT_EQ(q.pop(), 910);
-  EXPECT_TRUE(q.empty());
-}
-
-TEST(RequestQueue, CapacityDropsFromTheLongestQueue) {
-  lf::RequestQueue<int> q(4, 1000000);
-  q.push(1, 0, 10);
-  for (int i = 0; i < 5; ++i) q.push(2, static_cast<uint64_t>(i), 20 + i);
-  EXPECT_EQ(q.size(), 4u);
-  // Key 1's one request survives the flood of key 2.
-  std::vector<int> out;
-  while (!q.empty()) out.push_back(q.pop());
-  EXPECT_EQ(out, (std::vector<int>{10, 22, 23, 24}));
-  EXPECT_TRUE(q.clear().empty());
-}

@@ -1,0 +1,237 @@
+// The session classes (lib/lf/session): the camera host's request queue
+// and the compositor host's frame assembly, without a pipeline.
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "lf/session/frame_assembly.h"
+#include "lf/session/request_queue.h"
+
+using Verdict = lf::RequestWindow::Verdict;
+
+// lf::RequestQueue (lib/lf/session/request_queue.h): each key keeps its requests
+// within max_age of its newest (0: the newest alone), the keys are served in
+// turn, and the capacity takes the oldest of the longest queue.
+TEST(RequestQueue, NewestWinsPerKeyAndKeysTakeTurns) {
+  lf::RequestQueue<int> q(64, 0);
+  // Key 1 floods 10 requests, key 2 sends 2: only each key's newest waits.
+  std::vector<int> dropped;
+  for (int i = 0; i < 10; ++i)
+    for (int d : q.push(1, 1000 + i, 100 + i)) dropped.push_back(d);
+  for (int i = 0; i < 2; ++i)
+    for (int d : q.push(2, 1000 + i, 200 + i)) dropped.push_back(d);
+  EXPECT_EQ(q.size(), 2u);
+  EXPECT_EQ(dropped.size(), 10u);
+  EXPECT_EQ(q.pop(), 109);
+  EXPECT_EQ(q.pop(), 201);
+  EXPECT_TRUE(q.empty());
+}
+
+TEST(RequestQueue, AgeKeepsRecentRequestsInOrderAndTurnsAlternate) {
+  lf::RequestQueue<int> q(64, 100);  // 100 ns of age
+  for (int t : {0, 50, 100, 150, 250}) q.push(7, static_cast<uint64_t>(t), t);
+  // 0 went at 150; at 250, 50 and 100 are over 100 ns behind it, 150 is not.
+  EXPECT_EQ(q.size(), 2u);
+  q.push(9, 300, 900);
+  q.push(9, 310, 910);
+  // Turns: key 7's oldest, key 9's oldest, key 7, key 9.
+  EXPECT_EQ(q.pop(), 150);
+  EXPECT_EQ(q.pop(), 900);
+  EXPECT_EQ(q.pop(), 250);
+  EXPECT_EQ(q.pop(), 910);
+  EXPECT_TRUE(q.empty());
+}
+
+TEST(RequestQueue, CapacityDropsFromTheLongestQueue) {
+  lf::RequestQueue<int> q(4, 1000000);
+  q.push(1, 0, 10);
+  for (int i = 0; i < 5; ++i) q.push(2, static_cast<uint64_t>(i), 20 + i);
+  EXPECT_EQ(q.size(), 4u);
+  // Key 1's one request survives the flood of key 2.
+  std::vector<int> out;
+  while (!q.empty()) out.push_back(q.pop());
+  EXPECT_EQ(out, (std::vector<int>{10, 22, 23, 24}));
+  EXPECT_TRUE(q.clear().empty());
+}
+
+// lf::RequestWindow (RFC 3550 appendix A.1): inside the window is taken,
+// behind it is late, and one packet far outside never moves it; two
+// consecutive ones (or one request apart) do.
+TEST(RequestWindow, NoSinglePacketMovesTheWindow) {
+  lf::RequestWindow w;
+  EXPECT_EQ(w.offer(1000), Verdict::kAccept);  // nothing emitted yet: anything
+  w.emitted(1000);
+  EXPECT_EQ(w.offer(1001), Verdict::kAccept);
+  EXPECT_EQ(w.offer(1000 + lf::RequestWindow::kMaxDropout), Verdict::kAccept);
+  EXPECT_EQ(w.offer(1000), Verdict::kLate);
+  EXPECT_EQ(w.offer(1000 - lf::RequestWindow::kMaxMisorder), Verdict::kLate);
+  EXPECT_EQ(w.late(), 2u);
+  // A forged jump of +4000, then the real stream goes on: the window stays.
+  EXPECT_EQ(w.offer(5000), Verdict::kProbation);
+  EXPECT_EQ(w.candidate(), 5000);
+  EXPECT_EQ(w.offer(1002), Verdict::kAccept);
+  EXPECT_EQ(w.last_emitted(), 1000);
+  // Forgeries each a different distance ahead never confirm one another.
+  for (uint64_t jump : {4000u, 4100u, 4200u, 9000u, 200u})
+    EXPECT_EQ(w.offer(1000 + jump), Verdict::kProbation) << jump;
+  EXPECT_EQ(w.last_emitted(), 1000);
+  // A restarted viewer: its second request confirms the first.
+  EXPECT_EQ(w.offer(3), Verdict::kProbation);
+  EXPECT_EQ(w.offer(5), Verdict::kFollow);  // one request lost in between
+  EXPECT_EQ(w.last_emitted(), 4);
+  EXPECT_EQ(w.candidate(), -1);
+  EXPECT_EQ(w.offer(5), Verdict::kAccept);
+  EXPECT_TRUE(w.inside(6));
+  EXPECT_FALSE(w.inside(4));
+  EXPECT_FALSE(lf::RequestWindow::inside(4, 4 + lf::RequestWindow::kMaxDropout + 1));
+  EXPECT_TRUE(lf::RequestWindow::inside(-1, 123456));
+  // Sequences near the top of the range do not overflow.
+  w.reset();
+  w.emitted(UINT64_MAX - 1);
+  EXPECT_EQ(w.offer(UINT64_MAX), Verdict::kProbation);  // clamped to INT64_MAX: outside
+  EXPECT_EQ(w.offer(0), Verdict::kProbation);
+}
+
+TEST(ViewerSelection, FirstViewerSeenAndTheStereoRightEye) {
+  lf::ViewerSelection any;
+  EXPECT_TRUE(any.accepts(7, false));
+  EXPECT_TRUE(any.taken(7));
+  EXPECT_FALSE(any.taken(7));
+  EXPECT_EQ(any.viewer(), 7);
+  EXPECT_FALSE(any.accepts(8, false));
+  EXPECT_TRUE(any.accepts(8, true));
+  EXPECT_FALSE(any.accepts(6, true));
+  // Only foreign fragments for kForeignWarnUs: one warning, once.
+  lf::ViewerSelection named(3);
+  EXPECT_FALSE(named.foreign(0));
+  EXPECT_FALSE(named.foreign(lf::ViewerSelection::kForeignWarnUs - 1));
+  EXPECT_TRUE(named.foreign(lf::ViewerSelection::kForeignWarnUs));
+  EXPECT_FALSE(named.foreign(lf::ViewerSelection::kForeignWarnUs * 2));
+  EXPECT_EQ(named.foreign_count(), 4u);
+  EXPECT_DOUBLE_EQ(named.foreign_seconds(lf::ViewerSelection::kForeignWarnUs), 2.0);
+  // One of ours restarts the count (no warning while ours come).
+  lf::ViewerSelection b(3);
+  b.foreign(0);
+  b.taken(3);
+  EXPECT_EQ(b.foreign_count(), 0u);
+  EXPECT_FALSE(b.foreign(lf::ViewerSelection::kForeignWarnUs));
+}
+
+namespace {
+// A piece that counts its live copies: discard() and pop_front() must
+// release what they drop.
+struct Counted {
+  std::shared_ptr<int> token;
+  int value = 0;
+};
+using Pending = lf::PendingRequests<uint64_t, Counted>;
+std::vector<Counted> one(const std::shared_ptr<int>& token, int value) {
+  std::vector<Counted> v;
+  v.push_back({token, value});
+  return v;
+}
+bool never(uint64_t) {
+  return false;
+}
+}  // namespace
+
+TEST(PendingRequests, CompleteInOrderDeadlinesPerRequestAndTheCap) {
+  Pending p(3);
+  auto token = std::make_shared<int>(0);
+  // Request 2 is complete (2 cameras) before request 1 (1 of 2).
+  EXPECT_EQ(p.add(1, 10, 1, one(token, 1), 500, 400, 33), Pending::Added::kAdded);
+  EXPECT_EQ(p.add(2, 10, 1, one(token, 2), 600), Pending::Added::kAdded);
+  EXPECT_EQ(p.add(2, 11, 1, one(token, 3)), Pending::Added::kAdded);
+  bool complete = true;
+  EXPECT_FALSE(p.front_ready(2, never, false, &complete));  // 1 waits, and holds 2 back
+  EXPECT_FALSE(complete);
+  EXPECT_EQ(p.earliest_running_time(), 500u);
+  EXPECT_EQ(p.front().pts, 400u);
+  EXPECT_EQ(p.front().duration, 33u);
+  // Request 1's deadline: it leaves incomplete, then 2 complete.
+  auto due_before_550 = [](uint64_t rt) { return rt < 550; };
+  ASSERT_TRUE(p.front_ready(2, due_before_550, false, &complete));
+  EXPECT_FALSE(complete);
+  EXPECT_EQ(p.front_key(), 1u);
+  p.pop_front();
+  ASSERT_TRUE(p.front_ready(2, never, false, &complete));
+  EXPECT_TRUE(complete);
+  EXPECT_EQ(p.front().count, 2u);
+  EXPECT_EQ(p.front().pieces.size(), 2u);
+  p.pop_front();
+  EXPECT_TRUE(p.empty());
+  EXPECT_EQ(p.earliest_running_time(), lf::kNoTime);
+  // More than 3 waiting: the oldest leaves, incomplete; at the end of
+  // stream everything leaves.
+  for (uint64_t s = 10; s < 13; ++s) p.add(s, 1, 1, one(token, 0));
+  EXPECT_FALSE(p.front_ready(2, never, false, &complete));
+  p.add(13, 1, 1, one(token, 0));
+  EXPECT_TRUE(p.front_ready(2, never, false, &complete));
+  EXPECT_TRUE(p.front_ready(1, never, false, &complete) && complete);
+  p.pop_front();
+  EXPECT_FALSE(p.front_ready(2, never, false, &complete));
+  EXPECT_TRUE(p.front_ready(2, never, true, &complete));
+  p.clear();
+  EXPECT_EQ(token.use_count(), 1);  // every piece released
+}
+
+TEST(PendingRequests, ASecondCopyOfASourceDropsBothAndTheRequestNeverCompletes) {
+  Pending p;
+  auto token = std::make_shared<int>(0);
+  // A partial sum of 3 cameras and a camera of its own, for 4 in all.
+  std::vector<Counted> pair = one(token, 1);
+  pair.push_back({token, 2});  // a camera's two layers: two pieces, one source
+  EXPECT_EQ(p.add(5, 100, 3, std::move(pair)), Pending::Added::kAdded);
+  EXPECT_EQ(p.add(5, 200, 1, one(token, 3)), Pending::Added::kAdded);
+  EXPECT_EQ(p.count_of(5), 4u);
+  EXPECT_EQ(token.use_count(), 4);
+  // A forged copy of source 100: refused, then both copies dropped.
+  EXPECT_EQ(p.add(5, 100, 3, one(token, 9)), Pending::Added::kDuplicate);
+  EXPECT_EQ(token.use_count(), 4);  // the refused pieces are released
+  p.discard(5, 100);
+  EXPECT_EQ(p.count_of(5), 1u);
+  ASSERT_EQ(p.front().pieces.size(), 1u);
+  EXPECT_EQ(p.front().pieces[0].value, 3);
+  EXPECT_EQ(token.use_count(), 2);
+  bool complete = true;
+  EXPECT_FALSE(p.front_ready(1, never, false, &complete));  // conflicted: never complete
+  EXPECT_TRUE(p.front().conflicted);
+  // A third copy changes nothing; the deadline still sends what is left.
+  EXPECT_EQ(p.add(5, 100, 3, one(token, 9)), Pending::Added::kDuplicate);
+  p.discard(5, 100);
+  EXPECT_EQ(p.count_of(5), 1u);
+  EXPECT_TRUE(p.front_ready(
+      1, [](uint64_t) { return true; }, false, &complete));
+  EXPECT_FALSE(complete);
+  p.discard(6, 1);  // an unknown request: nothing
+  EXPECT_EQ(p.size(), 1u);
+}
+
+TEST(ProbeCollector, BoundedOpenProbesRememberedIdsAndExpiry) {
+  struct Answers {
+    int fragments = 0;
+  };
+  lf::ProbeCollector<Answers> c(2);
+  auto a = c.open({11, 1, 100, {}});
+  a->second.answers.fragments = 3;
+  EXPECT_FALSE(c.full());
+  c.open({12, 1, 50, {}});
+  EXPECT_TRUE(c.full());
+  EXPECT_EQ(c.oldest()->first, 12u);  // started first, whatever its id
+  EXPECT_EQ(c.expired(160, 100), std::vector<uint32_t>{12});
+  EXPECT_TRUE(c.expired(140, 100).empty());
+  const auto p = c.take(c.find(11));
+  EXPECT_EQ(p.answers.fragments, 3);
+  EXPECT_TRUE(c.scored(11));
+  EXPECT_EQ(c.find(11), c.end());
+  EXPECT_EQ(c.size(), 1u);
+  // The last kRemembered scored ids are remembered, no more.
+  for (uint32_t id = 100; id < 100 + lf::ProbeCollector<Answers>::kRemembered; ++id)
+    c.take(c.open({id, 1, 0, {}}));
+  EXPECT_FALSE(c.scored(11));
+  EXPECT_TRUE(c.scored(100));
+  EXPECT_FALSE(c.scored(12));  // still open, not scored
+}
