@@ -844,17 +844,9 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
   const uint8_t* data = mapped->data();
   const size_t size = mapped->size();
   lf::FragmentHeader head;
-  lf::Fragment f;
-  lf::Encoding enc = lf::Encoding::kEmpty;
-  const uint8_t* pixels = nullptr;
-  // After the first fragment in the same buffer: its layer 1, or a quilt's
-  // further eyes (lib/lf/wire.h).
-  struct More {
-    lf::Fragment f;
-    lf::Encoding enc = lf::Encoding::kEmpty;
-    const uint8_t* pixels = nullptr;
-  };
-  std::vector<More> more;
+  // The camera's answer: one fragment, its layer pair, or its quilt eyes
+  // (lf::parse_frame_answer).
+  std::vector<lf::AnswerPiece> parts;
   int w = 0, h = 0;
   const gint64 t0 = g_get_monotonic_time();
   if (!lfgst::guard([&] { head = lf::peek_fragment_header(data, size); }, &err)) {
@@ -882,57 +874,21 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
                    head.sequence);
   } else if (!lfgst::guard(
                  [&] {
-                   // One fragment, a camera's layer 0 then its layer 1
-                   // (a surface with second planes), or its fragments of
-                   // a quilt's eyes: each header says where it ends. All
-                   // of them together carry at most the frame's pixels.
-                   const size_t pixel_limit = static_cast<size_t>(w) * static_cast<size_t>(h);
-                   const bool sealed = lfgst::has_sealed_meta(buf);
-                   const std::vector<lf::FragmentSpan> spans =
-                       lf::split_fragments(data, size, lf::Quilt::kMaxViews);
-                   size_t pixels_left = pixel_limit;
-                   // (A layer pair's two may each cover the frame.)
-                   auto parse = [&](const lf::FragmentSpan& sp, const uint8_t** px,
-                                    lf::Encoding* e) {
-                     const size_t limit = spans.size() == 2 ? pixel_limit : pixels_left;
-                     lf::Fragment one = lf::parse_fragment_in_place(data + sp.offset, sp.size, px,
-                                                                    e, limit, !sealed);
-                     pixels_left -= std::min(pixels_left, static_cast<size_t>(one.rect.area()));
-                     return one;
-                   };
-                   f = parse(spans[0], &pixels, &enc);
-                   for (size_t k = 1; k < spans.size(); ++k) {
-                     More m;
-                     m.f = parse(spans[k], &m.pixels, &m.enc);
-                     const bool layer_pair = spans.size() == 2 && f.layer == 0 && m.f.layer == 1;
-                     // Each eye of a quilt lies in a tile of its own:
-                     // its fragment overlaps none of the others.
-                     auto apart = [&](const cv::Rect& r) { return (r & m.f.rect).area() == 0; };
-                     const bool quilt_eye =
-                         f.layer == 0 && m.f.layer == 0 && !f.empty() && !m.f.empty() &&
-                         f.cameras == 1 && m.f.cameras == 1 && apart(f.rect) &&
-                         std::all_of(more.begin(), more.end(),
-                                     [&](const More& o) { return apart(o.f.rect); });
-                     if (!(layer_pair || quilt_eye) || m.f.viewer_id != f.viewer_id ||
-                         m.f.sequence != f.sequence || m.f.camera_id != f.camera_id)
-                       throw lf::WireError(
-                           "fragment: a buffer's further fragments must be the same camera's "
-                           "layer 1 of the same request, after its layer 0, or its fragments of "
-                           "other eyes of the same quilt request, each in a tile of its own");
-                     more.push_back(std::move(m));
-                   }
+                   // All of them together carry at most the frame's pixels.
+                   parts = lf::parse_frame_answer(data, size, static_cast<size_t>(w) * h,
+                                                  !lfgst::has_sealed_meta(buf));
                  },
                  &err)) {
     LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE, ("Dropping a malformed fragment"),
                                "%s", err->message);
     g_error_free(err);
-  } else if (f.cameras > 1 && st->rig && f.cameras > st->rig->cameras.size()) {
+  } else if (const lf::Fragment& f = parts.front().f;
+             f.cameras > 1 && st->rig && f.cameras > st->rig->cameras.size()) {
     LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE, ("Dropping a malformed fragment"),
                                "camera %u: a partial sum of %u cameras, the rig has %zu",
                                f.camera_id, f.cameras, st->rig->cameras.size());
-  } else if (f.out_width != w || f.out_height != h ||
-             std::any_of(more.begin(), more.end(), [&](const More& m) {
-               return m.f.out_width != w || m.f.out_height != h;
+  } else if (std::any_of(parts.begin(), parts.end(), [&](const lf::AnswerPiece& a) {
+               return a.f.out_width != w || a.f.out_height != h;
              })) {
     LF_ELEMENT_WARNING_LIMITED(self, st->wrong_size, STREAM, DECODE,
                                ("Dropping a fragment for another output size"),
@@ -951,23 +907,21 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
     const uint64_t source = (static_cast<uint64_t>(f.viewer_id) << 32) | f.camera_id;
     const size_t cameras = f.cameras;
     const uint32_t camera = f.camera_id;
-    const bool raw = enc == lf::Encoding::kRaw;
-    const bool any_raw = raw || std::any_of(more.begin(), more.end(), [](const More& m) {
-                           return m.enc == lf::Encoding::kRaw;
-                         });
+    const bool any_raw = std::any_of(parts.begin(), parts.end(), [](const lf::AnswerPiece& a) {
+      return a.encoding == lf::Encoding::kRaw;
+    });
     std::vector<Piece> pieces;
-    pieces.push_back({std::move(f), std::nullopt, raw ? pixels : nullptr});
+    for (lf::AnswerPiece& a : parts)
+      pieces.push_back(
+          {std::move(a.f), std::nullopt, a.encoding == lf::Encoding::kRaw ? a.pixels : nullptr});
     Piece& piece = pieces.front();
     // A drawing left to us: only on an empty fragment this process made
     // (the meta is never copied), for this camera and this view size.
-    if (piece.f.empty() && more.empty())
+    if (piece.f.empty() && pieces.size() == 1)
       if (auto d = lfgst::deferred_of(buf); d &&
                                             d->camera.id == static_cast<int>(piece.f.camera_id) &&
                                             d->plan.out_width == w && d->plan.out_height == h)
         piece.deferred = std::move(d);
-    for (More& m : more)
-      pieces.push_back(
-          {std::move(m.f), std::nullopt, m.enc == lf::Encoding::kRaw ? m.pixels : nullptr});
     if (any_raw) piece.buffer.emplace(std::move(*mapped));
     const GstClockTime pts = GST_BUFFER_PTS(buf);
     const GstClockTime rt = GST_CLOCK_TIME_IS_VALID(pts)

@@ -1,8 +1,11 @@
 #include "lf/probe_bundle.h"
 
+#include <algorithm>
 #include <set>
 #include <stdexcept>
 #include <string>
+
+#include "lf/quilt.h"
 
 namespace lf {
 
@@ -96,6 +99,37 @@ std::vector<FragmentSpan> split_probe_answer(const uint8_t* data, size_t size) {
           "probe answer: every fragment must be a distinct step of one probe, of one viewer and "
           "camera");
   return spans;
+}
+
+std::vector<AnswerPiece> parse_frame_answer(const uint8_t* data, size_t size, size_t max_pixels,
+                                            bool check_crc) {
+  const std::vector<FragmentSpan> spans = split_fragments(data, size, Quilt::kMaxViews);
+  std::vector<AnswerPiece> out;
+  out.reserve(spans.size());
+  size_t pixels_left = max_pixels;
+  for (const FragmentSpan& sp : spans) {
+    AnswerPiece a;
+    const size_t limit = spans.size() == 2 ? max_pixels : pixels_left;
+    a.f = parse_fragment_in_place(data + sp.offset, sp.size, &a.pixels, &a.encoding, limit,
+                                  check_crc);
+    pixels_left -= std::min(pixels_left, static_cast<size_t>(a.f.rect.area()));
+    if (!out.empty()) {
+      const Fragment& f0 = out.front().f;
+      const bool layer_pair = spans.size() == 2 && f0.layer == 0 && a.f.layer == 1;
+      auto apart = [&](const AnswerPiece& o) { return (o.f.rect & a.f.rect).area() == 0; };
+      const bool quilt_eye = f0.layer == 0 && a.f.layer == 0 && !f0.empty() && !a.f.empty() &&
+                             f0.cameras == 1 && a.f.cameras == 1 &&
+                             std::all_of(out.begin(), out.end(), apart);
+      if (!(layer_pair || quilt_eye) || a.f.viewer_id != f0.viewer_id ||
+          a.f.sequence != f0.sequence || a.f.camera_id != f0.camera_id)
+        throw WireError(
+            "fragment: a buffer's further fragments must be the same camera's layer 1 of the "
+            "same request, after its layer 0, or its fragments of other eyes of the same quilt "
+            "request, each in a tile of its own");
+    }
+    out.push_back(std::move(a));
+  }
+  return out;
 }
 
 }  // namespace lf

@@ -74,4 +74,21 @@ std::vector<FragmentSpan> split_fragments(const uint8_t* data, size_t size, size
 // otherwise.
 std::vector<FragmentSpan> split_probe_answer(const uint8_t* data, size_t size);
 
+// One camera's answer to a frame request, as a compositor takes it: one
+// fragment; its layer 0 then its layer 1 (a focal surface with second
+// planes, lib/lf/focal_surface.h); or its fragments of a quilt's eyes
+// (lib/lf/quilt.h: at most Quilt::kMaxViews, each a non-empty layer 0 of
+// one camera, in a tile of its own: no two overlap). Every piece is of the
+// first one's viewer, request and camera. Parsed in place
+// (parse_fragment_in_place, CRC checked when `check_crc`): together the
+// pieces carry at most `max_pixels` pixels (a layer pair's two may each
+// cover the frame). Throws WireError otherwise.
+struct AnswerPiece {
+  Fragment f;  // raw pixels stay in `data`: see `pixels`
+  Encoding encoding = Encoding::kEmpty;
+  const uint8_t* pixels = nullptr;  // raw: inside `data`
+};
+std::vector<AnswerPiece> parse_frame_answer(const uint8_t* data, size_t size, size_t max_pixels,
+                                            bool check_crc = true);
+
 }  // namespace lf
