@@ -139,10 +139,10 @@ struct State {
   // request; guarded by Priv::lock.
   GstBuffer* corrected_of = nullptr;  // the frame it was made from (not owned, compared only)
   cv::Mat corrected;
-  // Request rate limit: max_rate per second for each viewer, bursts of one
-  // second's worth (request thread only).
-  lfgst::ViewerBuckets rate;
-  lfgst::ViewerBuckets pixel_rate;  // max_pixel_rate, the same way
+  // The request limits: max_rate requests and (live) max_pixel_rate output
+  // pixels a second for each viewer, bursts of one second's worth (request
+  // thread only).
+  lfgst::RequestLimits limits;
   // The GL renderer (backend gl, or auto on a hardware GPU; else null) and
   // the frame in its texture, by buffer and PTS (request thread only).
   std::unique_ptr<lf::GlRenderer> gl;
@@ -523,25 +523,27 @@ static bool admit(LfFragment* self, State* st, const lf::ViewRequest& req) {
         req.viewer_id, req.view.width, req.view.height, px, s.max_pixels);
     return false;
   }
-  if (!st->rate.take(req.viewer_id, s.max_rate)) {
-    LF_ELEMENT_WARNING_LIMITED(
-        self, st->too_fast, STREAM, DECODE, ("Dropping view requests above max-rate"),
-        "viewer %u sends more than %g requests a second", req.viewer_id, s.max_rate);
-    return false;
-  }
   // The pixel budget shares a live host's time; a non-live pipeline renders
   // every request.
   g_mutex_lock(&self->priv->lock);
   const bool live = self->priv->camera_live != 0;
   g_mutex_unlock(&self->priv->lock);
-  if (live && !st->pixel_rate.take(req.viewer_id, s.max_pixel_rate, g_get_monotonic_time(),
-                                   static_cast<double>(px))) {
-    LF_ELEMENT_WARNING_LIMITED(self, st->too_fast, STREAM, DECODE,
-                               ("Dropping view requests above max-pixel-rate"),
-                               "viewer %u asks for more than %.0f output pixels a second (%dx%d "
-                               "views)",
-                               req.viewer_id, s.max_pixel_rate, req.view.width, req.view.height);
-    return false;
+  switch (st->limits.admit(req.viewer_id, s.max_rate, s.max_pixel_rate, static_cast<double>(px),
+                           live)) {
+    case lfgst::RequestLimits::Verdict::kOverRate:
+      LF_ELEMENT_WARNING_LIMITED(
+          self, st->too_fast, STREAM, DECODE, ("Dropping view requests above max-rate"),
+          "viewer %u sends more than %g requests a second", req.viewer_id, s.max_rate);
+      return false;
+    case lfgst::RequestLimits::Verdict::kOverPixelRate:
+      LF_ELEMENT_WARNING_LIMITED(self, st->too_fast, STREAM, DECODE,
+                                 ("Dropping view requests above max-pixel-rate"),
+                                 "viewer %u asks for more than %.0f output pixels a second (%dx%d "
+                                 "views)",
+                                 req.viewer_id, s.max_pixel_rate, req.view.width, req.view.height);
+      return false;
+    default:
+      break;
   }
   return true;
 }

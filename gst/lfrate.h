@@ -66,6 +66,25 @@ class ViewerBuckets {
   TokenBucket overflow_;
 };
 
+// A camera host's limits on the view requests it answers, per viewer
+// (lffragment's max-rate and max-pixel-rate; lfarray keeps them once for
+// all its cameras): requests a second, and live, output pixels a second
+// (a non-live pipeline renders every request). One per element that admits
+// requests; not thread-safe.
+class RequestLimits {
+ public:
+  enum class Verdict { kAdmit, kOverRate, kOverPixelRate };
+  Verdict admit(guint32 viewer, double rate, double pixel_rate, double pixels, bool live,
+                gint64 now_us = g_get_monotonic_time()) {
+    if (!rate_.take(viewer, rate, now_us)) return Verdict::kOverRate;
+    if (live && !pixels_.take(viewer, pixel_rate, now_us, pixels)) return Verdict::kOverPixelRate;
+    return Verdict::kAdmit;
+  }
+
+ private:
+  ViewerBuckets rate_, pixels_;
+};
+
 // The viewer id of a view request buffer (lib/lf/wire.h: "LFVR", then the
 // viewer id at byte 8, big-endian as every integer there), or G_MAXUINT32
 // when it is none (the parser drops it later).

@@ -2,7 +2,7 @@
 # Runs a single-machine gst-launch-1.0 pipeline of the finite-viewpoints
 # system (Yang et al. 2002, Figure 2): lfviewrequest ! lfarray ! SINK, where
 # the lfarray bin builds one lfcamsrc + lffragment per camera of the rig and
-# the lfcompositor (one place builds the graph: gst/lfbins.cpp).
+# the lfcompositor (one place builds the graph: gst/lfcamerahost.cpp).
 #
 # usage: lf-pipeline.sh RIG.json "REQUEST PROPERTIES" "SINK DESCRIPTION" [CAMSRC PROPERTIES] [FRAGMENT PROPERTIES]
 #   RIG.json          rig file (tools/lf-rig makes one from a dataset)

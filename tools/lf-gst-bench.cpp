@@ -121,7 +121,7 @@ std::string encoding_properties(const std::string& enc) {
   return q ? "encoding=jpeg jpeg-quality=" + std::to_string(q) : "encoding=raw";
 }
 
-// The pipeline on one machine as lfarray builds it (gst/lfbins.cpp):
+// The pipeline on one machine as lfarray builds it (gst/lfcamerahost.cpp):
 // lfviewrequest ! lfarray (64 x lfcamsrc and lffragment, one lfcompositor)
 // ! appsink; no request rate limit (max-rate=0: the runs ask for more than
 // its default 240 a second).

@@ -38,38 +38,8 @@
  *   rtpgstpay ! udpsink host=compositor port=5200
  * ]|
  */
-/**
- * SECTION:element-lfarray
- * @title: lfarray
- *
- * A whole light field camera on one machine: an `lfcamerahost` graph for
- * the selected cameras whose fragments go, one pad per camera, to an
- * `lfcompositor`. View requests in on `sink`, raw video out on `src`:
- * `lfviewrequest rig=R ! lfarray rig=R ! videoconvert ! autovideosink` is
- * the 64-camera pipeline of Figure 2 on one machine. Navigation and
- * `lf-view` events from the sink travel up through it to `lfviewrequest`.
- *
- * Whole-view mode (`whole-view`, the default with raw fragments): the
- * `lffragment`s only plan (`defer=true`) and the compositor draws all
- * cameras of a view from their frames: on the CPU band by band straight
- * into its sums, on all cores (lib/lf/composite.h; no fragment in memory),
- * with GL in one pass sequence into one output (each camera frame uploaded
- * once, no fragment read back, no GL context per camera;
- * lib/lf/gl_render.h). Planning is cheap, so one request thread plans
- * every camera (not one thread per camera: one hand-off per request
- * instead of 64, which a profile of the pipeline showed to cost), with the request
- * rate limit (`max-rate`) kept once for all cameras; only where frames are
- * picked by capture time (`record`, `playback`, `frame-select`), a request
- * may wait for a camera's frame and each camera keeps its own request
- * thread. The frames equal those of every `lffragment` drawing its own
- * fragment (`whole-view=false`), exactly.
- *
- * ## Example launch line
- * |[
- * gst-launch-1.0 lfviewrequest rig=rig.json orbit=0.5 ! lfarray rig=rig.json ! \
- *   videoconvert ! autovideosink
- * ]|
- */
+#include "lfcamerahost.h"
+
 #include <gst/gst.h>
 
 #include <algorithm>
@@ -79,8 +49,10 @@
 #include "lf/gl_render.h"
 #include "lf/parse.h"
 #include "lfbackend.h"
+#include "lfforward.h"
 #include "lfguard.h"
 #include "lfrate.h"
+#include "lfrecording.h"
 #include "lfrig.h"
 #include "lfwarn.h"
 
@@ -88,19 +60,8 @@ extern "C" GType lf_cam_src_get_type(void);
 extern "C" GType lf_fragment_get_type(void);
 extern "C" GType lf_compositor_get_type(void);
 
-GST_DEBUG_CATEGORY_STATIC(lf_bins_debug);
-#define GST_CAT_DEFAULT lf_bins_debug
-
-G_BEGIN_DECLS
-#define LF_TYPE_CAMERA_HOST (lf_camera_host_get_type())
-G_DECLARE_DERIVABLE_TYPE(LfCameraHost, lf_camera_host, LF, CAMERA_HOST, GstBin)
-struct _LfCameraHostClass {
-  GstBinClass parent_class;
-  gboolean composite;  // lfarray: an lfcompositor after the fragments
-};
-#define LF_TYPE_ARRAY (lf_array_get_type())
-G_DECLARE_FINAL_TYPE(LfArray, lf_array, LF, ARRAY, LfCameraHost)
-G_END_DECLS
+GST_DEBUG_CATEGORY_STATIC(lf_camera_host_debug);
+#define GST_CAT_DEFAULT lf_camera_host_debug
 
 namespace {
 
@@ -122,11 +83,7 @@ enum {
 #define DEFAULT_SUM_LATENCY (20 * GST_MSECOND)
 #define DEFAULT_WHOLE_VIEW TRUE
 
-// A bin property that is set on each child of one kind.
-struct Forward {
-  GType (*child)();
-  const char* name;
-};
+using lfgst::Forward;
 const Forward kCameraHostForwards[] = {
     {lf_cam_src_get_type, "mode"},           {lf_cam_src_get_type, "framerate"},
     {lf_cam_src_get_type, "phase"},          {lf_cam_src_get_type, "is-live"},
@@ -173,12 +130,7 @@ typedef struct {
 } LfCameraHostPrivate;
 
 G_DEFINE_TYPE_WITH_PRIVATE(LfCameraHost, lf_camera_host, GST_TYPE_BIN)
-struct _LfArray {
-  LfCameraHost parent;
-};
-G_DEFINE_TYPE(LfArray, lf_array, LF_TYPE_CAMERA_HOST)
 GST_ELEMENT_REGISTER_DEFINE(lfcamerahost, "lfcamerahost", GST_RANK_NONE, LF_TYPE_CAMERA_HOST)
-GST_ELEMENT_REGISTER_DEFINE(lfarray, "lfarray", GST_RANK_NONE, LF_TYPE_ARRAY)
 
 static Priv* priv_of(gpointer self) {
   return static_cast<LfCameraHostPrivate*>(
@@ -193,9 +145,6 @@ static GstStaticPadTemplate request_sink = GST_STATIC_PAD_TEMPLATE(
     "sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS("application/x-lf-view-request"));
 static GstStaticPadTemplate fragment_src = GST_STATIC_PAD_TEMPLATE(
     "src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS("application/x-lf-fragment"));
-static GstStaticPadTemplate video_src =
-    GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS,
-                            GST_STATIC_CAPS("video/x-raw, format = (string) { RGBA, RGBx, I420 }"));
 
 static std::string& string_prop(Priv* p, guint id) {
   switch (id) {
@@ -284,108 +233,38 @@ static GstElement* adopt(GstBin* bin, Priv* p, GstElement* e) {
 struct RequestLimit {
   GstElement* host = nullptr;  // not owned: the probe dies with its child
   double rate = 0, pixel_rate = 0;
-  lfgst::ViewerBuckets buckets, pixel_buckets;
+  bool live = false;
+  lfgst::RequestLimits limits;
   lfgst::WarnLimiter warned;
 };
 
 static GstPadProbeReturn limit_requests(GstPad*, GstPadProbeInfo* info, gpointer data) {
   auto* l = static_cast<RequestLimit*>(data);
-  const guint n = (GST_PAD_PROBE_INFO_TYPE(info) & GST_PAD_PROBE_TYPE_BUFFER_LIST)
-                      ? gst_buffer_list_length(GST_PAD_PROBE_INFO_BUFFER_LIST(info))
-                      : 1;
+  const bool list = GST_PAD_PROBE_INFO_TYPE(info) & GST_PAD_PROBE_TYPE_BUFFER_LIST;
+  const guint n = list ? gst_buffer_list_length(GST_PAD_PROBE_INFO_BUFFER_LIST(info)) : 1;
   for (guint i = 0; i < n; ++i) {
-    GstBuffer* buf = (GST_PAD_PROBE_INFO_TYPE(info) & GST_PAD_PROBE_TYPE_BUFFER_LIST)
-                         ? gst_buffer_list_get(GST_PAD_PROBE_INFO_BUFFER_LIST(info), i)
-                         : GST_PAD_PROBE_INFO_BUFFER(info);
+    GstBuffer* buf = list ? gst_buffer_list_get(GST_PAD_PROBE_INFO_BUFFER_LIST(info), i)
+                          : GST_PAD_PROBE_INFO_BUFFER(info);
     guint8 head[88] = {};
     const gsize got = buf ? gst_buffer_extract(buf, 0, head, sizeof head) : 0;
     const guint32 viewer = lfgst::request_viewer(head, got);
-    const gint64 now = g_get_monotonic_time();
-    if (!l->buckets.take(viewer, l->rate, now)) {
-      LF_ELEMENT_WARNING_LIMITED(l->host, l->warned, STREAM, DECODE,
-                                 ("Dropping view requests above max-rate"),
-                                 "viewer %u sends more than %g requests a second", viewer, l->rate);
-      return GST_PAD_PROBE_DROP;
-    }
-    if (!l->pixel_buckets.take(viewer, l->pixel_rate, now, lfgst::request_pixels(head, got))) {
-      LF_ELEMENT_WARNING_LIMITED(
-          l->host, l->warned, STREAM, DECODE, ("Dropping view requests above max-pixel-rate"),
-          "viewer %u asks for more than %.0f output pixels a second", viewer, l->pixel_rate);
-      return GST_PAD_PROBE_DROP;
+    switch (l->limits.admit(viewer, l->rate, l->pixel_rate, lfgst::request_pixels(head, got),
+                            l->live)) {
+      case lfgst::RequestLimits::Verdict::kOverRate:
+        LF_ELEMENT_WARNING_LIMITED(
+            l->host, l->warned, STREAM, DECODE, ("Dropping view requests above max-rate"),
+            "viewer %u sends more than %g requests a second", viewer, l->rate);
+        return GST_PAD_PROBE_DROP;
+      case lfgst::RequestLimits::Verdict::kOverPixelRate:
+        LF_ELEMENT_WARNING_LIMITED(
+            l->host, l->warned, STREAM, DECODE, ("Dropping view requests above max-pixel-rate"),
+            "viewer %u asks for more than %.0f output pixels a second", viewer, l->pixel_rate);
+        return GST_PAD_PROBE_DROP;
+      default:
+        break;
     }
   }
   return GST_PAD_PROBE_OK;
-}
-
-static void link_or_throw(GstElement* a, GstElement* b, const std::string& what) {
-  if (!gst_element_link(a, b)) throw std::runtime_error("cannot link " + what);
-}
-
-// Playback of one camera's recording: filesrc ! decodebin ! videoconvert !
-// RGBA at the camera's size ! clocksync, so frames come on their recorded
-// capture schedule (PTS = capture time). Returns the last element.
-static GstElement* add_playback(GstBin* bin, Priv* p, const std::string& file,
-                                const lf::Camera& cam, const std::string& id) {
-  GstElement* src = adopt(bin, p, make("filesrc", "playback" + id));
-  GstElement* dec = adopt(bin, p, make("decodebin", "decode" + id));
-  GstElement* convert = adopt(bin, p, make("videoconvert", "convert" + id));
-  GstElement* filter = adopt(bin, p, make("capsfilter", "rgba" + id));
-  GstElement* sync = adopt(bin, p, make("clocksync", "schedule" + id));
-  g_object_set(src, "location", file.c_str(), nullptr);
-  GstCaps* caps =
-      gst_caps_new_simple("video/x-raw", "format", G_TYPE_STRING, "RGBA", "width", G_TYPE_INT,
-                          cam.width, "height", G_TYPE_INT, cam.height, nullptr);
-  g_object_set(filter, "caps", caps, nullptr);
-  gst_caps_unref(caps);
-  // The decoder's pads appear only when it runs, so the bin cannot order it
-  // after the converter: started before it, it would push into a converter
-  // still in READY, be refused (FLUSHING) and stop without an error. They
-  // start when the bin is PAUSED (lf_camera_host_change_state).
-  gst_element_set_locked_state(dec, TRUE);
-  gst_element_set_locked_state(src, TRUE);
-  p->deferred.insert(p->deferred.end(), {dec, src});
-  link_or_throw(src, dec, "the playback of camera " + id);
-  lfgst::link_decoded_video(dec, convert);
-  link_or_throw(convert, filter, "the playback of camera " + id);
-  link_or_throw(filter, sync, "the playback of camera " + id);
-  return sync;
-}
-
-// Recording of one camera: its frames split off to videoconvert ! RGB !
-// (jpegenc quality=Q when Q > 0) ! matroskamux (nanosecond timecodes, so
-// the capture times are kept exactly) ! filesink. Returns the tee whose
-// other branch feeds the fragment.
-static GstElement* add_recorder(GstBin* bin, Priv* p, GstElement* cam, const std::string& file,
-                                gint quality, const std::string& id) {
-  GstElement* tee = adopt(bin, p, make("tee", "split" + id));
-  GstElement* q = adopt(bin, p, make("queue", "record-queue" + id));
-  GstElement* convert = adopt(bin, p, make("videoconvert", "record-convert" + id));
-  GstElement* filter = adopt(bin, p, make("capsfilter", "record-rgb" + id));
-  GstElement* mux = adopt(bin, p, make("matroskamux", "mux" + id));
-  GstElement* sink = adopt(bin, p, make("filesink", "record" + id));
-  // The recording must not lose frames: up to 2 s of them wait for the disk.
-  g_object_set(q, "max-size-buffers", 0, "max-size-bytes", 0, "max-size-time",
-               static_cast<guint64>(2 * GST_SECOND), nullptr);
-  GstCaps* caps = gst_caps_new_simple("video/x-raw", "format", G_TYPE_STRING, "RGB", nullptr);
-  g_object_set(filter, "caps", caps, nullptr);
-  gst_caps_unref(caps);
-  g_object_set(mux, "timecodescale", static_cast<gint64>(1), nullptr);
-  g_object_set(sink, "location", file.c_str(), "async", FALSE, nullptr);
-  const std::string what = "the recording of camera " + id;
-  link_or_throw(cam, tee, what);
-  link_or_throw(tee, q, what);
-  link_or_throw(q, convert, what);
-  link_or_throw(convert, filter, what);
-  GstElement* last = filter;
-  if (quality > 0) {
-    GstElement* jpeg = adopt(bin, p, make("jpegenc", "record-jpeg" + id));
-    g_object_set(jpeg, "quality", quality, nullptr);
-    link_or_throw(filter, jpeg, what);
-    last = jpeg;
-  }
-  link_or_throw(last, mux, what);
-  link_or_throw(mux, sink, what);
-  return tee;
 }
 
 // Builds the graph from the rig (NULL->READY).
@@ -459,6 +338,9 @@ static bool build(LfCameraHost* self) {
             // did). Not live: a queue with its defaults (requests of
             // several viewers interleave; a short queue here can stall
             // them behind one another).
+            const lfgst::Adopt adopt_here = [&](GstElement* e) {
+              return adopt(GST_BIN(self), p, e);
+            };
             auto request_queue = [&](const std::string& name) {
               GstElement* q =
                   adopt(GST_BIN(self), p, make(live ? "lfrequestqueue" : "queue", name));
@@ -520,14 +402,14 @@ static bool build(LfCameraHost* self) {
                 g_object_set(cam, "rig", rig_path.c_str(), "camera-id", cam_id, nullptr);
                 apply(cam, lf_cam_src_get_type());
               } else {
-                cam = add_playback(GST_BIN(self), p,
-                                   lf::camera_file_name(playback, cam_id, "playback"),
-                                   rig->cameras[i], id);
+                cam = lfgst::add_playback(adopt_here, p->deferred,
+                                          lf::camera_file_name(playback, cam_id, "playback"),
+                                          rig->cameras[i], id);
               }
               if (!record.empty())
-                cam = add_recorder(GST_BIN(self), p, cam,
-                                   lf::camera_file_name(record, cam_id, "record"), record_quality,
-                                   id);
+                cam = lfgst::add_recorder(adopt_here, cam,
+                                          lf::camera_file_name(record, cam_id, "record"),
+                                          record_quality, id);
               if ((q && (!gst_element_link_pads(tee, "src_%u", q, "sink") ||
                          !gst_element_link_pads(q, "src", frag, "request"))) ||
                   (!q && !gst_element_link_pads(tee, "src_%u", frag, "request")) ||
@@ -551,7 +433,7 @@ static bool build(LfCameraHost* self) {
               limit->host = GST_ELEMENT(self);
               g_object_get(frags.front(), "max-rate", &limit->rate, "max-pixel-rate",
                            &limit->pixel_rate, nullptr);
-              if (!live) limit->pixel_rate = 0;  // (as lffragment: live only)
+              limit->live = live;  // (as lffragment: the pixel rate live only)
               for (GstElement* f : frags)
                 g_object_set(f, "max-rate", 0.0, "max-pixel-rate", 0.0, nullptr);
               gst_pad_add_probe(tsink,
@@ -639,64 +521,6 @@ static void lf_camera_host_init(LfCameraHost* self) {
   gst_element_add_pad(GST_ELEMENT(self), p->src);
 }
 
-// A copy of a child's property (same name, type, range, default and text),
-// readable, writable and changeable in NULL or READY on the bin (the bin
-// sets it on its children when it builds them); the text says so where the
-// child itself takes changes while playing.
-static GParamSpec* copy_spec(GParamSpec* t) {
-  const GParamFlags rw = static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_NAME |
-                                                  G_PARAM_STATIC_NICK | GST_PARAM_MUTABLE_READY);
-  const gchar* n = g_param_spec_get_name(t);
-  const gchar* nick = g_param_spec_get_nick(t);
-  // GLib copies a blurb without G_PARAM_STATIC_BLURB; this one lives as long
-  // as the class.
-  std::string text = g_param_spec_get_blurb(t);
-  if (t->flags & GST_PARAM_MUTABLE_PLAYING)
-    text +=
-        ". On this bin: read when the bin builds its children (NULL to READY); change it "
-        "while playing on the child element";
-  const gchar* blurb = text.c_str();
-  if (G_IS_PARAM_SPEC_ENUM(t))
-    return g_param_spec_enum(n, nick, blurb, t->value_type, G_PARAM_SPEC_ENUM(t)->default_value,
-                             rw);
-  if (G_IS_PARAM_SPEC_BOOLEAN(t))
-    return g_param_spec_boolean(n, nick, blurb, G_PARAM_SPEC_BOOLEAN(t)->default_value, rw);
-  if (G_IS_PARAM_SPEC_INT(t)) {
-    auto* i = G_PARAM_SPEC_INT(t);
-    return g_param_spec_int(n, nick, blurb, i->minimum, i->maximum, i->default_value, rw);
-  }
-  if (G_IS_PARAM_SPEC_UINT(t)) {
-    auto* i = G_PARAM_SPEC_UINT(t);
-    return g_param_spec_uint(n, nick, blurb, i->minimum, i->maximum, i->default_value, rw);
-  }
-  if (G_IS_PARAM_SPEC_UINT64(t)) {
-    auto* i = G_PARAM_SPEC_UINT64(t);
-    return g_param_spec_uint64(n, nick, blurb, i->minimum, i->maximum, i->default_value, rw);
-  }
-  if (G_IS_PARAM_SPEC_DOUBLE(t)) {
-    auto* d = G_PARAM_SPEC_DOUBLE(t);
-    return g_param_spec_double(n, nick, blurb, d->minimum, d->maximum, d->default_value, rw);
-  }
-  if (GST_IS_PARAM_SPEC_FRACTION(t)) {
-    auto* f = GST_PARAM_SPEC_FRACTION(t);
-    return gst_param_spec_fraction(n, nick, blurb, f->min_num, f->min_den, f->max_num, f->max_den,
-                                   f->def_num, f->def_den, rw);
-  }
-  g_error("lfbins: cannot forward property %s of type %s", n, g_type_name(t->value_type));
-  return nullptr;
-}
-
-// Installs copies of the children's properties `fw` on `oc` from id `id` on.
-static void install_forwards(GObjectClass* oc, guint id, const Forward* begin, const Forward* end) {
-  for (const Forward* f = begin; f != end; ++f) {
-    auto* child = static_cast<GObjectClass*>(g_type_class_ref(f->child()));
-    GParamSpec* target = g_object_class_find_property(child, f->name);
-    g_assert(target);
-    g_object_class_install_property(oc, id++, copy_spec(target));
-    g_type_class_unref(child);
-  }
-}
-
 // Installs the camera host's own and forwarded properties on `oc`.
 static void install_properties(GObjectClass* oc) {
   const GParamFlags rw = static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
@@ -760,8 +584,8 @@ static void install_properties(GObjectClass* oc) {
           "leaves with the cameras that answered when one of them has not (lfpartialsum's "
           "latency); keep it inside the compositor's deadline",
           0, G_MAXUINT64, DEFAULT_SUM_LATENCY, rw));
-  install_forwards(oc, PROP_FIRST_FORWARD, std::begin(kCameraHostForwards),
-                   std::end(kCameraHostForwards));
+  lfgst::install_forwards(oc, PROP_FIRST_FORWARD, std::begin(kCameraHostForwards),
+                          std::end(kCameraHostForwards));
 }
 
 static void lf_camera_host_class_init(LfCameraHostClass* klass) {
@@ -790,22 +614,11 @@ static void lf_camera_host_class_init(LfCameraHostClass* klass) {
       ec, "Events",
       "Posts its children's warnings and errors (see lfcamsrc, lffragment, lfpartialsum); an error "
       "at READY when the rig cannot be read or cameras names no camera of it.");
-  GST_DEBUG_CATEGORY_INIT(lf_bins_debug, "lfbins", 0, "light field bins");
+  GST_DEBUG_CATEGORY_INIT(lf_camera_host_debug, "lfcamerahost", 0,
+                          "light field camera host and array bins");
 }
 
-static void lf_array_init(LfArray* self) {
-  // Video out: replaces the camera host's fragment pad.
-  Priv* p = priv_of(self);
-  gst_element_remove_pad(GST_ELEMENT(self), p->src);
-  p->src = gst_ghost_pad_new_no_target_from_template(
-      "src", gst_element_class_get_pad_template(GST_ELEMENT_GET_CLASS(self), "src"));
-  gst_element_add_pad(GST_ELEMENT(self), p->src);
-}
-
-static void lf_array_class_init(LfArrayClass* klass) {
-  GObjectClass* oc = G_OBJECT_CLASS(klass);
-  GstElementClass* ec = GST_ELEMENT_CLASS(klass);
-  LF_CAMERA_HOST_CLASS(klass)->composite = TRUE;
+void lf_camera_host_install_composite_properties(GObjectClass* oc) {
   oc->set_property = lf_camera_host_set_property;  // GObject wants them per class
   oc->get_property = lf_camera_host_get_property;
   g_object_class_install_property(
@@ -823,23 +636,14 @@ static void lf_array_class_init(LfArrayClass* klass) {
           static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
                                    GST_PARAM_MUTABLE_READY)));
   // The base class installed the camera host's properties; add lfarray's.
-  install_forwards(oc, PROP_FIRST_FORWARD + G_N_ELEMENTS(kCameraHostForwards),
-                   std::begin(kArrayForwards), std::end(kArrayForwards));
-  // Video out instead of fragments.
-  GstPadTemplate* src = gst_static_pad_template_get(&video_src);
-  gst_element_class_add_pad_template(ec, src);
-  gst_element_class_set_static_metadata(
-      ec, "Light field camera array", "Source/Video/Bin",
-      "A light field camera on one machine built from the rig: an lfcamsrc and an lffragment "
-      "per selected camera and an lfcompositor; view requests in, composited video out (Yang "
-      "et al. 2002, Figure 2)",
-      "lightfield-gst");
-  gst_element_class_add_static_metadata(
-      ec, "Example",
-      "gst-launch-1.0 lfviewrequest rig=../shared/data/stanford-chess orbit=0.5 num-buffers=60 ! "
-      "lfarray rig=../shared/data/stanford-chess ! videoconvert ! autovideosink");
-  gst_element_class_add_static_metadata(
-      ec, "Events",
-      "Forwards navigation and lf-view events from the video sink to the request source; posts its "
-      "children's warnings and errors (see lfcamsrc, lffragment, lfcompositor).");
+  lfgst::install_forwards(oc, PROP_FIRST_FORWARD + G_N_ELEMENTS(kCameraHostForwards),
+                          std::begin(kArrayForwards), std::end(kArrayForwards));
+}
+
+void lf_camera_host_replace_src(LfCameraHost* self) {
+  Priv* p = priv_of(self);
+  gst_element_remove_pad(GST_ELEMENT(self), p->src);
+  p->src = gst_ghost_pad_new_no_target_from_template(
+      "src", gst_element_class_get_pad_template(GST_ELEMENT_GET_CLASS(self), "src"));
+  gst_element_add_pad(GST_ELEMENT(self), p->src);
 }
