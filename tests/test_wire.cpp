@@ -960,3 +960,61 @@ TEST(Wire, InvalidRequestsAreRejected) {
 }
 
 }  // namespace
+
+namespace {
+// A fragment of camera 5 for request 9, viewer 2 covering the w x h tile at
+// (x, y) of a 64 x 48 frame.
+std::vector<uint8_t> tile_fragment(int x, int y, int w, int h, uint8_t layer = 0,
+                                   uint32_t camera = 5) {
+  lf::Fragment f;
+  f.viewer_id = 2, f.sequence = 9, f.camera_id = camera, f.layer = layer;
+  f.out_width = 64, f.out_height = 48;
+  f.rect = cv::Rect(x, y, w, h);
+  for (int r = 0; r < h; ++r)
+    f.spans.push_back({static_cast<uint16_t>(x), static_cast<uint16_t>(x + w)});
+  f.pixels.assign(4 * static_cast<size_t>(w) * h, 128);
+  return lf::serialize_fragment(f, lf::Encoding::kRaw);
+}
+std::vector<uint8_t> concat(std::initializer_list<std::vector<uint8_t>> parts) {
+  std::vector<uint8_t> out;
+  for (const auto& p : parts) out.insert(out.end(), p.begin(), p.end());
+  return out;
+}
+}  // namespace
+
+// lf::parse_frame_answer: one fragment, a camera's layer pair, or its quilt
+// eyes (apart from one another), nothing else; within the pixel limit.
+TEST(Wire, FrameAnswersAreOneFragmentALayerPairOrQuiltEyes) {
+  const size_t frame = 64 * 48;
+  auto parse = [&](const std::vector<uint8_t>& b, size_t limit) {
+    return lf::parse_frame_answer(b.data(), b.size(), limit);
+  };
+  const auto one = tile_fragment(0, 0, 64, 48);
+  ASSERT_EQ(parse(one, frame).size(), 1u);
+  EXPECT_EQ(parse(one, frame)[0].encoding, lf::Encoding::kRaw);
+  EXPECT_EQ(parse(one, frame)[0].pixels, one.data() + (one.size() - 4 * frame));
+  // A layer pair: each may cover the whole frame.
+  const auto pair = concat({tile_fragment(0, 0, 64, 48, 0), tile_fragment(0, 0, 64, 48, 1)});
+  const auto parts = parse(pair, frame);
+  ASSERT_EQ(parts.size(), 2u);
+  EXPECT_EQ(parts[1].f.layer, 1);
+  // Quilt eyes: four 32 x 24 tiles, apart; together at most the frame.
+  const auto quilt = concat({tile_fragment(0, 0, 32, 24), tile_fragment(32, 0, 32, 24),
+                             tile_fragment(0, 24, 32, 24), tile_fragment(32, 24, 32, 24)});
+  EXPECT_EQ(parse(quilt, frame).size(), 4u);
+  EXPECT_THROW(parse(quilt, frame - 1), lf::WireError);
+  // Refused: the same layer twice over the same pixels (a copy), an
+  // overlapping eye, another camera's fragment, layer 1 first, three layers.
+  EXPECT_THROW(parse(concat({one, one}), frame), lf::WireError);
+  EXPECT_THROW(parse(concat({tile_fragment(0, 0, 32, 24), tile_fragment(16, 0, 32, 24)}), frame),
+               lf::WireError);
+  EXPECT_THROW(
+      parse(concat({tile_fragment(0, 0, 32, 24), tile_fragment(32, 0, 32, 24, 0, 6)}), frame),
+      lf::WireError);
+  EXPECT_THROW(
+      parse(concat({tile_fragment(0, 0, 64, 48, 1), tile_fragment(0, 0, 64, 48, 0)}), frame),
+      lf::WireError);
+  EXPECT_THROW(parse(concat({pair, tile_fragment(0, 0, 8, 8, 1)}), frame), lf::WireError);
+  // A truncated buffer.
+  EXPECT_THROW(parse(std::vector<uint8_t>(quilt.begin(), quilt.end() - 1), frame), lf::WireError);
+}
