@@ -43,4 +43,36 @@ inline GList* ref_sink_pads(GstElement* e, size_t* count = nullptr) {
   return pads;
 }
 
+// Live: when an adding aggregator's aggregate() should run next, as a
+// running time to which GstAggregator adds its latency: at once (0) when
+// any pad holds a fragment (one pad may carry many cameras' fragments, so a
+// request's last ones would otherwise wait for the next request's on the
+// other pads, or for the deadline); else the deadline of the oldest request
+// waiting in `pending` (an lf::PendingRequests, or null before start); with
+// nothing waiting, on data (a deadline in the past would make it spin).
+template <class Pending>
+GstClockTime next_deadline(GstElement* e, const Pending* pending) {
+  // (gst_aggregator_get_latency() would deadlock here: the caller holds the
+  // aggregator's source lock.)
+  if (any_pad_queued(e)) return 0;
+  return pending ? pending->earliest_running_time() : GST_CLOCK_TIME_NONE;
+}
+
+// Emits the requests of `pending` (an lf::PendingRequests) that are due, in
+// order (complete ones; at its own deadline, `due(running_time)`, at the
+// end of stream or over the cap, an incomplete one): `emit(key, request,
+// complete)` for each, until one does not return GST_FLOW_OK. Then
+// GST_FLOW_EOS when every pad is at its end and nothing waits.
+template <class Pending, class Due, class Emit>
+GstFlowReturn emit_due(Pending& pending, size_t expected, Due due, bool all_eos, Emit emit) {
+  GstFlowReturn ret = GST_FLOW_OK;
+  bool complete = false;
+  while (ret == GST_FLOW_OK && pending.front_ready(expected, due, all_eos, &complete)) {
+    ret = emit(pending.front_key(), pending.front(), complete);
+    pending.pop_front();
+  }
+  if (ret == GST_FLOW_OK && all_eos && pending.empty()) return GST_FLOW_EOS;
+  return ret;
+}
+
 }  // namespace lfgst

@@ -1027,46 +1027,30 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
   for (uint32_t id : st->surface_probes.expired(now_us, probe_deadline_us))
     finish_surface_probe(self, st, st->surface_probes.find(id));
   const size_t expected = expected_fragments(self);
-  GstFlowReturn ret = GST_FLOW_OK;
   // Complete requests, in order; at its deadline (or end of stream), also an
   // incomplete one, renormalised; too many pending: the oldest. Each request
   // has its own deadline: one that came late must not take the next ones,
   // still in time, with it (their fragments are on their way).
-  bool complete = false;
-  while (ret == GST_FLOW_OK &&
-         st->pending.front_ready(expected, past_deadline, all_eos, &complete)) {
-    const uint64_t seq = st->pending.front_key();
-    Request& g = st->pending.front();
-    if (!complete)
-      GST_DEBUG_OBJECT(self,
-                       "request %" G_GUINT64_FORMAT
-                       " incomplete: %zu of %zu fragments (eos %d, pending %zu)",
-                       seq, g.count, expected, all_eos, st->pending.size());
-    ret = emit(self, seq, g, complete);
-    st->pending.pop_front();
-  }
+  const GstFlowReturn ret = lfgst::emit_due(
+      st->pending, expected, past_deadline, all_eos, [&](uint64_t seq, Request& g, bool complete) {
+        if (!complete)
+          GST_DEBUG_OBJECT(self,
+                           "request %" G_GUINT64_FORMAT
+                           " incomplete: %zu of %zu fragments (eos %d, "
+                           "pending %zu)",
+                           seq, g.count, expected, all_eos, st->pending.size());
+        return emit(self, seq, g, complete);
+      });
   publish_acceptance(self->priv, st);
-  if (ret == GST_FLOW_OK && all_eos && st->pending.empty()) return GST_FLOW_EOS;
   return ret;
 }
 
-// Live: when aggregate() should run next, as a running time to which the
-// aggregator adds its latency. At once when any pad has a fragment queued:
-// the aggregator itself waits for a buffer on every pad, but one pad
-// carries many cameras' fragments, so a request's last fragments would wait
-// for the next request's on the other pads (a whole period) or for the
-// deadline. Else the deadline of the oldest pending request. With nothing
-// pending, wait for data: a deadline in the past would make it spin.
+// Live: when aggregate() should run next (lfgst::next_deadline): at once
+// when a pad holds a fragment, else at the oldest pending request's
+// deadline (aggregate() runs on this same thread).
 static GstClockTime lf_compositor_get_next_time(GstAggregator* agg) {
-  LfCompositor* self = LF_COMPOSITOR(agg);
-  // A fragment waiting in a pad: running time 0, so 0 + latency, a time
-  // already past once the run is that old. (gst_aggregator_get_latency()
-  // would deadlock here: the caller holds the aggregator's source lock.)
-  if (lfgst::any_pad_queued(GST_ELEMENT(self))) return 0;
-  // Else the oldest pending request (aggregate() runs on this same thread).
-  State* st = self->priv->state.get();
-  const GstClockTime t = st ? st->pending.earliest_running_time() : GST_CLOCK_TIME_NONE;
-  return t;
+  const State* st = LF_COMPOSITOR(agg)->priv->state.get();
+  return lfgst::next_deadline(GST_ELEMENT(agg), st ? &st->pending : nullptr);
 }
 
 // Tracing (LF_TRACE): a fragment's arrival at a sink pad, before any

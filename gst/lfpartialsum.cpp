@@ -307,27 +307,21 @@ static GstFlowReturn lf_partial_sum_aggregate(GstAggregator* agg, gboolean timeo
     return timeout && (!live || !GST_CLOCK_TIME_IS_VALID(now) || !GST_CLOCK_TIME_IS_VALID(rt) ||
                        now >= rt + latency);
   };
-  bool complete = false;
-  while (ret == GST_FLOW_OK && st->pending.front_ready(npads, due, all_eos, &complete)) {
-    Request& g = st->pending.front();
-    if (!complete)
-      GST_DEBUG_OBJECT(self, "request %" G_GUINT64_FORMAT ": %zu of %zu cameras",
-                       st->pending.front_key().first, g.count, npads);
-    ret = emit(self, g);
-    st->pending.pop_front();
-  }
-  if (ret == GST_FLOW_OK && all_eos && st->pending.empty()) return GST_FLOW_EOS;
-  return ret;
+  if (ret != GST_FLOW_OK) return ret;
+  return lfgst::emit_due(
+      st->pending, npads, due, all_eos, [&](const auto& key, Request& g, bool complete) {
+        if (!complete)
+          GST_DEBUG_OBJECT(self, "request %" G_GUINT64_FORMAT ": %zu of %zu cameras", key.first,
+                           g.count, npads);
+        return emit(self, g);
+      });
 }
 
 // Live: aggregate() at once when a pad holds a buffer, else at the oldest
-// request's deadline (the aggregator adds its latency), else on data.
+// request's deadline (lfgst::next_deadline).
 static GstClockTime lf_partial_sum_get_next_time(GstAggregator* agg) {
-  LfPartialSum* self = LF_PARTIAL_SUM(agg);
-  if (lfgst::any_pad_queued(GST_ELEMENT(self))) return 0;
-  State* st = self->priv->state.get();
-  const GstClockTime t = st ? st->pending.earliest_running_time() : GST_CLOCK_TIME_NONE;
-  return t;
+  const State* st = LF_PARTIAL_SUM(agg)->priv->state.get();
+  return lfgst::next_deadline(GST_ELEMENT(agg), st ? &st->pending : nullptr);
 }
 
 static void lf_partial_sum_init(LfPartialSum* self) {
