@@ -1,6 +1,6 @@
-// The `backend` property of lffragment and lfcompositor (lib/lf/gl_render.h):
-// its enum type and the renderer it opens at start; and the enum type of
-// the fragment encodings.
+// The `backend` property of lffragment, lfcompositor and lflenticular:
+// its enum type and the renderer (lib/lf/renderer.h) it opens at start; and
+// the enum type of the fragment encodings.
 #pragma once
 
 #include <gst/gst.h>
@@ -9,6 +9,7 @@
 #include <string>
 
 #include "lf/gl_render.h"
+#include "lf/renderer.h"
 #include "lf/wire.h"
 #include "lfcaps.h"
 #include "lfguard.h"
@@ -54,18 +55,14 @@ inline GType backend_type() {
   return enum_type(&type, "LfBackend", values);
 }
 
-// Resolves `backend` and, for GL, makes the renderer into `gl` (else leaves
-// it null). Logs auto's choice at INFO; posts an element error and returns
-// false where GL is asked for and cannot be had.
-inline bool open_backend(GstElement* el, lf::Backend backend, std::unique_ptr<lf::GlRenderer>& gl) {
+// Makes the renderer for `backend` (lib/lf/renderer.h) into `renderer`.
+// Logs auto's choice at INFO; posts an element error and returns false
+// where GL is asked for and cannot be had.
+inline bool open_renderer(GstElement* el, lf::Backend backend,
+                          std::unique_ptr<lf::Renderer>& renderer) {
   std::string why;
   GError* err = nullptr;
-  if (!guard(
-          [&] {
-            if (lf::resolve_backend(backend, &why) == lf::Backend::kGl)
-              gl = std::make_unique<lf::GlRenderer>();
-          },
-          &err)) {
+  if (!guard([&] { renderer = lf::make_renderer(backend, &why); }, &err)) {
     GST_ELEMENT_ERROR(el, RESOURCE, FAILED, ("Cannot use the GL backend"), ("%s", err->message));
     g_error_free(err);
     return false;

@@ -31,7 +31,8 @@
  * the camera's rig index); with the CPU backend fused into the compositing
  * (lib/lf/composite.h: each band of rows draws its part of every camera's
  * fragment straight into its sums, the bands on all cores), or, in a frame
- * of layer pairs, drawn first by the CPU kernels on the aggregate thread.
+ * of layer pairs, drawn first by the renderer (lib/lf/renderer.h) on the
+ * aggregate thread.
  *
  * Stream facts come from the fragment caps: the output frame rate is their
  * `framerate` (the viewer's request rate; the `framerate` property overrides
@@ -89,6 +90,7 @@
 #include "lf/fragment.h"
 #include "lf/probe_bundle.h"
 #include "lf/render.h"
+#include "lf/renderer.h"
 #include "lf/session/frame_assembly.h"
 #include "lf/surface_probe.h"
 #include "lf/wire.h"
@@ -185,12 +187,10 @@ struct State {
   lf::RequestWindow window;
   guint64 conflicts = 0;       // fragments dropped as a second copy of a camera's in a request
   lf::ViewerSelection viewer;  // the viewer composited (viewer-id, or the first seen)
-  lf::Compositor comp, comp_right;
-  lf::LayerCompositor layers[2];       // per eye, for frames with second-plane fragments
-  std::unique_ptr<lf::GlRenderer> gl;  // backend gl (or auto on a hardware GPU)
-  // The frame in each of its image slots (deferred drawings' frame_key and
-  // frame_pts): a camera frame is uploaded once, whatever the requests.
-  std::vector<std::pair<const void*, GstClockTime>> uploaded;
+  // The renderer (lib/lf/renderer.h: the CPU kernels, or GL), chosen at
+  // start by `backend`; its image slots hold the camera frames of
+  // drawings left to us (each uploaded once with GL).
+  std::unique_ptr<lf::Renderer> renderer;
   cv::Mat last_frame;  // RGBA of the last frame emitted (missing pixels come from it)
   cv::Mat frames[2];   // the RGBA frames resolved into, in turn (one is last_frame)
   int next_frame = 0;
@@ -285,7 +285,7 @@ static gboolean lf_compositor_start(GstAggregator* agg) {
     if (!st->rig) return FALSE;
   }
   st->viewer = lf::ViewerSelection(st->s.viewer_id);
-  if (!lfgst::open_backend(GST_ELEMENT(self), st->s.backend, st->gl)) return FALSE;
+  if (!lfgst::open_renderer(GST_ELEMENT(self), st->s.backend, st->renderer)) return FALSE;
   self->priv->state = std::move(st);
   return TRUE;
 }
@@ -468,57 +468,18 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Request& g, bool com
   const int W = st->s.stereo ? 2 * w : w;          // stereo: left | right side by side
   if (!ensure_caps(self, W, H)) return GST_FLOW_NOT_NEGOTIATED;
   const guint left_id = static_cast<guint>(std::max<int64_t>(0, st->viewer.viewer()));
-  // Drawings left to us (lffragment defer): by GL below with the others,
-  // each camera frame uploaded once; on the CPU, fused into the composite
-  // (each band of rows draws its part of every camera's fragment straight
-  // into its sums, on both cores); in a frame of layer pairs (the layer
-  // compositor), drawn here into the piece first.
-  const bool layered_frame = std::any_of(g.pieces.begin(), g.pieces.end(),
-                                         [](const Piece& pc) { return pc.f.layer != 0; });
-  GError* derr = nullptr;
-  if (!lfgst::guard(
-          [&] {
-            for (Piece& pc : g.pieces) {
-              if (!pc.deferred) continue;
-              const lfgst::DeferredDraw& d = *pc.deferred;
-              if (!layered_frame) {  // CPU: drawn in Compositor::composite
-                if (!st->gl) continue;
-                if (st->uploaded.size() <= static_cast<size_t>(d.slot))
-                  st->uploaded.resize(d.slot + 1, {nullptr, GST_CLOCK_TIME_NONE});
-                auto& up = st->uploaded[d.slot];
-                if (up.first != d.frame_key || up.second != d.frame_pts) {
-                  st->gl->set_image(d.slot, d.image);
-                  up = {d.frame_key, d.frame_pts};
-                }
-                continue;
-              }
-              lf::describe_fragment(d.plan, pc.f);
-              pc.f.camera_id = static_cast<uint32_t>(d.camera.id);
-              pc.f.pixels.resize(4 * d.plan.pixel_count());
-              lf::render_pixels(d.plan, d.camera, d.image, pc.f.pixels.data());
-              pc.raw_pixels = nullptr;
-              pc.deferred.reset();
-            }
-          },
-          &derr)) {
-    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("Cannot draw the deferred fragments"),
-                      ("%s", derr->message));
-    g_error_free(derr);
-    return GST_FLOW_ERROR;
-  }
-  // Each eye's fragments composited at once (lib/lf/composite.h: bands of
-  // rows, in parallel), resolved into the frame that is not last_frame (no
-  // allocation per frame).
+  // Each eye's fragments, and the drawings lffragment left to us (defer:
+  // whole-view mode), composited at once by the renderer (lib/lf/renderer.h:
+  // on the CPU each band of rows draws its part of every drawing straight
+  // into its sums, on all cores; with GL each camera frame is uploaded
+  // once), resolved into the frame that is not last_frame (no allocation
+  // per frame).
   std::vector<lf::FragmentPixels> eye[2];
-  std::vector<lf::PlannedFragment> planned[2];
-  std::vector<lf::FragmentDrawing> drawings[2];
+  std::vector<const lfgst::DeferredDraw*> deferred[2];
   for (const Piece& piece : g.pieces) {
     const int e = st->s.stereo && piece.f.viewer_id != left_id;
-    if (piece.deferred && st->gl)
-      planned[e].push_back({&piece.deferred->plan, &piece.deferred->camera, piece.deferred->slot});
-    else if (piece.deferred)
-      drawings[e].push_back(
-          {&piece.deferred->plan, &piece.deferred->camera, &piece.deferred->image});
+    if (piece.deferred)
+      deferred[e].push_back(piece.deferred.get());
     else
       eye[e].push_back({&piece.f, piece.pixels()});
   }
@@ -528,19 +489,15 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Request& g, bool com
   for (int e = 0; e < (st->s.stereo ? 2 : 1); ++e) {
     GError* err = nullptr;
     std::vector<std::pair<size_t, std::string>> refused;
+    std::vector<lf::SlotDrawing> drawings;
     if (!lfgst::guard(
             [&] {
-              cv::Mat& into = e ? right : rgba;
-              const bool layered =
-                  std::any_of(eye[e].begin(), eye[e].end(),
-                              [](const lf::FragmentPixels& fp) { return fp.fragment->layer != 0; });
-              if (layered)  // two planes per tile: chosen per pixel (CPU)
-                refused = st->layers[e].composite(w, H, eye[e], into);
-              else if (st->gl)
-                refused = st->gl->composite(w, H, eye[e], planned[e], into);
-              else
-                refused =
-                    (e ? st->comp_right : st->comp).composite(w, H, eye[e], drawings[e], into);
+              // (Per eye: the two eyes' requests may have taken other frames.)
+              for (const lfgst::DeferredDraw* d : deferred[e]) {
+                st->renderer->set_image(d->slot, d->image, d->frame_key, d->frame_pts);
+                drawings.push_back({&d->plan, &d->camera, d->slot});
+              }
+              refused = st->renderer->composite(e, w, H, eye[e], drawings, e ? right : rgba);
             },
             &err)) {
       GST_ELEMENT_ERROR(self, STREAM, FAILED, ("Cannot composite the frame"), ("%s", err->message));
@@ -550,7 +507,7 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Request& g, bool com
     for (const auto& [i, why] : refused)  // fragments, then drawings
       GST_WARNING_OBJECT(self, "dropping fragment of camera %d: %s",
                          i < eye[e].size() ? static_cast<int>(eye[e][i].fragment->camera_id)
-                                           : drawings[e][i - eye[e].size()].camera->id,
+                                           : drawings[i - eye[e].size()].camera->id,
                          why.c_str());
   }
   if (st->s.stereo) cv::hconcat(rgba, right, rgba);

@@ -143,14 +143,12 @@ struct State {
   // pixels a second for each viewer, bursts of one second's worth (request
   // thread only).
   lfgst::RequestLimits limits;
-  // The GL renderer (backend gl, or auto on a hardware GPU; else null) and
-  // the frame in its texture, by buffer and PTS (request thread only).
-  std::unique_ptr<lf::GlRenderer> gl;
-  GstBuffer* uploaded_of = nullptr;
-  GstClockTime uploaded_pts = GST_CLOCK_TIME_NONE;
-  // encoding=jpeg: the fragment's pixels before coding (on the CPU the
-  // rectangle's image, drawn in place, lf/wire.h serialize_jpeg_fragment;
-  // with GL the spans' layout), kept from request to request (no
+  // The renderer (lib/lf/renderer.h: the CPU kernels, or GL), chosen at
+  // start by `backend`; its slot 0 holds the camera frame (request thread
+  // only).
+  std::unique_ptr<lf::Renderer> renderer;
+  // encoding=jpeg: the rectangle's image the encoder takes, drawn in place
+  // (lf/wire.h serialize_jpeg_fragment), kept from request to request (no
   // allocation per fragment; request thread only).
   std::vector<uint8_t> jpeg_pixels;
   // Warnings about what peers send, at most one a second each.
@@ -813,37 +811,19 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
                        static_cast<gint64>(gst_buffer_get_size(out)));
           return;
         }
-        if (st->gl && (st->uploaded_of != frame || st->uploaded_pts != GST_BUFFER_PTS(frame))) {
-          st->gl->set_image(0, rgba);
-          st->uploaded_of = frame;
-          st->uploaded_pts = GST_BUFFER_PTS(frame);
-        }
-        auto draw = [&](const lf::FragmentPlan& plan, uint8_t* px) {
-          if (st->gl)
-            st->gl->render_pixels(plan, cam, 0, px);
-          else
-            lf::render_pixels(plan, cam, rgba, px);
-        };
+        st->renderer->set_image(0, rgba, frame, GST_BUFFER_PTS(frame));
         if (st->s.encoding == Encoding::kJpeg) {
           for (size_t k = 0; k < plans.size(); ++k) {
             const lf::FragmentPlan& plan = plans[k];
             describe(k, f);
             f.camera_id = static_cast<uint32_t>(cam.id);
-            std::vector<uint8_t> one;
-            if (st->gl) {
-              f.pixels.swap(st->jpeg_pixels);
-              f.pixels.resize(4 * plan.pixel_count());
-              draw(plan, f.pixels.data());
-              one = lf::serialize_fragment(f, lf::Encoding::kJpeg, quality);
-              f.pixels.swap(st->jpeg_pixels);
-            } else {
-              // Drawn straight into the rectangle the encoder takes.
-              const size_t n = 4 * static_cast<size_t>(plan.rect.width) * plan.rect.height;
-              if (st->jpeg_pixels.size() < n) st->jpeg_pixels.resize(n);
-              lf::render_rows(plan, cam, rgba, 0, plan.rect.height, st->jpeg_pixels.data(),
-                              lf::Kernel::kBest, 4 * static_cast<size_t>(plan.rect.width));
-              one = lf::serialize_jpeg_fragment(f, st->jpeg_pixels.data(), quality);
-            }
+            // Drawn straight into the rectangle the encoder takes.
+            const size_t row_bytes = 4 * static_cast<size_t>(plan.rect.width);
+            if (st->jpeg_pixels.size() < row_bytes * plan.rect.height)
+              st->jpeg_pixels.resize(row_bytes * plan.rect.height);
+            st->renderer->draw_rect(plan, cam, 0, st->jpeg_pixels.data(), row_bytes);
+            const std::vector<uint8_t> one =
+                lf::serialize_jpeg_fragment(f, st->jpeg_pixels.data(), quality);
             warped += plan.pixel_count();
             bytes.insert(bytes.end(), one.begin(), one.end());
           }
@@ -865,7 +845,7 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
           lfgst::MappedBuffer map(out, GST_MAP_WRITE);
           uint8_t* at = map.data();
           for (size_t k = 0; k < plans.size(); ++k) {
-            draw(plans[k], lf::write_raw_fragment(heads[k], at, sizes[k]));
+            st->renderer->draw(plans[k], cam, 0, lf::write_raw_fragment(heads[k], at, sizes[k]));
             lf::seal_fragment(at, sizes[k]);
             at += sizes[k];
             warped += plans[k].pixel_count();
@@ -952,7 +932,7 @@ static gboolean lf_fragment_start(LfFragment* self) {
   if (!st->rig) return FALSE;
   st->index = lfgst::camera_index(GST_ELEMENT(self), *st->rig, st->s);
   if (st->index < 0) return FALSE;
-  if (!lfgst::open_backend(GST_ELEMENT(self), st->s.backend, st->gl)) return FALSE;
+  if (!lfgst::open_renderer(GST_ELEMENT(self), st->s.backend, st->renderer)) return FALSE;
   self->priv->state = std::move(st);
   self->priv->set_flushing(false);
   return TRUE;

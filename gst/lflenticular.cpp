@@ -70,7 +70,7 @@ struct Priv {
   lf::DisplayCalibration cal;
   bool have_cal = false;
   lf::Quilt layout;
-  std::unique_ptr<lf::GlRenderer> gl;
+  std::unique_ptr<lf::Renderer> renderer;  // lib/lf/renderer.h, by `backend`
 };
 
 lfgst::Properties<Settings> props;
@@ -110,7 +110,7 @@ static gboolean lf_lenticular_start(GstBaseTransform* bt) {
     g_error_free(err);
     return FALSE;
   }
-  if (!lfgst::open_backend(GST_ELEMENT(self), s.backend, p->gl)) return FALSE;
+  if (!lfgst::open_renderer(GST_ELEMENT(self), s.backend, p->renderer)) return FALSE;
   GST_OBJECT_LOCK(self);
   p->cal = cal;
   p->have_cal = true;
@@ -118,7 +118,8 @@ static gboolean lf_lenticular_start(GstBaseTransform* bt) {
   p->layout.cols = static_cast<int>(s.cols), p->layout.rows = static_cast<int>(s.rows);
   p->layout.views = s.views ? static_cast<int>(s.views) : p->layout.cols * p->layout.rows;
   GST_INFO_OBJECT(self, "panel %dx%d, %d views in %dx%d tiles, %s", cal.screen_w, cal.screen_h,
-                  p->layout.views, p->layout.cols, p->layout.rows, p->gl ? "GL" : "CPU");
+                  p->layout.views, p->layout.cols, p->layout.rows,
+                  lf::backend_name(p->renderer->backend()));
   return TRUE;
 }
 
@@ -127,7 +128,7 @@ static gboolean lf_lenticular_stop(GstBaseTransform* bt) {
   GST_OBJECT_LOCK(self);
   self->priv->have_cal = false;
   GST_OBJECT_UNLOCK(self);
-  self->priv->gl.reset();
+  self->priv->renderer.reset();
   return TRUE;
 }
 
@@ -190,10 +191,7 @@ static GstFlowReturn lf_lenticular_transform_frame(GstVideoFilter* vf, GstVideoF
   GError* err = nullptr;
   if (!lfgst::guard(
           [&] {
-            if (p->gl && panel.isContinuous())
-              p->gl->interleave(p->cal, p->layout, quilt, panel);
-            else
-              lf::interleave_quilt(p->cal, p->layout, quilt, panel);
+            p->renderer->interleave(p->cal, p->layout, quilt, panel);
             if (panel.data != into) throw std::logic_error("the panel was reallocated");
           },
           &err)) {

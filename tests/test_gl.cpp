@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <cstring>
 #include <random>
 #include <string>
 
@@ -25,6 +26,7 @@
 #include "lf/plan.h"
 #include "lf/render.h"
 #include "lf/render_view.h"
+#include "lf/renderer.h"
 #include "lf/synthetic.h"
 
 namespace {
@@ -518,3 +520,103 @@ TEST(GlAbsent, AutoFallsBackAndGlFailsClearly) {
 }
 
 }  // namespace
+
+// lf::Renderer (lib/lf/renderer.h), the one interface the elements use, on
+// each backend: draw_rect() is draw() laid out as the rect's image (the
+// bytes outside the spans untouched), composite() equals the backend's own
+// compositing of the same fragments and drawings, a frame with layer-1
+// fragments goes to the layer compositor with its drawings drawn first,
+// and slots out of range or empty are refused.
+TEST(GlBackend, RendererInterfaceDrawsAndCompositesAsEachBackend) {
+  const lf::Rig rig = grid4(false);
+  const auto images = images_of(rig);
+  const lf::ViewRequest req = views().front().second;
+  const lf::ViewGeometry g(rig, req);
+  const int W = req.view.width, H = req.view.height;
+  std::vector<lf::FragmentPlan> plans;
+  for (size_t i = 0; i < rig.cameras.size(); ++i)
+    plans.push_back(lf::plan_fragment(g, static_cast<int>(i)));
+  for (const lf::Backend backend : {lf::Backend::kCpu, lf::Backend::kGl}) {
+    SCOPED_TRACE(lf::backend_name(backend));
+    const auto r = lf::make_renderer(backend);
+    ASSERT_EQ(r->backend(), backend);
+    EXPECT_THROW(r->set_image(lf::Renderer::kMaxSlots, images[0], nullptr, 0),
+                 std::invalid_argument);
+    for (size_t i = 0; i < images.size(); ++i)
+      r->set_image(static_cast<int>(i), images[i], &images[i], 7);
+    std::vector<lf::Fragment> drawn(plans.size());
+    std::vector<lf::FragmentPixels> fragments;
+    std::vector<lf::SlotDrawing> drawings;
+    for (size_t i = 0; i < plans.size(); ++i) {
+      const lf::FragmentPlan& plan = plans[i];
+      if (plan.empty()) continue;
+      lf::describe_fragment(plan, drawn[i]);
+      drawn[i].camera_id = static_cast<uint32_t>(rig.cameras[i].id);
+      drawn[i].pixels.assign(4 * plan.pixel_count(), 0xAB);
+      r->draw(plan, rig.cameras[i], static_cast<int>(i), drawn[i].pixels.data());
+      // The rect's image: span pixels in place, the rest as it was.
+      const size_t row_bytes = 4 * static_cast<size_t>(plan.rect.width) + 8;
+      std::vector<uint8_t> rect(row_bytes * plan.rect.height, 0xCD);
+      r->draw_rect(plan, rig.cameras[i], static_cast<int>(i), rect.data(), row_bytes);
+      const uint8_t* px = drawn[i].pixels.data();
+      size_t outside = 0, differ = 0;
+      for (int y = 0; y < plan.rect.height; ++y) {
+        const auto [b, e] = drawn[i].spans[y];
+        for (int x = 0; x < plan.rect.width; ++x) {
+          const uint8_t* at = rect.data() + y * row_bytes + 4 * x;
+          const int ox = plan.rect.x + x;
+          if (ox >= b && ox < e) {
+            differ += std::memcmp(at, px, 4) != 0;
+            px += 4;
+          } else {
+            outside += at[0] != 0xCD || at[3] != 0xCD;
+          }
+        }
+      }
+      EXPECT_EQ(differ, 0u) << "camera " << i;
+      EXPECT_EQ(outside, 0u) << "camera " << i;
+      (i % 2 ? fragments.push_back({&drawn[i], drawn[i].pixels.data()})
+             : drawings.push_back({&plans[i], &rig.cameras[i], static_cast<int>(i)}));
+    }
+    ASSERT_FALSE(fragments.empty());
+    ASSERT_FALSE(drawings.empty());
+    // Half drawn here, half as fragments: the frame of all of them drawn.
+    cv::Mat via, direct;
+    EXPECT_TRUE(r->composite(0, W, H, fragments, drawings, via).empty());
+    std::vector<lf::FragmentPixels> all;
+    for (const auto& f : drawn)
+      if (!f.empty()) all.push_back({&f, f.pixels.data()});
+    if (backend == lf::Backend::kCpu) {
+      lf::Compositor c;
+      c.composite(W, H, all, direct);
+    } else {
+      lf::GlRenderer gl;
+      gl.composite(W, H, all, direct);
+    }
+    ASSERT_EQ(via.size(), direct.size());
+    EXPECT_EQ(cv::norm(via, direct, cv::NORM_INF), 0);
+    // The right eye has sums of its own; eye 2 is refused.
+    cv::Mat right;
+    r->composite(1, W, H, all, {}, right);
+    EXPECT_EQ(cv::norm(right, direct, cv::NORM_INF), 0);
+    EXPECT_THROW(r->composite(2, W, H, all, {}, right), std::invalid_argument);
+    // A frame with a layer-1 fragment: the layer compositor, the drawings
+    // drawn first (the same frame as the layer compositor of all drawn).
+    lf::Fragment second = *fragments.front().fragment;
+    second.layer = 1;
+    std::vector<lf::FragmentPixels> with_layer = fragments;
+    with_layer.push_back({&second, second.pixels.data()});
+    cv::Mat layered, layered_direct;
+    EXPECT_TRUE(r->composite(0, W, H, with_layer, drawings, layered).empty());
+    std::vector<lf::FragmentPixels> all_layers = all;
+    all_layers.push_back({&second, second.pixels.data()});
+    lf::LayerCompositor lc;
+    lc.composite(W, H, all_layers, layered_direct);
+    EXPECT_EQ(cv::norm(layered, layered_direct, cv::NORM_INF), 0);
+    // A drawing from an empty slot is refused.
+    const auto fresh = lf::make_renderer(backend);
+    cv::Mat none;
+    if (backend == lf::Backend::kCpu)
+      EXPECT_THROW(fresh->composite(0, W, H, {}, drawings, none), std::invalid_argument);
+  }
+}
