@@ -133,10 +133,7 @@ class GlBackend final : public Renderer {
                                                   const std::vector<FragmentPixels>& fragments,
                                                   const std::vector<SlotDrawing>& drawings,
                                                   cv::Mat& into) override {
-    std::vector<PlannedFragment> planned;
-    planned.reserve(drawings.size());
-    for (const SlotDrawing& s : drawings) planned.push_back({s.plan, s.camera, s.slot});
-    return gl_.composite(width, height, fragments, planned, into);
+    return gl_.composite(width, height, fragments, drawings, into);
   }
 
  private:

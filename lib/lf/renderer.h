@@ -29,12 +29,9 @@
 namespace lf {
 
 // A fragment still to draw from the image in a slot (whole-view mode: the
-// compositor draws every camera's fragment of a view).
-struct SlotDrawing {
-  const FragmentPlan* plan = nullptr;
-  const Camera* camera = nullptr;
-  int slot = 0;
-};
+// compositor draws every camera's fragment of a view): its plan, its
+// camera and the slot (lf/gl_render.h PlannedFragment).
+using SlotDrawing = PlannedFragment;
 
 class Renderer {
  public:
