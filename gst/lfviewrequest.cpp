@@ -154,6 +154,7 @@
 #include "lf/focus_probe.h"
 #include "lf/parse.h"
 #include "lf/probe_bundle.h"
+#include "lf/session/viewer.h"
 #include "lf/surface_probe.h"
 #include "lf/view_builder.h"
 #include "lf/wire.h"
@@ -242,65 +243,27 @@ struct State {
   bool dragging = false;
   double drag_x = 0, drag_y = 0;
   guint32 last_seqnum = GST_SEQNUM_INVALID;
-  // Click to focus (Priv::lock): whether a click's probe goes with the next
-  // request; the point to focus on (the last click; < 0: the view centre,
-  // for continuous focus); the ids of the last click's probe, of the last
-  // continuous one and of the last one applied.
-  bool probe_pending = false;
-  double focus_x = -1, focus_y = -1;
-  guint32 next_probe = 1, click_probe = 0, continuous_probe = 0, applied_probe = 0;
-  // The last click: its first probe's id (0: none yet), whether the next
-  // probe is its first, the tick of its last probe and its retries.
-  guint32 click_first_probe = 0;
-  bool new_click = false;
-  guint64 click_tick = 0;
-  int click_retries = 0;
+  // Click to focus and continuous focus (Priv::lock;
+  // lib/lf/session/viewer.h).
+  lf::FocusSchedule focus;
   // The rest of the current tick's requests (the right eye, focus probes),
   // given out by the next create() calls (streaming thread). Not a buffer
   // list: GstBaseSrc 1.22 unrefs a NULL buffer when a state change meets a
   // submitted list (gst_base_src_get_range), a CRITICAL on a busy machine.
   std::deque<GstBuffer*> rest_of_tick;
-  // Focal surface (Priv::lock): the id of the last surface probe sent and of
-  // the last applied, the tick of the last one sent, and the surface in use
-  // (tile 0: none yet; planes[0] is the single plane).
-  guint32 next_surface_probe = 1, surface_probe = 0, applied_surface_probe = 0;
-  guint32 waited_surface_probe = 0;  // non-live: the last probe whose answer was waited for
-  bool surface_sent = false;
-  guint64 surface_tick = 0;
-  // No lf-surface answer ever came (no lfcompositor downstream in this
-  // pipeline): no more probes until focal-surface is set again.
-  bool surface_given_up = false;
-  // The focus settings of the last request: a change while playing (the
-  // wheel, a click's answer, focal-depth or focal-plane set) takes the view
-  // off the surface.
-  bool focus_known = false;
-  double last_focal_depth = 0;
-  std::string last_focal_plane;
-  gint64 first_surface_probe_us = 0;  // monotonic time of the first probe
-  lf::FocalSurface surface;
+  // The focal surface's probes and the surface in use (Priv::lock;
+  // lib/lf/session/viewer.h).
+  lf::SurfaceSchedule surface;
   ~State() {
     for (GstBuffer* b : rest_of_tick) gst_buffer_unref(b);
   }
 };
-// Continuous focus: a probe every this many requests; each answer moves the
-// focal plane this fraction of the way (in inverse depth).
-constexpr guint64 kContinuousFocusEvery = 5;
-constexpr double kContinuousFocusGain = 0.5;
 // A click whose probe has no answer this long after it (at least this many
-// requests) is probed again, at most kClickRetries times: on a busy machine
-// a camera host drops stale requests, probes included, and a camera that
-// skipped the probe's frame sits it out.
+// requests) is probed again (lf::FocusSchedule).
 constexpr GstClockTime kClickRetryAfter = GST_SECOND;
 constexpr guint64 kClickRetryTicks = 5;
-constexpr int kClickRetries = 2;
 // A non-live source waits this long at most for a surface probe's answer.
 constexpr GstClockTime kSurfaceWaitNonLive = 2 * GST_SECOND;
-// Surface probes stop, with one warning, when none of the first has been
-// answered: non-live, the first probe's wait; live, kSurfaceGiveUpProbes
-// probes and kSurfaceGiveUpAfter after the first (an answer takes a frame
-// period or a few on a busy host).
-constexpr guint32 kSurfaceGiveUpProbes = 3;
-constexpr GstClockTime kSurfaceGiveUpAfter = 5 * GST_SECOND;
 
 struct Priv {
   Settings settings;  // properties (object lock)
@@ -561,8 +524,7 @@ static void handle_navigation(LfViewRequest* self, GstEvent* event) {
   const lf::Rig& rig = *rig_ref;
   const Settings s = lfgst::snapshot(GST_OBJECT(self), p->settings);
   const double step = rig.typical_spacing();
-  cv::Vec3d eye(s.eye_s, s.eye_t, s.eye_w);
-  double depth = s.focal_depth;
+  lf::EyeAndFocus v{{s.eye_s, s.eye_t, s.eye_w}, s.focal_depth};
   double x = 0, y = 0, dx = 0, dy = 0;
   gint button = 0;
   const gchar* key = nullptr;
@@ -574,8 +536,7 @@ static void handle_navigation(LfViewRequest* self, GstEvent* event) {
         GstNavigationModifierType mods = GST_NAVIGATION_MODIFIER_NONE;
         gst_navigation_event_parse_modifier_state(event, &mods);
         if (button == 3 || (button == 1 && (mods & GST_NAVIGATION_MODIFIER_CONTROL_MASK))) {
-          st->probe_pending = true, st->focus_x = x, st->focus_y = y;
-          st->new_click = true, st->click_retries = 0;
+          st->focus.click(x, y);
           GST_DEBUG_OBJECT(self, "click to focus at (%g, %g)", x, y);
           break;
         }
@@ -591,8 +552,7 @@ static void handle_navigation(LfViewRequest* self, GstEvent* event) {
     case GST_NAVIGATION_EVENT_MOUSE_MOVE:
       if (st->dragging && gst_navigation_event_parse_mouse_move_event(event, &x, &y)) {
         // Drag: move the eye on the camera plane, 1/40 camera spacing per pixel.
-        eye[0] -= (x - st->drag_x) * step / 40.0;
-        eye[1] -= (y - st->drag_y) * step / 40.0;
+        lf::drag_moves_eye(x - st->drag_x, y - st->drag_y, step, &v);
         st->drag_x = x, st->drag_y = y;
         changed = true;
       }
@@ -601,26 +561,8 @@ static void handle_navigation(LfViewRequest* self, GstEvent* event) {
       scroll = gst_navigation_event_parse_mouse_scroll_event(event, &x, &y, &dx, &dy);
       break;
     case GST_NAVIGATION_EVENT_KEY_PRESS:
-      if (gst_navigation_event_parse_key_event(event, &key) && key) {
-        const std::string k = key;
-        changed = true;
-        if (k == "Left")
-          eye[0] -= step / 4;
-        else if (k == "Right")
-          eye[0] += step / 4;
-        else if (k == "Up")
-          eye[1] -= step / 4;
-        else if (k == "Down")
-          eye[1] += step / 4;
-        else if (k == "Page_Up" || k == "Prior" || k == "plus" || k == "equal" || k == "KP_Add")
-          eye[2] += step;
-        else if (k == "Page_Down" || k == "Next" || k == "minus" || k == "KP_Subtract")
-          eye[2] -= step;
-        else if (k == "r")
-          eye = {0, 0, 0}, depth = 0;
-        else
-          changed = false;
-      }
+      if (gst_navigation_event_parse_key_event(event, &key) && key)
+        changed = lf::key_moves_eye(key, step, &v);
       break;
     default:
       break;
@@ -628,10 +570,9 @@ static void handle_navigation(LfViewRequest* self, GstEvent* event) {
   if (scroll) {
     // Wheel: focal plane nearer/farther by 0.25 px of parallax between
     // neighbouring cameras per notch.
-    const double f = rig.cameras[0].intrinsics.fx;
-    const double q0 = depth > 0 ? 1.0 / depth : lf::inverse_depth_of(rig, views->plane);
-    const double q = std::max(0.0, q0 + dy * 0.25 / (f * step));
-    depth = q > 1.0 / MAX_COORD ? 1.0 / q : MAX_COORD;
+    const double q0 =
+        v.focal_depth > 0 ? 1.0 / v.focal_depth : lf::inverse_depth_of(rig, views->plane);
+    lf::wheel_moves_focus(dy, rig.cameras[0].intrinsics.fx, step, q0, MAX_COORD, &v);
     changed = true;
   }
   if (changed) {
@@ -639,14 +580,14 @@ static void handle_navigation(LfViewRequest* self, GstEvent* event) {
     cv::Vec2d base(0, 0);
     if (s.position.size() == 3)
       base = rig.plane().to_plane({s.position[0], s.position[1], s.position[2]});
-    const cv::Vec2d st2 = lf::clamp_to_array(rig, base + cv::Vec2d(eye[0], eye[1])) - base;
-    eye[0] = st2[0], eye[1] = st2[1];
+    const cv::Vec2d st2 = lf::clamp_to_array(rig, base + cv::Vec2d(v.eye[0], v.eye[1])) - base;
+    v.eye[0] = st2[0], v.eye[1] = st2[1];
   }
   g_mutex_unlock(&p->lock);
   if (changed) {
-    GST_DEBUG_OBJECT(self, "navigation: eye (s, t, w) = (%g, %g, %g), focal depth %g", eye[0],
-                     eye[1], eye[2], depth);
-    set_navigated(self, eye, depth);
+    GST_DEBUG_OBJECT(self, "navigation: eye (s, t, w) = (%g, %g, %g), focal depth %g", v.eye[0],
+                     v.eye[1], v.eye[2], v.focal_depth);
+    set_navigated(self, v.eye, v.focal_depth);
   }
 }
 
@@ -728,28 +669,18 @@ static void handle_focus_event(LfViewRequest* self, GstEvent* event) {
   }
   g_mutex_lock(&p->lock);
   State* st = p->state.get();
-  // An answer to the last click (its probe, a retry, or a continuous probe
-  // sent in between, all at the clicked point), or to a continuous probe
-  // sent since, each once (every camera branch forwards it) and never after
-  // a newer one: on a busy machine answers come after the next continuous
-  // probe has gone out (5 requests later), and taking only the newest
-  // probe's starved focus.
-  const bool click =
-      st && st->click_first_probe && probe >= st->click_first_probe && probe <= st->click_probe;
-  const bool continuous = st && probe > st->click_probe && probe <= st->continuous_probe;
-  const bool fresh = st && (click || continuous) && probe > st->applied_probe;
-  if (fresh) st->applied_probe = probe;
   const Settings v = lfgst::snapshot(GST_OBJECT(self), p->settings);
   const cv::Vec3d eye(v.eye_s, v.eye_t, v.eye_w);
-  double now_q = 0;
-  if (fresh && !click) {
-    // Continuous: part of the way from the plane in use (smoothing).
-    now_q =
-        v.focal_depth > 0 ? 1.0 / v.focal_depth : lf::inverse_depth_of(*st->rig, st->views->plane);
-    q = now_q + kContinuousFocusGain * (q - now_q);
-  }
+  // Applied once, the last click's as it is, continuous ones part of the
+  // way from the plane in use (lf::FocusSchedule::answer).
+  const std::optional<double> to =
+      st ? st->focus.answer(probe, q,
+                            v.focal_depth > 0 ? 1.0 / v.focal_depth
+                                              : lf::inverse_depth_of(*st->rig, st->views->plane))
+         : std::nullopt;
   g_mutex_unlock(&p->lock);
-  if (!fresh) return;
+  if (!to) return;
+  q = *to;
   const double depth = q > 1.0 / MAX_COORD ? 1.0 / q : MAX_COORD;
   GST_DEBUG_OBJECT(self, "focused by probe %u: depth %g", probe, depth);
   set_navigated(self, eye, depth);
@@ -774,8 +705,7 @@ static void handle_surface_event(LfViewRequest* self, GstEvent* event) {
   }
   g_mutex_lock(&p->lock);
   State* st = p->state.get();
-  const bool fresh = st && probe > st->applied_surface_probe && probe <= st->surface_probe;
-  if (fresh) st->applied_surface_probe = probe, st->surface = std::move(fs);
+  const bool fresh = st && st->surface.answer(probe, std::move(fs));
   g_cond_broadcast(&p->surface_cond);
   g_mutex_unlock(&p->lock);
   GST_DEBUG_OBJECT(self, "surface probe %u answered%s", probe, fresh ? "" : " (not ours or stale)");
@@ -888,15 +818,13 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   bool give_up_surface = false;  // non-live: the first probe had no answer
   if (!fixed.live) {
     g_mutex_lock(&p->lock);
-    if (st->surface_sent && st->surface_probe > st->applied_surface_probe &&
-        st->waited_surface_probe != st->surface_probe) {
-      st->waited_surface_probe = st->surface_probe;
+    if (const auto id = st->surface.wait_for()) {
       const gint64 until = g_get_monotonic_time() + kSurfaceWaitNonLive / GST_USECOND;
-      while (st->surface_probe > st->applied_surface_probe && !p->unlocked)
+      while (st->surface.awaiting() && !p->unlocked)
         if (!g_cond_wait_until(&p->surface_cond, &p->lock, until)) break;
-      if (st->surface_probe > st->applied_surface_probe)
-        GST_DEBUG_OBJECT(self, "surface probe %u: no answer, going on", st->surface_probe);
-      if (st->applied_surface_probe == 0) give_up_surface = true;
+      if (st->surface.awaiting())
+        GST_DEBUG_OBJECT(self, "surface probe %u: no answer, going on", *id);
+      if (!st->surface.ever_answered()) give_up_surface = true;
     }
     const bool unlocked = p->unlocked;
     g_mutex_unlock(&p->lock);
@@ -939,16 +867,15 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
     req.aperture_scale = aperture_scale(self, rig, s, req.view);
   }
   req.sampling = s.sampling;
-  // Click to focus: the probe's requests go with this tick's request (a
-  // click's, else every kContinuousFocusEvery ticks a continuous one), as
-  // are a surface probe's; each probe in one buffer (lib/lf/probe_bundle.h).
+  // Focus and surface probes (lf::FocusSchedule, lf::SurfaceSchedule) go
+  // with this tick's request, each probe in one buffer
+  // (lib/lf/probe_bundle.h).
   std::vector<std::vector<lf::ViewRequest>> probes;
-  bool warn_no_surface = false, refocused = false;
   const bool continuous =
       lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::continuous_focus);
   // A quilt's eyes share one focal plane (lib/lf/quilt.h): no surface.
-  bool want_surface = s.quilt_views == 0 &&
-                      lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::focal_surface);
+  const bool want_surface = s.quilt_views == 0 && lfgst::read_setting(GST_OBJECT(self), p->settings,
+                                                                      &Settings::focal_surface);
   const double focal_depth =
       lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::focal_depth);
   const std::string focal_plane =
@@ -958,77 +885,49 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   g_mutex_lock(&p->lock);
   const guint64 retry_ticks =
       std::max<guint64>(kClickRetryTicks, (kClickRetryAfter + period - 1) / period);
-  if (st->click_first_probe && st->applied_probe < st->click_first_probe && !st->probe_pending &&
-      st->click_retries < kClickRetries && k >= st->click_tick + retry_ticks) {
-    GST_DEBUG_OBJECT(self, "no answer to click probe %u: probing again", st->click_probe);
-    st->probe_pending = true;
-    st->click_retries++;
-  }
-  if (st->probe_pending || (continuous && k % kContinuousFocusEvery == 0)) {
-    const guint32 id = st->next_probe++;
-    if (st->probe_pending) {
-      st->click_probe = id, st->click_tick = k;
-      if (st->new_click) st->click_first_probe = id, st->new_click = false;
-    } else {
-      st->continuous_probe = id;
-    }
-    st->probe_pending = false;
-    const double x = st->focus_x >= 0 ? st->focus_x : 0.5 * (req.view.width - 1);
-    const double y = st->focus_y >= 0 ? st->focus_y : 0.5 * (req.view.height - 1);
+  if (const auto fp =
+          st->focus.probe_for(k, retry_ticks, continuous, req.view.width, req.view.height)) {
     GError* perr = nullptr;
-    if (!lfgst::guard([&] { probes.push_back(lf::focus_probe_requests(rig, req, x, y, id)); },
-                      &perr)) {
+    if (!lfgst::guard(
+            [&] { probes.push_back(lf::focus_probe_requests(rig, req, fp->x, fp->y, fp->id)); },
+            &perr)) {
       GST_WARNING_OBJECT(self, "no focus probe: %s", perr->message);
       g_error_free(perr);
     }
-    GST_DEBUG_OBJECT(self, "focus probe %u at (%g, %g), request time %" GST_TIME_FORMAT, id, x, y,
-                     GST_TIME_ARGS(pts));
+    GST_DEBUG_OBJECT(self, "%s focus probe %u at (%g, %g), request time %" GST_TIME_FORMAT,
+                     fp->click ? "click" : "continuous", fp->id, fp->x, fp->y, GST_TIME_ARGS(pts));
   }
   // Focal surface: a probe every surface-interval ticks (the first at once),
   // of the view without its surface; the surface in use, if any, goes into
   // the request.
-  if (want_surface && st->focus_known &&
-      (focal_depth != st->last_focal_depth || focal_plane != st->last_focal_plane))
-    refocused = true, want_surface = false;
-  st->focus_known = true, st->last_focal_depth = focal_depth, st->last_focal_plane = focal_plane;
-  if (!want_surface) st->surface = {}, st->surface_sent = false, st->surface_given_up = false;
-  if (want_surface && !st->surface_given_up && st->applied_surface_probe == 0 &&
-      (give_up_surface || (st->surface_probe >= kSurfaceGiveUpProbes &&
-                           g_get_monotonic_time() - st->first_surface_probe_us >=
-                               static_cast<gint64>(kSurfaceGiveUpAfter / GST_USECOND)))) {
-    st->surface_given_up = true;
-    warn_no_surface = true;
-  }
-  if (want_surface && !st->surface_given_up &&
-      (!st->surface_sent || k >= st->surface_tick + interval)) {
-    if (st->surface_probe == 0) st->first_surface_probe_us = g_get_monotonic_time();
-    const guint32 id = st->next_surface_probe++;
-    st->surface_probe = id, st->surface_tick = k, st->surface_sent = true;
+  const lf::SurfaceSchedule::Tick sp_tick = st->surface.tick(
+      k, want_surface, focal_depth, focal_plane, interval, give_up_surface, g_get_monotonic_time());
+  if (sp_tick.probe) {
     std::vector<lf::ViewRequest> sp;
     GError* perr = nullptr;
-    if (lfgst::guard([&] { sp = lf::surface_probe_requests(rig, req, id); }, &perr)) {
+    if (lfgst::guard([&] { sp = lf::surface_probe_requests(rig, req, sp_tick.probe); }, &perr)) {
       probes.push_back(std::move(sp));
-      GST_DEBUG_OBJECT(self, "surface probe %u, request time %" GST_TIME_FORMAT, id,
+      GST_DEBUG_OBJECT(self, "surface probe %u, request time %" GST_TIME_FORMAT, sp_tick.probe,
                        GST_TIME_ARGS(pts));
     } else {
       GST_WARNING_OBJECT(self, "no surface probe: %s", perr->message);
       g_error_free(perr);
     }
   }
-  const lf::FocalSurface surface = st->surface;
+  const lf::FocalSurface surface = st->surface.surface();
   g_mutex_unlock(&p->lock);
-  if (refocused) {
+  if (sp_tick.refocused) {
     GST_INFO_OBJECT(self, "refocused on a plane: focal-surface off");
     g_object_set(self, "focal-surface", FALSE, nullptr);
   }
-  if (warn_no_surface)
+  if (sp_tick.gave_up)
     GST_ELEMENT_WARNING(
         self, STREAM, FAILED, ("No answer to the focal surface probes: using focal-plane"),
         ("%u surface probes sent, none answered: no lfcompositor downstream in this pipeline "
          "answers them (across hosts, the compositor's answers cannot reach this element), or "
          "it could not estimate a surface (its warning says why); set focal-surface=false to "
          "focus on focal-plane without probing",
-         st->surface_probe));
+         st->surface.probes_sent()));
   guint surface_planes = 0, two_plane_tiles = 0;
   if (!surface.empty()) {
     lf::ViewRequest with = req;
@@ -1045,7 +944,7 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
                                  serr->message);
       g_error_free(serr);
       g_mutex_lock(&p->lock);
-      st->surface = {};
+      st->surface.drop_surface();
       g_mutex_unlock(&p->lock);
     }
   }

@@ -9,6 +9,7 @@
 
 #include "lf/session/frame_assembly.h"
 #include "lf/session/request_queue.h"
+#include "lf/session/viewer.h"
 
 using Verdict = lf::RequestWindow::Verdict;
 
@@ -234,4 +235,128 @@ TEST(ProbeCollector, BoundedOpenProbesRememberedIdsAndExpiry) {
   EXPECT_FALSE(c.scored(11));
   EXPECT_TRUE(c.scored(100));
   EXPECT_FALSE(c.scored(12));  // still open, not scored
+}
+
+// lf::FocusSchedule: a click is probed with the next tick and retried when
+// unanswered; continuous focus probes every kContinuousEvery ticks at the
+// last click; answers apply once, in order, the continuous ones smoothed.
+TEST(FocusSchedule, ClicksRetriesContinuousProbesAndWhichAnswersApply) {
+  lf::FocusSchedule f;
+  constexpr uint64_t kRetry = 5;
+  // Nothing to probe without a click or continuous focus.
+  for (uint64_t k = 0; k < 12; ++k) EXPECT_FALSE(f.probe_for(k, kRetry, false, 640, 480)) << k;
+  // Continuous, before any click: the view centre, every 5 ticks.
+  auto c = f.probe_for(15, kRetry, true, 640, 480);
+  ASSERT_TRUE(c);
+  EXPECT_FALSE(c->click);
+  EXPECT_DOUBLE_EQ(c->x, 319.5);
+  EXPECT_DOUBLE_EQ(c->y, 239.5);
+  EXPECT_FALSE(f.probe_for(16, kRetry, true, 640, 480));
+  // Its answer: half the way from the plane in use (inverse depth 0.1).
+  const auto a = f.answer(c->id, 0.5, 0.1);
+  ASSERT_TRUE(a);
+  EXPECT_DOUBLE_EQ(*a, 0.3);
+  EXPECT_FALSE(f.answer(c->id, 0.5, 0.1));  // once
+  // A click: probed with the next tick at the clicked point.
+  f.click(10, 20);
+  EXPECT_TRUE(f.click_waiting());
+  const auto p1 = f.probe_for(17, kRetry, false, 640, 480);
+  ASSERT_TRUE(p1 && p1->click);
+  EXPECT_EQ(p1->id, c->id + 1);
+  EXPECT_DOUBLE_EQ(p1->x, 10);
+  EXPECT_DOUBLE_EQ(p1->y, 20);
+  EXPECT_FALSE(f.click_waiting());
+  // No answer: retried retry_ticks later, at most kClickRetries times.
+  EXPECT_FALSE(f.probe_for(21, kRetry, false, 640, 480));
+  int retries = 0;
+  for (uint64_t k = 22; k < 100; ++k)
+    if (auto r = f.probe_for(k, kRetry, false, 640, 480)) {
+      EXPECT_TRUE(r->click);
+      EXPECT_DOUBLE_EQ(r->x, 10);
+      ++retries;
+    }
+  EXPECT_EQ(retries, lf::FocusSchedule::kClickRetries);
+  // The first retry's late answer applies as it is; then the first probe's
+  // (older) does not, nor does the same answer twice.
+  EXPECT_EQ(f.answer(p1->id + 1, 0.25, 0.1), std::optional<double>(0.25));
+  EXPECT_FALSE(f.answer(p1->id, 0.3, 0.1));
+  EXPECT_FALSE(f.answer(p1->id + 1, 0.3, 0.1));
+  // Continuous probes now go to the clicked point; answers to probes never
+  // sent do not apply.
+  const auto c2 = f.probe_for(100, kRetry, true, 640, 480);
+  ASSERT_TRUE(c2 && !c2->click);
+  EXPECT_DOUBLE_EQ(c2->x, 10);
+  EXPECT_FALSE(f.answer(c2->id + 7, 0.3, 0.1));
+  EXPECT_EQ(f.answer(c2->id, 0.3, 0.1), std::optional<double>(0.1 + 0.5 * (0.3 - 0.1)));
+}
+
+// lf::SurfaceSchedule: the first probe at once, then every interval ticks;
+// answers newest-first once; a focus change takes the view off the
+// surface; without answers probing stops once, live and not live.
+TEST(SurfaceSchedule, CadenceAnswersRefocusAndGivingUp) {
+  lf::SurfaceSchedule s;
+  lf::FocalSurface fs;
+  fs.tile = 16, fs.cols = 2, fs.rows = 1;
+  fs.planes = {lf::FocalPlane::through({0, 0, 5}, {0, 0, 1})};
+  fs.plane_of = {0, 0};
+  auto t = s.tick(0, true, 0, "infinity", 10, false, 0);
+  EXPECT_EQ(t.probe, 1u);
+  EXPECT_EQ(s.tick(5, true, 0, "infinity", 10, false, 0).probe, 0u);
+  EXPECT_EQ(s.tick(10, true, 0, "infinity", 10, false, 0).probe, 2u);
+  // Not live: the last probe is waited for once.
+  EXPECT_EQ(s.wait_for(), std::optional<uint32_t>(2));
+  EXPECT_FALSE(s.wait_for());
+  EXPECT_TRUE(s.awaiting());
+  // Answers: probe 2, then the older 1 is refused, as is one never sent.
+  EXPECT_FALSE(s.answer(3, fs));
+  EXPECT_TRUE(s.answer(2, fs));
+  EXPECT_FALSE(s.answer(1, fs));
+  EXPECT_FALSE(s.awaiting());
+  EXPECT_TRUE(s.ever_answered());
+  EXPECT_EQ(s.surface().cols, 2);
+  // The wheel (focal depth set): off the surface, and no probes.
+  t = s.tick(11, true, 3.5, "infinity", 10, false, 0);
+  EXPECT_TRUE(t.refocused);
+  EXPECT_EQ(t.probe, 0u);
+  EXPECT_TRUE(s.surface().empty());
+  // Live, never answered: after 3 probes and 5 s, one give-up, then none.
+  lf::SurfaceSchedule live;
+  int64_t us = 1'000'000;
+  for (uint64_t k = 0; k < 3; ++k)
+    EXPECT_NE(live.tick(k * 10, true, 0, "p", 10, false, us).probe, 0u);
+  EXPECT_FALSE(live.tick(30, true, 0, "p", 10, false, us + 4'000'000).gave_up);
+  t = live.tick(40, true, 0, "p", 10, false, us + lf::SurfaceSchedule::kGiveUpAfterUs);
+  EXPECT_TRUE(t.gave_up);
+  EXPECT_EQ(t.probe, 0u);
+  for (uint64_t k = 41; k < 200; ++k) {
+    t = live.tick(k, true, 0, "p", 10, false, us + 10'000'000);
+    EXPECT_FALSE(t.gave_up || t.probe) << k;
+  }
+  // Not live: the first wait failed gives up at once; setting focal-surface
+  // off and on again starts afresh.
+  lf::SurfaceSchedule once;
+  EXPECT_EQ(once.tick(0, true, 0, "p", 10, false, 0).probe, 1u);
+  EXPECT_TRUE(once.tick(1, true, 0, "p", 10, true, 0).gave_up);
+  EXPECT_EQ(once.tick(2, false, 0, "p", 10, false, 0).probe, 0u);
+  EXPECT_EQ(once.tick(3, true, 0, "p", 10, false, 0).probe, 2u);
+}
+
+TEST(Navigation, KeysDragAndWheel) {
+  lf::EyeAndFocus v;
+  EXPECT_TRUE(lf::key_moves_eye("Left", 2.0, &v));
+  EXPECT_TRUE(lf::key_moves_eye("Down", 2.0, &v));
+  EXPECT_TRUE(lf::key_moves_eye("KP_Add", 2.0, &v));
+  EXPECT_EQ(v.eye, cv::Vec3d(-0.5, 0.5, 2.0));
+  EXPECT_FALSE(lf::key_moves_eye("q", 2.0, &v));
+  lf::drag_moves_eye(40, -80, 2.0, &v);  // against the drag, 1/40 step a pixel
+  EXPECT_EQ(v.eye, cv::Vec3d(-2.5, 4.5, 2.0));
+  // The wheel: 0.25 px of parallax per notch between cameras 2 apart at
+  // fx = 500: inverse depth 0.25 / 1000 per notch; never behind infinity.
+  lf::wheel_moves_focus(4, 500, 2.0, 0.0, 1e12, &v);
+  EXPECT_NEAR(v.focal_depth, 1000.0, 1e-9);
+  lf::wheel_moves_focus(-8, 500, 2.0, 0.001, 1e12, &v);
+  EXPECT_EQ(v.focal_depth, 1e12);
+  EXPECT_TRUE(lf::key_moves_eye("r", 2.0, &v));
+  EXPECT_EQ(v.eye, cv::Vec3d(0, 0, 0));
+  EXPECT_EQ(v.focal_depth, 0);
 }
