@@ -17,8 +17,8 @@
 #include <string>
 #include <vector>
 
-#include "lf/rig.h"
-#include "lf/view.h"
+#include "lf/geometry/rig.h"
+#include "lf/geometry/view.h"
 
 namespace lf::calib {
 

@@ -1,5 +1,5 @@
-// Ceres cost functors of the camera model (lf/camera.h; the projection itself
-// is lf/projection.h, shared with lf::Camera::project), in the shape of
+// Ceres cost functors of the camera model (lf/geometry/camera.h; the projection itself
+// is lf/geometry/projection.h, shared with lf::Camera::project), in the shape of
 // Ceres' examples/snavely_reprojection_error.h: a templated operator() and a
 // Create() factory returning an AutoDiffCostFunction.
 #pragma once
@@ -7,7 +7,7 @@
 #include <ceres/autodiff_cost_function.h>
 #include <ceres/rotation.h>
 
-#include "lf/projection.h"
+#include "lf/geometry/projection.h"
 
 namespace lf::calib {
 

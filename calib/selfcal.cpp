@@ -13,8 +13,8 @@
 #include <stdexcept>
 
 #include "calib/reprojection_error.h"
-#include "lf/projection.h"
-#include "lf/synthetic.h"
+#include "lf/geometry/projection.h"
+#include "lf/quality/synthetic.h"
 
 namespace lf::calib {
 

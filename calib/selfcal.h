@@ -27,7 +27,7 @@
 #include <string>
 #include <vector>
 
-#include "lf/rig.h"
+#include "lf/geometry/rig.h"
 
 namespace lf::calib {
 

@@ -4,7 +4,7 @@
 #include <opencv2/calib3d.hpp>
 #include <random>
 
-#include "lf/synthetic.h"
+#include "lf/quality/synthetic.h"
 
 namespace lf::calib {
 

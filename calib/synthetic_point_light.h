@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "calib/selfcal.h"
-#include "lf/rig.h"
+#include "lf/geometry/rig.h"
 
 namespace lf::calib {
 

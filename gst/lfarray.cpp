@@ -12,10 +12,10 @@
  * Whole-view mode (`whole-view`, the default with raw fragments): the
  * `lffragment`s only plan (`defer=true`) and the compositor draws all
  * cameras of a view from their frames: on the CPU band by band straight
- * into its sums, on all cores (lib/lf/composite.h; no fragment in memory),
+ * into its sums, on all cores (lib/lf/render/composite.h; no fragment in memory),
  * with GL in one pass sequence into one output (each camera frame uploaded
  * once, no fragment read back, no GL context per camera;
- * lib/lf/gl_render.h). Planning is cheap, so one request thread plans
+ * lib/lf/render/gl_render.h). Planning is cheap, so one request thread plans
  * every camera (not one thread per camera: one hand-off per request
  * instead of 64, which a profile of the pipeline showed to cost), with the request
  * rate limit (`max-rate`) kept once for all cameras; only where frames are

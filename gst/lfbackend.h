@@ -1,5 +1,5 @@
 // The `backend` property of lffragment, lfcompositor and lflenticular:
-// its enum type and the renderer (lib/lf/renderer.h) it opens at start; and
+// its enum type and the renderer (lib/lf/render/renderer.h) it opens at start; and
 // the enum type of the fragment encodings.
 #pragma once
 
@@ -8,9 +8,9 @@
 #include <memory>
 #include <string>
 
-#include "lf/gl_render.h"
-#include "lf/renderer.h"
-#include "lf/wire.h"
+#include "lf/render/gl_render.h"
+#include "lf/render/renderer.h"
+#include "lf/wire/wire.h"
 #include "lfcaps.h"
 #include "lfguard.h"
 #include "lfprops.h"
@@ -18,7 +18,7 @@
 namespace lfgst {
 
 // The fragment encodings (lffragment, lfpartialsum `encoding`), and on the
-// wire (lib/lf/wire.h).
+// wire (lib/lf/wire/wire.h).
 enum class FragmentEncoding { kRaw = 0, kJpeg = 1 };
 inline lf::Encoding wire_encoding(FragmentEncoding e) {
   return e == FragmentEncoding::kJpeg ? lf::Encoding::kJpeg : lf::Encoding::kRaw;
@@ -55,7 +55,7 @@ inline GType backend_type() {
   return enum_type(&type, "LfBackend", values);
 }
 
-// Makes the renderer for `backend` (lib/lf/renderer.h) into `renderer`.
+// Makes the renderer for `backend` (lib/lf/render/renderer.h) into `renderer`.
 // Logs auto's choice at INFO; posts an element error and returns false
 // where GL is asked for and cannot be had.
 inline bool open_renderer(GstElement* el, lf::Backend backend,

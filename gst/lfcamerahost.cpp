@@ -46,8 +46,8 @@
 #include <string>
 #include <vector>
 
-#include "lf/gl_render.h"
-#include "lf/parse.h"
+#include "lf/io/parse.h"
+#include "lf/render/gl_render.h"
 #include "lfbackend.h"
 #include "lfforward.h"
 #include "lfguard.h"

@@ -8,9 +8,9 @@
  * missing file fails the start, one that does not decode the first frame;
  * decoded stills are kept in `still-cache`, by default
  * $XDG_CACHE_HOME/lightfield-gst/stills, at most 1 GiB, so that a restart
- * reads them in milliseconds instead of decoding again: lib/lf/still_cache.h);
+ * reads them in milliseconds instead of decoding again: lib/lf/io/still_cache.h);
  * `mode=synthetic`: a dynamic scene with known depths ray-cast from
- * the camera's calibration (lib/lf/synthetic.h); `mode=file`: a video file or
+ * the camera's calibration (lib/lf/quality/synthetic.h); `mode=file`: a video file or
  * image sequence (`location`) through GStreamer's decoders; `mode=v4l2`: a
  * capture `device`. Frames are captured on a schedule aligned to the pipeline
  * clock: running time k * period + phase (Yang et al. 2002, 4.4.4), so all
@@ -45,10 +45,10 @@
 #include <opencv2/imgproc.hpp>
 #include <thread>
 
-#include "lf/image_io.h"
-#include "lf/parse.h"
-#include "lf/still_cache.h"
-#include "lf/synthetic.h"
+#include "lf/io/image_io.h"
+#include "lf/io/parse.h"
+#include "lf/io/still_cache.h"
+#include "lf/quality/synthetic.h"
 #include "lfclock.h"
 #include "lfguard.h"
 #include "lfmeta.h"

@@ -1,4 +1,4 @@
-// Caps of the collection's in-band formats (byte layouts: lib/lf/wire.h).
+// Caps of the collection's in-band formats (byte layouts: lib/lf/wire/wire.h).
 //
 //   application/x-lf-view-request, framerate = (fraction) N/D,
 //                                  width = (int) W, height = (int) H

@@ -4,16 +4,16 @@
  *
  * Collects the fragments of each view request and adds them into the output
  * frame (Yang et al. 2002, Section 4.3), renormalised by the accumulated
- * weight (lib/lf/composite.h). A GstAggregator: it composites a request when
+ * weight (lib/lf/render/composite.h). A GstAggregator: it composites a request when
  * all of its fragments are in, or at the deadline in live pipelines with
  * whatever arrived, so a dead camera never stops the output. A partial sum
- * (`lfpartialsum`: one camera host's cameras added up, lib/lf/wire.h
+ * (`lfpartialsum`: one camera host's cameras added up, lib/lf/wire/wire.h
  * version 2) counts as the cameras it holds (at most the rig's). Output:
  * ordinary raw video (RGBA, RGBx or I420), from a buffer pool of its own.
  *
  * Raw fragments are not copied: their pixels are added straight from the
  * received buffers, which it holds until their frame is composited. Every
- * fragment is validated (lib/lf/wire.h); the CRC check is skipped only for
+ * fragment is validated (lib/lf/wire/wire.h); the CRC check is skipped only for
  * buffers that `lffragment` sealed in this process (they carry
  * `LfSealedMeta`, which no copy and nothing received from the network has).
  * JPEG fragments are decoded on the streaming thread that brings them,
@@ -29,9 +29,9 @@
  * are drawn here: with the GL backend in the same pass sequence as the
  * other fragments, each camera frame uploaded once into a texture (slot:
  * the camera's rig index); with the CPU backend fused into the compositing
- * (lib/lf/composite.h: each band of rows draws its part of every camera's
+ * (lib/lf/render/composite.h: each band of rows draws its part of every camera's
  * fragment straight into its sums, the bands on all cores), or, in a frame
- * of layer pairs, drawn first by the renderer (lib/lf/renderer.h) on the
+ * of layer pairs, drawn first by the renderer (lib/lf/render/renderer.h) on the
  * aggregate thread.
  *
  * Stream facts come from the fragment caps: the output frame rate is their
@@ -41,8 +41,8 @@
  * then replaces it.
  *
  * Probes are scored here, never composited: the fragments of a focus probe
- * (lib/lf/focus_probe.h) give the depth under a clicked pixel (an upstream
- * `lf-focus` event), and those of a surface probe (lib/lf/surface_probe.h)
+ * (lib/lf/focus/focus_probe.h) give the depth under a clicked pixel (an upstream
+ * `lf-focus` event), and those of a surface probe (lib/lf/focus/surface_probe.h)
  * a focal surface for the whole view (an upstream `lf-surface` event; see
  * `lfviewrequest`'s focal-surface). A probe is scored when every camera has
  * answered every step, or at a deadline (1 s, or `latency` when longer)
@@ -55,11 +55,11 @@
  * With `second-planes`, the surface gives tiles next to a depth edge, and
  * tiles with a thin structure inside (bars, wires: cells of the tile that
  * agree far better at another depth, as their neighbours along the
- * structure do; lib/lf/focal_surface.h SurfaceOptions::thin_ratio), a
+ * structure do; lib/lf/focus/focal_surface.h SurfaceOptions::thin_ratio), a
  * second plane. A camera then answers with two fragments in one buffer,
  * its layer 0 and its layer 1 (the nearer plane of each two-plane tile),
  * and such a frame is composited with a per-pixel choice between the
- * layers (lib/lf/composite.h LayerCompositor, on the CPU whatever the
+ * layers (lib/lf/render/composite.h LayerCompositor, on the CPU whatever the
  * backend): the nearer layer unless the other one's cameras agree clearly
  * better. A buffer whose second fragment is not the same camera's layer 1
  * of the same request is dropped with a warning.
@@ -85,15 +85,15 @@
 #include <opencv2/imgproc.hpp>
 #include <optional>
 
-#include "lf/composite.h"
-#include "lf/focus_probe.h"
-#include "lf/fragment.h"
-#include "lf/probe_bundle.h"
-#include "lf/render.h"
-#include "lf/renderer.h"
+#include "lf/focus/focus_probe.h"
+#include "lf/focus/surface_probe.h"
+#include "lf/render/composite.h"
+#include "lf/render/fragment.h"
+#include "lf/render/render.h"
+#include "lf/render/renderer.h"
 #include "lf/session/frame_assembly.h"
-#include "lf/surface_probe.h"
-#include "lf/wire.h"
+#include "lf/wire/probe_bundle.h"
+#include "lf/wire/wire.h"
 #include "lfaggregate.h"
 #include "lfbackend.h"
 #include "lfcaps.h"
@@ -142,7 +142,7 @@ struct Settings {
 // pixels stay in the received buffer, which stays mapped (and referenced)
 // until the frame is composited; JPEG ones are decoded into `f.pixels`.
 // A buffer holding a camera's two layers, or its fragments of a quilt's
-// eyes (lib/lf/wire.h), gives a piece each; the first keeps the mapping,
+// eyes (lib/lf/wire/wire.h), gives a piece each; the first keeps the mapping,
 // the others' raw pixels point into it.
 struct Piece {
   lf::Fragment f;
@@ -170,7 +170,7 @@ constexpr gint64 kProbeDeadlineUs = G_USEC_PER_SEC;
 // of the last ones scored are remembered (lf::ProbeCollector).
 constexpr size_t kMaxProbes = 4;
 
-// Surface probes (lib/lf/surface_probe.h) collected at once: one every
+// Surface probes (lib/lf/focus/surface_probe.h) collected at once: one every
 // `surface-interval` requests of lfviewrequest; a second may start before
 // the first is complete.
 constexpr size_t kMaxSurfaceProbes = 2;
@@ -187,7 +187,7 @@ struct State {
   lf::RequestWindow window;
   guint64 conflicts = 0;       // fragments dropped as a second copy of a camera's in a request
   lf::ViewerSelection viewer;  // the viewer composited (viewer-id, or the first seen)
-  // The renderer (lib/lf/renderer.h: the CPU kernels, or GL), chosen at
+  // The renderer (lib/lf/render/renderer.h: the CPU kernels, or GL), chosen at
   // start by `backend`; its image slots hold the camera frames of
   // drawings left to us (each uploaded once with GL).
   std::unique_ptr<lf::Renderer> renderer;
@@ -469,7 +469,7 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Request& g, bool com
   if (!ensure_caps(self, W, H)) return GST_FLOW_NOT_NEGOTIATED;
   const guint left_id = static_cast<guint>(std::max<int64_t>(0, st->viewer.viewer()));
   // Each eye's fragments, and the drawings lffragment left to us (defer:
-  // whole-view mode), composited at once by the renderer (lib/lf/renderer.h:
+  // whole-view mode), composited at once by the renderer (lib/lf/render/renderer.h:
   // on the CPU each band of rows draws its part of every drawing straight
   // into its sums, on all cores; with GL each camera frame is uploaded
   // once), resolved into the frame that is not last_frame (no allocation
@@ -764,7 +764,7 @@ static void absorb_surface_probe(LfCompositor* self, State* st, const guint8* da
 
 // A probe's answer from one camera (header already checked: our viewer, a
 // known camera): one step's fragment, or a bundle of its steps
-// (lib/lf/probe_bundle.h), each scored as it comes. A bundle with a
+// (lib/lf/wire/probe_bundle.h), each scored as it comes. A bundle with a
 // fragment of another probe, viewer or camera is dropped whole.
 static void absorb_probe_answer(LfCompositor* self, State* st, const guint8* data, gsize size,
                                 int w, int h) {
@@ -1170,24 +1170,26 @@ static void lf_compositor_class_init(LfCompositorClass* klass) {
                                  "twice as wide; changeable while playing (the output is then "
                                  "renegotiated)",
                                  DEFAULT_STEREO, lfgst::kReadWritePlaying));
-  props.add(oc, &Settings::second_planes,
-            g_param_spec_boolean(
-                "second-planes", "Second planes",
-                "Surface probes (lfviewrequest focal-surface): tiles next to a depth edge get the "
-                "neighbouring depth as a second plane, tiles with a thin structure inside (bars, "
-                "wires) its depth; the cameras then send those tiles twice "
-                "(layer 1: the nearer plane) and this element takes per pixel the layer whose "
-                "cameras agree (lib/lf/composite.h LayerCompositor, on the CPU); more bytes where "
-                "the scene has depth edges, none elsewhere",
-                FALSE, lfgst::kReadWritePlaying));
-  props.add(oc, &Settings::backend,
-            g_param_spec_enum("backend", "Backend",
-                              "Which renderer adds the fragments and resolves the frame "
-                              "(lib/lf/gl_render.h): the CPU (bands of rows on every core) or "
-                              "EGL/GLES 3 (blending); the same frame within 1 LSB (identical on "
-                              "Mesa's llvmpipe)",
-                              lfgst::backend_type(), static_cast<gint>(lf::Backend::kAuto),
-                              lfgst::kReadWriteReady));
+  props.add(
+      oc, &Settings::second_planes,
+      g_param_spec_boolean(
+          "second-planes", "Second planes",
+          "Surface probes (lfviewrequest focal-surface): tiles next to a depth edge get the "
+          "neighbouring depth as a second plane, tiles with a thin structure inside (bars, "
+          "wires) its depth; the cameras then send those tiles twice "
+          "(layer 1: the nearer plane) and this element takes per pixel the layer whose "
+          "cameras agree (lib/lf/render/composite.h LayerCompositor, on the CPU); more bytes where "
+          "the scene has depth edges, none elsewhere",
+          FALSE, lfgst::kReadWritePlaying));
+  props.add(
+      oc, &Settings::backend,
+      g_param_spec_enum("backend", "Backend",
+                        "Which renderer adds the fragments and resolves the frame "
+                        "(lib/lf/render/gl_render.h): the CPU (bands of rows on every core) or "
+                        "EGL/GLES 3 (blending); the same frame within 1 LSB (identical on "
+                        "Mesa's llvmpipe)",
+                        lfgst::backend_type(), static_cast<gint>(lf::Backend::kAuto),
+                        lfgst::kReadWriteReady));
   const GParamFlags ro = static_cast<GParamFlags>(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS);
   props.add(oc, &Settings::frames,
             g_param_spec_uint64("frames", "Frames", "Frames composited since the element started",

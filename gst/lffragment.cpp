@@ -5,19 +5,19 @@
  * The paper's random access camera (Yang et al. 2002, Section 4.2). Camera
  * frames arrive on `sink`, view requests on `request`; for every request the
  * newest frame (colour-corrected by the rig's 3x4 `colour` matrix,
- * lib/lf/colour.h) is warped into this camera's fragment of the requested
- * view (lib/lf/plan.h, lib/lf/render.h) and pushed on `src`, tagged in band
- * (lib/lf/wire.h). With `frame-select=capture-time` the frame is instead the
+ * lib/lf/render/colour.h) is warped into this camera's fragment of the requested
+ * view (lib/lf/render/plan.h, lib/lf/render/render.h) and pushed on `src`, tagged in band
+ * (lib/lf/wire/wire.h). With `frame-select=capture-time` the frame is instead the
  * one captured at the request's time: the newest whose capture time (its
  * `LfCaptureMeta`, else its PTS) is at or before the request's time (the
- * viewer's PTS, carried in the request, lib/lf/wire.h, so network delay does
+ * viewer's PTS, carried in the request, lib/lf/wire/wire.h, so network delay does
  * not change it; else the request buffer's PTS), waiting up to
  * `frame-timeout` for it; so every camera of a deployment warps frames of
  * one capture instant for a request, and a live run and the playback of its
  * recording pair the same frames with the same requests (lfcamerahost
- * `record`/`playback`). Focus probes (lib/lf/focus_probe.h) and surface
- * probes (lib/lf/surface_probe.h) come as one buffer of all their steps
- * (lib/lf/probe_bundle.h), answered with one buffer of this camera's
+ * `record`/`playback`). Focus probes (lib/lf/focus/focus_probe.h) and surface
+ * probes (lib/lf/focus/surface_probe.h) come as one buffer of all their steps
+ * (lib/lf/wire/probe_bundle.h), answered with one buffer of this camera's
  * fragment of each step; they always pick by capture time, one frame for
  * all steps of a probe; a camera that no longer holds the frame of the
  * probe's instant (its frame period), or skipped it, sits the probe out.
@@ -55,13 +55,13 @@
 #include <mutex>
 #include <string>
 
-#include "lf/colour.h"
-#include "lf/focus_probe.h"
-#include "lf/plan.h"
-#include "lf/probe_bundle.h"
-#include "lf/render.h"
-#include "lf/surface_probe.h"
-#include "lf/wire.h"
+#include "lf/focus/focus_probe.h"
+#include "lf/focus/surface_probe.h"
+#include "lf/render/colour.h"
+#include "lf/render/plan.h"
+#include "lf/render/render.h"
+#include "lf/wire/probe_bundle.h"
+#include "lf/wire/wire.h"
 #include "lfbackend.h"
 #include "lfcaps.h"
 #include "lfguard.h"
@@ -143,12 +143,12 @@ struct State {
   // pixels a second for each viewer, bursts of one second's worth (request
   // thread only).
   lfgst::RequestLimits limits;
-  // The renderer (lib/lf/renderer.h: the CPU kernels, or GL), chosen at
+  // The renderer (lib/lf/render/renderer.h: the CPU kernels, or GL), chosen at
   // start by `backend`; its slot 0 holds the camera frame (request thread
   // only).
   std::unique_ptr<lf::Renderer> renderer;
   // encoding=jpeg: the rectangle's image the encoder takes, drawn in place
-  // (lf/wire.h serialize_jpeg_fragment), kept from request to request (no
+  // (lf/wire/wire.h serialize_jpeg_fragment), kept from request to request (no
   // allocation per fragment; request thread only).
   std::vector<uint8_t> jpeg_pixels;
   // Warnings about what peers send, at most one a second each.
@@ -742,7 +742,7 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
         f.sequence = req.sequence;
         f.capture_time_ns = capture_time_of(self, frame, cam.id);
         // A surface with second planes: this camera's layer-0 and layer-1
-        // fragments, back to back in one buffer (lib/lf/wire.h); a quilt:
+        // fragments, back to back in one buffer (lib/lf/wire/wire.h); a quilt:
         // its fragment of each eye it sees, each moved to the eye's tile.
         std::vector<lf::FragmentPlan> plans;
         std::vector<cv::Point> tile_of;  // a quilt's: each plan's tile origin
@@ -878,7 +878,7 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
 }
 
 // A request buffer: one request, answered in one buffer (a layer pair where
-// the surface has second planes), or a probe bundle (lib/lf/probe_bundle.h),
+// the surface has second planes), or a probe bundle (lib/lf/wire/probe_bundle.h),
 // whose steps are answered one by one and sent back in one buffer.
 static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBuffer* buf) {
   LfFragment* self = LF_FRAGMENT(parent);
@@ -1032,27 +1032,28 @@ static void lf_fragment_class_init(LfFragmentClass* klass) {
                               static_cast<gint>(DEFAULT_FRAME_SELECT), lfgst::kReadWriteReady));
   gst_type_mark_as_plugin_api(LF_TYPE_FRAGMENT_ENCODING, static_cast<GstPluginAPIFlags>(0));
   props.add(oc, &Settings::backend,
-            g_param_spec_enum("backend", "Backend",
-                              "Which renderer draws the fragments (lib/lf/gl_render.h): the CPU "
-                              "kernels or EGL/GLES 3; both give the same pixels within 1 LSB "
-                              "(identical on Mesa's llvmpipe)",
-                              LF_TYPE_BACKEND, static_cast<gint>(DEFAULT_BACKEND),
-                              lfgst::kReadWriteReady));
-  props.add(oc, &Settings::defer,
-            g_param_spec_boolean(
-                "defer", "Defer drawing",
-                "Leave the drawing to an lfcompositor in this process (lfarray's whole-view "
-                "mode): each fragment goes as an empty fragment with its plan and camera image "
-                "attached (LfDeferredMeta, gst/lfmeta.h), and the compositor draws all cameras "
-                "of a view: with GL in one pass sequence, with no fragment read back; on the CPU "
-                "band by band straight into its sums, on all cores (lib/lf/composite.h). The "
-                "attachment never leaves the process: over RTP or to any other element these "
-                "fragments are empty, so use it only with a compositor in the same process. "
-                "Raw encoding only; probes and layer pairs are drawn here as always. A request "
-                "without a camera frame (frame-timeout) or that cannot be planned is answered "
-                "with an empty fragment (and a warning), not dropped: lfarray plans all cameras "
-                "on one thread, whose pads must stay in step",
-                FALSE, lfgst::kReadWriteReady));
+            g_param_spec_enum(
+                "backend", "Backend",
+                "Which renderer draws the fragments (lib/lf/render/gl_render.h): the CPU "
+                "kernels or EGL/GLES 3; both give the same pixels within 1 LSB "
+                "(identical on Mesa's llvmpipe)",
+                LF_TYPE_BACKEND, static_cast<gint>(DEFAULT_BACKEND), lfgst::kReadWriteReady));
+  props.add(
+      oc, &Settings::defer,
+      g_param_spec_boolean(
+          "defer", "Defer drawing",
+          "Leave the drawing to an lfcompositor in this process (lfarray's whole-view "
+          "mode): each fragment goes as an empty fragment with its plan and camera image "
+          "attached (LfDeferredMeta, gst/lfmeta.h), and the compositor draws all cameras "
+          "of a view: with GL in one pass sequence, with no fragment read back; on the CPU "
+          "band by band straight into its sums, on all cores (lib/lf/render/composite.h). The "
+          "attachment never leaves the process: over RTP or to any other element these "
+          "fragments are empty, so use it only with a compositor in the same process. "
+          "Raw encoding only; probes and layer pairs are drawn here as always. A request "
+          "without a camera frame (frame-timeout) or that cannot be planned is answered "
+          "with an empty fragment (and a warning), not dropped: lfarray plans all cameras "
+          "on one thread, whose pads must stay in step",
+          FALSE, lfgst::kReadWriteReady));
   gst_type_mark_as_plugin_api(LF_TYPE_FRAGMENT_FRAME_SELECT, static_cast<GstPluginAPIFlags>(0));
   gst_type_mark_as_plugin_api(LF_TYPE_BACKEND, static_cast<GstPluginAPIFlags>(0));
   gst_element_class_add_static_pad_template(ec, &sink_template);

@@ -8,7 +8,7 @@
  * fragments. Request a pad `src_%u` for viewer id `%u` (the `viewer-id` of
  * that viewer's lfviewrequest and lfcompositor; a stereo viewer N also uses
  * N + 1, its right eye). Each fragment goes to the pad of the viewer in its
- * header (lib/lf/wire.h; read without decoding the payload) or, when no
+ * header (lib/lf/wire/wire.h; read without decoding the payload) or, when no
  * such pad exists, nowhere: the viewer ids a peer writes only select among
  * the pads the application asked for, so a peer cannot make this element
  * allocate anything. A malformed buffer is dropped with a rate-limited
@@ -34,7 +34,7 @@
 #include <atomic>
 #include <map>
 
-#include "lf/wire.h"
+#include "lf/wire/wire.h"
 #include "lfcaps.h"
 #include "lfguard.h"
 #include "lfwarn.h"

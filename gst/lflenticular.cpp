@@ -2,14 +2,14 @@
  * SECTION:element-lflenticular
  * @title: lflenticular
  *
- * Interleaves a quilt (lib/lf/quilt.h: views tiled from the bottom-left,
+ * Interleaves a quilt (lib/lf/render/quilt.h: views tiled from the bottom-left,
  * left to right, then upward, as `lfviewrequest quilt-views=N` and
  * `lfcompositor` make it) into the panel image of a lenticular light-field
  * display (the Looking Glass family): every sub-pixel of the panel shows
  * the view that lies under it through the display's slanted lenticules,
  * from the display's calibration (its "visual.json": pitch, slope, center,
  * DPI, screenW, screenH, invView, flipImageX, flipSubp). The formula is the
- * display's published one (lib/lf/lenticular.h); each view is sampled at
+ * display's published one (lib/lf/render/lenticular.h); each view is sampled at
  * the nearest pixel of its tile.
  *
  * Input: RGBA frames that are a whole number of `quilt-columns` x
@@ -17,7 +17,7 @@
  * screenH), the frame rate and timestamps of the input, for a full-screen
  * video sink on the display (or a file).
  *
- * `backend=gl` runs the interleave as a fragment shader (lib/lf/gl_render.h
+ * `backend=gl` runs the interleave as a fragment shader (lib/lf/render/gl_render.h
  * GlRenderer::interleave), the same arithmetic as the CPU kernel
  * (tests/test_gl.cpp: identical output on Mesa's llvmpipe).
  *
@@ -41,8 +41,8 @@
 #include <opencv2/core.hpp>
 #include <string>
 
-#include "lf/gl_render.h"
-#include "lf/lenticular.h"
+#include "lf/render/gl_render.h"
+#include "lf/render/lenticular.h"
 #include "lfbackend.h"
 #include "lfguard.h"
 #include "lfprops.h"
@@ -70,7 +70,7 @@ struct Priv {
   lf::DisplayCalibration cal;
   bool have_cal = false;
   lf::Quilt layout;
-  std::unique_ptr<lf::Renderer> renderer;  // lib/lf/renderer.h, by `backend`
+  std::unique_ptr<lf::Renderer> renderer;  // lib/lf/render/renderer.h, by `backend`
 };
 
 lfgst::Properties<Settings> props;

@@ -9,8 +9,8 @@
 #include <memory>
 #include <opencv2/core.hpp>
 
-#include "lf/camera.h"
-#include "lf/plan.h"
+#include "lf/geometry/camera.h"
+#include "lf/render/plan.h"
 
 namespace lfgst {
 
@@ -31,7 +31,7 @@ bool has_sealed_meta(GstBuffer* buf);
 
 // A fragment's drawing left to the compositor (lffragment `defer`,
 // lfarray's whole-view mode): what lf::render_pixels() would take. On an
-// empty fragment buffer (lib/lf/wire.h kEmpty) as LfDeferredMeta, which,
+// empty fragment buffer (lib/lf/wire/wire.h kEmpty) as LfDeferredMeta, which,
 // like LfSealedMeta, no copy of the buffer carries: only buffers that stay
 // in this process have it, and anywhere else the fragment is just empty.
 struct DeferredDraw {

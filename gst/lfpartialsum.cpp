@@ -4,8 +4,8 @@
  *
  * Adds up the fragments of one camera host's cameras for each view request
  * and sends one fragment, their partial sum (premultiplied colour and
- * weight summed per output pixel: lib/lf/composite.h sum_fragments; a
- * version-2 fragment, lib/lf/wire.h, that tells the compositor how many
+ * weight summed per output pixel: lib/lf/render/composite.h sum_fragments; a
+ * version-2 fragment, lib/lf/wire/wire.h, that tells the compositor how many
  * cameras it holds). `lfcompositor` adds it like any fragment and
  * renormalises by the total weight, so the frame is the same (bit for bit
  * where the sums fit 8 bits). It pays when the host's cameras are
@@ -43,10 +43,10 @@
 #include <utility>
 #include <vector>
 
-#include "lf/composite.h"
-#include "lf/probe_bundle.h"
+#include "lf/render/composite.h"
 #include "lf/session/frame_assembly.h"
-#include "lf/wire.h"
+#include "lf/wire/probe_bundle.h"
+#include "lf/wire/wire.h"
 #include "lfaggregate.h"
 #include "lfbackend.h"
 #include "lfcaps.h"

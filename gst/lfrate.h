@@ -85,7 +85,7 @@ class RequestLimits {
   ViewerBuckets rate_, pixels_;
 };
 
-// The viewer id of a view request buffer (lib/lf/wire.h: "LFVR", then the
+// The viewer id of a view request buffer (lib/lf/wire/wire.h: "LFVR", then the
 // viewer id at byte 8, big-endian as every integer there), or G_MAXUINT32
 // when it is none (the parser drops it later).
 inline guint32 request_viewer(const guint8* data, gsize size) {
@@ -95,7 +95,7 @@ inline guint32 request_viewer(const guint8* data, gsize size) {
          static_cast<guint32>(data[10]) << 8 | static_cast<guint32>(data[11]);
 }
 
-// The output pixels (width x height) of a view request buffer (lib/lf/wire.h:
+// The output pixels (width x height) of a view request buffer (lib/lf/wire/wire.h:
 // width and height as u16 at bytes 84 and 86), or 0 when it has none.
 inline double request_pixels(const guint8* data, gsize size) {
   if (size < 88 || request_viewer(data, size) == G_MAXUINT32) return 0;

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "lf/camera.h"
+#include "lf/geometry/camera.h"
 
 namespace lfgst {
 

@@ -29,9 +29,9 @@
 #include <atomic>
 #include <new>
 
-#include "lf/focus_probe.h"
+#include "lf/focus/focus_probe.h"
+#include "lf/focus/surface_probe.h"
 #include "lf/session/request_queue.h"
-#include "lf/surface_probe.h"
 #include "lfrate.h"
 
 GST_DEBUG_CATEGORY_STATIC(lf_request_queue_debug);

@@ -4,7 +4,7 @@
 #include <map>
 #include <mutex>
 
-#include "lf/datasets.h"
+#include "lf/io/datasets.h"
 #include "lfguard.h"
 
 namespace fs = std::filesystem;

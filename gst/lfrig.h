@@ -7,7 +7,7 @@
 #include <memory>
 #include <string>
 
-#include "lf/rig.h"
+#include "lf/geometry/rig.h"
 #include "lfprops.h"
 
 namespace lfgst {

@@ -1,5 +1,5 @@
 // The lf-surface event: lfcompositor's answer to a surface probe
-// (lib/lf/surface_probe.h), sent upstream to lfviewrequest, which puts the
+// (lib/lf/focus/surface_probe.h), sent upstream to lfviewrequest, which puts the
 // surface into its requests. A GstStructure named "lf-surface" with
 //   viewer-id (uint), probe-id (uint), capture-time (int64, ns of running
 //   time of the frames measured, -1 unknown), tile, cols, rows (int: the
@@ -16,7 +16,7 @@
 
 #include <vector>
 
-#include "lf/view.h"
+#include "lf/geometry/view.h"
 
 namespace lfgst {
 

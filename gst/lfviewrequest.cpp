@@ -6,9 +6,9 @@
  * focal plane) at a rate, for one viewer: a fixed view from the properties, a
  * keyframed camera path (`path`) or an orbit over the camera plane (`orbit`).
  * Output: `application/x-lf-view-request` buffers (byte layout in
- * lib/lf/wire.h) whose caps carry the request `framerate`, `width` and
- * `height`. Positions are in the rig's units and world frame (lib/lf/rig.h).
- * Views are built by lib/lf/view_builder.h, as `lf-render` builds them.
+ * lib/lf/wire/wire.h) whose caps carry the request `framerate`, `width` and
+ * `height`. Positions are in the rig's units and world frame (lib/lf/geometry/rig.h).
+ * Views are built by lib/lf/geometry/view_builder.h, as `lf-render` builds them.
  *
  * ## Steering while playing
  *
@@ -47,11 +47,11 @@
  *
  * A right click (button 3), or a click with Control held, focuses on the
  * scene at that output pixel, from the images alone: the next tick's request
- * goes out with a focus probe (lib/lf/focus_probe.h): 32 requests for a
+ * goes out with a focus probe (lib/lf/focus/focus_probe.h): 32 requests for a
  * 33 x 33 pixel window around the pixel (radius 16), one per candidate plane
  * parallel to the camera plane (0 to 24 px of neighbour parallax), seen from
  * the centre of the aperture triangle under that pixel, in one buffer (a
- * probe bundle, lib/lf/probe_bundle.h). Each camera answers with its
+ * probe bundle, lib/lf/wire/probe_bundle.h). Each camera answers with its
  * fragment of each step, in one buffer; `lfcompositor` measures the
  * weighted colour variance among the cameras (photo-consistency), runs the
  * focal surface estimator on the window and takes the plane of the clicked
@@ -71,7 +71,7 @@
  * By default (`focal-surface=true`) each 16-pixel tile of the view is
  * focused on its own plane, estimated from the cameras' fragments (Yang et
  * al. use one focal plane per view: `focal-surface=false`, the focal plane
- * of `focal-plane` or `focal-depth`; lib/lf/surface_probe.h): with the
+ * of `focal-plane` or `focal-depth`; lib/lf/focus/surface_probe.h): with the
  * first request and then
  * every `surface-interval` requests, a surface probe goes out with the
  * tick's request: 32 requests for the view at 160 pixels wide, one per
@@ -84,7 +84,7 @@
  * `tile`, `cols`, `rows`, `planes`: #GBytes of 4 doubles (n.x, n.y, n.z, d)
  * per plane, world frame, plane 0 the single plane; `plane-of`: #GBytes of
  * one plane index per tile, row-major; `planes-used`). From then on the
- * requests carry the surface (view request version 3, lib/lf/wire.h) in
+ * requests carry the surface (view request version 3, lib/lf/wire/wire.h) in
  * place of `focal-plane` and `focal-depth`, and `surface-planes` says how
  * many planes it has; a newer probe's answer replaces it. With
  * `lfcompositor second-planes=true` tiles next to a depth edge or with a
@@ -110,7 +110,7 @@
  * ## Aperture
  *
  * `aperture` (rig units) widens the synthetic aperture beyond the paper's
- * tent, whose support spans two camera spacings (lib/lf/view.h Aperture;
+ * tent, whose support spans two camera spacings (lib/lf/geometry/view.h Aperture;
  * Isaksen et al. 2000): each camera's tent is scaled by D / (2 spacing)
  * about the camera (at most 16), so more cameras blend and what is off the
  * focal plane blurs instead of doubling, at about 3 x scale^2 the output in
@@ -118,20 +118,20 @@
  * `aperture` when > 0: N = F / D with F = 36 mm x fx / width, the focal
  * length of a 36 mm wide sensor with the view's field of view; it needs the
  * rig's `unit` to be mm, cm or m (else a warning, and `aperture` holds).
- * The requests carry the scale in 1/256 (lib/lf/wire.h); probes keep the
+ * The requests carry the scale in 1/256 (lib/lf/wire/wire.h); probes keep the
  * tent.
  *
  * `ulr-cameras=K` (2..16) uses Unstructured Lumigraph weights over the K
- * cameras nearest each ray instead (lib/lf/view.h Aperture::kUlr): for rigs
+ * cameras nearest each ray instead (lib/lf/geometry/view.h Aperture::kUlr): for rigs
  * without a grid, and so that a lost camera leaves no hole.
  *
  * ## Sampling
  *
  * `sampling=bicubic` asks the cameras to resample their images with Keys'
  * cubic (a = -0.5) instead of the paper's bilinear filter: sharper where
- * the view samples the scene as finely as the cameras (lib/lf/view.h
+ * the view samples the scene as finely as the cameras (lib/lf/geometry/view.h
  * Sampling gives the figures), at about 2.2x the warp time
- * (lib/lf/render.h). The requests carry it (byte 137, lib/lf/wire.h).
+ * (lib/lf/render/render.h). The requests carry it (byte 137, lib/lf/wire/wire.h).
  *
  * ## Example launch line
  * |[
@@ -150,14 +150,14 @@
 #include <string>
 #include <vector>
 
-#include "lf/focus.h"
-#include "lf/focus_probe.h"
-#include "lf/parse.h"
-#include "lf/probe_bundle.h"
+#include "lf/focus/focus.h"
+#include "lf/focus/focus_probe.h"
+#include "lf/focus/surface_probe.h"
+#include "lf/geometry/view_builder.h"
+#include "lf/io/parse.h"
 #include "lf/session/viewer.h"
-#include "lf/surface_probe.h"
-#include "lf/view_builder.h"
-#include "lf/wire.h"
+#include "lf/wire/probe_bundle.h"
+#include "lf/wire/wire.h"
 #include "lfcaps.h"
 #include "lfclock.h"
 #include "lfguard.h"
@@ -216,7 +216,7 @@ struct Settings {
   guint surface_interval = DEFAULT_SURFACE_INTERVAL;
   guint surface_planes = 0;           // read-only: planes of the surface in use (object lock)
   guint surface_two_plane_tiles = 0;  // read-only: its tiles with a second plane
-  // A quilt (lib/lf/quilt.h): 0 views for one view; width x height is then
+  // A quilt (lib/lf/render/quilt.h): 0 views for one view; width x height is then
   // the quilt frame, of quilt_cols x quilt_rows tiles.
   guint quilt_views = 0, quilt_cols = 8, quilt_rows = 6;
   gdouble view_cone = 0, quilt_baseline = 0;  // degrees; rig units (0 and 0: the array's width)
@@ -361,7 +361,7 @@ static GType lf_sampling_get_type() {
   return lfgst::enum_type(&type, "LfSampling", values);
 }
 
-// The aperture's scale (lf/view.h Aperture) for settings `s`: f-number
+// The aperture's scale (lf/geometry/view.h Aperture) for settings `s`: f-number
 // (when > 0 and the rig's unit is a length) else aperture, in rig units;
 // never below the tent.
 static double aperture_scale(LfViewRequest* self, const lf::Rig& rig, const Settings& s,
@@ -735,7 +735,7 @@ static gboolean lf_view_request_event(GstBaseSrc* src, GstEvent* event) {
 }
 
 // A buffer of one request, or of a probe's steps as a bundle
-// (lib/lf/probe_bundle.h), for time `pts`; nullptr (with a warning) if they
+// (lib/lf/wire/probe_bundle.h), for time `pts`; nullptr (with a warning) if they
 // cannot be serialized.
 static GstBuffer* request_buffer(GstBaseSrc* src, std::vector<lf::ViewRequest> timed,
                                  GstClockTime pts, GstClockTime period) {
@@ -869,11 +869,11 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   req.sampling = s.sampling;
   // Focus and surface probes (lf::FocusSchedule, lf::SurfaceSchedule) go
   // with this tick's request, each probe in one buffer
-  // (lib/lf/probe_bundle.h).
+  // (lib/lf/wire/probe_bundle.h).
   std::vector<std::vector<lf::ViewRequest>> probes;
   const bool continuous =
       lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::continuous_focus);
-  // A quilt's eyes share one focal plane (lib/lf/quilt.h): no surface.
+  // A quilt's eyes share one focal plane (lib/lf/render/quilt.h): no surface.
   const bool want_surface = s.quilt_views == 0 && lfgst::read_setting(GST_OBJECT(self), p->settings,
                                                                       &Settings::focal_surface);
   const double focal_depth =
@@ -1053,11 +1053,12 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
                                  "rig's cameras, with intrinsics interpolated from the "
                                  "surrounding ones)",
                                  coordinate(), play));
-  spec_eye_s = g_param_spec_double("eye-s", "Eye s",
-                                   "Eye offset along the camera plane's u axis (its s "
-                                   "coordinate, lib/lf/rig.h), rig units; drag and arrow keys "
-                                   "change it",
-                                   -MAX_COORD, MAX_COORD, 0, ctrl);
+  spec_eye_s =
+      g_param_spec_double("eye-s", "Eye s",
+                          "Eye offset along the camera plane's u axis (its s "
+                          "coordinate, lib/lf/geometry/rig.h), rig units; drag and arrow keys "
+                          "change it",
+                          -MAX_COORD, MAX_COORD, 0, ctrl);
   props.add(oc, &Settings::eye_s, spec_eye_s);
   spec_eye_t = g_param_spec_double("eye-t", "Eye t",
                                    "Eye offset along the camera plane's v axis (t), rig units",
@@ -1087,22 +1088,23 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
                 "a focus probe every 5 requests, each answer moving the focal plane half way "
                 "(in inverse depth)",
                 FALSE, play));
-  props.add(oc, &Settings::focal_surface,
-            g_param_spec_boolean(
-                "focal-surface", "Focal surface",
-                "Focus each 16-pixel tile of the view on its own plane, estimated from the "
-                "cameras' fragments (lib/lf/surface_probe.h): every surface-interval requests a "
-                "surface probe (32 requests for the view at 160 pixels wide, one per candidate "
-                "plane, in one buffer) goes out with the request, lfcompositor estimates the "
-                "surface from the answers and sends it back (an lf-surface event), and the "
-                "requests carry it "
-                "from then on (view request version 3) in place of focal-plane and focal-depth. "
-                "false: the paper's one focal plane per view (focal-plane, focal-depth); "
-                "refocusing while playing (the wheel, a click, focal-depth or focal-plane set) "
-                "sets it false. Without "
-                "an lfcompositor downstream in this pipeline to answer, the probes stop after "
-                "the first few, with a warning, and focal-plane is used",
-                TRUE, play));
+  props.add(
+      oc, &Settings::focal_surface,
+      g_param_spec_boolean(
+          "focal-surface", "Focal surface",
+          "Focus each 16-pixel tile of the view on its own plane, estimated from the "
+          "cameras' fragments (lib/lf/focus/surface_probe.h): every surface-interval requests a "
+          "surface probe (32 requests for the view at 160 pixels wide, one per candidate "
+          "plane, in one buffer) goes out with the request, lfcompositor estimates the "
+          "surface from the answers and sends it back (an lf-surface event), and the "
+          "requests carry it "
+          "from then on (view request version 3) in place of focal-plane and focal-depth. "
+          "false: the paper's one focal plane per view (focal-plane, focal-depth); "
+          "refocusing while playing (the wheel, a click, focal-depth or focal-plane set) "
+          "sets it false. Without "
+          "an lfcompositor downstream in this pipeline to answer, the probes stop after "
+          "the first few, with a warning, and focal-plane is used",
+          TRUE, play));
   props.add(oc, &Settings::surface_interval,
             g_param_spec_uint("surface-interval", "Surface interval",
                               "Requests from one surface probe to the next with focal-surface "
@@ -1148,7 +1150,8 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
       oc, &Settings::ulr_cameras,
       g_param_spec_uint(
           "ulr-cameras", "ULR cameras",
-          "Unstructured Lumigraph weights (Buehler et al. 2001, lib/lf/view.h) blending the "
+          "Unstructured Lumigraph weights (Buehler et al. 2001, lib/lf/geometry/view.h) blending "
+          "the "
           "k cameras nearest each ray in angle, for rigs without a grid and so that a lost "
           "camera leaves no hole; 0: the tent (aperture, f-number apply), else k (1 counts as 2)",
           0, lf::kMaxUlrCameras, 0, ctrl));

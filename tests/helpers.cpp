@@ -7,8 +7,8 @@
 #include <filesystem>
 #include <vector>
 
-#include "lf/quality.h"
-#include "lf/render_view.h"
+#include "lf/quality/quality.h"
+#include "lf/render/render_view.h"
 
 namespace testing_lf {
 

@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
-#include "lf/plan.h"
-#include "lf/rig.h"
+#include "lf/geometry/rig.h"
+#include "lf/render/plan.h"
 
 namespace testing_lf {
 

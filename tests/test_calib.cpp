@@ -21,15 +21,15 @@
 #include "calib/synthetic_point_light.h"
 #include "calib/tracking.h"
 #include "helpers.h"
-#include "lf/composite.h"
-#include "lf/focus.h"
-#include "lf/parse.h"
-#include "lf/quality.h"
-#include "lf/render.h"
-#include "lf/render_view.h"
-#include "lf/rig_file.h"
-#include "lf/synthetic.h"
-#include "lf/view_builder.h"
+#include "lf/focus/focus.h"
+#include "lf/geometry/view_builder.h"
+#include "lf/io/parse.h"
+#include "lf/io/rig_file.h"
+#include "lf/quality/quality.h"
+#include "lf/quality/synthetic.h"
+#include "lf/render/composite.h"
+#include "lf/render/render.h"
+#include "lf/render/render_view.h"
 
 namespace {
 
@@ -118,7 +118,7 @@ TEST(Intrinsics, BadInputIsAClearError) {
 // The reference: Ceres's examples/bundle_adjuster.cc model (SnavelyReprojectionError)
 // and solver settings (sparse Schur, Levenberg-Marquardt, points eliminated
 // first), written out here independently of calib/bundle.cpp and
-// lf/projection.h on purpose: it is the published model the solve is checked
+// lf/geometry/projection.h on purpose: it is the published model the solve is checked
 // against, not a second copy of ours.
 struct SnavelyReference {
   SnavelyReference(double x, double y) : x(x), y(y) {}
@@ -605,7 +605,7 @@ TEST(Colour, SamplesFromImagesOfTheCommonScene) {
 }
 
 // The Ceres cost functors evaluate the same projection as lf::Camera::project
-// (one camera model: lf/projection.h).
+// (one camera model: lf/geometry/projection.h).
 TEST(ReprojectionError, MatchesCameraProject) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> U(-1, 1);

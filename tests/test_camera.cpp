@@ -4,8 +4,8 @@
 #include <opencv2/calib3d.hpp>
 #include <random>
 
-#include "lf/camera.h"
-#include "lf/projection.h"
+#include "lf/geometry/camera.h"
+#include "lf/geometry/projection.h"
 
 namespace {
 

@@ -1,5 +1,5 @@
-// The EGL/GLES 3 backend (lf/gl_render.h) against the CPU reference
-// (lf/render.h, lf/composite.h): fragments for random views and the hard
+// The EGL/GLES 3 backend (lf/render/gl_render.h) against the CPU reference
+// (lf/render/render.h, lf/render/composite.h): fragments for random views and the hard
 // cases, lens distortion included, and whole views; backend selection; and
 // (suite GlAbsent, run by meson with EGL_PLATFORM pointing nowhere) the
 // fallback where no GL context can be made.
@@ -20,14 +20,14 @@
 #include <string>
 
 #include "helpers.h"
-#include "lf/composite.h"
-#include "lf/gl_render.h"
-#include "lf/lenticular.h"
-#include "lf/plan.h"
-#include "lf/render.h"
-#include "lf/render_view.h"
-#include "lf/renderer.h"
-#include "lf/synthetic.h"
+#include "lf/quality/synthetic.h"
+#include "lf/render/composite.h"
+#include "lf/render/gl_render.h"
+#include "lf/render/lenticular.h"
+#include "lf/render/plan.h"
+#include "lf/render/render.h"
+#include "lf/render/render_view.h"
+#include "lf/render/renderer.h"
 
 namespace {
 
@@ -329,7 +329,7 @@ TEST(GlBackend, CompositingMatchesTheCpuCompositor) {
     std::vector<lf::FragmentPixels> in;
     for (const auto& f : frags) in.push_back({&f, f.pixels.data()});
     if (!frags[6].empty()) in.push_back({&frags[6], nullptr});
-    // A partial sum with a weight shift (lib/lf/composite.h
+    // A partial sum with a weight shift (lib/lf/render/composite.h
     // sum_fragments): every camera's fragment twice, so the sums pass 255
     // (shift 1), added by both compositors the same way.
     std::vector<lf::FragmentPixels> twice;
@@ -521,7 +521,7 @@ TEST(GlAbsent, AutoFallsBackAndGlFailsClearly) {
 
 }  // namespace
 
-// lf::Renderer (lib/lf/renderer.h), the one interface the elements use, on
+// lf::Renderer (lib/lf/render/renderer.h), the one interface the elements use, on
 // each backend: draw_rect() is draw() laid out as the rect's image (the
 // bytes outside the spans untouched), composite() equals the backend's own
 // compositing of the same fragments and drawings, a frame with layer-1

@@ -16,21 +16,21 @@
 
 #include "gst_init.h"
 #include "helpers.h"
-#include "lf/composite.h"
-#include "lf/datasets.h"
-#include "lf/focus.h"
-#include "lf/gl_render.h"
-#include "lf/lenticular.h"
-#include "lf/parse.h"
-#include "lf/probe_bundle.h"
-#include "lf/quality.h"
-#include "lf/render.h"
-#include "lf/render_view.h"
-#include "lf/rig_file.h"
-#include "lf/rig_ops.h"
-#include "lf/synthetic.h"
-#include "lf/view_builder.h"
-#include "lf/wire.h"
+#include "lf/focus/focus.h"
+#include "lf/geometry/rig_ops.h"
+#include "lf/geometry/view_builder.h"
+#include "lf/io/datasets.h"
+#include "lf/io/parse.h"
+#include "lf/io/rig_file.h"
+#include "lf/quality/quality.h"
+#include "lf/quality/synthetic.h"
+#include "lf/render/composite.h"
+#include "lf/render/gl_render.h"
+#include "lf/render/lenticular.h"
+#include "lf/render/render.h"
+#include "lf/render/render_view.h"
+#include "lf/wire/probe_bundle.h"
+#include "lf/wire/wire.h"
 
 namespace {
 
@@ -792,7 +792,7 @@ TEST_F(Gst, JpegFragmentsStayClose) {
   EXPECT_GT(cv::PSNR(a, b), 36.0);
 }
 
-// The GL backend (lib/lf/gl_render.h) in a real pipeline: fragments drawn
+// The GL backend (lib/lf/render/gl_render.h) in a real pipeline: fragments drawn
 // by GL in every lffragment and added by GL in lfcompositor, against the
 // CPU pipeline: within the tolerance of tests/test_gl.cpp (mean <= 1 LSB,
 // max <= 3, at most 1 % of the pixels differing; on llvmpipe, identical).
@@ -899,7 +899,7 @@ TEST_F(Gst, GlBackendWholeViewModeEqualsEveryFragmentDrawingWithGl) {
 }
 
 // Deferred fragments without GL: a CPU compositor draws them with the CPU
-// kernels, fused into its compositing (lib/lf/composite.h drawings),
+// kernels, fused into its compositing (lib/lf/render/composite.h drawings),
 // bit-identical to fragments drawn by their lffragments; so does lfarray,
 // whose whole-view mode (the default with raw fragments) defers them and
 // plans every camera on one request thread, against whole-view=false (a

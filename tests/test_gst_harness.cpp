@@ -8,21 +8,21 @@
 #include <filesystem>
 
 #include "gst_init.h"
-#include "lf/composite.h"
-#include "lf/focus.h"
-#include "lf/focus_probe.h"
-#include "lf/fragment.h"
-#include "lf/gl_render.h"
-#include "lf/parse.h"
-#include "lf/probe_bundle.h"
-#include "lf/quality.h"
-#include "lf/render.h"
-#include "lf/render_view.h"
-#include "lf/rig_file.h"
-#include "lf/surface_probe.h"
-#include "lf/synthetic.h"
-#include "lf/view_builder.h"
-#include "lf/wire.h"
+#include "lf/focus/focus.h"
+#include "lf/focus/focus_probe.h"
+#include "lf/focus/surface_probe.h"
+#include "lf/geometry/view_builder.h"
+#include "lf/io/parse.h"
+#include "lf/io/rig_file.h"
+#include "lf/quality/quality.h"
+#include "lf/quality/synthetic.h"
+#include "lf/render/composite.h"
+#include "lf/render/fragment.h"
+#include "lf/render/gl_render.h"
+#include "lf/render/render.h"
+#include "lf/render/render_view.h"
+#include "lf/wire/probe_bundle.h"
+#include "lf/wire/wire.h"
 #include "lfrate.h"
 #include "lfrig.h"
 
@@ -49,7 +49,7 @@ class Harness : public ::testing::Test {
     return out;
   }
   static lf::ViewRequest parsed_request(GstBuffer* b) { return parsed(b, lf::parse_request); }
-  // A request buffer's requests: one, or a probe's steps (lf/probe_bundle.h).
+  // A request buffer's requests: one, or a probe's steps (lf/wire/probe_bundle.h).
   static std::vector<lf::ViewRequest> parsed_requests(GstBuffer* b) {
     return parsed<std::vector<lf::ViewRequest>>(
         b, [](const uint8_t* d, size_t n) { return lf::parse_requests(d, n); });
@@ -461,7 +461,7 @@ TEST_F(Harness, FragmentThroughAFocalSurface) {
   gst_harness_teardown(h);
 }
 
-// backend=gl: the fragment drawn by EGL/GLES 3 (lf/gl_render.h), the same
+// backend=gl: the fragment drawn by EGL/GLES 3 (lf/render/gl_render.h), the same
 // pixels as the CPU kernel's within the GL tolerance of tests/test_gl.cpp
 // (on Mesa's llvmpipe, identical); the frame is uploaded once for both
 // requests. A build or machine without GL fails to start instead.
@@ -552,7 +552,7 @@ TEST_F(Harness, AProbeTakesOnlyTheFrameOfItsInstant) {
   gst_harness_teardown(h);
 }
 
-// A probe bundle (lib/lf/probe_bundle.h): one request buffer with all the
+// A probe bundle (lib/lf/wire/probe_bundle.h): one request buffer with all the
 // steps, one answer buffer with the camera's fragment of each step in
 // order, each the one that step alone gets; a bundle that is not one
 // probe's steps is dropped with no answer.

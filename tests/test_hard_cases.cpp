@@ -5,14 +5,14 @@
 #include <cmath>
 
 #include "helpers.h"
-#include "lf/composite.h"
-#include "lf/focus.h"
-#include "lf/parse.h"
-#include "lf/quality.h"
-#include "lf/render.h"
-#include "lf/render_view.h"
-#include "lf/synthetic.h"
-#include "lf/view_builder.h"
+#include "lf/focus/focus.h"
+#include "lf/geometry/view_builder.h"
+#include "lf/io/parse.h"
+#include "lf/quality/quality.h"
+#include "lf/quality/synthetic.h"
+#include "lf/render/composite.h"
+#include "lf/render/render.h"
+#include "lf/render/render_view.h"
 
 namespace {
 

@@ -19,14 +19,14 @@
 
 #include "calib/bundle.h"
 #include "gst_init.h"
-#include "lf/composite.h"
-#include "lf/focus.h"
-#include "lf/plan.h"
-#include "lf/render.h"
-#include "lf/rig_file.h"
-#include "lf/synthetic.h"
-#include "lf/view_builder.h"
-#include "lf/wire.h"
+#include "lf/focus/focus.h"
+#include "lf/geometry/view_builder.h"
+#include "lf/io/rig_file.h"
+#include "lf/quality/synthetic.h"
+#include "lf/render/composite.h"
+#include "lf/render/plan.h"
+#include "lf/render/render.h"
+#include "lf/wire/wire.h"
 
 namespace {
 
@@ -585,7 +585,7 @@ TEST_F(Hostile, MissingFragmentsShowTheLastPictureNotBlack) {
   EXPECT_GT(cv::countNonZero(cb[3]), 0);
 }
 
-// A camera's two layers in one buffer (lib/lf/wire.h): a second fragment
+// A camera's two layers in one buffer (lib/lf/wire/wire.h): a second fragment
 // that is not the same camera's layer 1 of the same request, or bytes that
 // are not a whole fragment, drop the buffer with a warning; it does not
 // count as the camera's answer, and a good pair composites.

@@ -7,8 +7,8 @@
 #include <random>
 
 #include "helpers.h"
-#include "lf/plan.h"
-#include "lf/synthetic.h"
+#include "lf/quality/synthetic.h"
+#include "lf/render/plan.h"
 
 namespace {
 
@@ -371,7 +371,7 @@ struct Tent {
 };
 
 TEST(Plan, AWiderApertureIsTheTentScaledAboutEachCamera) {
-  // lf/view.h Aperture: with scale k, camera i's weight where the pixel's
+  // lf/geometry/view.h Aperture: with scale k, camera i's weight where the pixel's
   // line meets the camera plane at X is its tent weight at
   // C_i + (X - C_i) / k. Checked at every pixel of every camera's fragment
   // (the planned piece's num / den) and for coverage (the runs are exactly
@@ -453,7 +453,7 @@ TEST(Plan, AWiderApertureIsTheTentScaledAboutEachCamera) {
   }
 }
 
-// ULR weights (lf/view.h Aperture::kUlr): planned weights sum to 1 at every
+// ULR weights (lf/geometry/view.h Aperture::kUlr): planned weights sum to 1 at every
 // pixel, two cameras or more blend everywhere (so a lost camera leaves no
 // hole; k where no penalties tie), where the k nearest tie (the centre of
 // a grid cell with k = 4) all k blend equally, and with the eye right over

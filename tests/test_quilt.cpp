@@ -1,5 +1,5 @@
-// Quilts (lf/quilt.h) and their interleaving for lenticular displays
-// (lf/lenticular.h): layout, eye geometry, the wire format, and the
+// Quilts (lf/render/quilt.h) and their interleaving for lenticular displays
+// (lf/render/lenticular.h): layout, eye geometry, the wire format, and the
 // interleave against the display's published formula, computed here on
 // its own in double precision.
 #include <gtest/gtest.h>
@@ -8,11 +8,11 @@
 #include <opencv2/core.hpp>
 
 #include "helpers.h"
-#include "lf/lenticular.h"
-#include "lf/quilt.h"
-#include "lf/synthetic.h"
-#include "lf/view.h"
-#include "lf/wire.h"
+#include "lf/geometry/view.h"
+#include "lf/quality/synthetic.h"
+#include "lf/render/lenticular.h"
+#include "lf/render/quilt.h"
+#include "lf/wire/wire.h"
 
 using testing_lf::look_request;
 using testing_lf::plane_z;

@@ -8,16 +8,16 @@
 #include <cstdio>
 
 #include "helpers.h"
-#include "lf/composite.h"
-#include "lf/datasets.h"
-#include "lf/focus.h"
-#include "lf/parse.h"
-#include "lf/quality.h"
-#include "lf/render.h"
-#include "lf/render_view.h"
-#include "lf/rig_file.h"
-#include "lf/rig_ops.h"
-#include "lf/view_builder.h"
+#include "lf/focus/focus.h"
+#include "lf/geometry/rig_ops.h"
+#include "lf/geometry/view_builder.h"
+#include "lf/io/datasets.h"
+#include "lf/io/parse.h"
+#include "lf/io/rig_file.h"
+#include "lf/quality/quality.h"
+#include "lf/render/composite.h"
+#include "lf/render/render.h"
+#include "lf/render/render_view.h"
 
 namespace {
 

@@ -13,10 +13,10 @@
 #include <string>
 
 #include "gst_init.h"
-#include "lf/parse.h"
-#include "lf/quality.h"
-#include "lf/rig_file.h"
-#include "lf/synthetic.h"
+#include "lf/io/parse.h"
+#include "lf/io/rig_file.h"
+#include "lf/quality/quality.h"
+#include "lf/quality/synthetic.h"
 
 namespace {
 

@@ -5,16 +5,16 @@
 #include <opencv2/imgproc.hpp>
 #include <random>
 
-#include "lf/colour.h"
-#include "lf/composite.h"
-#include "lf/focus.h"
-#include "lf/parse.h"
-#include "lf/quality.h"
-#include "lf/render.h"
-#include "lf/render_view.h"
-#include "lf/synthetic.h"
-#include "lf/view_builder.h"
-#include "lf/wire.h"
+#include "lf/focus/focus.h"
+#include "lf/geometry/view_builder.h"
+#include "lf/io/parse.h"
+#include "lf/quality/quality.h"
+#include "lf/quality/synthetic.h"
+#include "lf/render/colour.h"
+#include "lf/render/composite.h"
+#include "lf/render/render.h"
+#include "lf/render/render_view.h"
+#include "lf/wire/wire.h"
 
 namespace {
 
@@ -75,7 +75,7 @@ TEST(Render, MatchesAnalyticImageOfTheFocalPlane) {
   }
 }
 
-// The f-number mapping (lf/view.h): a diameter and its full-frame f-number
+// The f-number mapping (lf/geometry/view.h): a diameter and its full-frame f-number
 // convert into each other; a 50 mm-equivalent view at f/2 has a 25 mm
 // aperture; lengths other than mm, cm, m are not lengths.
 TEST(View, FNumberMappingRoundTrips) {
@@ -188,7 +188,7 @@ TEST(Render, AWiderApertureBlursOffPlaneEdgesAndKeepsThePlaneSharp) {
   }
 }
 
-// Bicubic sampling (lf/view.h Sampling) against the analytic image of the
+// Bicubic sampling (lf/geometry/view.h Sampling) against the analytic image of the
 // focal plane: closer than bilinear where the texture is fine (a period of
 // a few camera pixels), and a flat image stays flat (its taps sum to 1).
 TEST(Render, BicubicSamplingIsCloserToTheTruth) {
@@ -941,7 +941,7 @@ TEST(Render, RejectsWrongImages) {
 
 }  // namespace
 
-// Colour correction (lib/lf/colour.h), as lffragment (RGBA) and lf-render
+// Colour correction (lib/lf/render/colour.h), as lffragment (RGBA) and lf-render
 // (BGRA) apply it: the same correction whatever the channel order.
 TEST(Colour, SameCorrectionInRgbaAndBgraOrder) {
   cv::Mat rgba(7, 9, CV_8UC4);

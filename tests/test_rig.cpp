@@ -14,13 +14,13 @@
 #include <thread>
 
 #include "helpers.h"
-#include "lf/datasets.h"
-#include "lf/image_io.h"
-#include "lf/rig_file.h"
-#include "lf/rig_ops.h"
-#include "lf/still_cache.h"
-#include "lf/synthetic.h"
-#include "lf/view_builder.h"
+#include "lf/geometry/rig_ops.h"
+#include "lf/geometry/view_builder.h"
+#include "lf/io/datasets.h"
+#include "lf/io/image_io.h"
+#include "lf/io/rig_file.h"
+#include "lf/io/still_cache.h"
+#include "lf/quality/synthetic.h"
 
 namespace {
 
@@ -265,7 +265,7 @@ TEST(Rig, HugeRigFilesAreRefusedBeforeTheyAreBuilt) {
   }
 }
 
-// The still cache (lf/still_cache.h): a miss decodes and stores, a hit gives
+// The still cache (lf/io/still_cache.h): a miss decodes and stores, a hit gives
 // the same pixels without decoding; a changed source, a damaged cache file,
 // another size miss; the directory stays within its byte budget; a cache
 // that cannot be written never fails a read.

@@ -16,15 +16,15 @@
 
 #include "gst_init.h"
 #include "helpers.h"
-#include "lf/datasets.h"
-#include "lf/focus.h"
-#include "lf/parse.h"
-#include "lf/probe_bundle.h"
-#include "lf/render_view.h"
-#include "lf/rig_file.h"
-#include "lf/rig_ops.h"
-#include "lf/view_builder.h"
-#include "lf/wire.h"
+#include "lf/focus/focus.h"
+#include "lf/geometry/rig_ops.h"
+#include "lf/geometry/view_builder.h"
+#include "lf/io/datasets.h"
+#include "lf/io/parse.h"
+#include "lf/io/rig_file.h"
+#include "lf/render/render_view.h"
+#include "lf/wire/probe_bundle.h"
+#include "lf/wire/wire.h"
 
 namespace {
 

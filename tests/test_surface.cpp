@@ -1,4 +1,4 @@
-// The focal surface estimated from the images (lf/focal_surface.h): one
+// The focal surface estimated from the images (lf/focus/focal_surface.h): one
 // plane where the scene is flat, more where it has depth; graceful on hard
 // cases; better pictures than one plane on synthetic and real light fields.
 #include <gtest/gtest.h>
@@ -7,18 +7,18 @@
 #include <random>
 
 #include "helpers.h"
-#include "lf/composite.h"
-#include "lf/datasets.h"
-#include "lf/focal_surface.h"
-#include "lf/focus.h"
-#include "lf/focus_probe.h"
-#include "lf/plan.h"
-#include "lf/quality.h"
-#include "lf/render.h"
-#include "lf/render_view.h"
-#include "lf/rig_ops.h"
-#include "lf/surface_probe.h"
-#include "lf/synthetic.h"
+#include "lf/focus/focal_surface.h"
+#include "lf/focus/focus.h"
+#include "lf/focus/focus_probe.h"
+#include "lf/focus/surface_probe.h"
+#include "lf/geometry/rig_ops.h"
+#include "lf/io/datasets.h"
+#include "lf/quality/quality.h"
+#include "lf/quality/synthetic.h"
+#include "lf/render/composite.h"
+#include "lf/render/plan.h"
+#include "lf/render/render.h"
+#include "lf/render/render_view.h"
 
 namespace {
 

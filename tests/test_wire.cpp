@@ -7,18 +7,18 @@
 #include <opencv2/core.hpp>
 #include <random>
 
-#include "lf/composite.h"
-#include "lf/focus.h"
-#include "lf/parse.h"
-#include "lf/plan.h"
-#include "lf/probe_bundle.h"
-#include "lf/quality.h"
-#include "lf/render.h"
-#include "lf/render_view.h"
-#include "lf/surface_probe.h"
-#include "lf/synthetic.h"
-#include "lf/view_builder.h"
-#include "lf/wire.h"
+#include "lf/focus/focus.h"
+#include "lf/focus/surface_probe.h"
+#include "lf/geometry/view_builder.h"
+#include "lf/io/parse.h"
+#include "lf/quality/quality.h"
+#include "lf/quality/synthetic.h"
+#include "lf/render/composite.h"
+#include "lf/render/plan.h"
+#include "lf/render/render.h"
+#include "lf/render/render_view.h"
+#include "lf/wire/probe_bundle.h"
+#include "lf/wire/wire.h"
 
 namespace {
 
@@ -658,7 +658,7 @@ TEST(Wire, InconsistentFragmentsAreRejected) {
   expect_error(gb, "JPEG");
 }
 
-// A probe's steps in one buffer each way (lib/lf/probe_bundle.h): the
+// A probe's steps in one buffer each way (lib/lf/wire/probe_bundle.h): the
 // requests come back as they went; anything but distinct steps of one probe
 // and viewer is refused, and so is a size that is not whole requests.
 // Partial sums (version 2): cameras and weight shift survive the wire, the

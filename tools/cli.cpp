@@ -8,9 +8,9 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "lf/datasets.h"
-#include "lf/rig_file.h"
-#include "lf/rig_ops.h"
+#include "lf/geometry/rig_ops.h"
+#include "lf/io/datasets.h"
+#include "lf/io/rig_file.h"
 
 namespace cli {
 

@@ -6,15 +6,15 @@
 #include <string>
 #include <vector>
 
-#include "lf/composite.h"
-#include "lf/focus.h"
-#include "lf/gl_render.h"
-#include "lf/parse.h"
-#include "lf/path_file.h"
-#include "lf/quality.h"
-#include "lf/render.h"
-#include "lf/render_view.h"
-#include "lf/view_builder.h"
+#include "lf/focus/focus.h"
+#include "lf/geometry/view_builder.h"
+#include "lf/io/parse.h"
+#include "lf/io/path_file.h"
+#include "lf/quality/quality.h"
+#include "lf/render/composite.h"
+#include "lf/render/gl_render.h"
+#include "lf/render/render.h"
+#include "lf/render/render_view.h"
 
 namespace cli {
 
@@ -62,13 +62,13 @@ struct FocalSpec {
 };
 FocalSpec parse_focal(const std::string& s, const lf::Rig& rig);
 
-// --backend auto|cpu|gl resolved (lf/gl_render.h resolve_backend): prints
+// --backend auto|cpu|gl resolved (lf/render/gl_render.h resolve_backend): prints
 // which renderer runs and why on stderr unless `quiet`; throws
 // std::invalid_argument for another word and std::runtime_error when gl is
 // asked for and unavailable.
 lf::Backend backend_from(const std::string& text, bool quiet);
 
-// --sampling bilinear|bicubic (lf/view.h Sampling); throws
+// --sampling bilinear|bicubic (lf/geometry/view.h Sampling); throws
 // std::invalid_argument for another word.
 lf::Sampling parse_sampling(const std::string& text);
 

@@ -7,7 +7,7 @@
 //    request answered from the frames captured at its time), fragment
 //    bytes per request;
 //  * partial sums: the cameras dealt to --hosts camera hosts in contiguous
-//    blocks of the grid (lf/rig_ops.h host_blocks), each host's fragments
+//    blocks of the grid (lf/geometry/rig_ops.h host_blocks), each host's fragments
 //    added up before they leave (lfcamerahost partial-sums=true, JPEG at
 //    the same quality): bytes per request; and the composited frames'
 //    PSNR against those of raw per-camera fragments, beside that of
@@ -41,8 +41,8 @@
 #include <vector>
 
 #include "cli.h"
-#include "lf/datasets.h"
-#include "lf/rig_ops.h"
+#include "lf/geometry/rig_ops.h"
+#include "lf/io/datasets.h"
 
 namespace {
 

@@ -22,12 +22,12 @@
 #include <opencv2/imgproc.hpp>
 
 #include "cli.h"
-#include "lf/datasets.h"
-#include "lf/focal_surface.h"
-#include "lf/rig_file.h"
-#include "lf/rig_ops.h"
-#include "lf/synthetic.h"
-#include "lf/wire.h"
+#include "lf/focus/focal_surface.h"
+#include "lf/geometry/rig_ops.h"
+#include "lf/io/datasets.h"
+#include "lf/io/rig_file.h"
+#include "lf/quality/synthetic.h"
+#include "lf/wire/wire.h"
 
 namespace {
 
@@ -43,16 +43,16 @@ usage: lf-bench [options]
                       default none,jpeg90
   --focal LIST        focal choices: auto, best (exhaustive sweep against the held-out
                       image: an oracle), surface (a focal plane per 16-pixel tile
-                      estimated from the images, lf/focal_surface.h), surface2 (the
+                      estimated from the images, lf/focus/focal_surface.h), surface2 (the
                       same with a second plane in tiles next to a depth edge or
                       with a thin structure inside, chosen per pixel by the compositor), infinity,
                       depth:Z, param:A (default auto,best,surface)
-  --apertures LIST    aperture scales to add to each focal choice (lib/lf/view.h
+  --apertures LIST    aperture scales to add to each focal choice (lib/lf/geometry/view.h
                       Aperture: 1 is the paper's tent, 2 twice as wide, ...;
                       ulrK: Unstructured Lumigraph weights over K cameras;
                       default 1): PSNR, time and fragment bytes of each
   --samplings LIST    sampling filters to add to each focal choice: bilinear
-                      (default), bicubic (lib/lf/view.h Sampling)
+                      (default), bicubic (lib/lf/geometry/view.h Sampling)
   --loo N             number of held-out cameras, spread over the block's interior (12)
   --hold-out MODE     one: each held-out view rendered from all the other cameras
                       (default); subgrid: from the sub-grid of every other row and
@@ -63,7 +63,7 @@ usage: lf-bench [options]
   --skip-quality, --skip-bandwidth, --skip-speed   leave out a section
   --backend LIST      renderers to time side by side on whole views from all the
                       cameras, at each size of --sizes: cpu, gl (EGL/GLES 3,
-                      lib/lf/gl_render.h), auto; e.g. cpu,gl adds that table
+                      lib/lf/render/gl_render.h), auto; e.g. cpu,gl adds that table
                       (default cpu: no table)
 On an HCI benchmark folder (gt_disp_lowres.pfm) the quality section ends with
 the focal surface's per-tile disparity error against the ground truth.
@@ -121,7 +121,7 @@ FrameResult render_frame(const lf::Rig& rig, const std::vector<cv::Mat>& images,
   FrameResult r;
   const auto t0 = Clock::now();
   const lf::ViewGeometry g(rig, req);
-  // Layer 1: the second planes of a surface's two-plane tiles (lf/plan.h).
+  // Layer 1: the second planes of a surface's two-plane tiles (lf/render/plan.h).
   const int layers = req.surface.two_planes() ? 2 : 1;
   lf::Compositor comp;  // one layer: the paper's compositor
   if (layers == 1) comp.reset(req.view.width, req.view.height);
@@ -273,7 +273,7 @@ void backend_table(const lf::Rig& rig, const std::vector<cv::Mat>& images,
 }
 
 // The focal surface against a ground-truth disparity map (HCI benchmark
-// folders: gt_disp_lowres.pfm, the centre camera's, lf/datasets.h): the
+// folders: gt_disp_lowres.pfm, the centre camera's, lf/io/datasets.h): the
 // centre camera held out, its view's surface estimated from the others at
 // the camera's size, and the per-tile disparity error over textured tiles
 // (lf::tile_disparity_errors), beside that of the estimate's single plane.

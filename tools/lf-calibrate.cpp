@@ -16,8 +16,8 @@
 #include "calib/selfcal.h"
 #include "calib/tracking.h"
 #include "cli.h"
-#include "lf/rig.h"
-#include "lf/rig_file.h"
+#include "lf/geometry/rig.h"
+#include "lf/io/rig_file.h"
 
 namespace fs = std::filesystem;
 

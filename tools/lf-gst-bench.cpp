@@ -38,15 +38,15 @@
 #include <thread>
 
 #include "cli.h"
-#include "lf/composite.h"
-#include "lf/datasets.h"
-#include "lf/parse.h"
-#include "lf/plan.h"
-#include "lf/render.h"
-#include "lf/rig_file.h"
-#include "lf/rig_ops.h"
-#include "lf/view_builder.h"
-#include "lf/wire.h"
+#include "lf/geometry/rig_ops.h"
+#include "lf/geometry/view_builder.h"
+#include "lf/io/datasets.h"
+#include "lf/io/parse.h"
+#include "lf/io/rig_file.h"
+#include "lf/render/composite.h"
+#include "lf/render/plan.h"
+#include "lf/render/render.h"
+#include "lf/wire/wire.h"
 
 namespace {
 
@@ -86,7 +86,7 @@ constexpr int kPathFrames = 120;
 constexpr const char* kFocalPlane = "param:-0.2";
 
 // `surface` > 0: lfviewrequest focal-surface=true with that surface-interval
-// (a focal surface from the fragments, lib/lf/surface_probe.h) instead of
+// (a focal surface from the fragments, lib/lf/focus/surface_probe.h) instead of
 // the fixed focal plane; `props`: more lfviewrequest properties
 // ("name=value ...", e.g. "ulr-cameras=4 sampling=bicubic").
 // lfarray's properties for `backend`: cpu and gl (its whole-view mode, the

@@ -39,8 +39,8 @@
 #include <string>
 #include <vector>
 
-#include "lf/parse.h"
-#include "lf/wire.h"
+#include "lf/io/parse.h"
+#include "lf/wire/wire.h"
 
 namespace {
 
@@ -107,7 +107,7 @@ void put_f64(Bytes& b, size_t at, double v) {
 uint32_t crc_of(const Bytes& b, size_t from, size_t to) {
   return libdeflate_crc32(0, b.data() + from, to - from);
 }
-// The CRCs of the wire format (lib/lf/wire.h), recomputed after editing.
+// The CRCs of the wire format (lib/lf/wire/wire.h), recomputed after editing.
 void seal_request(Bytes& b) {
   put_u32(b, 140, crc_of(b, 0, 140));
 }

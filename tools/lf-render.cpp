@@ -8,11 +8,11 @@
 #include <opencv2/videoio.hpp>
 
 #include "cli.h"
-#include "lf/colour.h"
-#include "lf/datasets.h"
-#include "lf/focal_surface.h"
-#include "lf/rig_file.h"
-#include "lf/rig_ops.h"
+#include "lf/focus/focal_surface.h"
+#include "lf/geometry/rig_ops.h"
+#include "lf/io/datasets.h"
+#include "lf/io/rig_file.h"
+#include "lf/render/colour.h"
 
 namespace {
 
@@ -46,7 +46,7 @@ view (one of; default: --orbit 0.6)
 rendering
   --size WxH            output size in pixels (default 640x480)
   --focal SPEC          surface (default): a focal surface from the images, one
-                        plane per 16-pixel tile (lib/lf/focal_surface.h; a flat
+                        plane per 16-pixel tile (lib/lf/focus/focal_surface.h; a flat
                         scene keeps one plane); plane (or auto): the paper's one
                         focal plane per view, chosen from the images by
                         photo-consistency; or a fixed plane: infinity, depth:Z
@@ -54,24 +54,24 @@ rendering
                         focal parameter: Stanford's pixels of shift per position
                         unit), plane:nx,ny,nz,d
   --second-planes       with --focal surface: tiles next to a depth edge or with
-                        a thin structure inside get a second plane, chosen per pixel (lib/lf/composite.h
+                        a thin structure inside get a second plane, chosen per pixel (lib/lf/render/composite.h
                         LayerCompositor; CPU backend)
   --refocus-every N     on a path: re-run auto-focus every N frames (default 15),
                         or estimate the focal surface every N frames (default 1)
   --aperture D          synthetic aperture diameter on the camera plane, rig units
                         (default 0: the paper's tent, 2 camera spacings wide, the
                         smallest); wider blends more cameras: what is off the focal
-                        plane blurs instead of doubling (lib/lf/view.h Aperture)
+                        plane blurs instead of doubling (lib/lf/geometry/view.h Aperture)
   --f-number N          the aperture as a full-frame-equivalent f-number (N = F / D,
                         F = 36 mm x fx / width; needs the rig's unit mm, cm or m)
   --ulr K               Unstructured Lumigraph weights over the K cameras nearest each
-                        ray in angle (2..16; lib/lf/view.h), for rigs without a grid
+                        ray in angle (2..16; lib/lf/geometry/view.h), for rigs without a grid
   --sampling S          bilinear (default, the paper's) or bicubic (Keys, a = -0.5:
                         sharper edges, twice the warping time; on held-out views
                         bilinear scores higher: docs/rendering.md)
   --threads N           render cameras in parallel (default: all cores)
   --backend B           auto (default: GL on a hardware GPU, else CPU), cpu, or gl
-                        (EGL/GLES 3, lib/lf/gl_render.h: fragments drawn and blended
+                        (EGL/GLES 3, lib/lf/render/gl_render.h: fragments drawn and blended
                         on the GPU, images uploaded once; Mesa's llvmpipe without one)
 
 output
@@ -112,7 +112,7 @@ int main(int argc, char** argv) {
       if (!quiet) cli::progress("images", k, n);
     });
 
-    // Colour correction from the rig (lib/lf/colour.h; identity by default).
+    // Colour correction from the rig (lib/lf/render/colour.h; identity by default).
     lf::colour_correct_images(rig, images, lf::ChannelOrder::kBGRA);
 
     // The renderer; GL gets the images once, as a live camera's frame is.
@@ -122,7 +122,7 @@ int main(int argc, char** argv) {
       for (size_t i = 0; i < images.size(); ++i) gl->set_image(static_cast<int>(i), images[i]);
     }
 
-    // Views (lib/lf/view_builder.h, as lfviewrequest builds them).
+    // Views (lib/lf/geometry/view_builder.h, as lfviewrequest builds them).
     lf::ViewSettings vs;
     vs.width = W;
     vs.height = H;

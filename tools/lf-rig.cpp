@@ -4,10 +4,10 @@
 #include <iostream>
 
 #include "cli.h"
-#include "lf/datasets.h"
-#include "lf/rig_file.h"
-#include "lf/rig_ops.h"
-#include "lf/synthetic.h"
+#include "lf/geometry/rig_ops.h"
+#include "lf/io/datasets.h"
+#include "lf/io/rig_file.h"
+#include "lf/quality/synthetic.h"
 
 int main(int argc, char** argv) {
   const char* help = R"(lf-rig: make a rig file for the elements and tools.

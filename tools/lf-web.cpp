@@ -39,9 +39,9 @@
 
 #include "cli.h"
 #include "lf-web-resources.h"  // the page (glib-compile-resources)
-#include "lf/datasets.h"
-#include "lf/rig_file.h"
-#include "lf/view.h"
+#include "lf/geometry/view.h"
+#include "lf/io/datasets.h"
+#include "lf/io/rig_file.h"
 
 namespace {
 

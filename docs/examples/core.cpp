@@ -7,10 +7,10 @@
 //
 // usage: core OUT.png
 // build: c++ -std=c++17 core.cpp $(pkg-config --cflags --libs lightfield-1.0) -o core
-#include <lf/focus.h>
-#include <lf/render_view.h>
-#include <lf/synthetic.h>
-#include <lf/view_builder.h>
+#include <lf/focus/focus.h>
+#include <lf/geometry/view_builder.h>
+#include <lf/quality/synthetic.h>
+#include <lf/render/render_view.h>
 
 #include <cstdio>
 #include <opencv2/imgcodecs.hpp>

@@ -1,7 +1,7 @@
-// libFuzzer harness: the fragment parser (lib/lf/wire.h) as a receiver uses
+// libFuzzer harness: the fragment parser (lib/lf/wire/wire.h) as a receiver uses
 // it (also in place with the CRC waived), then compositing of whatever it
 // accepts; and the split of a buffer into fragments (a probe bundle's
-// answer, lib/lf/probe_bundle.h): spans back to back covering it exactly,
+// answer, lib/lf/wire/probe_bundle.h): spans back to back covering it exactly,
 // each its header's size. A parsed fragment must pass
 // check_fragment, survive a raw round trip unchanged, and add to a frame of
 // its size without error.
@@ -9,9 +9,9 @@
 #include <cstdlib>
 #include <exception>
 
-#include "lf/composite.h"
-#include "lf/probe_bundle.h"
-#include "lf/wire.h"
+#include "lf/render/composite.h"
+#include "lf/wire/probe_bundle.h"
+#include "lf/wire/wire.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   for (const bool probe : {false, true}) {

@@ -1,5 +1,5 @@
 // libFuzzer harness: the view request parser (one request or a probe bundle,
-// lib/lf/probe_bundle.h), then planning and rendering of the first parsed
+// lib/lf/wire/probe_bundle.h), then planning and rendering of the first parsed
 // view on a small synthetic rig (views capped at 96x96 pixels to keep
 // executions fast). The SIMD and scalar kernels must agree bit for bit; a
 // bundle must be distinct steps of one probe and viewer, and its bytes must
@@ -9,11 +9,11 @@
 #include <cstring>
 #include <set>
 
-#include "lf/plan.h"
-#include "lf/probe_bundle.h"
-#include "lf/render.h"
-#include "lf/synthetic.h"
-#include "lf/wire.h"
+#include "lf/quality/synthetic.h"
+#include "lf/render/plan.h"
+#include "lf/render/render.h"
+#include "lf/wire/probe_bundle.h"
+#include "lf/wire/wire.h"
 
 namespace {
 struct Scene {

@@ -1,10 +1,10 @@
-// libFuzzer harness: the rig file loader (lib/lf/rig_file.h). Any input is
+// libFuzzer harness: the rig file loader (lib/lf/io/rig_file.h). Any input is
 // a finalized rig or a std::runtime_error; nothing else may escape.
 #include <cstdint>
 #include <stdexcept>
 #include <string>
 
-#include "lf/rig_file.h"
+#include "lf/io/rig_file.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size > (1 << 13)) return 0;  // rig files of a few cameras: enough to reach every branch

@@ -4,15 +4,15 @@
 #include <fstream>
 #include <iostream>
 
-#include "lf/composite.h"
-#include "lf/focus.h"
-#include "lf/plan.h"
-#include "lf/probe_bundle.h"
-#include "lf/render.h"
-#include "lf/rig_file.h"
-#include "lf/synthetic.h"
-#include "lf/view_builder.h"
-#include "lf/wire.h"
+#include "lf/focus/focus.h"
+#include "lf/geometry/view_builder.h"
+#include "lf/io/rig_file.h"
+#include "lf/quality/synthetic.h"
+#include "lf/render/composite.h"
+#include "lf/render/plan.h"
+#include "lf/render/render.h"
+#include "lf/wire/probe_bundle.h"
+#include "lf/wire/wire.h"
 
 namespace fs = std::filesystem;
 
@@ -49,7 +49,7 @@ int main(int argc, char** argv) {
     sf.planes = {lf::plane_at_depth(rig, 0.7), lf::plane_at_depth(rig, 3.0)};
     for (int t = 0; t < sf.cols * sf.rows; ++t) sf.plane_of.push_back((t / sf.cols + t) % 2);
     write(out / "request", 4 + v, str(lf::serialize_request(surfaced)));
-    // A probe bundle: a surface probe's steps (lib/lf/probe_bundle.h).
+    // A probe bundle: a surface probe's steps (lib/lf/wire/probe_bundle.h).
     write(out / "request", 8 + v,
           str(lf::serialize_probe_bundle(lf::surface_probe_requests(rig, req, 1 + v))));
     const lf::ViewGeometry g(rig, req);
@@ -73,7 +73,7 @@ int main(int argc, char** argv) {
               str(lf::serialize_fragment(f, lf::Encoding::kJpeg, 50 + 10 * v)));
       block.push_back(f);
     }
-    // A partial sum (lib/lf/composite.h sum_fragments), raw and JPEG.
+    // A partial sum (lib/lf/render/composite.h sum_fragments), raw and JPEG.
     std::vector<lf::FragmentPixels> parts;
     for (const lf::Fragment& f : block) parts.push_back({&f, f.pixels.data()});
     const lf::Fragment sum = lf::sum_fragments(parts);

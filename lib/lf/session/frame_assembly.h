@@ -194,8 +194,8 @@ class PendingRequests {
   size_t max_pending_;
 };
 
-// Probes of one kind being collected (lib/lf/focus_probe.h answers, or
-// lib/lf/surface_probe.h ones), by id: at most `max_open` at once (beyond,
+// Probes of one kind being collected (lib/lf/focus/focus_probe.h answers, or
+// lib/lf/focus/surface_probe.h ones), by id: at most `max_open` at once (beyond,
 // the one started first is scored with what came), and the ids of the last
 // kRemembered scored, so that late fragments of a probe do not start it
 // again (by id, not by order: a peer's id must not make later probes look

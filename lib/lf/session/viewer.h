@@ -15,11 +15,11 @@
 #include <optional>
 #include <string>
 
-#include "lf/view.h"
+#include "lf/geometry/view.h"
 
 namespace lf {
 
-// Click to focus and continuous focus (lib/lf/focus_probe.h): a click's
+// Click to focus and continuous focus (lib/lf/focus/focus_probe.h): a click's
 // probe goes with the next tick, and again (at most kClickRetries times)
 // when no answer came retry_ticks later, since on a busy machine a camera
 // host drops stale requests, probes included; with continuous focus a probe
@@ -64,7 +64,7 @@ class FocusSchedule {
   int retries_ = 0;
 };
 
-// The focal surface from the fragments (lib/lf/surface_probe.h): a probe
+// The focal surface from the fragments (lib/lf/focus/surface_probe.h): a probe
 // every `interval` ticks (the first at once) of the view without its
 // surface; the newest answer is the surface the requests carry. A focus
 // change while playing (focal-depth or focal-plane: the wheel, a click's

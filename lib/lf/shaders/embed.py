@@ -3,7 +3,7 @@
 
 Usage: embed.py OUTPUT.h SHADER...  A shader file name x.vert or x.frag
 becomes kXVertex or kXFragment (x in CamelCase): the GLSL text, as a raw
-string literal, for lib/lf/gl_render.cpp (meson runs this at build time).
+string literal, for lib/lf/render/gl_render.cpp (meson runs this at build time).
 """
 import os
 import sys

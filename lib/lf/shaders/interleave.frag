@@ -1,5 +1,5 @@
 #version 300 es
-// lf::interleave_quilt() (lf/lenticular.h), the same expressions in the
+// lf::interleave_quilt() (lf/render/lenticular.h), the same expressions in the
 // same order; output row y is gl_FragCoord.y (read back top row first).
 precision highp float;
 precision highp int;

@@ -1,0 +1,63 @@
+// CPU rendering of a planned fragment (Yang et al. 2002, Section 4.2: the
+// random access camera warps the part of its image that a view needs).
+// Input: a FragmentPlan (lf/render/plan.h) and the camera's current image; output:
+// the Fragment's pixels (lf/render/fragment.h gives their layout: 8-bit,
+// premultiplied by the aperture weight).
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include "lf/geometry/camera.h"
+#include "lf/render/fragment.h"
+#include "lf/render/plan.h"
+
+namespace lf {
+
+// Renders a planned fragment from the camera's current image (CV_8UC4,
+// camera.width x camera.height). Bilinear sampling (or bicubic, when the
+// plan's request asks: Keys a = -0.5, taps clamped to the image) with edge
+// clamping within half a pixel of the border; samples outside, behind the camera, or where
+// the camera's distortion cannot be evaluated get alpha 0. Lens distortion is
+// applied to the sampling coordinates when the camera has any. No threads,
+// no allocation beyond `out`'s spans and pixels. Throws std::invalid_argument on an image
+// of the wrong size or type.
+//
+// Kernels: kScalar is the reference; kSse2 (x86-64 baseline) and kAvx2
+// (chosen at run time where the CPU has it) evaluate the same arithmetic and
+// give bit-identical results (tests/test_render.cpp). kBest is the fastest
+// that this CPU and build have (best_kernel()); the meson option simd=false
+// leaves only the scalar kernel. Asking for a kernel that is not available
+// throws std::invalid_argument.
+enum class Kernel { kBest, kScalar, kSse2, kAvx2 };
+void render_fragment(const FragmentPlan& plan, const Camera& camera, const cv::Mat& image,
+                     Fragment& out, Kernel kernel = Kernel::kBest);
+
+// The same in two steps, for a caller that renders straight into memory of
+// its own (a sender's output buffer, lf/wire/wire.h: write_raw_fragment):
+// describe_fragment() sets `out`'s camera id, output size, rect and spans
+// from the plan and clears its pixels; render_pixels() then writes the
+// plan's pixels, 4 * plan.pixel_count() bytes row after row in the spans'
+// layout, every byte of them (pixels between a row's runs get 0). Same
+// values as render_fragment(); same exceptions.
+void describe_fragment(const FragmentPlan& plan, Fragment& out);
+void render_pixels(const FragmentPlan& plan, const Camera& camera, const cv::Mat& image,
+                   uint8_t* pixels, Kernel kernel = Kernel::kBest);
+// Rows [r0, r1) of the plan's rect only (0 <= r0 <= r1 <= its height), as
+// render_pixels() writes them: `pixels` receives those rows' span pixels,
+// row after row (4 bytes each, the same values). For a caller that renders
+// a fragment in pieces, e.g. band by band into its sums
+// (lf/render/composite.h Compositor::composite with drawings). With row_bytes > 0
+// the rows are laid out as in an image of the rect instead: row r's span
+// pixels start at pixels + (r - r0) * row_bytes + 4 * (begin - rect.x)
+// (row_bytes >= 4 * rect.width), and the bytes outside the spans are not
+// written (e.g. straight into the rectangle a JPEG encoder takes,
+// lf/wire/wire.h serialize_jpeg_fragment). Throws std::invalid_argument for rows
+// out of range or a row_bytes too small, and as render_pixels().
+void render_rows(const FragmentPlan& plan, const Camera& camera, const cv::Mat& image, int r0,
+                 int r1, uint8_t* pixels, Kernel kernel = Kernel::kBest, size_t row_bytes = 0);
+bool kernel_available(Kernel kernel);
+Kernel best_kernel();                    // never kBest
+const char* kernel_name(Kernel kernel);  // "scalar", "sse2", "avx2" (kBest: the one it picks)
+bool simd_available();                   // kernel_available(Kernel::kSse2)
+
+}  // namespace lf
