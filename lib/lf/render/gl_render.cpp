@@ -315,7 +315,7 @@ void check_gl(const char* where) {
 // Both tables are kTableWidth texels wide, row after row.
 constexpr int kTableWidth = 4096;
 
-// The shaders (lib/lf/shaders/*.glsl, compiled in by meson: gl_shaders.h):
+// The shaders (lib/lf/render/shaders/*.glsl, compiled in by meson: gl_shaders.h):
 // kRunVertex and kRunFragment draw a fragment from its runs, kAddFragment
 // adds a received one, kFullVertex covers the target, kInterleaveFragment
 // interleaves a quilt, kResolveFragment resolves the sums.
