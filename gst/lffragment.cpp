@@ -50,7 +50,6 @@
 #include <gst/video/video.h>
 
 #include <deque>
-#include <future>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -60,6 +59,7 @@
 #include "lf/render/colour.h"
 #include "lf/render/plan.h"
 #include "lf/render/render.h"
+#include "lf/session/camera_host.h"
 #include "lf/wire/probe_bundle.h"
 #include "lf/wire/wire.h"
 #include "lfbackend.h"
@@ -546,84 +546,6 @@ static bool admit(LfFragment* self, State* st, const lf::ViewRequest& req) {
   return true;
 }
 
-// What the cameras of one process share per request: the first camera to
-// plan a request makes it and the others wait for it and take it. Keyed by
-// the rig and the request's bytes (requests up to kMaxSharedKey bytes;
-// larger ones, with big focal surfaces, are planned alone); the last
-// kShared requests are kept.
-constexpr size_t kMaxSharedKey = 16384, kShared = 16;
-template <typename T>
-class SharedPerRequest {
- public:
-  // The value for (rig, key), made by `make` in the first caller; null
-  // where that failed (it rethrows; a waiting caller then makes its own,
-  // and fails alike with the reason).
-  template <typename Make>
-  std::shared_ptr<const T> get(const std::shared_ptr<const lf::Rig>& rig, const std::string& key,
-                               Make make) {
-    std::shared_future<std::shared_ptr<const T>> value;
-    std::promise<std::shared_ptr<const T>> mine;
-    bool making = false;
-    {
-      std::lock_guard<std::mutex> lock(m_);
-      for (const Entry& e : entries_)
-        if (e.rig == rig && e.key == key) value = e.value;
-      if (!value.valid()) {
-        value = mine.get_future().share();
-        entries_.push_back({rig, key, value});
-        if (entries_.size() > kShared) entries_.pop_front();
-        making = true;
-      }
-    }
-    if (!making) return value.get();
-    try {
-      std::shared_ptr<const T> v = make();
-      mine.set_value(v);
-      return v;
-    } catch (...) {
-      mine.set_value(nullptr);
-      throw;
-    }
-  }
-
- private:
-  struct Entry {
-    std::shared_ptr<const lf::Rig> rig;
-    std::string key;
-    std::shared_future<std::shared_ptr<const T>> value;
-  };
-  std::mutex m_;
-  std::deque<Entry> entries_;
-};
-
-// The request's geometry for camera `index`. A request through one focal
-// plane: the whole rig's geometry (every camera's homographies), made once
-// for the process's cameras (64 cameras each making their own cost 63
-// times its shared part: issue 12's profile). A kUlr request: the camera's
-// own, with the blending field shared (it depends on the whole rig: every
-// camera's penalty at every vertex of its grid). A focal surface's
-// geometry (per-tile planes) is made per camera, its own homographies only.
-static std::shared_ptr<const lf::ViewGeometry> geometry_for(
-    const std::shared_ptr<const lf::Rig>& rig, const lf::ViewRequest& req, int index,
-    const std::string& key) {
-  const bool ulr = req.aperture == lf::Aperture::kUlr;
-  if (key.empty() || (!ulr && !req.surface.empty()))
-    return std::make_shared<const lf::ViewGeometry>(*rig, req, index);
-  if (ulr) {
-    static SharedPerRequest<lf::UlrField> fields;
-    std::shared_ptr<const lf::ViewGeometry> own;
-    const auto field = fields.get(rig, key, [&] {
-      own = std::make_shared<const lf::ViewGeometry>(*rig, req, index);
-      return own->ulr_field();
-    });
-    return own ? own : std::make_shared<const lf::ViewGeometry>(*rig, req, index, field);
-  }
-  static SharedPerRequest<lf::ViewGeometry> whole;
-  const auto g =
-      whole.get(rig, key, [&] { return std::make_shared<const lf::ViewGeometry>(*rig, req); });
-  return g ? g : std::make_shared<const lf::ViewGeometry>(*rig, req, index);
-}
-
 // An explicitly empty fragment of camera `cam` for `req` (wire kEmpty): a
 // camera that answers without pixels of its own (capture time -1: none).
 static GstBuffer* empty_fragment(const lf::ViewRequest& req, const lf::Camera& cam,
@@ -728,7 +650,6 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
     return GST_FLOW_OK;
   }
   const gint quality = lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::quality);
-  std::vector<uint8_t> bytes;
   GstBuffer* out = nullptr;
   const gboolean ok = lfgst::guard(
       [&] {
@@ -737,57 +658,26 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
                             GST_VIDEO_FRAME_PLANE_STRIDE(&vf, 0));
         const cv::Mat rgba = camera_image(p, st, frame, image,
                                           GST_VIDEO_INFO_FORMAT(&info) == GST_VIDEO_FORMAT_RGBx);
-        lf::Fragment f;
+        lf::Fragment f;  // the header fields every fragment of the answer shares
         f.viewer_id = req.viewer_id;
         f.sequence = req.sequence;
         f.capture_time_ns = capture_time_of(self, frame, cam.id);
-        // A surface with second planes: this camera's layer-0 and layer-1
-        // fragments, back to back in one buffer (lib/lf/wire/wire.h); a quilt:
-        // its fragment of each eye it sees, each moved to the eye's tile.
-        std::vector<lf::FragmentPlan> plans;
-        std::vector<cv::Point> tile_of;  // a quilt's: each plan's tile origin
-        if (!req.quilt.empty()) {
-          for (int i = 0; i < req.quilt.views; ++i) {
-            lf::FragmentPlan plan = lf::plan_fragment(
-                lf::ViewGeometry(rig, lf::quilt_eye(req, i), st->index), st->index);
-            if (plan.empty()) continue;
-            plans.push_back(std::move(plan));
-            tile_of.push_back(lf::quilt_tile(req.quilt, req.view.width, req.view.height, i).tl());
-          }
-          if (plans.empty()) {  // sees none of the eyes
-            out = empty_fragment(req, cam, f.capture_time_ns);
-            return;
-          }
-        } else {
-          // Shared with the process's other cameras where it pays
-          // (geometry_for).
-          const std::shared_ptr<const lf::ViewGeometry> g =
-              geometry_for(st->rig, req, st->index, key);
-          if (req.surface.two_planes()) {
-            auto both = lf::plan_fragment_layers(*g, st->index);
-            plans.push_back(std::move(both[0]));
-            if (!both[1].empty()) plans.push_back(std::move(both[1]));  // else nothing to add
-          } else {
-            plans.push_back(lf::plan_fragment(*g, st->index));
-          }
+        // The camera's plans (lib/lf/session/camera_host.h): one, a layer
+        // pair, or a quilt's eyes; the geometry shared with the process's
+        // other cameras where it pays (a quilt's eyes each have their own).
+        lf::CameraAnswer answer(
+            rig, req, st->index,
+            req.quilt.empty() ? lf::shared_geometry(st->rig, req, st->index, key) : nullptr);
+        if (answer.quilt() && answer.sees_nothing()) {  // sees none of the eyes
+          out = empty_fragment(req, cam, f.capture_time_ns);
+          return;
         }
-        // The header of plan k's fragment (in the quilt frame for a quilt).
-        auto describe = [&](size_t k, lf::Fragment& head) {
-          lf::describe_fragment(plans[k], head);
-          if (tile_of.empty()) return;
-          head.out_width = req.view.width, head.out_height = req.view.height;
-          head.rect.x += tile_of[k].x, head.rect.y += tile_of[k].y;
-          for (auto& span : head.spans)  // [begin, end) in output x
-            span = {static_cast<uint16_t>(span[0] + tile_of[k].x),
-                    static_cast<uint16_t>(span[1] + tile_of[k].x)};
-        };
-        size_t warped = 0;
         // defer (lfarray's whole-view mode): no pixels here; the plan and
         // the image go on an empty fragment to the compositor, which draws
         // them (probes, which are scored from pixels, and layer pairs are
         // drawn here as always).
-        if (st->s.defer && st->s.encoding == Encoding::kRaw && !probe && plans.size() == 1 &&
-            tile_of.empty() && !plans[0].empty()) {
+        if (st->s.defer && st->s.encoding == Encoding::kRaw && !probe && answer.count() == 1 &&
+            !answer.quilt() && !answer.plan(0).empty()) {
           auto d = std::make_shared<lfgst::DeferredDraw>();
           if (rgba.data == image.data) {  // the frame itself: mapped while the drawing waits
             if (!gst_video_frame_map(&d->frame, &info, frame, GST_MAP_READ))
@@ -803,7 +693,7 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
           d->frame_pts = GST_BUFFER_PTS(frame);
           d->camera = cam;
           d->slot = st->index;
-          d->plan = std::move(plans[0]);
+          d->plan = answer.take_plan(0);
           out = empty_fragment(req, cam, f.capture_time_ns);
           lfgst::add_deferred_meta(out, std::move(d));
           lfgst::trace(GST_ELEMENT(self), "warped", req.viewer_id, req.sequence, cam.id, 0);
@@ -813,46 +703,20 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
         }
         st->renderer->set_image(0, rgba, frame, GST_BUFFER_PTS(frame));
         if (st->s.encoding == Encoding::kJpeg) {
-          for (size_t k = 0; k < plans.size(); ++k) {
-            const lf::FragmentPlan& plan = plans[k];
-            describe(k, f);
-            f.camera_id = static_cast<uint32_t>(cam.id);
-            // Drawn straight into the rectangle the encoder takes.
-            const size_t row_bytes = 4 * static_cast<size_t>(plan.rect.width);
-            if (st->jpeg_pixels.size() < row_bytes * plan.rect.height)
-              st->jpeg_pixels.resize(row_bytes * plan.rect.height);
-            st->renderer->draw_rect(plan, cam, 0, st->jpeg_pixels.data(), row_bytes);
-            const std::vector<uint8_t> one =
-                lf::serialize_jpeg_fragment(f, st->jpeg_pixels.data(), quality);
-            warped += plan.pixel_count();
-            bytes.insert(bytes.end(), one.begin(), one.end());
-          }
-          lfgst::trace(GST_ELEMENT(self), "warped", req.viewer_id, req.sequence, cam.id,
-                       static_cast<gint64>(warped));
+          const std::vector<uint8_t> bytes =
+              answer.encode_jpeg(f, cam, *st->renderer, 0, quality, st->jpeg_pixels);
           out = gst_buffer_new_memdup(bytes.data(), bytes.size());
         } else {
           // Raw: rendered straight into the output buffer, in its wire
           // format (no copy of the pixels).
-          std::vector<lf::Fragment> heads(plans.size(), f);
-          std::vector<size_t> sizes(plans.size());
-          size_t size = 0;
-          for (size_t k = 0; k < plans.size(); ++k) {
-            describe(k, heads[k]);
-            size += sizes[k] = lf::raw_fragment_size(heads[k]);
-          }
+          const size_t size = answer.raw_size(f, cam.id);
           out = gst_buffer_new_allocate(nullptr, size, nullptr);
-          lfgst::add_sealed_meta(out);  // while it is writable (sealed below)
+          lfgst::add_sealed_meta(out);  // while it is writable (sealed by write_raw)
           lfgst::MappedBuffer map(out, GST_MAP_WRITE);
-          uint8_t* at = map.data();
-          for (size_t k = 0; k < plans.size(); ++k) {
-            st->renderer->draw(plans[k], cam, 0, lf::write_raw_fragment(heads[k], at, sizes[k]));
-            lf::seal_fragment(at, sizes[k]);
-            at += sizes[k];
-            warped += plans[k].pixel_count();
-          }
-          lfgst::trace(GST_ELEMENT(self), "warped", req.viewer_id, req.sequence, cam.id,
-                       static_cast<gint64>(warped));
+          answer.write_raw(f, cam, *st->renderer, 0, map.data(), size);
         }
+        lfgst::trace(GST_ELEMENT(self), "warped", req.viewer_id, req.sequence, cam.id,
+                     static_cast<gint64>(answer.pixel_count()));
         lfgst::trace(GST_ELEMENT(self), "encoded", req.viewer_id, req.sequence, cam.id,
                      static_cast<gint64>(gst_buffer_get_size(out)));
       },
@@ -898,7 +762,7 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
     size_t at = 0;
     for (size_t k = 0; ok && k < reqs.size(); at += sizes[k++]) {
       keys.emplace_back();
-      if (sizes[k] <= kMaxSharedKey)
+      if (sizes[k] <= lf::kMaxSharedKeyBytes)
         keys.back().assign(reinterpret_cast<const char*>(map.data + at), sizes[k]);
     }
     gst_buffer_unmap(buf, &map);

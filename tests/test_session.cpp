@@ -7,9 +7,15 @@
 #include <utility>
 #include <vector>
 
+#include "lf/quality/synthetic.h"
+#include "lf/render/quilt.h"
+#include "lf/render/render.h"
+#include "lf/session/camera_host.h"
 #include "lf/session/frame_assembly.h"
 #include "lf/session/request_queue.h"
 #include "lf/session/viewer.h"
+#include "lf/wire/probe_bundle.h"
+#include "lf/wire/wire.h"
 
 using Verdict = lf::RequestWindow::Verdict;
 
@@ -359,4 +365,86 @@ TEST(Navigation, KeysDragAndWheel) {
   EXPECT_TRUE(lf::key_moves_eye("r", 2.0, &v));
   EXPECT_EQ(v.eye, cv::Vec3d(0, 0, 0));
   EXPECT_EQ(v.focal_depth, 0);
+}
+
+// lf::CameraAnswer: a camera's answer on the wire equals its fragment
+// rendered and serialized the long way (raw: the same pixels; JPEG: the
+// same bytes), and a quilt's eyes land in their tiles, apart, as the
+// compositor takes them (lf::parse_frame_answer).
+TEST(CameraAnswer, RawJpegAndQuiltAnswersAreTheFragmentsOnTheWire) {
+  const lf::Rig rig = lf::synthetic_grid_rig(3, 3, 0.5, 160, 120, 50);
+  const int index = 4;
+  const lf::Camera& cam = rig.cameras[index];
+  const cv::Mat image = lf::render_textured_plane(cam, 10, 1.0);
+  lf::ViewRequest req;
+  req.viewer_id = 3, req.sequence = 77;
+  req.view = lf::VirtualView::look_at({0.1, 0.1, -1}, {0, 0, 10}, {0, 1, 0}, 40, 160, 120);
+  req.focal_plane = lf::FocalPlane::through({0, 0, 10}, {0, 0, 1});
+  const auto renderer = lf::make_renderer(lf::Backend::kCpu);
+  renderer->set_image(0, image, &image, 1);
+  lf::Fragment base;
+  base.viewer_id = req.viewer_id, base.sequence = req.sequence, base.capture_time_ns = 5;
+
+  const lf::CameraAnswer one(rig, req, index);
+  ASSERT_EQ(one.count(), 1u);
+  ASSERT_FALSE(one.sees_nothing());
+  EXPECT_FALSE(one.quilt());
+  lf::Fragment want;
+  want.viewer_id = req.viewer_id, want.sequence = req.sequence, want.capture_time_ns = 5;
+  lf::render_fragment(one.plan(0), cam, image, want);
+  EXPECT_EQ(one.pixel_count(), want.pixel_count());
+  std::vector<uint8_t> raw(one.raw_size(base, cam.id));
+  one.write_raw(base, cam, *renderer, 0, raw.data(), raw.size());
+  EXPECT_EQ(raw, lf::serialize_fragment(want, lf::Encoding::kRaw));
+  EXPECT_THROW(one.write_raw(base, cam, *renderer, 0, raw.data(), raw.size() - 1),
+               std::invalid_argument);
+  std::vector<uint8_t> scratch;
+  EXPECT_EQ(one.encode_jpeg(base, cam, *renderer, 0, 90, scratch),
+            lf::serialize_fragment(want, lf::Encoding::kJpeg, 90));
+
+  // A quilt of 6 eyes in 3 x 2 tiles of 96 x 72.
+  lf::ViewRequest q = req;
+  q.view = lf::VirtualView::look_at({0.1, 0.1, -1}, {0, 0, 10}, {0, 1, 0}, 40, 96, 72);
+  q.view.width = 288, q.view.height = 144;
+  q.quilt.views = 6, q.quilt.cols = 3, q.quilt.rows = 2, q.quilt.baseline = 0.6;
+  const lf::CameraAnswer eyes(rig, q, index);
+  EXPECT_TRUE(eyes.quilt());
+  ASSERT_GE(eyes.count(), 2u);
+  std::vector<uint8_t> quilt(eyes.raw_size(base, cam.id));
+  eyes.write_raw(base, cam, *renderer, 0, quilt.data(), quilt.size());
+  const auto parts = lf::parse_frame_answer(quilt.data(), quilt.size(), 288 * 144);
+  ASSERT_EQ(parts.size(), eyes.count());
+  for (const auto& part : parts) {
+    EXPECT_EQ(part.f.out_width, 288);
+    EXPECT_EQ(part.f.out_height, 144);
+    bool in_a_tile = false;
+    for (int i = 0; i < 6; ++i)
+      in_a_tile |= (part.f.rect & lf::quilt_tile(q.quilt, 288, 144, i)) == part.f.rect;
+    EXPECT_TRUE(in_a_tile) << part.f.rect;
+  }
+  // A quilt whose eyes this camera cannot see: nothing to send.
+  lf::ViewRequest away = q;
+  away.view.position = cv::Vec3d(100, 100, -1);
+  const lf::CameraAnswer none(rig, away, index);
+  EXPECT_TRUE(none.quilt());
+  EXPECT_TRUE(none.sees_nothing());
+  EXPECT_EQ(none.count(), 0u);
+}
+
+// lf::shared_geometry: the cameras answering one plane request share one
+// geometry (the first to ask makes it); a surface request or no key: each
+// its own.
+TEST(CameraAnswer, CamerasShareTheGeometryOfARequest) {
+  const auto rig = std::make_shared<const lf::Rig>(lf::synthetic_grid_rig(3, 3, 0.5, 160, 120, 50));
+  lf::ViewRequest req;
+  req.view = lf::VirtualView::look_at({0.1, 0.1, -1}, {0, 0, 10}, {0, 1, 0}, 40, 160, 120);
+  req.focal_plane = lf::FocalPlane::through({0, 0, 10}, {0, 0, 1});
+  const std::string key = "request-bytes-1";
+  const auto a = lf::shared_geometry(rig, req, 0, key);
+  const auto b = lf::shared_geometry(rig, req, 5, key);
+  EXPECT_EQ(a.get(), b.get());
+  EXPECT_NE(lf::shared_geometry(rig, req, 5, "request-bytes-2").get(), a.get());
+  EXPECT_NE(lf::shared_geometry(rig, req, 5, "").get(), a.get());
+  EXPECT_NE(lf::shared_geometry(rig, req, 5, std::string(lf::kMaxSharedKeyBytes + 1, 'x')).get(),
+            lf::shared_geometry(rig, req, 5, std::string(lf::kMaxSharedKeyBytes + 1, 'x')).get());
 }

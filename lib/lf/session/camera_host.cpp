@@ -1,0 +1,169 @@
+#include "lf/session/camera_host.h"
+
+#include <deque>
+#include <future>
+#include <mutex>
+#include <utility>
+
+#include "lf/render/quilt.h"
+#include "lf/render/render.h"
+#include "lf/wire/wire.h"
+
+namespace lf {
+
+namespace {
+
+// What the cameras of one process share per request: the first camera to
+// plan a request makes it and the others wait for it and take it. Keyed by
+// the rig and the request's bytes (requests up to kMaxSharedKeyBytes bytes;
+// larger ones, with big focal surfaces, are planned alone); the last
+// kShared requests are kept.
+constexpr size_t kShared = 16;
+template <typename T>
+class SharedPerRequest {
+ public:
+  // The value for (rig, key), made by `make` in the first caller; null
+  // where that failed (it rethrows; a waiting caller then makes its own,
+  // and fails alike with the reason).
+  template <typename Make>
+  std::shared_ptr<const T> get(const std::shared_ptr<const Rig>& rig, const std::string& key,
+                               Make make) {
+    std::shared_future<std::shared_ptr<const T>> value;
+    std::promise<std::shared_ptr<const T>> mine;
+    bool making = false;
+    {
+      std::lock_guard<std::mutex> lock(m_);
+      for (const Entry& e : entries_)
+        if (e.rig == rig && e.key == key) value = e.value;
+      if (!value.valid()) {
+        value = mine.get_future().share();
+        entries_.push_back({rig, key, value});
+        if (entries_.size() > kShared) entries_.pop_front();
+        making = true;
+      }
+    }
+    if (!making) return value.get();
+    try {
+      std::shared_ptr<const T> v = make();
+      mine.set_value(v);
+      return v;
+    } catch (...) {
+      mine.set_value(nullptr);
+      throw;
+    }
+  }
+
+ private:
+  struct Entry {
+    std::shared_ptr<const Rig> rig;
+    std::string key;
+    std::shared_future<std::shared_ptr<const T>> value;
+  };
+  std::mutex m_;
+  std::deque<Entry> entries_;
+};
+
+}  // namespace
+
+std::shared_ptr<const ViewGeometry> shared_geometry(const std::shared_ptr<const Rig>& rig,
+                                                    const ViewRequest& req, int index,
+                                                    const std::string& key) {
+  const bool ulr = req.aperture == Aperture::kUlr;
+  if (key.empty() || key.size() > kMaxSharedKeyBytes || (!ulr && !req.surface.empty()))
+    return std::make_shared<const ViewGeometry>(*rig, req, index);
+  if (ulr) {
+    static SharedPerRequest<UlrField> fields;
+    std::shared_ptr<const ViewGeometry> own;
+    const auto field = fields.get(rig, key, [&] {
+      own = std::make_shared<const ViewGeometry>(*rig, req, index);
+      return own->ulr_field();
+    });
+    return own ? own : std::make_shared<const ViewGeometry>(*rig, req, index, field);
+  }
+  static SharedPerRequest<ViewGeometry> whole;
+  const auto g =
+      whole.get(rig, key, [&] { return std::make_shared<const ViewGeometry>(*rig, req); });
+  return g ? g : std::make_shared<const ViewGeometry>(*rig, req, index);
+}
+
+CameraAnswer::CameraAnswer(const Rig& rig, const ViewRequest& req, int index,
+                           std::shared_ptr<const ViewGeometry> geometry)
+    : quilt_(!req.quilt.empty()), width_(req.view.width), height_(req.view.height) {
+  if (!req.quilt.empty()) {
+    for (int i = 0; i < req.quilt.views; ++i) {
+      FragmentPlan plan = plan_fragment(ViewGeometry(rig, quilt_eye(req, i), index), index);
+      if (plan.empty()) continue;
+      plans_.push_back(std::move(plan));
+      tile_of_.push_back(quilt_tile(req.quilt, req.view.width, req.view.height, i).tl());
+    }
+    return;
+  }
+  if (!geometry) geometry = std::make_shared<const ViewGeometry>(rig, req, index);
+  if (req.surface.two_planes()) {
+    auto both = plan_fragment_layers(*geometry, index);
+    plans_.push_back(std::move(both[0]));
+    if (!both[1].empty()) plans_.push_back(std::move(both[1]));  // else nothing to add
+  } else {
+    plans_.push_back(plan_fragment(*geometry, index));
+  }
+}
+
+size_t CameraAnswer::pixel_count() const {
+  size_t n = 0;
+  for (const FragmentPlan& p : plans_) n += p.pixel_count();
+  return n;
+}
+
+Fragment CameraAnswer::header(size_t k, const Fragment& base, int camera_id) const {
+  Fragment head;
+  head.viewer_id = base.viewer_id, head.sequence = base.sequence;
+  head.capture_time_ns = base.capture_time_ns;
+  describe_fragment(plans_.at(k), head);
+  head.camera_id = static_cast<uint32_t>(camera_id);
+  if (!quilt_) return head;
+  // A quilt's eye: moved into its tile of the quilt frame.
+  const cv::Point t = tile_of_[k];
+  head.out_width = width_, head.out_height = height_;
+  head.rect.x += t.x, head.rect.y += t.y;
+  for (auto& span : head.spans)  // [begin, end) in output x
+    span = {static_cast<uint16_t>(span[0] + t.x), static_cast<uint16_t>(span[1] + t.x)};
+  return head;
+}
+
+size_t CameraAnswer::raw_size(const Fragment& base, int camera_id) const {
+  size_t size = 0;
+  for (size_t k = 0; k < plans_.size(); ++k) size += raw_fragment_size(header(k, base, camera_id));
+  return size;
+}
+
+void CameraAnswer::write_raw(const Fragment& base, const Camera& camera, Renderer& renderer,
+                             int slot, uint8_t* out, size_t size) const {
+  for (size_t k = 0; k < plans_.size(); ++k) {
+    const Fragment head = header(k, base, camera.id);
+    const size_t n = raw_fragment_size(head);
+    if (n > size) throw std::invalid_argument("CameraAnswer::write_raw: the buffer is too small");
+    renderer.draw(plans_[k], camera, slot, write_raw_fragment(head, out, n));
+    seal_fragment(out, n);
+    out += n, size -= n;
+  }
+  if (size != 0) throw std::invalid_argument("CameraAnswer::write_raw: the buffer is too large");
+}
+
+std::vector<uint8_t> CameraAnswer::encode_jpeg(const Fragment& base, const Camera& camera,
+                                               Renderer& renderer, int slot, int quality,
+                                               std::vector<uint8_t>& scratch) const {
+  std::vector<uint8_t> bytes;
+  for (size_t k = 0; k < plans_.size(); ++k) {
+    const FragmentPlan& plan = plans_[k];
+    const Fragment head = header(k, base, camera.id);
+    // Drawn straight into the rectangle the encoder takes.
+    const size_t row_bytes = 4 * static_cast<size_t>(plan.rect.width);
+    if (scratch.size() < row_bytes * plan.rect.height) scratch.resize(row_bytes * plan.rect.height);
+    renderer.draw_rect(plan, camera, slot, scratch.data(), row_bytes);
+    const std::vector<uint8_t> one = serialize_jpeg_fragment(head, scratch.data(), quality);
+    bytes.insert(bytes.end(), one.begin(), one.end());
+  }
+  return bytes;
+}
+
+}  // namespace lf
