@@ -97,11 +97,11 @@
 #include "lfaggregate.h"
 #include "lfbackend.h"
 #include "lfcaps.h"
+#include "lfevents.h"
 #include "lfguard.h"
 #include "lfmeta.h"
 #include "lfprops.h"
 #include "lfrig.h"
-#include "lfsurface.h"
 #include "lftrace.h"
 #include "lfwarn.h"
 
@@ -646,10 +646,8 @@ static void finish_probe(LfCompositor* self, State* st, FocusProbes::Iter it) {
                static_cast<gint64>(q * 1e9));
   GST_DEBUG_OBJECT(self, "focus probe %u: inverse depth %g from %d cameras (%zu fragments)",
                    probe.id, q, probe.answers.complete_cameras(), probe.answers.fragments());
-  GstStructure* s =
-      gst_structure_new("lf-focus", "viewer-id", G_TYPE_UINT, probe.viewer, "probe-id", G_TYPE_UINT,
-                        probe.id, "inverse-depth", G_TYPE_DOUBLE, q, "capture-time", G_TYPE_INT64,
-                        static_cast<gint64>(probe.answers.capture_time_ns()), nullptr);
+  GstStructure* s = lfgst::focus_structure(
+      {probe.viewer, probe.id, q, static_cast<gint64>(probe.answers.capture_time_ns())});
   push_upstream(GST_AGGREGATOR(self), gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, s));
 }
 
@@ -683,7 +681,7 @@ static void absorb_probe(LfCompositor* self, State* st, const guint8* data, gsiz
 
 // Estimates the focal surface from the surface probe collected so far
 // (lf::SurfaceProbeAnswers: the cameras that answered every step) and sends
-// it upstream as an lf-surface event (gst/lfsurface.h), which lfviewrequest
+// it upstream as an lf-surface event (gst/lfevents.h), which lfviewrequest
 // puts into its requests.
 static void finish_surface_probe(LfCompositor* self, State* st, SurfaceProbes::Iter it) {
   const auto probe = st->surface_probes.take(it);
@@ -719,8 +717,9 @@ static void finish_surface_probe(LfCompositor* self, State* st, SurfaceProbes::I
                    probe.id, e.planes_used, std::count(e.textured.begin(), e.textured.end(), true),
                    e.textured.size(), probe.answers.complete_cameras(), probe.answers.fragments(),
                    (g_get_monotonic_time() - t0) / 1000.0);
-  GstStructure* s = lfgst::surface_structure(probe.viewer, probe.id,
-                                             probe.answers.capture_time_ns(), fs, e.planes_used);
+  GstStructure* s = lfgst::surface_structure({probe.viewer, probe.id,
+                                              static_cast<gint64>(probe.answers.capture_time_ns()),
+                                              fs, e.planes_used});
   push_upstream(GST_AGGREGATOR(self), gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, s));
 }
 

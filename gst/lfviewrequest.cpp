@@ -160,10 +160,10 @@
 #include "lf/wire/wire.h"
 #include "lfcaps.h"
 #include "lfclock.h"
+#include "lfevents.h"
 #include "lfguard.h"
 #include "lfprops.h"
 #include "lfrig.h"
-#include "lfsurface.h"
 #include "lftrace.h"
 #include "lfwarn.h"
 
@@ -604,43 +604,7 @@ static void handle_view_event(LfViewRequest* self, GstEvent* event) {
   if (!fresh) return;
   std::vector<std::pair<GParamSpec*, GValue>> values;
   std::string why;
-  for (gint i = 0; i < gst_structure_n_fields(st) && why.empty(); ++i) {
-    const gchar* name = gst_structure_nth_field_name(st, i);
-    if (g_str_equal(name, "viewer-id")) continue;
-    GParamSpec* ps = g_object_class_find_property(G_OBJECT_GET_CLASS(self), name);
-    if (!ps || !(ps->flags & GST_PARAM_MUTABLE_PLAYING)) {
-      why = std::string("unknown field '") + name + "'";
-      break;
-    }
-    const GValue* in = gst_structure_get_value(st, name);
-    GValue v = G_VALUE_INIT;
-    g_value_init(&v, ps->value_type);
-    bool ok;
-    if (ps->value_type == GST_TYPE_ARRAY) {
-      ok = GST_VALUE_HOLDS_ARRAY(in) &&
-           (gst_value_array_get_size(in) == 0 || gst_value_array_get_size(in) == 3);
-      for (guint k = 0; ok && k < gst_value_array_get_size(in); ++k) {
-        GValue d = G_VALUE_INIT;
-        g_value_init(&d, G_TYPE_DOUBLE);
-        ok = g_value_transform(gst_value_array_get_value(in, k), &d) &&
-             std::isfinite(g_value_get_double(&d)) &&
-             std::fabs(g_value_get_double(&d)) <= MAX_COORD;
-        if (ok) gst_value_array_append_and_take_value(&v, &d);
-      }
-    } else {
-      ok = g_value_type_transformable(G_VALUE_TYPE(in), ps->value_type) &&
-           g_value_transform(in, &v) &&
-           !(G_VALUE_HOLDS_DOUBLE(&v) && !std::isfinite(g_value_get_double(&v))) &&
-           !g_param_value_validate(ps, &v);  // true when it had to clamp
-    }
-    if (!ok) {
-      why = std::string("field '") + name + "' is not a valid " + g_type_name(ps->value_type) +
-            " for the property (see gst-inspect-1.0 lfviewrequest)";
-      g_value_unset(&v);
-      break;
-    }
-    values.emplace_back(ps, v);
-  }
+  lfgst::read_view_change(st, G_OBJECT(self), MAX_COORD, &values, &why);
   if (why.empty()) {
     g_mutex_lock(&p->apply_lock);  // the streaming thread sees all or none
     for (auto& [ps, v] : values) g_object_set_property(G_OBJECT(self), ps->name, &v);
@@ -658,15 +622,15 @@ static void handle_view_event(LfViewRequest* self, GstEvent* event) {
 static void handle_focus_event(LfViewRequest* self, GstEvent* event) {
   Priv* p = self->priv;
   const GstStructure* s = gst_event_get_structure(event);
-  guint probe = 0;
-  gdouble q = 0;
-  if (!gst_structure_get_uint(s, "probe-id", &probe) ||
-      !gst_structure_get_double(s, "inverse-depth", &q) || !std::isfinite(q) || q < 0) {
+  lfgst::FocusAnswer a;
+  std::string why;
+  if (!lfgst::read_focus(s, &a, &why)) {
     LF_ELEMENT_WARNING_LIMITED(self, p->bad_event, STREAM, FAILED,
-                               ("Ignoring a malformed lf-focus event"), "%s",
-                               "needs probe-id (uint) and inverse-depth (double >= 0)");
+                               ("Ignoring a malformed lf-focus event"), "%s", why.c_str());
     return;
   }
+  const guint probe = a.probe;
+  double q = a.inverse_depth;
   g_mutex_lock(&p->lock);
   State* st = p->state.get();
   const Settings v = lfgst::snapshot(GST_OBJECT(self), p->settings);
@@ -693,19 +657,18 @@ static void handle_focus_event(LfViewRequest* self, GstEvent* event) {
 static void handle_surface_event(LfViewRequest* self, GstEvent* event) {
   Priv* p = self->priv;
   const GstStructure* s = gst_event_get_structure(event);
-  guint probe = 0;
-  lf::FocalSurface fs;
-  if (!lfgst::read_surface_structure(s, &probe, &fs)) {
+  lfgst::SurfaceAnswer a;
+  std::string why;
+  if (!lfgst::read_surface(s, &a, &why)) {
     LF_ELEMENT_WARNING_LIMITED(self, p->bad_event, STREAM, FAILED,
-                               ("Ignoring a malformed lf-surface event"), "%s",
-                               "needs probe-id (uint), tile (4..1024), cols and rows (1..16384), "
-                               "planes (bytes: 1..64 planes of 4 doubles) and plane-of (bytes: "
-                               "cols x rows; gst/lfsurface.h)");
+                               ("Ignoring a malformed lf-surface event"), "%s (gst/lfevents.h)",
+                               why.c_str());
     return;
   }
+  const guint probe = a.probe;
   g_mutex_lock(&p->lock);
   State* st = p->state.get();
-  const bool fresh = st && st->surface.answer(probe, std::move(fs));
+  const bool fresh = st && st->surface.answer(probe, std::move(a.surface));
   g_cond_broadcast(&p->surface_cond);
   g_mutex_unlock(&p->lock);
   GST_DEBUG_OBJECT(self, "surface probe %u answered%s", probe, fresh ? "" : " (not ours or stale)");

@@ -26,7 +26,7 @@
 #include "lf/render/render_view.h"
 #include "lf/wire/probe_bundle.h"
 #include "lf/wire/wire.h"
-#include "lfsurface.h"
+#include "lfevents.h"
 
 namespace {
 
@@ -527,7 +527,9 @@ TEST_F(LiveSurface, TheCompositorsSurfaceReachesTheRequests) {
         const GstStructure* s = gst_event_get_structure(GST_PAD_PROBE_INFO_EVENT(info));
         if (!s || !gst_structure_has_name(s, "lf-surface")) return GST_PAD_PROBE_OK;
         Surface a;
-        a.well_formed = lfgst::read_surface_structure(s, &a.probe, &a.fs);
+        lfgst::SurfaceAnswer sa;
+        a.well_formed = lfgst::read_surface(s, &sa, nullptr);
+        a.probe = sa.probe, a.fs = std::move(sa.surface);
         gst_structure_get_int64(s, "capture-time", &a.capture_ns);
         gst_structure_get_int(s, "planes-used", &a.planes_used);
         std::lock_guard<std::mutex> l(all->m);

@@ -23,6 +23,7 @@
 #include "lf/render/render_view.h"
 #include "lf/wire/probe_bundle.h"
 #include "lf/wire/wire.h"
+#include "lfevents.h"
 #include "lfrate.h"
 #include "lfrig.h"
 
@@ -907,4 +908,78 @@ TEST_F(Harness, CompositorRateAndDeadlineFromFragmentCaps) {
     gst_object_unref(el);
     gst_harness_teardown(h);
   }
+}
+
+// The custom events' codec (gst/lfevents.h): each structure round-trips
+// with its version; a newer version, a missing or out-of-range field, or a
+// surface whose sizes disagree is refused with a reason; an lf-view change
+// is checked whole against lfviewrequest's properties.
+TEST_F(Harness, EventCodecRoundTripsAndRefusesWhatIsWrong) {
+  std::string why;
+  lfgst::FocusAnswer f{3, 17, 0.125, 123456};
+  GstStructure* s = lfgst::focus_structure(f);
+  lfgst::FocusAnswer back;
+  ASSERT_TRUE(lfgst::read_focus(s, &back, &why)) << why;
+  EXPECT_EQ(back.viewer, 3u);
+  EXPECT_EQ(back.probe, 17u);
+  EXPECT_DOUBLE_EQ(back.inverse_depth, 0.125);
+  EXPECT_EQ(back.capture_ns, 123456);
+  gst_structure_set(s, "version", G_TYPE_UINT, lfgst::kEventVersion + 1, nullptr);
+  EXPECT_FALSE(lfgst::read_focus(s, &back, &why));
+  EXPECT_NE(why.find("version"), std::string::npos) << why;
+  gst_structure_remove_field(s, "version");  // written before the field: version 1
+  EXPECT_TRUE(lfgst::read_focus(s, &back, &why)) << why;
+  gst_structure_set(s, "inverse-depth", G_TYPE_DOUBLE, -1.0, nullptr);
+  EXPECT_FALSE(lfgst::read_focus(s, &back, &why));
+  gst_structure_free(s);
+
+  lfgst::SurfaceAnswer a;
+  a.viewer = 2, a.probe = 5, a.capture_ns = 9, a.planes_used = 2;
+  a.surface.tile = 16, a.surface.cols = 3, a.surface.rows = 2;
+  a.surface.planes = {lf::FocalPlane::through({0, 0, 5}, {0, 0, 1}),
+                      lf::FocalPlane::through({0, 0, 9}, {0, 0.1, 1})};
+  a.surface.plane_of = {0, 1, 1, 0, 0, 1};
+  a.surface.second_of = {255, 0, 255, 255, 1, 255};
+  s = lfgst::surface_structure(a);
+  lfgst::SurfaceAnswer b;
+  ASSERT_TRUE(lfgst::read_surface(s, &b, &why)) << why;
+  EXPECT_EQ(b.probe, 5u);
+  EXPECT_EQ(b.planes_used, 2);
+  EXPECT_EQ(b.surface.plane_of, a.surface.plane_of);
+  EXPECT_EQ(b.surface.second_of, a.surface.second_of);
+  ASSERT_EQ(b.surface.planes.size(), 2u);
+  EXPECT_DOUBLE_EQ(b.surface.planes[1].d, a.surface.planes[1].d);
+  gst_structure_set(s, "cols", G_TYPE_INT, 4, nullptr);  // plane-of no longer cols x rows
+  EXPECT_FALSE(lfgst::read_surface(s, &b, &why));
+  EXPECT_NE(why.find("plane-of"), std::string::npos) << why;
+  gst_structure_free(s);
+
+  GstElement* req = gst_element_factory_make("lfviewrequest", nullptr);
+  ASSERT_NE(req, nullptr);
+  std::vector<std::pair<GParamSpec*, GValue>> values;
+  s = lfgst::view_change_structure({{"eye-s", 0.25}, {"focal-depth", 3.0}}, 4);
+  ASSERT_TRUE(lfgst::read_view_change(s, G_OBJECT(req), 1e12, &values, &why)) << why;
+  ASSERT_EQ(values.size(), 2u);
+  EXPECT_STREQ(values[0].first->name, "eye-s");
+  EXPECT_DOUBLE_EQ(g_value_get_double(&values[0].second), 0.25);
+  for (auto& kv : values) g_value_unset(&kv.second);
+  values.clear();
+  guint viewer = 0;
+  EXPECT_TRUE(gst_structure_get_uint(s, "viewer-id", &viewer) && viewer == 4);
+  gst_structure_free(s);
+  // Refused whole: an unknown field, a property fixed while playing, out of
+  // range, the wrong type.
+  for (GstStructure* bad :
+       {gst_structure_new("lf-view", "eye-s", G_TYPE_DOUBLE, 0.1, "zoom", G_TYPE_DOUBLE, 2.0,
+                          nullptr),
+        gst_structure_new("lf-view", "width", G_TYPE_INT, 320, nullptr),
+        gst_structure_new("lf-view", "vfov", G_TYPE_DOUBLE, 500.0, nullptr),
+        gst_structure_new("lf-view", "eye-s", G_TYPE_STRING, "left", nullptr)}) {
+    EXPECT_FALSE(lfgst::read_view_change(bad, G_OBJECT(req), 1e12, &values, &why))
+        << gst_structure_to_string(bad);
+    EXPECT_TRUE(values.empty());
+    EXPECT_FALSE(why.empty());
+    gst_structure_free(bad);
+  }
+  gst_object_unref(req);
 }

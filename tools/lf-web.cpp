@@ -42,6 +42,7 @@
 #include "lf/geometry/view.h"
 #include "lf/io/datasets.h"
 #include "lf/io/rig_file.h"
+#include "lfevents.h"
 
 namespace {
 
@@ -384,7 +385,7 @@ std::string apply_control(Control& c, const json& j) {
     return "";
   }
   if (type == "set") {  // view properties, applied at once and whole (lf-view)
-    GstStructure* s = gst_structure_new_empty("lf-view");
+    std::vector<std::pair<std::string, double>> fields;
     for (auto it = j.begin(); it != j.end(); ++it) {
       if (it.key() == "type") continue;
       const bool known = std::any_of(std::begin(kViewFields), std::end(kViewFields),
@@ -399,18 +400,14 @@ std::string apply_control(Control& c, const json& j) {
           err = "'" + it.key() + "' outside " + std::to_string(ps->minimum) + ".." +
                 std::to_string(ps->maximum);
         else
-          gst_structure_set(s, it.key().c_str(), G_TYPE_DOUBLE, v, nullptr);
+          fields.emplace_back(it.key(), v);
       }
-      if (!err.empty()) {
-        gst_structure_free(s);
-        return err;
-      }
+      if (!err.empty()) return err;
     }
-    if (gst_structure_n_fields(s) == 0) {
-      gst_structure_free(s);
-      return "'set' without a field";
-    }
-    to_request(c, gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, s));
+    if (fields.empty()) return "'set' without a field";
+    // The lf-view event's codec (gst/lfevents.h).
+    to_request(
+        c, gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, lfgst::view_change_structure(fields)));
     return "";
   }
   if (type == "stereo") {  // left | right side by side, one camera spacing apart
