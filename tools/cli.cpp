@@ -1,5 +1,6 @@
 #include "cli.h"
 
+#include <glib.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -16,17 +17,45 @@ namespace cli {
 
 Args::Args(int argc, char** argv, const std::vector<std::string>& with_value,
            const std::vector<std::string>& bare) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (std::find(bare.begin(), bare.end(), a) != bare.end()) {
-      values_[a] = "1";
-    } else if (std::find(with_value.begin(), with_value.end(), a) != with_value.end()) {
-      if (i + 1 >= argc) throw std::invalid_argument("option " + a + " needs a value");
-      values_[a] = argv[++i];
-    } else {
-      throw std::invalid_argument("unknown option '" + a + "' (see --help)");
-    }
+  // GLib's GOption, as the GStreamer tools parse (--key value or
+  // --key=value); the option names as the tool gives them ("--name").
+  std::vector<gchar*> strings(with_value.size(), nullptr);
+  std::vector<gboolean> flags(bare.size(), FALSE);
+  std::vector<std::string> names;
+  std::vector<GOptionEntry> entries;
+  names.reserve(with_value.size() + bare.size());
+  for (const std::string& k : with_value) names.push_back(k.rfind("--", 0) == 0 ? k.substr(2) : k);
+  for (const std::string& k : bare) names.push_back(k.rfind("--", 0) == 0 ? k.substr(2) : k);
+  for (size_t i = 0; i < with_value.size(); ++i)
+    entries.push_back({names[i].c_str(), 0, 0, G_OPTION_ARG_STRING, &strings[i], nullptr, "V"});
+  for (size_t i = 0; i < bare.size(); ++i)
+    entries.push_back({names[with_value.size() + i].c_str(), 0, 0, G_OPTION_ARG_NONE, &flags[i],
+                       nullptr, nullptr});
+  entries.push_back({nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr});
+  GOptionContext* ctx = g_option_context_new(nullptr);
+  g_option_context_set_help_enabled(ctx, FALSE);  // help_requested() prints the tool's
+  g_option_context_add_main_entries(ctx, entries.data(), nullptr);
+  gchar** args = g_new0(gchar*, argc + 1);
+  for (int i = 0; i < argc; ++i) args[i] = g_strdup(argv[i]);
+  GError* err = nullptr;
+  const gboolean ok = g_option_context_parse_strv(ctx, &args, &err);
+  const std::string leftover = ok && args[0] && args[1] ? args[1] : "";
+  g_strfreev(args);
+  g_option_context_free(ctx);
+  std::string why;
+  if (!ok) {
+    why = std::string(err->message) + " (see --help)";
+    g_error_free(err);
+  } else if (!leftover.empty()) {
+    why = "unknown option '" + leftover + "' (see --help)";
   }
+  for (size_t i = 0; i < with_value.size(); ++i) {
+    if (strings[i]) values_[with_value[i]] = strings[i];
+    g_free(strings[i]);
+  }
+  for (size_t i = 0; i < bare.size(); ++i)
+    if (flags[i]) values_[bare[i]] = "1";
+  if (!why.empty()) throw std::invalid_argument(why);
 }
 
 std::string Args::get(const std::string& k, const std::string& def) const {

@@ -18,7 +18,9 @@
 
 namespace cli {
 
-// --key value / --flag parsing. Unknown options are an error.
+// --key value (or --key=value) / --flag parsing, by GLib's GOption as the
+// GOption tools parse theirs. Unknown options and stray arguments are an
+// error (std::invalid_argument).
 class Args {
  public:
   Args(int argc, char** argv, const std::vector<std::string>& flags_with_value,
