@@ -19,6 +19,9 @@
 #include <GLES3/gl3.h>
 
 #include <glm/glm.hpp>
+
+#include "lf/render/gl_context.h"
+#include "lf/render/gl_tables.h"
 #endif
 
 namespace lf {
@@ -120,292 +123,24 @@ void GlRenderer::interleave(const DisplayCalibration&, const Quilt&, const cv::M
 
 #else
 
+using namespace gl;  // lib/lf/render/gl_context.h
+
 namespace {
+
+bool maybe_hardware_gl() {
+  return hardware_gl_possible();
+}
 
 double now_ms() {
   using namespace std::chrono;
   return duration<double, std::milli>(steady_clock::now().time_since_epoch()).count();
 }
 
-bool has_word(const char* list, const char* word) {
-  if (!list) return false;
-  const size_t n = std::strlen(word);
-  for (const char* p = list; (p = std::strstr(p, word)); p += n)
-    if ((p == list || p[-1] == ' ') && (p[n] == ' ' || p[n] == '\0')) return true;
-  return false;
-}
-
-bool software_renderer(const std::string& r) {
-  for (const char* s : {"llvmpipe", "softpipe", "swrast", "SwiftShader", "lavapipe"})
-    if (r.find(s) != std::string::npos) return true;
-  return false;
-}
-
-std::string egl_error(const char* what) {
-  char buf[96];
-  std::snprintf(buf, sizeof buf, "%s failed (EGL error 0x%04x)", what,
-                static_cast<unsigned>(eglGetError()));
-  return buf;
-}
-
-// An EGL display initialised for GLES, and which platform gave it.
-struct Display {
-  EGLDisplay dpy = EGL_NO_DISPLAY;
-  std::string platform, error;
-};
-
-// Picks and initialises the display once per process (see the header for
-// the order); EGL displays are process-wide and never terminated here, as
-// other users of EGL in the process may share them.
-const Display& display() {
-  static const Display d = [] {
-    Display r;
-    const char* client = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
-    auto get_platform = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(
-        eglGetProcAddress("eglGetPlatformDisplayEXT"));
-    auto try_init = [&](EGLDisplay dpy, const char* name) {
-      EGLint major = 0, minor = 0;
-      if (dpy == EGL_NO_DISPLAY || !eglInitialize(dpy, &major, &minor)) return false;
-      r.dpy = dpy;
-      r.platform = name;
-      return true;
-    };
-    if (!std::getenv("EGL_PLATFORM") && get_platform) {
-      if (has_word(client, "EGL_EXT_platform_device")) {
-        auto query_devices =
-            reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(eglGetProcAddress("eglQueryDevicesEXT"));
-        auto device_string = reinterpret_cast<PFNEGLQUERYDEVICESTRINGEXTPROC>(
-            eglGetProcAddress("eglQueryDeviceStringEXT"));
-        EGLDeviceEXT devices[16];
-        EGLint n = 0;
-        if (query_devices && device_string && query_devices(16, devices, &n))
-          for (EGLint i = 0; i < n && r.dpy == EGL_NO_DISPLAY; ++i)
-            if (!has_word(device_string(devices[i], EGL_EXTENSIONS), "EGL_MESA_device_software"))
-              try_init(get_platform(EGL_PLATFORM_DEVICE_EXT, devices[i], nullptr), "device");
-      }
-      if (r.dpy == EGL_NO_DISPLAY && has_word(client, "EGL_MESA_platform_surfaceless"))
-        try_init(get_platform(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr),
-                 "surfaceless");
-    }
-    if (r.dpy == EGL_NO_DISPLAY && !try_init(eglGetDisplay(EGL_DEFAULT_DISPLAY), "default"))
-      r.error = egl_error("eglInitialize");
-    return r;
-  }();
-  return d;
-}
-
-// Whether some EGL device may be a hardware GPU: false when the devices
-// can be listed (EGL_EXT_device_enumeration) and each is a software one
-// (EGL_MESA_device_software), or when EGL_PLATFORM names a platform and no
-// devices are listed; true otherwise (then gl_info() decides). Cached.
-bool maybe_hardware_gl() {
-  static const bool answer = [] {
-    const char* client = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
-    auto query_devices =
-        reinterpret_cast<PFNEGLQUERYDEVICESEXTPROC>(eglGetProcAddress("eglQueryDevicesEXT"));
-    auto device_string = reinterpret_cast<PFNEGLQUERYDEVICESTRINGEXTPROC>(
-        eglGetProcAddress("eglQueryDeviceStringEXT"));
-    if (!has_word(client, "EGL_EXT_device_enumeration") || !query_devices || !device_string)
-      return true;
-    EGLDeviceEXT devices[16];
-    EGLint n = 0;
-    if (!query_devices(16, devices, &n)) return true;
-    for (EGLint i = 0; i < n; ++i)
-      if (!has_word(device_string(devices[i], EGL_EXTENSIONS), "EGL_MESA_device_software"))
-        return true;
-    return false;
-  }();
-  return answer;
-}
-
-// Mesa's llvmpipe (Debian 12) crashed inside a draw in one context while
-// another thread drew in another (an lffragment per camera drawing with
-// GL: about one run in ten of tests/test_gst.cpp). So on a software
-// rasteriser the process's GL work runs one context at a time: contexts
-// are made, destroyed and current under this lock (a GPU driver runs
-// contexts in parallel; there it is held only while making and destroying).
-std::recursive_mutex& gl_lock() {
-  static std::recursive_mutex m;
-  return m;
-}
-
-// A GLES 3 context of its own, current only inside a Current scope.
-struct Context {
-  EGLDisplay dpy = EGL_NO_DISPLAY;
-  EGLContext ctx = EGL_NO_CONTEXT;
-  EGLSurface surface = EGL_NO_SURFACE;  // a 1x1 pbuffer where surfaceless contexts are not offered
-
-  // Returns "" on success, else why not.
-  std::string create() {
-    std::lock_guard<std::recursive_mutex> lock(gl_lock());
-    const Display& d = display();
-    if (d.dpy == EGL_NO_DISPLAY) return d.error;
-    dpy = d.dpy;
-    if (!eglBindAPI(EGL_OPENGL_ES_API)) return egl_error("eglBindAPI(GLES)");
-    const char* ext = eglQueryString(dpy, EGL_EXTENSIONS);
-    const bool surfaceless = has_word(ext, "EGL_KHR_surfaceless_context");
-    const EGLint want[] = {EGL_RENDERABLE_TYPE, EGL_OPENGL_ES3_BIT, EGL_SURFACE_TYPE,
-                           surfaceless ? 0 : EGL_PBUFFER_BIT, EGL_NONE};
-    EGLConfig config = nullptr;
-    EGLint n = 0;
-    if (!eglChooseConfig(dpy, want, &config, 1, &n) || n < 1) {
-      if (!surfaceless || !has_word(ext, "EGL_KHR_no_config_context"))
-        return "no EGL config renders GLES 3";
-      config = nullptr;  // EGL_NO_CONFIG_KHR
-    }
-    const EGLint attrs[] = {EGL_CONTEXT_MAJOR_VERSION, 3, EGL_NONE};
-    ctx = eglCreateContext(dpy, config, EGL_NO_CONTEXT, attrs);
-    if (ctx == EGL_NO_CONTEXT) return egl_error("eglCreateContext(GLES 3)");
-    if (!surfaceless) {
-      const EGLint pb[] = {EGL_WIDTH, 1, EGL_HEIGHT, 1, EGL_NONE};
-      surface = eglCreatePbufferSurface(dpy, config, pb);
-      if (surface == EGL_NO_SURFACE) return egl_error("eglCreatePbufferSurface");
-    }
-    if (!eglMakeCurrent(dpy, surface, surface, ctx)) return egl_error("eglMakeCurrent");
-    eglMakeCurrent(dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
-    return "";
-  }
-  void destroy() {
-    std::lock_guard<std::recursive_mutex> lock(gl_lock());
-    if (ctx != EGL_NO_CONTEXT) eglDestroyContext(dpy, ctx);
-    if (surface != EGL_NO_SURFACE) eglDestroySurface(dpy, surface);
-    ctx = EGL_NO_CONTEXT;
-    surface = EGL_NO_SURFACE;
-  }
-};
-
-// Makes a context current on this thread for a scope (and releases it).
-class Current {
- public:
-  explicit Current(const Context& c) : c_(c), lock_(gl_lock()) {
-    if (!eglMakeCurrent(c.dpy, c.surface, c.surface, c.ctx))
-      throw std::runtime_error("GL: " + egl_error("eglMakeCurrent"));
-    static const bool software = [] {
-      const auto* r = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
-      return !r || software_renderer(r);
-    }();
-    if (!software) lock_.unlock();  // contexts in parallel (gl_lock)
-  }
-  // Released before the lock (members are destroyed after this body).
-  ~Current() { eglMakeCurrent(c_.dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT); }
-
- private:
-  const Context& c_;
-  std::unique_lock<std::recursive_mutex> lock_;
-};
-
-void check_gl(const char* where) {
-  const GLenum e = glGetError();
-  if (e != GL_NO_ERROR) {
-    char buf[128];
-    std::snprintf(buf, sizeof buf, "GL: %s failed (GL error 0x%04x)", where,
-                  static_cast<unsigned>(e));
-    throw std::runtime_error(buf);
-  }
-}
-
-// The runs of the fragments being drawn, as two tables in textures (one
-// upload per view, then one rectangle per camera; many thin rectangles, one
-// per run, would cost a software rasteriser a triangle setup per run):
-//  * runs: 4 texels per run: (x0, x1, y, unused) in output pixels, then the
-//    scalar kernel's per-run constants (lf/render/render_kernels.h Consts xa..db)
-//    computed as the CPU computes them (double, then float):
-//    (xa, xb, ya, yb), (za, zb, na, nb), (da, db, unused, unused);
-//  * rows: per row of each fragment's rect, (first run, run count).
-// Both tables are kTableWidth texels wide, row after row.
-constexpr int kTableWidth = 4096;
-
 // The shaders (lib/lf/render/shaders/*.glsl, compiled in by meson: gl_shaders.h):
 // kRunVertex and kRunFragment draw a fragment from its runs, kAddFragment
 // adds a received one, kFullVertex covers the target, kInterleaveFragment
 // interleaves a quilt, kResolveFragment resolves the sums.
 #include "gl_shaders.h"
-
-// Throws with the info log where a shader's or program's `status` is not
-// GL_TRUE (the object is deleted first).
-template <typename GetIv, typename GetLog, typename Delete>
-void require(GLuint obj, GLenum status, GetIv get_iv, GetLog get_log, Delete del,
-             const char* what) {
-  GLint ok = 0;
-  get_iv(obj, status, &ok);
-  if (ok) return;
-  char log[2048] = {};
-  get_log(obj, sizeof log, nullptr, log);
-  del(obj);
-  throw std::runtime_error(std::string("GL: ") + what + log);
-}
-
-GLuint compile(GLenum type, const char* src) {
-  const GLuint s = glCreateShader(type);
-  glShaderSource(s, 1, &src, nullptr);
-  glCompileShader(s);
-  require(s, GL_COMPILE_STATUS, glGetShaderiv, glGetShaderInfoLog, glDeleteShader,
-          "shader does not compile: ");
-  return s;
-}
-
-GLuint link(const char* vs, const char* fs) {
-  const GLuint v = compile(GL_VERTEX_SHADER, vs), f = compile(GL_FRAGMENT_SHADER, fs);
-  const GLuint p = glCreateProgram();
-  glAttachShader(p, v);
-  glAttachShader(p, f);
-  glLinkProgram(p);
-  glDeleteShader(v);
-  glDeleteShader(f);
-  require(p, GL_LINK_STATUS, glGetProgramiv, glGetProgramInfoLog, glDeleteProgram,
-          "program does not link: ");
-  return p;
-}
-
-// Camera constants of the kernel (lf/render/render.cpp render_pixels).
-struct CameraUniforms {
-  glm::vec4 limits, focal, distort;
-  float r2max = 0;
-  bool has_distortion = false;
-};
-
-CameraUniforms camera_uniforms(const Camera& cam) {
-  const Intrinsics& K = cam.intrinsics;
-  CameraUniforms u;
-  u.limits = {static_cast<float>(cam.width) - 0.5f, static_cast<float>(cam.height) - 0.5f,
-              static_cast<float>(cam.width - 1) - 1.0f / 1024.0f,
-              static_cast<float>(cam.height - 1) - 1.0f / 1024.0f};
-  u.focal = {static_cast<float>(K.fx), static_cast<float>(K.fy), static_cast<float>(K.cx),
-             static_cast<float>(K.cy)};
-  u.distort = {static_cast<float>(1.0 / K.fx), static_cast<float>(1.0 / K.fy),
-               static_cast<float>(K.k1), static_cast<float>(K.k2)};
-  const double rf = distortion_fold_radius(K);
-  // GLSL ES has no infinity literal; the largest float compares the same.
-  u.r2max = std::isfinite(rf) ? static_cast<float>(rf * rf) : 3.4e38f;
-  u.has_distortion = K.has_distortion();
-  return u;
-}
-
-// Appends a plan's runs and its rect's rows to the tables (see above);
-// returns the index of its first row in the rows table.
-int append_tables(const FragmentPlan& plan, std::vector<glm::vec4>& runs,
-                  std::vector<glm::ivec2>& rows) {
-  const int first_row = static_cast<int>(rows.size());
-  rows.resize(rows.size() + plan.rect.height, glm::ivec2(0, 0));
-  for (const Run& run : plan.runs) {
-    const FragmentPiece& pc = plan.pieces[run.piece];
-    const double y = run.y;
-    const cv::Matx33d& H = pc.H;
-    glm::ivec2& row = rows[first_row + run.y - plan.rect.y];
-    if (row.y == 0) row.x = static_cast<int>(runs.size() / 4);
-    ++row.y;  // runs are sorted by (y, x0): a row's runs are consecutive
-    runs.push_back({static_cast<float>(run.x0), static_cast<float>(run.x1),
-                    static_cast<float>(run.y), plan.sampling == Sampling::kBicubic ? 1.0f : 0.0f});
-    runs.push_back({static_cast<float>(H(0, 0)), static_cast<float>(H(0, 1) * y + H(0, 2)),
-                    static_cast<float>(H(1, 0)), static_cast<float>(H(1, 1) * y + H(1, 2))});
-    runs.push_back({static_cast<float>(H(2, 0)), static_cast<float>(H(2, 1) * y + H(2, 2)),
-                    static_cast<float>(pc.weight_num.a),
-                    static_cast<float>(pc.weight_num.b * y + pc.weight_num.c)});
-    runs.push_back({static_cast<float>(pc.weight_den.a),
-                    static_cast<float>(pc.weight_den.b * y + pc.weight_den.c), 0.0f, 0.0f});
-  }
-  return first_row;
-}
 
 constexpr int kMaxSlots = 4096;
 constexpr int kScratchSlot = -1;
