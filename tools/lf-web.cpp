@@ -43,6 +43,7 @@
 #include "lf/io/datasets.h"
 #include "lf/io/rig_file.h"
 #include "lfevents.h"
+#include "lfrate.h"
 
 namespace {
 
@@ -52,8 +53,7 @@ using json = nlohmann::json;
 constexpr gsize kMaxSignalBytes = 64 * 1024;  // one WebSocket message (an SDP answer)
 constexpr size_t kMaxControlBytes = 4096;     // one data channel message
 constexpr int kMaxIceCandidates = 64;         // per browser
-constexpr double kControlRate = 60;           // messages per second, sustained
-constexpr double kControlBurst = 60;          // and in a burst
+constexpr double kControlRate = 60;           // messages per second, sustained and in a burst
 
 struct Options {
   std::string rig_path;  // the rig file the elements read
@@ -74,17 +74,14 @@ struct Options {
   size_t cameras = 0;
 };
 
-// Token bucket: at most `burst` at once, `rate` per second sustained.
+// A control channel's message limit: the collection's token bucket
+// (gst/lfrate.h: kControlRate a second, bursts of one second's worth),
+// shared by the signalling and data channel threads.
 class RateLimit {
  public:
   bool take() {
     std::lock_guard<std::mutex> l(m_);
-    const gint64 now = g_get_monotonic_time();
-    tokens_ = std::min(kControlBurst, tokens_ + (now - last_) * 1e-6 * kControlRate);
-    last_ = now;
-    if (tokens_ < 1) return false;
-    tokens_ -= 1;
-    return true;
+    return bucket_.take(kControlRate);
   }
   // True at most once a second (for warnings about a flood).
   bool may_warn() {
@@ -97,8 +94,8 @@ class RateLimit {
 
  private:
   std::mutex m_;
-  double tokens_ = kControlBurst;
-  gint64 last_ = g_get_monotonic_time(), warned_ = 0;
+  lfgst::TokenBucket bucket_;
+  gint64 warned_ = 0;
 };
 
 struct Server;
