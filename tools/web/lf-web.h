@@ -169,11 +169,9 @@ void refuse(Control& c, const std::string& why);
 void post(Control& c, std::string text);
 void remove_viewer(Server* s, guint64 serial, const char* why);
 std::unique_ptr<Viewer> build_viewer(Server* s, const std::string& address, bool own_channel);
-std::string refusal(const Server* s, SoupServerMessage* msg, const char* token, guint* status);
-bool same_secret(const std::string& a, const std::string& b);
+bool add_viewer(Server* s, SoupWebsocketConnection* ws, const std::string& address);
 void on_ws_message(SoupWebsocketConnection*, gint type, GBytes* message, gpointer data);
 void on_ws_closed(SoupWebsocketConnection*, gpointer data);
-void on_http(SoupServer*, SoupServerMessage* msg, const char* path, GHashTable*, gpointer);
 // The handshake deadline of a viewer (tools/lf-web.cpp on_deadline).
 struct Deadline {
   Server* server;
@@ -191,6 +189,15 @@ void on_control_message(GstWebRTCDataChannel*, gchar* text, gpointer data);
 void on_control_bytes(GstWebRTCDataChannel*, GBytes*, gpointer data);
 void connect_channel(GstWebRTCDataChannel* ch, const ControlRef& ctl);
 void release_channel(GstWebRTCDataChannel* ch);
+
+// tools/web/http.cpp: who may connect (a refusal's reason and status, or
+// ""), the WebSocket's gate and upgrade, the page.
+std::string refusal(const Server* s, SoupServerMessage* msg, const char* token, guint* status);
+bool same_secret(const std::string& a, const std::string& b);
+void on_ws_gate(SoupServer*, SoupServerMessage* msg, const char*, GHashTable* query, gpointer data);
+void on_websocket(SoupServer*, SoupServerMessage* msg, const char*, SoupWebsocketConnection* ws,
+                  gpointer data);
+void on_http(SoupServer*, SoupServerMessage* msg, const char* path, GHashTable*, gpointer);
 
 // tools/web/whep.cpp: WHEP (RFC 9725).
 void on_remote_channel(GstElement*, GstWebRTCDataChannel* ch, gpointer data);
