@@ -28,6 +28,7 @@
 #include "lf/io/rig_file.h"
 #include "lf/quality/synthetic.h"
 #include "lf/wire/wire.h"
+#include "measure.h"
 
 namespace {
 
@@ -76,14 +77,8 @@ using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
 }
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
-double mean(const std::vector<double>& v) {
-  return v.empty() ? 0 : std::accumulate(v.begin(), v.end(), 0.0) / v.size();
-}
+using measure::mean;
+using measure::median;
 
 struct Encoding {
   std::string name;

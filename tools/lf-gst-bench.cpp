@@ -47,8 +47,11 @@
 #include "lf/render/plan.h"
 #include "lf/render/render.h"
 #include "lf/wire/wire.h"
+#include "measure.h"
 
 namespace {
+
+using namespace measure;  // tools/measure.h: CPU time, peak RSS, quantiles
 
 const char* kSummary =
     "Throughput (non-live) and request -> frame latency (live) of the single-machine\n"
@@ -217,38 +220,6 @@ std::pair<size_t, double> run_viewers(const std::string& desc, int viewers) {
   return {n, last - first};
 }
 
-// CPU time of this process and of the calling thread, seconds (user +
-// system: time another guest takes from the machine is not counted).
-double process_cpu_s() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return ts.tv_sec + ts.tv_nsec / 1e9;
-}
-double thread_cpu_s() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec + ts.tv_nsec / 1e9;
-}
-
-// The machine's CPU time split (/proc/stat, all cores): total and stolen
-// (taken by the hypervisor for other guests), in clock ticks.
-struct MachineTicks {
-  unsigned long long total = 0, steal = 0;
-};
-MachineTicks machine_ticks() {
-  MachineTicks t;
-  if (FILE* f = std::fopen("/proc/stat", "r")) {
-    unsigned long long v[10] = {};
-    if (std::fscanf(f, "cpu %llu %llu %llu %llu %llu %llu %llu %llu %llu %llu", &v[0], &v[1], &v[2],
-                    &v[3], &v[4], &v[5], &v[6], &v[7], &v[8], &v[9]) >= 8) {
-      for (int i = 0; i < 8; ++i) t.total += v[i];  // guest time is inside user time
-      t.steal = v[7];
-    }
-    std::fclose(f);
-  }
-  return t;
-}
-
 // One output frame: when it reached the sink (s, monotonic), the process's
 // CPU time then (s) and the machine's ticks (read for the first 32 frames and
 // at EOS, for the last one; 0 for the others).
@@ -411,10 +382,6 @@ KernelTime kernel_ms(const lf::Rig& rig, const std::vector<cv::Mat>& images, int
       cpu[way].push_back((thread_cpu_s() - c0) * 1000.0);
     }
   }
-  auto median = [](std::vector<double>& v) {
-    std::sort(v.begin(), v.end());
-    return v[v.size() / 2];
-  };
   KernelTime t;
   t.separate_ms = median(ms[0]);
   t.fused_ms = median(ms[1]);
@@ -424,31 +391,6 @@ KernelTime kernel_ms(const lf::Rig& rig, const std::vector<cv::Mat>& images, int
   for (size_t q = 0; q < jpeg_qualities.size(); ++q)
     t.jpeg[jpeg_qualities[q]] = {median(ms[2 + q]), median(cpu[2 + q])};
   return t;
-}
-
-// Peak resident set size of this process since the last reset (Linux
-// VmHWM; writing 5 to clear_refs resets it, so each row gets its own peak).
-void reset_peak_rss() {
-  if (FILE* f = std::fopen("/proc/self/clear_refs", "w")) {
-    std::fputs("5", f);
-    std::fclose(f);
-  }
-}
-double peak_rss_mib() {
-  FILE* f = std::fopen("/proc/self/status", "r");
-  if (!f) return 0;
-  char line[256];
-  double kib = 0;
-  while (std::fgets(line, sizeof line, f))
-    if (std::sscanf(line, "VmHWM: %lf kB", &kib) == 1) break;
-  std::fclose(f);
-  return kib / 1024.0;
-}
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5))];
 }
 
 }  // namespace
