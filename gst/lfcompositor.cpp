@@ -205,6 +205,7 @@ struct State {
   // Focus and surface probes being collected.
   FocusProbes probes{kMaxProbes};
   SurfaceProbes surface_probes{kMaxSurfaceProbes};
+  guint sat_out_surface_probes = 0;  // surface probes in a row that every camera sat out
   lfgst::WarnLimiter no_focus, no_surface, bad, foreign, unknown_camera, wrong_size, no_size,
       out_of_window, duplicate;
   ~State() {
@@ -690,6 +691,15 @@ static void finish_surface_probe(LfCompositor* self, State* st, SurfaceProbes::I
   GError* err = nullptr;
   const gint64 t0 = g_get_monotonic_time();
   if (!st->rig || !lfgst::guard([&] { e = probe.answers.estimate(*st->rig, &ok); }, &err) || !ok) {
+    // Every camera sat the probe out (its instant was not among their
+    // frames: a live pipeline starting, or a host overloaded): nothing was
+    // measured, and the next probe measures. Only twice in a row is it
+    // worth a warning (the viewer keeps its plane meanwhile).
+    if (!err && probe.answers.pixels() == 0 && st->sat_out_surface_probes++ == 0) {
+      GST_INFO_OBJECT(self, "surface probe %u: every camera sat it out (%d cameras)", probe.id,
+                      probe.answers.complete_cameras());
+      return;
+    }
     LF_ELEMENT_WARNING_LIMITED(self, st->no_surface, STREAM, FAILED,
                                ("Cannot estimate the focal surface"),
                                "surface probe %u: %s (%zu fragments from %d cameras)", probe.id,
@@ -700,6 +710,7 @@ static void finish_surface_probe(LfCompositor* self, State* st, SurfaceProbes::I
     if (err) g_error_free(err);
     return;
   }
+  st->sat_out_surface_probes = 0;
   const lf::SurfaceOptions opt;
   lf::FocalSurface fs = e.surface;
   if (fs.empty()) {  // one plane everywhere

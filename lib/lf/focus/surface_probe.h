@@ -95,6 +95,9 @@ class SurfaceProbeAnswers : public ProbeFragments {
   // planes were answered by them or no pixel was seen by most of the
   // aperture (every camera sat the probe out with an empty fragment).
   SurfaceEstimate estimate(const Rig& rig, bool* ok = nullptr) const;
+  // The fragment pixels kept: 0 when every answer was an empty fragment
+  // (every camera sat the probe out: its instant was not among its frames).
+  size_t pixels() const { return pixels_; }
 
  private:
   int width_, height_, aw_, ah_;
