@@ -20,6 +20,7 @@
 #include "calib/bundle.h"
 #include "gst_init.h"
 #include "lf/focus/focus.h"
+#include "lf/focus/surface_probe.h"
 #include "lf/geometry/view_builder.h"
 #include "lf/io/rig_file.h"
 #include "lf/quality/synthetic.h"
@@ -769,3 +770,44 @@ TEST_F(Hostile, CameraLocationIsNotPipelineSyntax) {
 }
 
 }  // namespace
+
+// A surface probe that every camera sat out (only empty answers: its instant
+// was not among their frames, as when a live pipeline starts or a host is
+// overloaded) measured nothing: the first in a row is logged, not warned;
+// the second in a row is warned, so a pipeline where it always happens is
+// not silent.
+TEST_F(Hostile, ASurfaceProbeThatEveryCameraSatOutWarnsOnlyTheSecondTimeInARow) {
+  Compositor c(rig2_path_, "viewer-id=0");
+  auto sat_out = [&](uint32_t id) {
+    const auto steps = lf::surface_probe_requests(rig2_, request(rig2_, 1), id);
+    ASSERT_FALSE(steps.empty());
+    for (const lf::Camera& cam : rig2_.cameras)
+      for (const lf::ViewRequest& st : steps)
+        push(c.src, lf::serialize_fragment(empty(static_cast<uint32_t>(cam.id), st.sequence, 0,
+                                                 st.view.width, st.view.height),
+                                           lf::Encoding::kEmpty));
+  };
+  // Warnings naming the focal surface, waiting up to `seconds` for `want`.
+  int surface_warnings = 0;
+  auto wait_for = [&](int want, double seconds) {
+    GstBus* bus = gst_element_get_bus(c.pipe);
+    const gint64 until = g_get_monotonic_time() + static_cast<gint64>(seconds * 1e6);
+    while (surface_warnings < want && g_get_monotonic_time() < until) {
+      GstMessage* m = gst_bus_timed_pop_filtered(bus, 50 * GST_MSECOND, GST_MESSAGE_WARNING);
+      if (!m) continue;
+      GError* err = nullptr;
+      gst_message_parse_warning(m, &err, nullptr);
+      if (err && std::strstr(err->message, "focal surface")) ++surface_warnings;
+      if (err) g_error_free(err);
+      gst_message_unref(m);
+    }
+    gst_object_unref(bus);
+  };
+  sat_out(1);
+  sat_out(2);  // the second in a row: one warning, which also shows the first was scored
+  wait_for(1, 10);
+  EXPECT_EQ(surface_warnings, 1);
+  wait_for(2, 0.5);  // and only one
+  EXPECT_EQ(surface_warnings, 1);
+  EXPECT_FALSE(c.error());
+}
