@@ -709,11 +709,12 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
         } else {
           // Raw: rendered straight into the output buffer, in its wire
           // format (no copy of the pixels).
-          const size_t size = answer.raw_size(f, cam.id);
+          const std::vector<lf::Fragment> heads = answer.headers(f, cam.id);
+          const size_t size = lf::CameraAnswer::raw_size(heads);
           out = gst_buffer_new_allocate(nullptr, size, nullptr);
           lfgst::add_sealed_meta(out);  // while it is writable (sealed by write_raw)
           lfgst::MappedBuffer map(out, GST_MAP_WRITE);
-          answer.write_raw(f, cam, *st->renderer, 0, map.data(), size);
+          answer.write_raw(heads, cam, *st->renderer, 0, map.data(), size);
         }
         lfgst::trace(GST_ELEMENT(self), "warped", req.viewer_id, req.sequence, cam.id,
                      static_cast<gint64>(answer.pixel_count()));

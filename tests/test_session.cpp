@@ -393,10 +393,11 @@ TEST(CameraAnswer, RawJpegAndQuiltAnswersAreTheFragmentsOnTheWire) {
   want.viewer_id = req.viewer_id, want.sequence = req.sequence, want.capture_time_ns = 5;
   lf::render_fragment(one.plan(0), cam, image, want);
   EXPECT_EQ(one.pixel_count(), want.pixel_count());
-  std::vector<uint8_t> raw(one.raw_size(base, cam.id));
-  one.write_raw(base, cam, *renderer, 0, raw.data(), raw.size());
+  const std::vector<lf::Fragment> heads = one.headers(base, cam.id);
+  std::vector<uint8_t> raw(lf::CameraAnswer::raw_size(heads));
+  one.write_raw(heads, cam, *renderer, 0, raw.data(), raw.size());
   EXPECT_EQ(raw, lf::serialize_fragment(want, lf::Encoding::kRaw));
-  EXPECT_THROW(one.write_raw(base, cam, *renderer, 0, raw.data(), raw.size() - 1),
+  EXPECT_THROW(one.write_raw(heads, cam, *renderer, 0, raw.data(), raw.size() - 1),
                std::invalid_argument);
   std::vector<uint8_t> scratch;
   EXPECT_EQ(one.encode_jpeg(base, cam, *renderer, 0, 90, scratch),
@@ -410,8 +411,9 @@ TEST(CameraAnswer, RawJpegAndQuiltAnswersAreTheFragmentsOnTheWire) {
   const lf::CameraAnswer eyes(rig, q, index);
   EXPECT_TRUE(eyes.quilt());
   ASSERT_GE(eyes.count(), 2u);
-  std::vector<uint8_t> quilt(eyes.raw_size(base, cam.id));
-  eyes.write_raw(base, cam, *renderer, 0, quilt.data(), quilt.size());
+  const std::vector<lf::Fragment> eye_heads = eyes.headers(base, cam.id);
+  std::vector<uint8_t> quilt(lf::CameraAnswer::raw_size(eye_heads));
+  eyes.write_raw(eye_heads, cam, *renderer, 0, quilt.data(), quilt.size());
   const auto parts = lf::parse_frame_answer(quilt.data(), quilt.size(), 288 * 144);
   ASSERT_EQ(parts.size(), eyes.count());
   for (const auto& part : parts) {

@@ -130,19 +130,27 @@ Fragment CameraAnswer::header(size_t k, const Fragment& base, int camera_id) con
   return head;
 }
 
-size_t CameraAnswer::raw_size(const Fragment& base, int camera_id) const {
+std::vector<Fragment> CameraAnswer::headers(const Fragment& base, int camera_id) const {
+  std::vector<Fragment> heads;
+  heads.reserve(plans_.size());
+  for (size_t k = 0; k < plans_.size(); ++k) heads.push_back(header(k, base, camera_id));
+  return heads;
+}
+
+size_t CameraAnswer::raw_size(const std::vector<Fragment>& heads) {
   size_t size = 0;
-  for (size_t k = 0; k < plans_.size(); ++k) size += raw_fragment_size(header(k, base, camera_id));
+  for (const Fragment& head : heads) size += raw_fragment_size(head);
   return size;
 }
 
-void CameraAnswer::write_raw(const Fragment& base, const Camera& camera, Renderer& renderer,
-                             int slot, uint8_t* out, size_t size) const {
+void CameraAnswer::write_raw(const std::vector<Fragment>& heads, const Camera& camera,
+                             Renderer& renderer, int slot, uint8_t* out, size_t size) const {
+  if (heads.size() != plans_.size())
+    throw std::invalid_argument("CameraAnswer::write_raw: one header per plan (headers())");
   for (size_t k = 0; k < plans_.size(); ++k) {
-    const Fragment head = header(k, base, camera.id);
-    const size_t n = raw_fragment_size(head);
+    const size_t n = raw_fragment_size(heads[k]);
     if (n > size) throw std::invalid_argument("CameraAnswer::write_raw: the buffer is too small");
-    renderer.draw(plans_[k], camera, slot, write_raw_fragment(head, out, n));
+    renderer.draw(plans_[k], camera, slot, write_raw_fragment(heads[k], out, n));
     seal_fragment(out, n);
     out += n, size -= n;
   }

@@ -62,13 +62,16 @@ class CameraAnswer {
   // quilt), no pixels.
   Fragment header(size_t k, const Fragment& base, int camera_id) const;
 
-  // Raw: the bytes of every fragment (write_raw_fragment's layout), and
-  // those bytes written at `out` (exactly raw_size() of them), each
-  // fragment's pixels drawn by `renderer` from the image in `slot` and
-  // sealed (lib/lf/wire/wire.h seal_fragment).
-  size_t raw_size(const Fragment& base, int camera_id) const;
-  void write_raw(const Fragment& base, const Camera& camera, Renderer& renderer, int slot,
-                 uint8_t* out, size_t size) const;
+  // Every fragment's header (header(k) for each k), made once per answer.
+  std::vector<Fragment> headers(const Fragment& base, int camera_id) const;
+  // Raw: the bytes of the fragments with `heads` (headers()) in
+  // write_raw_fragment's layout, and those bytes written at `out` (exactly
+  // raw_size() of them: std::invalid_argument otherwise), each fragment's
+  // pixels drawn by `renderer` from the image in `slot` and sealed
+  // (lib/lf/wire/wire.h seal_fragment).
+  static size_t raw_size(const std::vector<Fragment>& heads);
+  void write_raw(const std::vector<Fragment>& heads, const Camera& camera, Renderer& renderer,
+                 int slot, uint8_t* out, size_t size) const;
   // JPEG: every fragment encoded (serialize_jpeg_fragment), each drawn
   // straight into the rectangle the encoder takes (`scratch`, kept by the
   // caller from answer to answer: no allocation per fragment).
