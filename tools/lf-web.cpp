@@ -578,6 +578,7 @@ int main(int argc, char** argv) {
   if (address) o.address = address;
   if (stun) o.stun = stun;
   o.max_per_address = per_address, o.handshake_s = handshake;
+  const bool empty_token = token && *token == '\0';
   if (token) o.token = token;
   for (gchar** a = allow_origin; a && *a; ++a) o.allow_origin.emplace_back(*a);
   g_free(token);
@@ -596,7 +597,7 @@ int main(int argc, char** argv) {
       throw std::invalid_argument("--max-per-address outside 1..64");
     if (handshake < 1 || handshake > 600)
       throw std::invalid_argument("--handshake-timeout outside 1..600 s");
-    if (token && std::strlen(token) == 0) throw std::invalid_argument("--token is empty");
+    if (empty_token) throw std::invalid_argument("--token is empty");
     if (latency < 1 || latency > 10000)
       throw std::invalid_argument("--latency outside 1..10000 ms");
     lf::Rig r =
