@@ -92,6 +92,7 @@
 #include "lf/render/render.h"
 #include "lf/render/renderer.h"
 #include "lf/session/frame_assembly.h"
+#include "lf/session/probe_scoring.h"
 #include "lf/wire/probe_bundle.h"
 #include "lf/wire/wire.h"
 #include "lfaggregate.h"
@@ -164,20 +165,6 @@ constexpr size_t kMaxPending = 16;
 // (at least; the compositor's latency when longer) after its first fragment
 // with what came (a dead camera).
 constexpr gint64 kProbeDeadlineUs = G_USEC_PER_SEC;
-// Focus probes collected at once: on a busy machine the next (continuous
-// focus: every 5 requests) starts before the last has all its fragments;
-// beyond this many the one started first is scored with what came. The ids
-// of the last ones scored are remembered (lf::ProbeCollector).
-constexpr size_t kMaxProbes = 4;
-
-// Surface probes (lib/lf/focus/surface_probe.h) collected at once: one every
-// `surface-interval` requests of lfviewrequest; a second may start before
-// the first is complete.
-constexpr size_t kMaxSurfaceProbes = 2;
-
-using FocusProbes = lf::ProbeCollector<lf::FocusProbeAnswers>;
-using SurfaceProbes = lf::ProbeCollector<lf::SurfaceProbeAnswers>;
-
 // From start (READY->PAUSED) to stop (PAUSED->READY); used on the aggregate
 // thread only (GstAggregator handles serialized sink events there too).
 struct State {
@@ -202,10 +189,7 @@ struct State {
   lfgst::Fraction caps_fps{0, 1};        // from the fragment caps (0/1: none yet)
   gint caps_width = 0, caps_height = 0;  // the view size from the fragment caps
   guint64 filled_frames = 0;
-  // Focus and surface probes being collected.
-  FocusProbes probes{kMaxProbes};
-  SurfaceProbes surface_probes{kMaxSurfaceProbes};
-  guint sat_out_surface_probes = 0;  // surface probes in a row that every camera sat out
+  std::optional<lf::ProbeScoring> probes;  // focus and surface probes being collected
   lfgst::WarnLimiter no_focus, no_surface, bad, foreign, unknown_camera, wrong_size, no_size,
       out_of_window, duplicate;
   ~State() {
@@ -286,6 +270,7 @@ static gboolean lf_compositor_start(GstAggregator* agg) {
     if (!st->rig) return FALSE;
   }
   st->viewer = lf::ViewerSelection(st->s.viewer_id);
+  st->probes.emplace(st->rig);
   if (!lfgst::open_renderer(GST_ELEMENT(self), st->s.backend, st->renderer)) return FALSE;
   self->priv->state = std::move(st);
   return TRUE;
@@ -626,172 +611,65 @@ static gboolean push_upstream(GstAggregator* agg, GstEvent* event) {
   return any;
 }
 
-// Scores the focus probe collected so far and sends the answer upstream as
-// an lf-focus event (viewer-id, probe-id, inverse-depth, and capture-time:
-// the instant measured, ns, -1 unknown), which lfviewrequest applies as its
-// focal plane.
-static void finish_probe(LfCompositor* self, State* st, FocusProbes::Iter it) {
-  const auto probe = st->probes.take(it);
-  double q = 0;
-  bool ok = false;
-  GError* err = nullptr;
-  if (!st->rig || !lfgst::guard([&] { ok = probe.answers.best(*st->rig, &q); }, &err) || !ok) {
-    LF_ELEMENT_WARNING_LIMITED(
-        self, st->no_focus, STREAM, FAILED, ("Cannot focus at the clicked point"),
-        "probe %u: %s (%zu fragments)", probe.id,
-        err ? err->message : "too few pixels seen by two cameras", probe.answers.fragments());
-    if (err) g_error_free(err);
-    return;
-  }
-  lfgst::trace(GST_ELEMENT(self), "focused", probe.viewer, probe.id, -1,
-               static_cast<gint64>(q * 1e9));
-  GST_DEBUG_OBJECT(self, "focus probe %u: inverse depth %g from %d cameras (%zu fragments)",
-                   probe.id, q, probe.answers.complete_cameras(), probe.answers.fragments());
-  GstStructure* s = lfgst::focus_structure(
-      {probe.viewer, probe.id, q, static_cast<gint64>(probe.answers.capture_time_ns())});
-  push_upstream(GST_AGGREGATOR(self), gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, s));
-}
-
-// A fragment of a focus probe (header already checked: our viewer, a known
-// camera): scored, never composited.
-static void absorb_probe(LfCompositor* self, State* st, const guint8* data, gsize size,
-                         const lf::FragmentHeader& head) {
-  const uint32_t id = lf::focus_probe_id(head.sequence);
-  const int step = lf::focus_probe_step(head.sequence);
-  auto it = st->probes.find(id);
-  if (it == st->probes.end() && st->probes.scored(id)) return;
-  lf::Fragment f;
-  const size_t side = lf::kFocusProbeSide;
-  GError* err = nullptr;
-  if (!lfgst::guard([&] { f = lf::parse_fragment(data, size, nullptr, side * side); }, &err)) {
-    LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE, ("Dropping a malformed fragment"),
-                               "%s", err->message);
-    g_error_free(err);
-    return;
-  }
-  if (it == st->probes.end()) {
-    if (st->probes.full()) finish_probe(self, st, st->probes.oldest());
-    it = st->probes.open({id, f.viewer_id, g_get_monotonic_time(), {}});
-  }
-  auto& pr = it->second;
-  if (!pr.answers.add(step, std::move(f))) return;
-  const size_t cameras = st->rig ? st->rig->cameras.size() : 0;
-  if (cameras > 0 && pr.answers.fragments() >= cameras * lf::kFocusProbeSteps)
-    finish_probe(self, st, it);
-}
-
-// Estimates the focal surface from the surface probe collected so far
-// (lf::SurfaceProbeAnswers: the cameras that answered every step) and sends
-// it upstream as an lf-surface event (gst/lfevents.h), which lfviewrequest
-// puts into its requests.
-static void finish_surface_probe(LfCompositor* self, State* st, SurfaceProbes::Iter it) {
-  const auto probe = st->surface_probes.take(it);
-  lf::SurfaceEstimate e;
-  bool ok = false;
-  GError* err = nullptr;
-  const gint64 t0 = g_get_monotonic_time();
-  if (!st->rig || !lfgst::guard([&] { e = probe.answers.estimate(*st->rig, &ok); }, &err) || !ok) {
-    // Every camera sat the probe out (its instant was not among their
-    // frames: a live pipeline starting, or a host overloaded): nothing was
-    // measured, and the next probe measures. Only twice in a row is it
-    // worth a warning (the viewer keeps its plane meanwhile).
-    if (!err && probe.answers.pixels() == 0 && st->sat_out_surface_probes++ == 0) {
-      GST_INFO_OBJECT(self, "surface probe %u: every camera sat it out (%d cameras)", probe.id,
-                      probe.answers.complete_cameras());
-      return;
+// Sends what probe scoring (lib/lf/session/probe_scoring.h) gave upstream:
+// an lf-focus event (the depth under a clicked pixel) or an lf-surface
+// event (gst/lfevents.h), which lfviewrequest applies; or a warning.
+static void send_probe_outcomes(LfCompositor* self, State* st) {
+  for (lf::ProbeOutcome& o : st->probes->take()) {
+    const bool focus = o.kind == lf::ProbeOutcome::Kind::kFocus;
+    if (o.result == lf::ProbeOutcome::Result::kSatOut) {
+      GST_INFO_OBJECT(self, "surface probe %u: every camera sat it out (%d cameras)", o.probe,
+                      o.cameras);
+      continue;
     }
-    LF_ELEMENT_WARNING_LIMITED(self, st->no_surface, STREAM, FAILED,
-                               ("Cannot estimate the focal surface"),
-                               "surface probe %u: %s (%zu fragments from %d cameras)", probe.id,
-                               err ? err->message
-                                   : "fewer than 3 planes answered by every complete camera, "
-                                     "or no pixel seen by most of the aperture",
-                               probe.answers.fragments(), probe.answers.complete_cameras());
-    if (err) g_error_free(err);
-    return;
+    if (o.result == lf::ProbeOutcome::Result::kFailed) {
+      if (focus)
+        LF_ELEMENT_WARNING_LIMITED(
+            self, st->no_focus, STREAM, FAILED, ("Cannot focus at the clicked point"),
+            "probe %u: %s (%zu fragments)", o.probe, o.why.c_str(), o.fragments);
+      else
+        LF_ELEMENT_WARNING_LIMITED(self, st->no_surface, STREAM, FAILED,
+                                   ("Cannot estimate the focal surface"),
+                                   "surface probe %u: %s (%zu fragments from %d cameras)", o.probe,
+                                   o.why.c_str(), o.fragments, o.cameras);
+      continue;
+    }
+    GstStructure* s;
+    if (focus) {
+      lfgst::trace(GST_ELEMENT(self), "focused", o.viewer, o.probe, -1,
+                   static_cast<gint64>(o.inverse_depth * 1e9));
+      GST_DEBUG_OBJECT(self, "focus probe %u: inverse depth %g from %d cameras (%zu fragments)",
+                       o.probe, o.inverse_depth, o.cameras, o.fragments);
+      s = lfgst::focus_structure({o.viewer, o.probe, o.inverse_depth, o.capture_time_ns});
+    } else {
+      lfgst::trace(GST_ELEMENT(self), "surface", o.viewer, o.probe, -1, o.planes_used);
+      GST_DEBUG_OBJECT(self,
+                       "surface probe %u: %d planes (%zu of %zu tiles textured) from %d cameras "
+                       "(%zu fragments), estimated in %.1f ms",
+                       o.probe, o.planes_used, o.textured, o.tiles, o.cameras, o.fragments,
+                       o.estimate_ms);
+      s = lfgst::surface_structure(
+          {o.viewer, o.probe, o.capture_time_ns, std::move(o.surface), o.planes_used});
+    }
+    push_upstream(GST_AGGREGATOR(self), gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, s));
   }
-  st->sat_out_surface_probes = 0;
-  const lf::SurfaceOptions opt;
-  lf::FocalSurface fs = e.surface;
-  if (fs.empty()) {  // one plane everywhere
-    const int W = probe.answers.width(), H = probe.answers.height();
-    fs.tile = opt.tile, fs.cols = (W + opt.tile - 1) / opt.tile;
-    fs.rows = (H + opt.tile - 1) / opt.tile;
-    fs.planes = {e.single};
-    fs.plane_of.assign(static_cast<size_t>(fs.cols) * fs.rows, 0);
-  }
-  lfgst::trace(GST_ELEMENT(self), "surface", probe.viewer, probe.id, -1,
-               static_cast<gint64>(e.planes_used));
-  GST_DEBUG_OBJECT(self,
-                   "surface probe %u: %d planes (%zd of %zu tiles textured) from %d cameras (%zu "
-                   "fragments), estimated in %.1f ms",
-                   probe.id, e.planes_used, std::count(e.textured.begin(), e.textured.end(), true),
-                   e.textured.size(), probe.answers.complete_cameras(), probe.answers.fragments(),
-                   (g_get_monotonic_time() - t0) / 1000.0);
-  GstStructure* s = lfgst::surface_structure({probe.viewer, probe.id,
-                                              static_cast<gint64>(probe.answers.capture_time_ns()),
-                                              fs, e.planes_used});
-  push_upstream(GST_AGGREGATOR(self), gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, s));
-}
-
-// A fragment of a surface probe for an output of w x h (header already
-// checked: our viewer, a known camera): kept for the estimate, never
-// composited.
-static void absorb_surface_probe(LfCompositor* self, State* st, const guint8* data, gsize size,
-                                 const lf::FragmentHeader& head, int w, int h) {
-  const uint32_t id = lf::surface_probe_id(head.sequence);
-  auto it = st->surface_probes.find(id);
-  if (it == st->surface_probes.end() && st->surface_probes.scored(id)) return;
-  lf::Fragment f;
-  GError* err = nullptr;
-  if (!lfgst::guard(
-          [&] {
-            if (it == st->surface_probes.end()) {
-              if (st->surface_probes.full())
-                finish_surface_probe(self, st, st->surface_probes.oldest());
-              lf::SurfaceOptions opt;
-              opt.second_planes = lfgst::read_setting(GST_OBJECT(self), self->priv->settings,
-                                                      &Settings::second_planes);
-              it = st->surface_probes.open(
-                  {id, head.viewer_id, g_get_monotonic_time(), lf::SurfaceProbeAnswers(w, h, opt)});
-            }
-            const lf::SurfaceProbeAnswers& a = it->second.answers;
-            f = lf::parse_fragment(data, size, nullptr,
-                                   static_cast<size_t>(a.probe_width()) * a.probe_height());
-          },
-          &err)) {
-    LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE, ("Dropping a malformed fragment"),
-                               "%s", err->message);
-    g_error_free(err);
-    return;
-  }
-  auto& pr = it->second;
-  if (!pr.answers.add(lf::surface_probe_step(head.sequence), std::move(f))) return;
-  const size_t cameras = st->rig ? st->rig->cameras.size() : 0;
-  if (cameras > 0 && pr.answers.fragments() >= cameras * lf::SurfaceOptions{}.planes)
-    finish_surface_probe(self, st, it);
 }
 
 // A probe's answer from one camera (header already checked: our viewer, a
-// known camera): one step's fragment, or a bundle of its steps
-// (lib/lf/wire/probe_bundle.h), each scored as it comes. A bundle with a
-// fragment of another probe, viewer or camera is dropped whole.
+// known camera), scored, never composited (lf::ProbeScoring).
 static void absorb_probe_answer(LfCompositor* self, State* st, const guint8* data, gsize size,
                                 int w, int h) {
-  std::vector<lf::FragmentSpan> spans;
+  lf::SurfaceOptions opt;
+  opt.second_planes =
+      lfgst::read_setting(GST_OBJECT(self), self->priv->settings, &Settings::second_planes);
   GError* err = nullptr;
-  if (!lfgst::guard([&] { spans = lf::split_probe_answer(data, size); }, &err)) {
+  if (!lfgst::guard([&] { st->probes->absorb(data, size, w, h, opt, g_get_monotonic_time()); },
+                    &err)) {
     LF_ELEMENT_WARNING_LIMITED(self, st->bad, STREAM, DECODE, ("Dropping a malformed fragment"),
                                "%s", err->message);
     g_error_free(err);
-    return;
   }
-  for (const lf::FragmentSpan& s : spans) {
-    if (lf::is_focus_probe(s.head.sequence))
-      absorb_probe(self, st, data + s.offset, s.size, s.head);
-    else
-      absorb_surface_probe(self, st, data + s.offset, s.size, s.head, w, h);
-  }
+  send_probe_outcomes(self, st);
 }
 
 // Parses one fragment buffer and files it under its request. What a peer
@@ -989,10 +867,8 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
       live ? std::max<gint64>(kProbeDeadlineUs, static_cast<gint64>(latency / GST_USECOND))
            : kProbeDeadlineUs;
   const gint64 now_us = g_get_monotonic_time();
-  for (uint32_t id : st->probes.expired(now_us, probe_deadline_us))
-    finish_probe(self, st, st->probes.find(id));
-  for (uint32_t id : st->surface_probes.expired(now_us, probe_deadline_us))
-    finish_surface_probe(self, st, st->surface_probes.find(id));
+  st->probes->expire(now_us, probe_deadline_us);
+  send_probe_outcomes(self, st);
   const size_t expected = expected_fragments(self);
   // Complete requests, in order; at its deadline (or end of stream), also an
   // incomplete one, renormalised; too many pending: the oldest. Each request

@@ -24,6 +24,7 @@
 #include "lf/render/plan.h"
 #include "lf/render/render.h"
 #include "lf/render/render_view.h"
+#include "lf/session/probe_scoring.h"
 #include "lf/wire/probe_bundle.h"
 #include "lf/wire/wire.h"
 #include "lfevents.h"
@@ -194,6 +195,110 @@ TEST(FocusProbe, ScoresOnlyTheCamerasThatAnsweredEveryStep) {
       q_partial, q_naive, 1 / scene.near_depth);
   EXPECT_EQ(q_partial, q_without);
   EXPECT_NEAR(q_partial, 1 / scene.near_depth, 0.5 * px);
+}
+
+// lf::ProbeScoring (lib/lf/session/probe_scoring.h), the compositor host's
+// probe scoring on the wire bytes: a complete probe is scored as its last
+// fragment comes, one missing a camera at its deadline from the others
+// (the same answer as FocusProbeAnswers), a late fragment of a scored probe
+// is ignored, a malformed one throws without an outcome, and a surface
+// probe every camera sat out (empty fragments) is a log line the first
+// time in a row and a failure the second.
+TEST(ProbeScoring, CompleteAtOnceIncompleteAtTheDeadlineAndSatOutProbes) {
+  const auto rig = std::make_shared<const lf::Rig>(lf::synthetic_grid_rig(4, 4, 0.05, 320, 240));
+  const lf::SyntheticScene scene = lf::SyntheticScene::for_rig(*rig);
+  const double t = 0.3;
+  const lf::ViewRequest view = probe_view(*rig);
+  const double px = 1.0 / (rig->cameras[0].intrinsics.fx * rig->typical_spacing());
+  const cv::Point2d disc = project(view.view, scene.disc_centre(t));
+  // Each camera's answers to probe `id`, serialized as lffragment sends them.
+  auto answers = [&](uint32_t id) {
+    std::vector<std::vector<std::vector<uint8_t>>> wire(rig->cameras.size());
+    for (size_t i = 0; i < rig->cameras.size(); ++i) {
+      const cv::Mat image = scene.render(rig->cameras[i], t);
+      for (const lf::ViewRequest& r : lf::focus_probe_requests(*rig, view, disc.x, disc.y, id)) {
+        lf::Fragment f;
+        f.sequence = r.sequence, f.viewer_id = 2, f.camera_id = rig->cameras[i].id;
+        f.capture_time_ns = 1000 + static_cast<int64_t>(i);
+        lf::render_fragment(lf::plan_fragment(lf::ViewGeometry(*rig, r), static_cast<int>(i)),
+                            rig->cameras[i], image, f);
+        wire[i].push_back(lf::serialize_fragment(f, lf::Encoding::kRaw));
+      }
+    }
+    return wire;
+  };
+  lf::ProbeScoring scoring(rig);
+  const lf::SurfaceOptions opt;
+  const auto all = answers(7);
+  for (size_t i = 0; i < all.size(); ++i)
+    for (size_t k = 0; k < all[i].size(); ++k) {
+      scoring.absorb(all[i][k].data(), all[i][k].size(), 320, 240, opt, 0);
+      const bool last = i + 1 == all.size() && k + 1 == all[i].size();
+      if (!last) EXPECT_EQ(scoring.take().size(), 0u) << "scored before its last fragment";
+    }
+  std::vector<lf::ProbeOutcome> out = scoring.take();
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].kind, lf::ProbeOutcome::Kind::kFocus);
+  ASSERT_EQ(out[0].result, lf::ProbeOutcome::Result::kAnswer) << out[0].why;
+  EXPECT_EQ(out[0].viewer, 2u);
+  EXPECT_EQ(out[0].probe, 7u);
+  EXPECT_EQ(out[0].cameras, static_cast<int>(rig->cameras.size()));
+  EXPECT_EQ(out[0].capture_time_ns, 1000 + static_cast<int64_t>(rig->cameras.size()) - 1);
+  EXPECT_NEAR(out[0].inverse_depth, 1 / scene.near_depth, 0.5 * px);
+  const double q_all = out[0].inverse_depth;
+  // A late copy of probe 7: ignored, nothing opened.
+  scoring.absorb(all[0][0].data(), all[0][0].size(), 320, 240, opt, 10);
+  EXPECT_EQ(scoring.open(), 0u);
+  EXPECT_TRUE(scoring.take().empty());
+
+  // Probe 8 without camera 5: waits, then at its deadline scores the others.
+  const auto some = answers(8);
+  lf::FocusProbeAnswers without;
+  for (size_t i = 0; i < some.size(); ++i)
+    if (i != 5)
+      for (const auto& bytes : some[i]) {
+        scoring.absorb(bytes.data(), bytes.size(), 320, 240, opt, 100);
+        const lf::Fragment f = lf::parse_fragment(bytes.data(), bytes.size());
+        without.add(lf::focus_probe_step(f.sequence), f);
+      }
+  EXPECT_TRUE(scoring.take().empty());
+  scoring.expire(100 + 999, 1000);
+  EXPECT_TRUE(scoring.take().empty()) << "before its deadline";
+  scoring.expire(100 + 1001, 1000);
+  out = scoring.take();
+  ASSERT_EQ(out.size(), 1u);
+  ASSERT_EQ(out[0].result, lf::ProbeOutcome::Result::kAnswer) << out[0].why;
+  double q_without = -1;
+  ASSERT_TRUE(without.best(*rig, &q_without));
+  EXPECT_EQ(out[0].inverse_depth, q_without);
+  EXPECT_NEAR(out[0].inverse_depth, q_all, 0.5 * px);
+
+  // Malformed: throws, no outcome, nothing opened.
+  std::vector<uint8_t> bad = all[3][2];
+  bad.resize(bad.size() - 7);  // its pixels cut short
+  EXPECT_THROW(scoring.absorb(bad.data(), bad.size(), 320, 240, opt, 200), lf::WireError);
+  EXPECT_TRUE(scoring.take().empty());
+  EXPECT_EQ(scoring.open(), 0u);
+
+  // Surface probes every camera sat out (empty fragments of the probe's
+  // size, every step): quiet the first time, a failure the second.
+  const lf::SurfaceProbeAnswers size_of(320, 240, opt);
+  for (uint32_t id : {20u, 21u}) {
+    for (const lf::Camera& c : rig->cameras)
+      for (int k = 0; k < opt.planes; ++k) {
+        lf::Fragment f;
+        f.sequence = lf::surface_probe_sequence(id, k), f.camera_id = c.id, f.viewer_id = 2;
+        f.out_width = size_of.probe_width(), f.out_height = size_of.probe_height();
+        const auto bytes = lf::serialize_fragment(f, lf::Encoding::kRaw);
+        scoring.absorb(bytes.data(), bytes.size(), 320, 240, opt, 300);
+      }
+    out = scoring.take();
+    ASSERT_EQ(out.size(), 1u) << "probe " << id << " complete at its last fragment";
+    EXPECT_EQ(out[0].kind, lf::ProbeOutcome::Kind::kSurface);
+    EXPECT_EQ(out[0].result,
+              id == 20 ? lf::ProbeOutcome::Result::kSatOut : lf::ProbeOutcome::Result::kFailed);
+    if (id == 21) EXPECT_FALSE(out[0].why.empty());
+  }
 }
 
 // The point of the disc's plane that the moving disc covers from t0 to t1

@@ -1,0 +1,140 @@
+#include "lf/session/probe_scoring.h"
+
+#include <algorithm>
+#include <chrono>
+#include <exception>
+#include <utility>
+
+#include "lf/wire/probe_bundle.h"
+#include "lf/wire/wire.h"
+
+namespace lf {
+
+void ProbeScoring::absorb(const uint8_t* data, size_t size, int width, int height,
+                          const SurfaceOptions& surface, int64_t now_us) {
+  for (const FragmentSpan& s : split_probe_answer(data, size)) {
+    if (is_focus_probe(s.head.sequence))
+      absorb_focus(data + s.offset, s.size, s.head.sequence, now_us);
+    else if (is_surface_probe(s.head.sequence))
+      absorb_surface(data + s.offset, s.size, s.head.sequence, s.head.viewer_id, width, height,
+                     surface, now_us);
+  }
+}
+
+void ProbeScoring::absorb_focus(const uint8_t* data, size_t size, uint64_t sequence,
+                                int64_t now_us) {
+  const uint32_t id = focus_probe_id(sequence);
+  auto it = focus_.find(id);
+  if (it == focus_.end() && focus_.scored(id)) return;  // late: scored already
+  Fragment f = parse_fragment(data, size, nullptr, size_t{kFocusProbeSide} * kFocusProbeSide);
+  if (it == focus_.end()) {
+    if (focus_.full()) finish_focus(focus_.oldest());
+    it = focus_.open({id, f.viewer_id, now_us, {}});
+  }
+  auto& answers = it->second.answers;
+  if (!answers.add(focus_probe_step(sequence), std::move(f))) return;
+  const size_t cameras = rig_ ? rig_->cameras.size() : 0;
+  if (cameras > 0 && answers.fragments() >= cameras * kFocusProbeSteps) finish_focus(it);
+}
+
+void ProbeScoring::absorb_surface(const uint8_t* data, size_t size, uint64_t sequence,
+                                  uint32_t viewer, int width, int height, const SurfaceOptions& opt,
+                                  int64_t now_us) {
+  const uint32_t id = surface_probe_id(sequence);
+  auto it = surface_.find(id);
+  if (it == surface_.end() && surface_.scored(id)) return;
+  if (it == surface_.end()) {
+    SurfaceProbeAnswers answers(width, height, opt);  // throws on a bad size
+    if (surface_.full()) finish_surface(surface_.oldest());
+    it = surface_.open({id, viewer, now_us, std::move(answers)});
+  }
+  auto& answers = it->second.answers;
+  Fragment f = parse_fragment(data, size, nullptr,
+                              static_cast<size_t>(answers.probe_width()) * answers.probe_height());
+  if (!answers.add(surface_probe_step(sequence), std::move(f))) return;
+  const size_t cameras = rig_ ? rig_->cameras.size() : 0;
+  if (cameras > 0 && answers.fragments() >= cameras * SurfaceOptions{}.planes) finish_surface(it);
+}
+
+void ProbeScoring::expire(int64_t now_us, int64_t deadline_us) {
+  for (uint32_t id : focus_.expired(now_us, deadline_us)) finish_focus(focus_.find(id));
+  for (uint32_t id : surface_.expired(now_us, deadline_us)) finish_surface(surface_.find(id));
+}
+
+std::vector<ProbeOutcome> ProbeScoring::take() {
+  return std::exchange(outcomes_, {});
+}
+
+void ProbeScoring::finish_focus(FocusProbes::Iter it) {
+  const auto probe = focus_.take(it);
+  ProbeOutcome o;
+  o.kind = ProbeOutcome::Kind::kFocus;
+  o.viewer = probe.viewer, o.probe = probe.id;
+  o.fragments = probe.answers.fragments();
+  o.cameras = probe.answers.complete_cameras();
+  o.capture_time_ns = probe.answers.capture_time_ns();
+  try {
+    if (!rig_)
+      o.why = "no rig to score it with";
+    else if (probe.answers.best(*rig_, &o.inverse_depth))
+      o.result = ProbeOutcome::Result::kAnswer;
+    else
+      o.why = "too few pixels seen by two cameras";
+  } catch (const std::exception& e) {
+    o.why = e.what();
+  }
+  outcomes_.push_back(std::move(o));
+}
+
+void ProbeScoring::finish_surface(SurfaceProbes::Iter it) {
+  const auto probe = surface_.take(it);
+  ProbeOutcome o;
+  o.kind = ProbeOutcome::Kind::kSurface;
+  o.viewer = probe.viewer, o.probe = probe.id;
+  o.fragments = probe.answers.fragments();
+  o.cameras = probe.answers.complete_cameras();
+  o.capture_time_ns = probe.answers.capture_time_ns();
+  const auto t0 = std::chrono::steady_clock::now();
+  SurfaceEstimate e;
+  bool ok = false;
+  bool threw = false;
+  try {
+    if (rig_) e = probe.answers.estimate(*rig_, &ok);
+  } catch (const std::exception& ex) {
+    o.why = ex.what(), threw = true;
+  }
+  o.estimate_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  if (!ok) {
+    // Every camera sat the probe out (its instant was not among their
+    // frames: a live pipeline starting, or a host overloaded): nothing was
+    // measured and the next probe measures. Only twice in a row is it worth
+    // a warning (the viewer keeps its plane meanwhile).
+    if (!threw && rig_ && probe.answers.pixels() == 0 && sat_out_in_a_row_++ == 0)
+      o.result = ProbeOutcome::Result::kSatOut;
+    else if (!threw)
+      o.why = rig_ ? "fewer than 3 planes answered by every complete camera, or no pixel seen "
+                     "by most of the aperture"
+                   : "no rig to estimate it with";
+    outcomes_.push_back(std::move(o));
+    return;
+  }
+  sat_out_in_a_row_ = 0;
+  o.result = ProbeOutcome::Result::kAnswer;
+  o.surface = std::move(e.surface);
+  if (o.surface.empty()) {  // one plane everywhere
+    const SurfaceOptions opt;
+    const int w = probe.answers.width(), h = probe.answers.height();
+    o.surface.tile = opt.tile;
+    o.surface.cols = (w + opt.tile - 1) / opt.tile;
+    o.surface.rows = (h + opt.tile - 1) / opt.tile;
+    o.surface.planes = {e.single};
+    o.surface.plane_of.assign(static_cast<size_t>(o.surface.cols) * o.surface.rows, 0);
+  }
+  o.planes_used = e.planes_used;
+  o.textured = static_cast<size_t>(std::count(e.textured.begin(), e.textured.end(), true));
+  o.tiles = e.textured.size();
+  outcomes_.push_back(std::move(o));
+}
+
+}  // namespace lf
