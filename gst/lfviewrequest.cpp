@@ -7,131 +7,31 @@
  * keyframed camera path (`path`) or an orbit over the camera plane (`orbit`).
  * Output: `application/x-lf-view-request` buffers (byte layout in
  * lib/lf/wire/wire.h) whose caps carry the request `framerate`, `width` and
- * `height`. Positions are in the rig's units and world frame (lib/lf/geometry/rig.h).
- * Views are built by lib/lf/geometry/view_builder.h, as `lf-render` builds them.
+ * `height`. Positions are in the rig's units and world frame
+ * (lib/lf/geometry/rig.h); views are built by lib/lf/geometry/view_builder.h,
+ * as `lf-render` builds them. The viewer's state from request to request
+ * (click-to-focus probes, the focal surface's probe cadence, navigation
+ * gestures) is lib/lf/session/viewer.h; this element is its glue.
  *
- * ## Steering while playing
+ * Steering while playing (docs/steering.md): the view properties are
+ * changeable in PLAYING and apply from the next request on; some are
+ * controllable (interpolated camera moves). An upstream `lf-view` event
+ * (gst/lfevents.h) sets several at once, checked whole; navigation events
+ * from the video sink drag the eye, move the focal plane with the wheel, and
+ * focus where the user right-clicks (a focus probe, answered by
+ * `lfcompositor` with an `lf-focus` event).
  *
- * The view properties (`position`, `look-at`, `eye-s`, `eye-t`, `eye-w`,
- * `vfov`, `focal-plane`, `focal-depth`, `stereo-baseline`, `orbit`, `dolly`,
- * `path`, `path-frames`) are changeable in PLAYING and apply from the next
- * request on. `eye-s`, `eye-t`, `eye-w`, `vfov`, `focal-depth` and
- * `stereo-baseline` are controllable (gst_object_add_control_binding:
- * interpolated camera moves; values are synced at each request's time).
+ * Focal surface (the default; docs/rendering.md): every `surface-interval`
+ * requests a surface probe goes out with the tick's request and
+ * `lfcompositor` answers with an `lf-surface` event, a plane per 16-pixel
+ * tile that the next requests carry (view request version 3). The paper's
+ * single focal plane is `focal-surface=false`; refocusing while playing sets
+ * it so (notified). Without any answer (no compositor in this pipeline) the
+ * probes stop with one warning and `focal-plane` holds.
  *
- * A whole view is set at once with a custom upstream event, sent at the
- * video sink (gst_element_send_event) or into any pad downstream of the
- * request: a #GstStructure named `lf-view`, made with
- * gst_event_new_custom (GST_EVENT_CUSTOM_UPSTREAM, ...), whose fields are
- * any of the properties above, by name, with the property's type and range
- * (`position`, `look-at`: #GstValueArray of 3 doubles, or an empty one to
- * unset; doubles for the rest, `focal-plane` a string), plus an optional
- * `viewer-id` (uint): only that viewer applies it. `lfcompositor` adds its
- * own `viewer-id` to the events it forwards, so an event or a navigation
- * event sent at one viewer's sink steers only that viewer. All fields are
- * checked first (type, finite, in range, known); an event with any bad
- * field is refused whole with a warning.
- *
- * ## Navigation
- *
- * Navigation events from the video sink steer the view: drag (button 1)
- * moves the eye on the camera plane (`eye-s`, `eye-t`; kept over the
- * camera array), the wheel (or buttons 4/5, as X sinks send it) moves the
- * focal plane (`focal-depth`, 0.25 px of neighbour parallax per notch),
- * arrow keys move the eye by 1/4 camera spacing, Page_Up/Page_Down (also
- * Prior/Next, +/-/=, keypad +/-) move it along the camera-plane normal
- * (`eye-w`), r resets the eye offset and the focal depth. The properties
- * follow, so an application reads back where the viewer went.
- *
- * ## Click to focus
- *
- * A right click (button 3), or a click with Control held, focuses on the
- * scene at that output pixel, from the images alone: the next tick's request
- * goes out with a focus probe (lib/lf/focus/focus_probe.h): 32 requests for a
- * 33 x 33 pixel window around the pixel (radius 16), one per candidate plane
- * parallel to the camera plane (0 to 24 px of neighbour parallax), seen from
- * the centre of the aperture triangle under that pixel, in one buffer (a
- * probe bundle, lib/lf/wire/probe_bundle.h). Each camera answers with its
- * fragment of each step, in one buffer; `lfcompositor` measures the
- * weighted colour variance among the cameras (photo-consistency), runs the
- * focal surface estimator on the window and takes the plane of the clicked
- * pixel's tile (so a thin object under the pointer wins over the background
- * around it), and sends an upstream `lf-focus` event (`viewer-id`,
- * `probe-id`, `inverse-depth`, rig units^-1, and `capture-time`, the instant measured, ns of
- * running time, -1 unknown), which sets `focal-depth` here. `continuous-focus=true` keeps focusing
- * at the last clicked point (the view centre before any click): a probe every 5 requests, each
- * answer moving the plane half way (smoothing in inverse depth). Answers are taken in probe order,
- * each once: the last click's, then any continuous probe's issued after it (on a busy machine an
- * answer may come after the next probe has gone out). A click with no answer after a second (at
- * least 5 requests: its requests dropped as stale on a busy camera host, or every camera skipped
- * its frame) is probed again, twice at most.
- *
- * ## Focal surface
- *
- * By default (`focal-surface=true`) each 16-pixel tile of the view is
- * focused on its own plane, estimated from the cameras' fragments (Yang et
- * al. use one focal plane per view: `focal-surface=false`, the focal plane
- * of `focal-plane` or `focal-depth`; lib/lf/focus/surface_probe.h): with the
- * first request and then
- * every `surface-interval` requests, a surface probe goes out with the
- * tick's request: 32 requests for the view at 160 pixels wide, one per
- * candidate plane parallel to the camera plane (0 to 24 px of neighbour
- * parallax), in one buffer (a probe bundle). Each camera answers with its
- * fragment of each step, in one buffer; `lfcompositor` measures their
- * photo-consistency per tile, labels the tiles (one plane where the scene
- * is flat, more only where it has depth) and sends an
- * upstream `lf-surface` event (`viewer-id`, `probe-id`, `capture-time`,
- * `tile`, `cols`, `rows`, `planes`: #GBytes of 4 doubles (n.x, n.y, n.z, d)
- * per plane, world frame, plane 0 the single plane; `plane-of`: #GBytes of
- * one plane index per tile, row-major; `planes-used`). From then on the
- * requests carry the surface (view request version 3, lib/lf/wire/wire.h) in
- * place of `focal-plane` and `focal-depth`, and `surface-planes` says how
- * many planes it has; a newer probe's answer replaces it. With
- * `lfcompositor second-planes=true` tiles next to a depth edge or with a
- * thin structure inside get a second plane (`second-of`: #GBytes of one
- * plane index per tile, 255 for none; `surface-two-plane-tiles` says how
- * many): each camera then sends those
- * tiles twice and the compositor chooses per pixel. Between probes a
- * moving view keeps the last surface, so it suits a steady or slowly moving
- * view. An eye on a camera sees that camera's image, for which the
- * estimate keeps one plane. A live source goes on while the answer is on
- * its way; a non-live one (an offline render) makes its next request only
- * once the answer has come (at most 2 s, once per probe), so every request
- * after the first probe carries a surface. With no answer at all (no
- * `lfcompositor` downstream in this pipeline, as a viewer whose compositor
- * is on another host), the probes stop with one warning and `focal-plane`
- * holds: after the first probe's wait when non-live, after 3 probes and
- * 5 s when live. Refocusing while playing (the wheel, a click to focus,
- * continuous focus, `focal-depth` or `focal-plane` set) means one plane:
- * it sets `focal-surface` to false (notified); set it true again to return
- * to the surface. The surface's cost: about 1.5x the single plane's CPU
- * per frame in the pipeline, probes included (docs/results.md).
- *
- * ## Aperture
- *
- * `aperture` (rig units) widens the synthetic aperture beyond the paper's
- * tent, whose support spans two camera spacings (lib/lf/geometry/view.h Aperture;
- * Isaksen et al. 2000): each camera's tent is scaled by D / (2 spacing)
- * about the camera (at most 16), so more cameras blend and what is off the
- * focal plane blurs instead of doubling, at about 3 x scale^2 the output in
- * fragment pixels. `f-number` sets it photographically, overriding
- * `aperture` when > 0: N = F / D with F = 36 mm x fx / width, the focal
- * length of a 36 mm wide sensor with the view's field of view; it needs the
- * rig's `unit` to be mm, cm or m (else a warning, and `aperture` holds).
- * The requests carry the scale in 1/256 (lib/lf/wire/wire.h); probes keep the
- * tent.
- *
- * `ulr-cameras=K` (2..16) uses Unstructured Lumigraph weights over the K
- * cameras nearest each ray instead (lib/lf/geometry/view.h Aperture::kUlr): for rigs
- * without a grid, and so that a lost camera leaves no hole.
- *
- * ## Sampling
- *
- * `sampling=bicubic` asks the cameras to resample their images with Keys'
- * cubic (a = -0.5) instead of the paper's bilinear filter: sharper where
- * the view samples the scene as finely as the cameras (lib/lf/geometry/view.h
- * Sampling gives the figures), at about 2.2x the warp time
- * (lib/lf/render/render.h). The requests carry it (byte 137, lib/lf/wire/wire.h).
+ * `aperture` / `f-number` widen the paper's tent aperture, `ulr-cameras`
+ * uses Unstructured Lumigraph weights, `sampling=bicubic` Keys' cubic in
+ * place of bilinear (lib/lf/geometry/view.h; figures in docs/rendering.md).
  *
  * ## Example launch line
  * |[
@@ -915,29 +815,12 @@ static GstFlowReturn lf_view_request_create(GstBaseSrc* src, guint64, guint, Gst
   p->settings.surface_planes = surface_planes;
   p->settings.surface_two_plane_tiles = two_plane_tiles;
   GST_OBJECT_UNLOCK(self);
-  if (s.quilt_views > 0) {
-    // The centre eye, of the tile's size so far, becomes the quilt request.
-    req.quilt = quilt_of(s);
-    const cv::Vec3d x(req.view.R(0, 0), req.view.R(0, 1), req.view.R(0, 2));
-    req.quilt.baseline = s.quilt_baseline > 0 ? s.quilt_baseline
-                         : s.view_cone > 0
-                             ? lf::baseline_for_cone(lf::convergence_distance(req), s.view_cone)
-                             : lf::array_extent(rig, x);
-    if (!(req.quilt.baseline > 0))  // a cone focused at infinity, a one-camera rig
-      req.quilt.baseline = rig.typical_spacing();
-    req.view.width *= req.quilt.cols;
-    req.view.height *= req.quilt.rows;
-  }
-  std::vector<lf::ViewRequest> tick{req};
-  if (s.stereo_baseline > 0) {
-    // Left and right eyes along the view's x axis (viewer ids v, v + 1).
-    const cv::Vec3d x(req.view.R(0, 0), req.view.R(0, 1), req.view.R(0, 2));
-    lf::ViewRequest right = req;
-    right.viewer_id = fixed.viewer_id + 1;
-    right.view.position += x * (0.5 * s.stereo_baseline);
-    tick[0].view.position -= x * (0.5 * s.stereo_baseline);
-    tick.push_back(right);
-  }
+  // The quilt's one request, or the stereo pair, or the view alone.
+  lf::TickShape shape;
+  if (s.quilt_views > 0) shape.quilt = quilt_of(s);
+  shape.quilt_baseline = s.quilt_baseline, shape.view_cone = s.view_cone;
+  shape.stereo_baseline = s.stereo_baseline;
+  const std::vector<lf::ViewRequest> tick = lf::tick_requests(rig, req, shape);
   probes.erase(std::remove_if(probes.begin(), probes.end(),
                               [](const std::vector<lf::ViewRequest>& v) { return v.empty(); }),
                probes.end());

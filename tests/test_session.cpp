@@ -2,6 +2,7 @@
 // and the compositor host's frame assembly, without a pipeline.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <memory>
 #include <string>
 #include <utility>
@@ -365,6 +366,45 @@ TEST(Navigation, KeysDragAndWheel) {
   EXPECT_TRUE(lf::key_moves_eye("r", 2.0, &v));
   EXPECT_EQ(v.eye, cv::Vec3d(0, 0, 0));
   EXPECT_EQ(v.focal_depth, 0);
+}
+
+// lf::tick_requests (lib/lf/session/viewer.h): a tick's requests from the
+// centre eye's: alone; a stereo pair `baseline` apart along the view's x axis
+// (viewer ids v, v + 1); a quilt's one request, cols x rows eyes large, its
+// baseline given, from a view cone, or the array's extent.
+TEST(ViewerTick, AloneAStereoPairOrAQuilt) {
+  const lf::Rig rig = lf::synthetic_grid_rig(3, 3, 0.5, 160, 120, 50);
+  lf::ViewRequest req;
+  req.viewer_id = 4, req.sequence = 9;
+  req.view = lf::VirtualView::look_at({0.1, 0.2, -1}, {0.1, 0.2, 10}, {0, 1, 0}, 40, 96, 72);
+  req.focal_plane = lf::FocalPlane::through({0, 0, 10}, {0, 0, 1});
+  const cv::Vec3d x(req.view.R(0, 0), req.view.R(0, 1), req.view.R(0, 2));
+  EXPECT_EQ(lf::tick_requests(rig, req, {}).size(), 1u);
+
+  lf::TickShape stereo;
+  stereo.stereo_baseline = 0.3;
+  const auto pair = lf::tick_requests(rig, req, stereo);
+  ASSERT_EQ(pair.size(), 2u);
+  EXPECT_EQ(pair[0].viewer_id, 4u);
+  EXPECT_EQ(pair[1].viewer_id, 5u);
+  EXPECT_LT(cv::norm(pair[0].view.position - (req.view.position - 0.15 * x)), 1e-12);
+  EXPECT_LT(cv::norm(pair[1].view.position - (req.view.position + 0.15 * x)), 1e-12);
+  EXPECT_EQ(pair[1].sequence, req.sequence);
+
+  lf::TickShape quilt;
+  quilt.quilt.views = 6, quilt.quilt.cols = 3, quilt.quilt.rows = 2;
+  quilt.quilt_baseline = 0.7;
+  auto q = lf::tick_requests(rig, req, quilt);
+  ASSERT_EQ(q.size(), 1u);
+  EXPECT_EQ(q[0].view.width, 288);
+  EXPECT_EQ(q[0].view.height, 144);
+  EXPECT_EQ(q[0].quilt.baseline, 0.7);
+  quilt.quilt_baseline = 0, quilt.view_cone = 10;  // 2 D tan(5 deg), D = 11 along the axis
+  q = lf::tick_requests(rig, req, quilt);
+  EXPECT_NEAR(q[0].quilt.baseline, 2 * 11 * std::tan(5 * CV_PI / 180), 1e-9);
+  quilt.view_cone = 0;  // the array's extent along x: 2 spacings of 0.5
+  q = lf::tick_requests(rig, req, quilt);
+  EXPECT_NEAR(q[0].quilt.baseline, 1.0, 1e-9);
 }
 
 // lf::CameraAnswer: a camera's answer on the wire equals its fragment

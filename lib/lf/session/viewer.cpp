@@ -106,4 +106,26 @@ void wheel_moves_focus(double notches, double fx, double step, double current_q,
   v->focal_depth = q > 1.0 / max_depth ? 1.0 / q : max_depth;
 }
 
+std::vector<ViewRequest> tick_requests(const Rig& rig, ViewRequest req, const TickShape& shape) {
+  const cv::Vec3d x(req.view.R(0, 0), req.view.R(0, 1), req.view.R(0, 2));
+  if (shape.quilt.views > 0) {
+    req.quilt = shape.quilt;
+    req.quilt.baseline = shape.quilt_baseline > 0 ? shape.quilt_baseline
+                         : shape.view_cone > 0
+                             ? baseline_for_cone(convergence_distance(req), shape.view_cone)
+                             : array_extent(rig, x);
+    if (!(req.quilt.baseline > 0))  // a cone focused at infinity, a one-camera rig
+      req.quilt.baseline = rig.typical_spacing();
+    req.view.width *= req.quilt.cols;
+    req.view.height *= req.quilt.rows;
+    return {req};
+  }
+  if (!(shape.stereo_baseline > 0)) return {req};
+  ViewRequest left = req, right = req;
+  right.viewer_id = req.viewer_id + 1;
+  right.view.position += x * (0.5 * shape.stereo_baseline);
+  left.view.position -= x * (0.5 * shape.stereo_baseline);
+  return {left, right};
+}
+
 }  // namespace lf

@@ -14,8 +14,11 @@
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
+#include <vector>
 
+#include "lf/geometry/rig.h"
 #include "lf/geometry/view.h"
+#include "lf/render/quilt.h"
 
 namespace lf {
 
@@ -133,5 +136,22 @@ void drag_moves_eye(double dx, double dy, double step, EyeAndFocus* v);
 // use; the depth stays within (0, max_depth].
 void wheel_moves_focus(double notches, double fx, double step, double current_q, double max_depth,
                        EyeAndFocus* v);
+
+// The shape of a tick's requests beyond the centre eye's: a quilt of eyes
+// for a light-field display (lib/lf/render/quilt.h; views 0: none) and its
+// baseline (rig units; 0: from view_cone, degrees, at the focal plane's
+// distance; both 0: the array's extent along the view's x axis), or a
+// stereo pair `stereo_baseline` apart (rig units; 0: none).
+struct TickShape {
+  Quilt quilt;
+  double quilt_baseline = 0, view_cone = 0;
+  double stereo_baseline = 0;
+};
+// The view requests of one tick from `req`, the centre eye's (its view the
+// size of one eye): the quilt's one request (the view cols x rows eyes
+// large, the centre eye's focal plane shared: no surface), else the left
+// and right eyes along the view's x axis (viewer ids v and v + 1), else
+// `req` alone.
+std::vector<ViewRequest> tick_requests(const Rig& rig, ViewRequest req, const TickShape& shape);
 
 }  // namespace lf
