@@ -4,65 +4,42 @@
  *
  * Collects the fragments of each view request and adds them into the output
  * frame (Yang et al. 2002, Section 4.3), renormalised by the accumulated
- * weight (lib/lf/render/composite.h). A GstAggregator: it composites a request when
- * all of its fragments are in, or at the deadline in live pipelines with
- * whatever arrived, so a dead camera never stops the output. A partial sum
- * (`lfpartialsum`: one camera host's cameras added up, lib/lf/wire/wire.h
- * version 2) counts as the cameras it holds (at most the rig's). Output:
- * ordinary raw video (RGBA, RGBx or I420), from a buffer pool of its own.
+ * weight (lib/lf/render/composite.h). An LfFragmentAggregator
+ * (gst/lffragmentaggregator.h, over GstAggregator): a request is composited
+ * when all of its fragments are in, or at the deadline in live pipelines
+ * with whatever arrived, so a dead camera never stops the output. A partial
+ * sum (`lfpartialsum`, wire version 2) counts as the cameras it holds (at
+ * most the rig's). Output: raw video (RGBA, RGBx or I420; gst/lfvideoout.h).
  *
- * Raw fragments are not copied: their pixels are added straight from the
- * received buffers, which it holds until their frame is composited. Every
- * fragment is validated (lib/lf/wire/wire.h); the CRC check is skipped only for
- * buffers that `lffragment` sealed in this process (they carry
- * `LfSealedMeta`, which no copy and nothing received from the network has).
- * JPEG fragments are decoded on the streaming thread that brings them,
- * before the aggregator queues them (lf::decode_jpeg_to_raw, into a raw
- * buffer sealed here), so fragments of different pads decode in parallel
- * and while others are still on their way; only those it would composite
- * (its viewer, inside the sequence window, at most the view's area), the
- * rest as before on the aggregate thread, where they are refused.
+ * Every fragment is validated (lib/lf/wire/wire.h) before anything is
+ * decoded: its viewer, camera, sequence window and size; the CRC check is
+ * skipped only for buffers `lffragment` sealed in this process
+ * (`LfSealedMeta`, which no copy and nothing from the network has). Raw
+ * fragments are added straight from the received buffers; JPEG ones are
+ * decoded on the streaming thread that brings them (gst/lfarrival.h).
+ * Drawings that `lffragment defer=true` left to it (lfarray's whole-view
+ * mode, `LfDeferredMeta`) are drawn here by its renderer
+ * (lib/lf/render/renderer.h: GL uploads each camera frame once; the CPU
+ * fuses the drawing into the compositing, bands of rows on all cores).
  *
- * Fragments whose drawing `lffragment` left to it (`defer=true`, lfarray's
- * whole-view mode: an empty fragment carrying its plan and camera image
- * in `LfDeferredMeta`, which only buffers that stay in the process carry)
- * are drawn here: with the GL backend in the same pass sequence as the
- * other fragments, each camera frame uploaded once into a texture (slot:
- * the camera's rig index); with the CPU backend fused into the compositing
- * (lib/lf/render/composite.h: each band of rows draws its part of every camera's
- * fragment straight into its sums, the bands on all cores), or, in a frame
- * of layer pairs, drawn first by the renderer (lib/lf/render/renderer.h) on the
- * aggregate thread.
+ * The output rate is the fragment caps' `framerate` (the viewer's request
+ * rate; the `framerate` property overrides it); the deadline is one frame
+ * period after a request's running time (gst_aggregator_set_latency),
+ * unless the `latency` property is set, which then replaces it.
  *
- * Stream facts come from the fragment caps: the output frame rate is their
- * `framerate` (the viewer's request rate; the `framerate` property overrides
- * it), and the deadline is one frame period after a request's running time
- * (gst_aggregator_set_latency), unless the `latency` property is set, which
- * then replaces it.
+ * Probes are scored here, never composited (lib/lf/session/probe_scoring.h):
+ * a focus probe gives the depth under a clicked pixel (an upstream
+ * `lf-focus` event), a surface probe a focal surface for the whole view (an
+ * upstream `lf-surface` event; see `lfviewrequest`'s focal-surface). This is
+ * the one place where every camera's contribution arrives separately, so it
+ * works unchanged across machines: no camera image leaves its host.
  *
- * Probes are scored here, never composited: the fragments of a focus probe
- * (lib/lf/focus/focus_probe.h) give the depth under a clicked pixel (an upstream
- * `lf-focus` event), and those of a surface probe (lib/lf/focus/surface_probe.h)
- * a focal surface for the whole view (an upstream `lf-surface` event; see
- * `lfviewrequest`'s focal-surface). A probe is scored when every camera has
- * answered every step, or at a deadline (1 s, or `latency` when longer)
- * from the cameras that answered every step they sent. This is where the
- * surface is estimated in a distributed deployment because it is the one
- * place where every camera's contribution arrives separately: no camera
- * image leaves its host, and the probes are ordinary requests and
- * fragments, so RTP carries them unchanged.
- *
- * With `second-planes`, the surface gives tiles next to a depth edge, and
- * tiles with a thin structure inside (bars, wires: cells of the tile that
- * agree far better at another depth, as their neighbours along the
- * structure do; lib/lf/focus/focal_surface.h SurfaceOptions::thin_ratio), a
- * second plane. A camera then answers with two fragments in one buffer,
- * its layer 0 and its layer 1 (the nearer plane of each two-plane tile),
- * and such a frame is composited with a per-pixel choice between the
- * layers (lib/lf/render/composite.h LayerCompositor, on the CPU whatever the
- * backend): the nearer layer unless the other one's cameras agree clearly
- * better. A buffer whose second fragment is not the same camera's layer 1
- * of the same request is dropped with a warning.
+ * With `second-planes`, tiles next to a depth edge or with a thin structure
+ * inside get a second plane (lib/lf/focus/focal_surface.h); a camera then
+ * answers with its layer 0 and layer 1 in one buffer, and the frame takes per
+ * pixel the layer whose cameras agree (lf::LayerCompositor, on the CPU
+ * whatever the backend). A buffer whose second fragment is not the same
+ * camera's layer 1 of the same request is dropped with a warning.
  *
  * ## Example launch line
  * |[
@@ -96,14 +73,17 @@
 #include "lf/wire/probe_bundle.h"
 #include "lf/wire/wire.h"
 #include "lfaggregate.h"
+#include "lfarrival.h"
 #include "lfbackend.h"
 #include "lfcaps.h"
 #include "lfevents.h"
+#include "lffragmentaggregator.h"
 #include "lfguard.h"
 #include "lfmeta.h"
 #include "lfprops.h"
 #include "lfrig.h"
 #include "lftrace.h"
+#include "lfvideoout.h"
 #include "lfwarn.h"
 
 GST_DEBUG_CATEGORY_STATIC(lf_compositor_debug);
@@ -111,7 +91,7 @@ GST_DEBUG_CATEGORY_STATIC(lf_compositor_debug);
 
 G_BEGIN_DECLS
 #define LF_TYPE_COMPOSITOR (lf_compositor_get_type())
-G_DECLARE_FINAL_TYPE(LfCompositor, lf_compositor, LF, COMPOSITOR, GstAggregator)
+G_DECLARE_FINAL_TYPE(LfCompositor, lf_compositor, LF, COMPOSITOR, LfFragmentAggregator)
 G_END_DECLS
 
 #define DEFAULT_VIEWER_ID 0
@@ -181,27 +161,13 @@ struct State {
   cv::Mat last_frame;  // RGBA of the last frame emitted (missing pixels come from it)
   cv::Mat frames[2];   // the RGBA frames resolved into, in turn (one is last_frame)
   int next_frame = 0;
-  GstBufferPool* pool = nullptr;      // output buffers, made at caps time
-  GstVideoInfo out;                   // negotiated output
-  int src_width = 0, src_height = 0;  // composited frames (scaled to `out` if it differs)
-  bool have_caps = false;
-  GstVideoConverter* convert = nullptr;  // RGBA -> I420 when negotiated
+  lfgst::RawVideoOutput output;          // the negotiated raw video (gst/lfvideoout.h)
   lfgst::Fraction caps_fps{0, 1};        // from the fragment caps (0/1: none yet)
   gint caps_width = 0, caps_height = 0;  // the view size from the fragment caps
   guint64 filled_frames = 0;
   std::optional<lf::ProbeScoring> probes;  // focus and surface probes being collected
   lfgst::WarnLimiter no_focus, no_surface, bad, foreign, unknown_camera, wrong_size, no_size,
       out_of_window, duplicate;
-  ~State() {
-    if (convert) gst_video_converter_free(convert);
-    drop_pool();
-  }
-  void drop_pool() {
-    if (!pool) return;
-    gst_buffer_pool_set_active(pool, FALSE);
-    gst_object_unref(pool);
-    pool = nullptr;
-  }
   // The output rate: the property, else the caps, else 30/1.
   lfgst::Fraction fps() const {
     if (s.framerate.n > 0) return s.framerate;
@@ -223,29 +189,20 @@ struct Priv {
   // One frame period of the output rate (ns; 0 until the caps give a rate):
   // read by the `latency` notify handler on any thread, so not in State.
   std::atomic<GstClockTime> period{0};
-  // What the aggregate thread accepts, published for decode_on_arrival()
-  // on the pads' streaming threads (publish_acceptance()): the view's area
-  // in pixels (0: not known yet, so no decoding there), the viewer (-1: not
-  // known yet), stereo, and the last request emitted (-1: none).
-  std::atomic<uint64_t> accept_pixels{0};
-  std::atomic<int64_t> accept_viewer{-1};
-  std::atomic<bool> accept_stereo{false};
-  std::atomic<int64_t> accept_after{-1};
+  // JPEG fragments decoded as they arrive, on the pads' streaming threads,
+  // as far as the aggregate thread accepts them (publish_acceptance()).
+  lfgst::ArrivalDecoder arrival;
 };
-
-// A fragment buffer that decode_on_arrival() made from a JPEG one: raw,
-// sealed here, GST_BUFFER_OFFSET_END the decoding time in ns.
-constexpr GstBufferFlags kDecodedOnArrival = GST_BUFFER_FLAG_LAST;
 
 lfgst::Properties<Settings> props;
 }  // namespace
 
 struct _LfCompositor {
-  GstAggregator parent;
+  LfFragmentAggregator parent;
   Priv* priv;
 };
 
-G_DEFINE_TYPE(LfCompositor, lf_compositor, GST_TYPE_AGGREGATOR)
+G_DEFINE_TYPE(LfCompositor, lf_compositor, LF_TYPE_FRAGMENT_AGGREGATOR)
 GST_ELEMENT_REGISTER_DEFINE(lfcompositor, "lfcompositor", GST_RANK_NONE, LF_TYPE_COMPOSITOR)
 
 static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE(
@@ -278,7 +235,7 @@ static gboolean lf_compositor_start(GstAggregator* agg) {
 
 static gboolean lf_compositor_stop(GstAggregator* agg) {
   LF_COMPOSITOR(agg)->priv->state.reset();
-  LF_COMPOSITOR(agg)->priv->accept_pixels = 0;  // nothing decoded on arrival until published again
+  LF_COMPOSITOR(agg)->priv->arrival.stop();
   return TRUE;
 }
 
@@ -286,10 +243,8 @@ static gboolean lf_compositor_stop(GstAggregator* agg) {
 // decode_on_arrival().
 static void publish_acceptance(Priv* p, const State* st) {
   int w = 0, h = 0;
-  p->accept_pixels = st->view_size(&w, &h) ? static_cast<uint64_t>(w) * h : 0;
-  p->accept_viewer = st->viewer.viewer();
-  p->accept_stereo = st->s.stereo;
-  p->accept_after = st->window.last_emitted();
+  p->arrival.publish(st->view_size(&w, &h) ? static_cast<uint64_t>(w) * h : 0, st->viewer.viewer(),
+                     st->s.stereo, st->window.last_emitted());
 }
 
 // The deadline: one frame period of the request rate, unless the `latency`
@@ -348,101 +303,13 @@ static size_t expected_fragments(LfCompositor* self) {
   return n * (st->s.stereo ? 2 : 1);  // stereo: a left and a right fragment per pad
 }
 
-// Negotiates the output for composited frames of width x height: that size
-// at the request rate in the first of RGBA, RGBx, I420 that downstream
-// takes; else the size downstream asks for (nearest to ours), scaled by
-// GStreamer's converter, as stock compositor follows a downstream size. The
-// rate is the viewer's request rate and cannot follow; a mismatch is an
-// error that names both sides.
-static bool ensure_caps(LfCompositor* self, int width, int height) {
-  State* st = self->priv->state.get();
-  if (st->have_caps && st->src_width == width && st->src_height == height) return true;
-  GstAggregator* agg = GST_AGGREGATOR(self);
-  const lfgst::Fraction fps = st->fps();
-  GstCaps* peer = gst_pad_peer_query_caps(GST_AGGREGATOR_SRC_PAD(agg), nullptr);
-  GstCaps* chosen = nullptr;
-  for (const char* fmt : {"RGBA", "RGBx", "I420"}) {
-    GstCaps* c = gst_caps_new_simple("video/x-raw", "format", G_TYPE_STRING, fmt, "width",
-                                     G_TYPE_INT, width, "height", G_TYPE_INT, height, "framerate",
-                                     GST_TYPE_FRACTION, fps.n, fps.d, nullptr);
-    if (!peer || gst_caps_can_intersect(c, peer)) {
-      chosen = c;
-      break;
-    }
-    gst_caps_unref(c);
-  }
-  if (!chosen && peer) {
-    GstCaps* any = gst_caps_from_string(
-        "video/x-raw, format = (string) { RGBA, RGBx, I420 }, width = (int) [ 2, 8192 ], "
-        "height = (int) [ 2, 8192 ]");
-    gst_caps_set_simple(any, "framerate", GST_TYPE_FRACTION, fps.n, fps.d, nullptr);
-    GstCaps* t = gst_caps_intersect_full(peer, any, GST_CAPS_INTERSECT_FIRST);
-    gst_caps_unref(any);
-    if (!gst_caps_is_empty(t)) {
-      t = gst_caps_truncate(t);
-      t = gst_caps_make_writable(t);
-      GstStructure* ts = gst_caps_get_structure(t, 0);
-      gst_structure_fixate_field_nearest_int(ts, "width", width);
-      gst_structure_fixate_field_nearest_int(ts, "height", height);
-      chosen = gst_caps_fixate(t);
-      GST_INFO_OBJECT(self, "downstream asks for another size: scaling %dx%d to %" GST_PTR_FORMAT,
-                      width, height, chosen);
-    } else {
-      gst_caps_unref(t);
-    }
-  }
-  if (!chosen) {
-    gchar* want = peer ? gst_caps_to_string(peer) : g_strdup("(nothing)");
-    GST_ELEMENT_ERROR(self, CORE, NEGOTIATION, ("Downstream does not accept the view's video"),
-                      ("the view is %dx%d at %d/%d fps (RGBA, RGBx or I420; set lfviewrequest "
-                       "width, height and framerate to change it); downstream accepts %s",
-                       width, height, fps.n, fps.d, want));
-    g_free(want);
-    if (peer) gst_caps_unref(peer);
-    return false;
-  }
-  if (peer) gst_caps_unref(peer);
-  gst_video_info_from_caps(&st->out, chosen);
-  if (st->convert) gst_video_converter_free(st->convert), st->convert = nullptr;
-  const GstVideoFormat fmt = GST_VIDEO_INFO_FORMAT(&st->out);
-  if (fmt == GST_VIDEO_FORMAT_I420 || GST_VIDEO_INFO_WIDTH(&st->out) != width ||
-      GST_VIDEO_INFO_HEIGHT(&st->out) != height) {
-    // GStreamer's converter (any size, odd ones included), built once.
-    GstVideoInfo rgba;
-    gst_video_info_set_format(&rgba, GST_VIDEO_FORMAT_RGBA, width, height);
-    GST_VIDEO_INFO_FPS_N(&rgba) = GST_VIDEO_INFO_FPS_N(&st->out);
-    GST_VIDEO_INFO_FPS_D(&rgba) = GST_VIDEO_INFO_FPS_D(&st->out);
-    st->convert = gst_video_converter_new(&rgba, &st->out, nullptr);
-    if (!st->convert) {
-      GST_ELEMENT_ERROR(self, CORE, NEGOTIATION, ("Cannot convert to the negotiated video"),
-                        ("%" GST_PTR_FORMAT, chosen));
-      gst_caps_unref(chosen);
-      return false;
-    }
-  }
-  // Output buffers from a pool of our own (a frame is too large for the
-  // allocator to reuse it: each would be a fresh mapping, zeroed by the
-  // kernel page by page).
-  st->drop_pool();
-  st->pool = gst_video_buffer_pool_new();
-  GstStructure* config = gst_buffer_pool_get_config(st->pool);
-  gst_buffer_pool_config_set_params(config, chosen, GST_VIDEO_INFO_SIZE(&st->out), 2, 0);
-  if (!gst_buffer_pool_set_config(st->pool, config) || !gst_buffer_pool_set_active(st->pool, TRUE))
-    st->drop_pool();  // emit() allocates then
-  gst_aggregator_set_src_caps(agg, chosen);
-  gst_caps_unref(chosen);
-  st->src_width = width, st->src_height = height;
-  st->have_caps = true;
-  return true;
-}
-
 // GstAggregator's own negotiation (at start, and when downstream asks for a
 // reconfiguration) would fix caps before the view size is known: the template
 // fixates to 2x2 at 0/1 fps, and an encoder such as vp8enc, configured for
-// that, then drops every frame. The output is negotiated by ensure_caps() at
+// that, then drops every frame. The output is negotiated by emit() at
 // the next frame instead (aggregate thread, like aggregate()).
 static gboolean lf_compositor_negotiate(GstAggregator* agg) {
-  if (State* st = LF_COMPOSITOR(agg)->priv->state.get()) st->have_caps = false;
+  if (State* st = LF_COMPOSITOR(agg)->priv->state.get()) st->output.renegotiate();
   return TRUE;
 }
 
@@ -452,7 +319,7 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Request& g, bool com
   int w = 0, H = 0;
   if (!st->view_size(&w, &H)) return GST_FLOW_OK;  // nothing was accepted without a size
   const int W = st->s.stereo ? 2 * w : w;          // stereo: left | right side by side
-  if (!ensure_caps(self, W, H)) return GST_FLOW_NOT_NEGOTIATED;
+  if (!st->output.negotiate(GST_AGGREGATOR(self), W, H, st->fps())) return GST_FLOW_NOT_NEGOTIATED;
   const guint left_id = static_cast<guint>(std::max<int64_t>(0, st->viewer.viewer()));
   // Each eye's fragments, and the drawings lffragment left to us (defer:
   // whole-view mode), composited at once by the renderer (lib/lf/render/renderer.h:
@@ -508,30 +375,7 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Request& g, bool com
                      filled);
   }
   st->last_frame = rgba;
-  GstBuffer* out = nullptr;
-  if (!st->pool || gst_buffer_pool_acquire_buffer(st->pool, &out, nullptr) != GST_FLOW_OK)
-    out = gst_buffer_new_allocate(nullptr, GST_VIDEO_INFO_SIZE(&st->out), nullptr);
-  GstVideoFrame vf;
-  gst_video_frame_map(&vf, &st->out, out, GST_MAP_WRITE);
-  if (st->convert) {
-    GstVideoInfo info;
-    gst_video_info_set_format(&info, GST_VIDEO_FORMAT_RGBA, W, H);
-    GST_VIDEO_INFO_FPS_N(&info) = GST_VIDEO_INFO_FPS_N(&st->out);
-    GST_VIDEO_INFO_FPS_D(&info) = GST_VIDEO_INFO_FPS_D(&st->out);
-    GstBuffer* src =
-        gst_buffer_new_wrapped_full(GST_MEMORY_FLAG_READONLY, rgba.data, rgba.total() * 4, 0,
-                                    rgba.total() * 4, nullptr, nullptr);
-    GstVideoFrame sf;
-    gst_video_frame_map(&sf, &info, src, GST_MAP_READ);
-    gst_video_converter_frame(st->convert, &sf, &vf);
-    gst_video_frame_unmap(&sf);
-    gst_buffer_unref(src);
-  } else {
-    auto* dst = static_cast<uint8_t*>(GST_VIDEO_FRAME_PLANE_DATA(&vf, 0));
-    const int dstride = GST_VIDEO_FRAME_PLANE_STRIDE(&vf, 0);
-    for (int y = 0; y < H; ++y) std::memcpy(dst + y * dstride, rgba.ptr(y), 4 * W);
-  }
-  gst_video_frame_unmap(&vf);
+  GstBuffer* out = st->output.frame(rgba);
   if (lfgst::trace_enabled()) {
     const uint32_t sum = libdeflate_crc32(0, rgba.data, rgba.total() * rgba.elemSize());
     lfgst::trace(GST_ELEMENT(self), "composited", left_id, seq, -1, static_cast<gint64>(g.count),
@@ -595,22 +439,6 @@ static void note_foreign(LfCompositor* self, State* st, guint viewer) {
                        st->viewer.foreign_count(), st->viewer.foreign_seconds(now), viewer));
 }
 
-// Sends `event` (taken) up every sink pad: to every camera branch and on to
-// lfviewrequest. True if any pad took it.
-static gboolean push_upstream(GstAggregator* agg, GstEvent* event) {
-  GST_OBJECT_LOCK(agg);
-  GList* pads = g_list_copy(GST_ELEMENT(agg)->sinkpads);
-  g_list_foreach(
-      pads, [](gpointer p, gpointer) { gst_object_ref(p); }, nullptr);
-  GST_OBJECT_UNLOCK(agg);
-  gboolean any = FALSE;
-  for (GList* l = pads; l; l = l->next)
-    any |= gst_pad_push_event(GST_PAD(l->data), gst_event_ref(event));
-  g_list_free_full(pads, gst_object_unref);
-  gst_event_unref(event);
-  return any;
-}
-
 // Sends what probe scoring (lib/lf/session/probe_scoring.h) gave upstream:
 // an lf-focus event (the depth under a clicked pixel) or an lf-surface
 // event (gst/lfevents.h), which lfviewrequest applies; or a warning.
@@ -651,7 +479,8 @@ static void send_probe_outcomes(LfCompositor* self, State* st) {
       s = lfgst::surface_structure(
           {o.viewer, o.probe, o.capture_time_ns, std::move(o.surface), o.planes_used});
     }
-    push_upstream(GST_AGGREGATOR(self), gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, s));
+    lf_fragment_aggregator_push_upstream(LF_FRAGMENT_AGGREGATOR(self),
+                                         gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, s));
   }
 }
 
@@ -740,9 +569,8 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
                                "camera %u: fragment for %dx%d, the output is %dx%d", f.camera_id,
                                f.out_width, f.out_height, w, h);
   } else {
-    const gint64 on_arrival_ns = GST_BUFFER_FLAG_IS_SET(buf, kDecodedOnArrival)
-                                     ? static_cast<gint64>(GST_BUFFER_OFFSET_END(buf))
-                                     : 0;
+    gint64 on_arrival_ns = 0;
+    lfgst::ArrivalDecoder::decoded(buf, &on_arrival_ns);
     lfgst::trace(GST_ELEMENT(self), "decoded", f.viewer_id, f.sequence,
                  static_cast<gint>(f.camera_id),
                  (g_get_monotonic_time() - t0) * 1000 + on_arrival_ns);
@@ -791,96 +619,52 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
   }
 }
 
-// Request sequence of a queued fragment buffer (-1 if unreadable).
-static int64_t queued_sequence(GstBuffer* buf) {
-  GstMapInfo map;
-  int64_t seq = -1;
-  if (gst_buffer_map(buf, &map, GST_MAP_READ)) {
-    // Malformed: -1 (absorb() reports it).
-    if (!lfgst::guard(
-            [&] {
-              seq = static_cast<int64_t>(lf::peek_fragment_header(map.data, map.size).sequence);
-            },
-            nullptr))
-      seq = -1;
-    gst_buffer_unmap(buf, &map);
-  }
-  return seq;
+// lffragmentaggregator.h: a fragment buffer taken from a pad.
+static GstFlowReturn lf_compositor_absorb(LfFragmentAggregator* agg, GstAggregatorPad* pad,
+                                          GstBuffer* buf) {
+  absorb(LF_COMPOSITOR(agg), pad, buf);
+  return GST_FLOW_OK;
 }
 
-static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeout) {
+// Live: at most one request's worth of fragments per pad per aggregate().
+static gsize lf_compositor_live_batch(LfFragmentAggregator* agg) {
+  return expected_fragments(LF_COMPOSITOR(agg));
+}
+
+static gboolean lf_compositor_oldest(LfFragmentAggregator* agg, GstClockTime* rt, guint64* seq) {
+  State* st = LF_COMPOSITOR(agg)->priv->state.get();
+  if (st->pending.empty()) return FALSE;
+  *rt = st->pending.front().running_time, *seq = st->pending.front_key();
+  return TRUE;
+}
+
+static GstClockTime lf_compositor_earliest(LfFragmentAggregator* agg) {
+  const State* st = LF_COMPOSITOR(agg)->priv->state.get();
+  return st ? st->pending.earliest_running_time() : GST_CLOCK_TIME_NONE;
+}
+
+// Probes past their deadline are scored with what came; then complete
+// requests, in order; at its deadline (or end of stream), also an
+// incomplete one, renormalised; too many pending: the oldest. Each request
+// has its own deadline: one that came late must not take the next ones,
+// still in time, with it (their fragments are on their way).
+static GstFlowReturn lf_compositor_emit_due(LfFragmentAggregator* agg, const LfDeadline* d,
+                                            gboolean all_eos) {
   LfCompositor* self = LF_COMPOSITOR(agg);
   State* st = self->priv->state.get();
-  // `stereo` may change while playing: the requests from here on follow it.
-  st->s.stereo = lfgst::read_setting(GST_OBJECT(self), self->priv->settings, &Settings::stereo);
-  bool all_eos = true;
-  GList* pads = lfgst::ref_sink_pads(GST_ELEMENT(self));
-  // Not live: one buffer per pad per call, so pads stay in step (a pop
-  // unblocks the upstream push, so popping in a loop would race ahead on
-  // fast pads). Live: every fragment queued so far, at most one request's
-  // worth per pad (get_next_time() has this called as soon as any pad has
-  // a fragment); the viewer's clock paces the pads.
-  const GstClockTime latency = gst_aggregator_get_latency(agg);
-  const bool live = GST_CLOCK_TIME_IS_VALID(latency);
-  const size_t per_pad = live ? std::max<size_t>(1, expected_fragments(self)) : 1;
-  for (GList* l = pads; l; l = l->next) {
-    GstAggregatorPad* pad = GST_AGGREGATOR_PAD(l->data);
-    for (size_t i = 0; i < per_pad; ++i) {
-      GstBuffer* buf = gst_aggregator_pad_pop_buffer(pad);
-      if (!buf) break;
-      absorb(self, pad, buf);
-      gst_buffer_unref(buf);
-    }
-  }
-  // `timeout` also comes when a fragment arrived (get_next_time()); the
-  // deadline is the oldest pending request's running time plus the latency.
-  const GstClockTime now = timeout ? lfgst::running_now(GST_ELEMENT(agg)) : GST_CLOCK_TIME_NONE;
-  auto past_deadline = [&](GstClockTime rt) {
-    return timeout && (!GST_CLOCK_TIME_IS_VALID(rt) || !GST_CLOCK_TIME_IS_VALID(now) || !live ||
-                       now >= rt + latency);
-  };
-  const bool deadline = !st->pending.empty() && past_deadline(st->pending.front().running_time);
-  // At the deadline (a silent pad: a dead host), also take every queued
-  // fragment of the requests up to the one due, so the live pads' fragments
-  // all make it into the frame (a pad may carry many cameras' fragments).
-  if (deadline) {
-    const int64_t due = static_cast<int64_t>(st->pending.front_key());
-    for (GList* l = pads; l; l = l->next) {
-      GstAggregatorPad* pad = GST_AGGREGATOR_PAD(l->data);
-      while (GstBuffer* peek = gst_aggregator_pad_peek_buffer(pad)) {
-        const int64_t seq = queued_sequence(peek);
-        gst_buffer_unref(peek);
-        if (seq > due) break;
-        if (GstBuffer* buf = gst_aggregator_pad_pop_buffer(pad)) {
-          absorb(self, pad, buf);
-          gst_buffer_unref(buf);
-        }
-      }
-    }
-  }
-  for (GList* l = pads; l; l = l->next)
-    if (!gst_aggregator_pad_is_eos(GST_AGGREGATOR_PAD(l->data))) all_eos = false;
-  g_list_free_full(pads, gst_object_unref);
-
-  // Probes past their deadline are scored with what came.
   const gint64 probe_deadline_us =
-      live ? std::max<gint64>(kProbeDeadlineUs, static_cast<gint64>(latency / GST_USECOND))
-           : kProbeDeadlineUs;
-  const gint64 now_us = g_get_monotonic_time();
-  st->probes->expire(now_us, probe_deadline_us);
+      d->live ? std::max<gint64>(kProbeDeadlineUs, static_cast<gint64>(d->latency / GST_USECOND))
+              : kProbeDeadlineUs;
+  st->probes->expire(g_get_monotonic_time(), probe_deadline_us);
   send_probe_outcomes(self, st);
   const size_t expected = expected_fragments(self);
-  // Complete requests, in order; at its deadline (or end of stream), also an
-  // incomplete one, renormalised; too many pending: the oldest. Each request
-  // has its own deadline: one that came late must not take the next ones,
-  // still in time, with it (their fragments are on their way).
   const GstFlowReturn ret = lfgst::emit_due(
-      st->pending, expected, past_deadline, all_eos, [&](uint64_t seq, Request& g, bool complete) {
+      st->pending, expected, [d](GstClockTime rt) { return lf_deadline_passed(d, rt); }, all_eos,
+      [&](uint64_t seq, Request& g, bool complete) {
         if (!complete)
           GST_DEBUG_OBJECT(self,
                            "request %" G_GUINT64_FORMAT
-                           " incomplete: %zu of %zu fragments (eos %d, "
-                           "pending %zu)",
+                           " incomplete: %zu of %zu fragments (eos %d, pending %zu)",
                            seq, g.count, expected, all_eos, st->pending.size());
         return emit(self, seq, g, complete);
       });
@@ -888,115 +672,19 @@ static GstFlowReturn lf_compositor_aggregate(GstAggregator* agg, gboolean timeou
   return ret;
 }
 
-// Live: when aggregate() should run next (lfgst::next_deadline): at once
-// when a pad holds a fragment, else at the oldest pending request's
-// deadline (aggregate() runs on this same thread).
-static GstClockTime lf_compositor_get_next_time(GstAggregator* agg) {
-  const State* st = LF_COMPOSITOR(agg)->priv->state.get();
-  return lfgst::next_deadline(GST_ELEMENT(agg), st ? &st->pending : nullptr);
-}
-
-// Tracing (LF_TRACE): a fragment's arrival at a sink pad, before any
-// queueing in the aggregator.
-static GstPadProbeReturn trace_arrival(GstPad* pad, GstPadProbeInfo* info, gpointer) {
-  GstBuffer* buf = GST_PAD_PROBE_INFO_BUFFER(info);
-  GstMapInfo map;
-  if (buf && gst_buffer_map(buf, &map, GST_MAP_READ)) {
-    lf::FragmentHeader h;
-    // Malformed: not traced here (reported when aggregated).
-    if (lfgst::guard([&] { h = lf::peek_fragment_header(map.data, map.size); }, nullptr)) {
-      GstObject* parent = gst_pad_get_parent(pad);
-      if (parent) {
-        lfgst::trace(GST_ELEMENT(parent), "fragment-in", h.viewer_id, h.sequence,
-                     static_cast<gint>(h.camera_id), static_cast<gint64>(map.size),
-                     h.capture_time_ns);
-        gst_object_unref(parent);
-      }
-    }
-    gst_buffer_unmap(buf, &map);
-  }
-  return GST_PAD_PROBE_OK;
-}
-
-// JPEG fragments are decoded on the streaming thread that brings them (the
-// camera branch's in process, the RTP receiver's across machines), before
-// the aggregator queues them, into a raw fragment buffer (sealed here):
-// fragments of different pads decode in parallel, and while others are
-// still on their way, instead of one after another on the aggregate thread
-// once the last has come. Only fragments that absorb() would composite
-// (what publish_acceptance() last said: this viewer, inside the sequence
-// window, at most the view's area) and one fragment per buffer; everything
-// else, and a fragment that does not parse (absorb() reports it), goes on
-// unchanged.
-static GstPadProbeReturn decode_on_arrival(GstPad*, GstPadProbeInfo* info, gpointer data) {
-  Priv* p = LF_COMPOSITOR(data)->priv;
-  GstBuffer* buf = GST_PAD_PROBE_INFO_BUFFER(info);
-  const uint64_t limit = p->accept_pixels.load();
-  if (!buf || limit == 0) return GST_PAD_PROBE_OK;
-  GstBuffer* raw = nullptr;
-  lfgst::guard(
-      [&] {
-        const lfgst::MappedBuffer in(buf, GST_MAP_READ);
-        const lf::FragmentHeader head = lf::peek_fragment_header(in.data(), in.size());
-        if (head.encoding != lf::Encoding::kJpeg || head.size() != in.size() ||
-            lf::is_focus_probe(head.sequence) || lf::is_surface_probe(head.sequence))
-          return;
-        const int64_t viewer = p->accept_viewer.load();
-        if (viewer < 0 || !(head.viewer_id == viewer ||
-                            (p->accept_stereo.load() && head.viewer_id == viewer + 1)))
-          return;
-        const int64_t after = p->accept_after.load();
-        if (!lf::RequestWindow::inside(after, head.sequence)) return;
-        const gint64 t0 = g_get_monotonic_time();
-        // Unmapped before it is dropped (declared after it), on a throw too.
-        std::unique_ptr<GstBuffer, decltype(&gst_buffer_unref)> out(nullptr, gst_buffer_unref);
-        std::optional<lfgst::MappedBuffer> map;
-        lf::decode_jpeg_to_raw(in.data(), in.size(), limit, [&](size_t size) {
-          out.reset(gst_buffer_new_allocate(nullptr, size, nullptr));
-          lfgst::add_sealed_meta(out.get());  // while it is writable (sealed by the decoder)
-          map.emplace(out.get(), GST_MAP_WRITE);
-          return map->data();
-        });
-        map.reset();
-        gst_buffer_copy_into(out.get(), buf, GST_BUFFER_COPY_METADATA, 0, -1);
-        GST_BUFFER_FLAG_SET(out.get(), kDecodedOnArrival);
-        GST_BUFFER_OFFSET_END(out.get()) =
-            static_cast<guint64>((g_get_monotonic_time() - t0) * 1000);
-        raw = out.release();
-      },
-      nullptr);
-  if (raw) {
-    gst_buffer_unref(buf);
-    GST_PAD_PROBE_INFO_DATA(info) = raw;
-  }
-  return GST_PAD_PROBE_OK;
-}
-
 static GstPad* lf_compositor_request_new_pad(GstElement* el, GstPadTemplate* templ,
                                              const gchar* name, const GstCaps* caps) {
   GstPad* pad =
       GST_ELEMENT_CLASS(lf_compositor_parent_class)->request_new_pad(el, templ, name, caps);
   if (!pad) return pad;
-  // Traced on arrival first, then decoded (probes run in the order added).
-  if (lfgst::trace_enabled())
-    gst_pad_add_probe(pad, GST_PAD_PROBE_TYPE_BUFFER, trace_arrival, nullptr, nullptr);
-  gst_pad_add_probe(pad, GST_PAD_PROBE_TYPE_BUFFER, decode_on_arrival, el, nullptr);
+  LF_COMPOSITOR(el)->priv->arrival.install(pad);
   return pad;
 }
 
-// Navigation events and lf-view events (lfviewrequest) from downstream go to
-// every camera branch and on to lfviewrequest, which applies each once;
-// GstAggregator would drop them. They are tagged with this compositor's
-// viewer-id (unless they name one), so only this viewer is steered.
-static gboolean lf_compositor_src_event(GstAggregator* agg, GstEvent* event) {
-  if (lfgst::refuse_seek(GST_ELEMENT(agg), event)) {
-    gst_event_unref(event);
-    return FALSE;
-  }
-  const bool view_event =
-      GST_EVENT_TYPE(event) == GST_EVENT_CUSTOM_UPSTREAM && gst_event_has_name(event, "lf-view");
-  if (GST_EVENT_TYPE(event) != GST_EVENT_NAVIGATION && !view_event)
-    return GST_AGGREGATOR_CLASS(lf_compositor_parent_class)->src_event(agg, event);
+// Navigation and lf-view events from downstream (they go up every sink pad,
+// lffragmentaggregator.h) are tagged with this compositor's viewer-id
+// (unless they name one), so only this viewer is steered.
+static GstEvent* lf_compositor_tag_upstream(LfFragmentAggregator* agg, GstEvent* event) {
   const gint viewer = lfgst::read_setting(GST_OBJECT(agg), LF_COMPOSITOR(agg)->priv->settings,
                                           &Settings::viewer_id);
   if (viewer >= 0 && !gst_structure_has_field(gst_event_get_structure(event), "viewer-id")) {
@@ -1004,7 +692,7 @@ static gboolean lf_compositor_src_event(GstAggregator* agg, GstEvent* event) {
     gst_structure_set(gst_event_writable_structure(event), "viewer-id", G_TYPE_UINT,
                       static_cast<guint>(viewer), nullptr);
   }
-  return push_upstream(agg, event);
+  return event;
 }
 
 static void on_latency_changed(GObject* obj, GParamSpec*, gpointer) {
@@ -1114,10 +802,14 @@ static void lf_compositor_class_init(LfCompositorClass* klass) {
   ec->request_new_pad = lf_compositor_request_new_pad;
   ac->start = lf_compositor_start;
   ac->stop = lf_compositor_stop;
-  ac->aggregate = lf_compositor_aggregate;
   ac->sink_event = lf_compositor_sink_event;
-  ac->src_event = lf_compositor_src_event;
-  ac->get_next_time = lf_compositor_get_next_time;
   ac->negotiate = lf_compositor_negotiate;
+  LfFragmentAggregatorClass* fc = LF_FRAGMENT_AGGREGATOR_CLASS(klass);
+  fc->absorb = lf_compositor_absorb;
+  fc->live_batch = lf_compositor_live_batch;
+  fc->oldest = lf_compositor_oldest;
+  fc->earliest = lf_compositor_earliest;
+  fc->emit_due = lf_compositor_emit_due;
+  fc->tag_upstream = lf_compositor_tag_upstream;
   GST_DEBUG_CATEGORY_INIT(lf_compositor_debug, "lfcompositor", 0, "light field compositor");
 }

@@ -50,6 +50,7 @@
 #include "lfaggregate.h"
 #include "lfbackend.h"
 #include "lfcaps.h"
+#include "lffragmentaggregator.h"
 #include "lfguard.h"
 #include "lfmeta.h"
 #include "lfprops.h"
@@ -61,7 +62,7 @@ GST_DEBUG_CATEGORY_STATIC(lf_partial_sum_debug);
 
 G_BEGIN_DECLS
 #define LF_TYPE_PARTIAL_SUM (lf_partial_sum_get_type())
-G_DECLARE_FINAL_TYPE(LfPartialSum, lf_partial_sum, LF, PARTIAL_SUM, GstAggregator)
+G_DECLARE_FINAL_TYPE(LfPartialSum, lf_partial_sum, LF, PARTIAL_SUM, LfFragmentAggregator)
 G_END_DECLS
 
 #define DEFAULT_ENCODING lfgst::FragmentEncoding::kRaw
@@ -108,11 +109,11 @@ lfgst::Properties<Settings> props;
 }  // namespace
 
 struct _LfPartialSum {
-  GstAggregator parent;
+  LfFragmentAggregator parent;
   Priv* priv;
 };
 
-G_DEFINE_TYPE(LfPartialSum, lf_partial_sum, GST_TYPE_AGGREGATOR)
+G_DEFINE_TYPE(LfPartialSum, lf_partial_sum, LF_TYPE_FRAGMENT_AGGREGATOR)
 GST_ELEMENT_REGISTER_DEFINE(lfpartialsum, "lfpartialsum", GST_RANK_NONE, LF_TYPE_PARTIAL_SUM)
 
 static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE(
@@ -167,10 +168,14 @@ static GstFlowReturn forward(LfPartialSum* self, GstBuffer* buf) {
 }
 
 // Files one buffer under its request, or passes it on (probe answers). A
-// request holds at most one fragment per camera and `npads` in all.
-static GstFlowReturn absorb(LfPartialSum* self, GstAggregatorPad* pad, GstBuffer* buf,
-                            size_t npads) {
+// request holds at most one fragment per camera and one per sink pad.
+static GstFlowReturn lf_partial_sum_absorb(LfFragmentAggregator* agg, GstAggregatorPad* pad,
+                                           GstBuffer* buf) {
+  LfPartialSum* self = LF_PARTIAL_SUM(agg);
   State* st = self->priv->state.get();
+  GST_OBJECT_LOCK(self);
+  const size_t npads = GST_ELEMENT(self)->numsinkpads;
+  GST_OBJECT_UNLOCK(self);
   lf::FragmentHeader head;
   GError* err = nullptr;
   size_t size = 0;
@@ -278,50 +283,40 @@ static GstFlowReturn emit(LfPartialSum* self, Request& g) {
   return gst_aggregator_finish_buffer(GST_AGGREGATOR(self), out);
 }
 
-static GstFlowReturn lf_partial_sum_aggregate(GstAggregator* agg, gboolean timeout) {
+// Live: every buffer queued (each pad is one camera; the deadline paces them).
+static gsize lf_partial_sum_live_batch(LfFragmentAggregator*) {
+  return G_MAXSIZE;
+}
+
+static gboolean lf_partial_sum_oldest(LfFragmentAggregator* agg, GstClockTime* rt, guint64* seq) {
+  State* st = LF_PARTIAL_SUM(agg)->priv->state.get();
+  if (st->pending.empty()) return FALSE;
+  *rt = st->pending.front().running_time, *seq = st->pending.front_key().first;
+  return TRUE;
+}
+
+static GstClockTime lf_partial_sum_earliest(LfFragmentAggregator* agg) {
+  const State* st = LF_PARTIAL_SUM(agg)->priv->state.get();
+  return st ? st->pending.earliest_running_time() : GST_CLOCK_TIME_NONE;
+}
+
+// Requests in order: complete ones, and at its deadline (or at the end, or
+// with too many waiting) an incomplete one, summed from what came.
+static GstFlowReturn lf_partial_sum_emit_due(LfFragmentAggregator* agg, const LfDeadline* d,
+                                             gboolean all_eos) {
   LfPartialSum* self = LF_PARTIAL_SUM(agg);
-  State* st = self->priv->state.get();
-  GstFlowReturn ret = GST_FLOW_OK;
-  const GstClockTime latency = gst_aggregator_get_latency(agg);
-  const bool live = GST_CLOCK_TIME_IS_VALID(latency);
-  size_t npads = 0;
-  GList* pads = lfgst::ref_sink_pads(GST_ELEMENT(self), &npads);
-  // Not live: a buffer per pad per call, the pads in step. Live: every
-  // buffer queued (each pad is one camera; the deadline paces them).
-  bool all_eos = true;
-  for (GList* l = pads; l && ret == GST_FLOW_OK; l = l->next) {
-    GstAggregatorPad* pad = GST_AGGREGATOR_PAD(l->data);
-    while (GstBuffer* buf = gst_aggregator_pad_pop_buffer(pad)) {
-      ret = absorb(self, pad, buf, npads);
-      gst_buffer_unref(buf);
-      if (!live || ret != GST_FLOW_OK) break;
-    }
-    if (!gst_aggregator_pad_is_eos(pad)) all_eos = false;
-  }
-  g_list_free_full(pads, gst_object_unref);
-  const GstClockTime now =
-      timeout && live ? lfgst::running_now(GST_ELEMENT(agg)) : GST_CLOCK_TIME_NONE;
-  // Requests in order: complete ones, and at its deadline (or at the end,
-  // or with too many waiting) an incomplete one, summed from what came.
-  auto due = [&](GstClockTime rt) {
-    return timeout && (!live || !GST_CLOCK_TIME_IS_VALID(now) || !GST_CLOCK_TIME_IS_VALID(rt) ||
-                       now >= rt + latency);
-  };
-  if (ret != GST_FLOW_OK) return ret;
+  GST_OBJECT_LOCK(self);
+  const size_t npads = GST_ELEMENT(self)->numsinkpads;
+  GST_OBJECT_UNLOCK(self);
   return lfgst::emit_due(
-      st->pending, npads, due, all_eos, [&](const auto& key, Request& g, bool complete) {
+      self->priv->state->pending, npads, [d](GstClockTime rt) { return lf_deadline_passed(d, rt); },
+      all_eos,
+      [&](const auto& key, Request& g, bool complete) {
         if (!complete)
           GST_DEBUG_OBJECT(self, "request %" G_GUINT64_FORMAT ": %zu of %zu cameras", key.first,
                            g.count, npads);
         return emit(self, g);
       });
-}
-
-// Live: aggregate() at once when a pad holds a buffer, else at the oldest
-// request's deadline (lfgst::next_deadline).
-static GstClockTime lf_partial_sum_get_next_time(GstAggregator* agg) {
-  const State* st = LF_PARTIAL_SUM(agg)->priv->state.get();
-  return lfgst::next_deadline(GST_ELEMENT(agg), st ? &st->pending : nullptr);
 }
 
 static void lf_partial_sum_init(LfPartialSum* self) {
@@ -370,8 +365,12 @@ static void lf_partial_sum_class_init(LfPartialSumClass* klass) {
       "A rate-limited warning message for a malformed fragment, which is left out of the sum.");
   ac->start = lf_partial_sum_start;
   ac->stop = lf_partial_sum_stop;
-  ac->aggregate = lf_partial_sum_aggregate;
   ac->sink_event = lf_partial_sum_sink_event;
-  ac->get_next_time = lf_partial_sum_get_next_time;
+  LfFragmentAggregatorClass* fc = LF_FRAGMENT_AGGREGATOR_CLASS(klass);
+  fc->absorb = lf_partial_sum_absorb;
+  fc->live_batch = lf_partial_sum_live_batch;
+  fc->oldest = lf_partial_sum_oldest;
+  fc->earliest = lf_partial_sum_earliest;
+  fc->emit_due = lf_partial_sum_emit_due;
   GST_DEBUG_CATEGORY_INIT(lf_partial_sum_debug, "lfpartialsum", 0, "light field partial sums");
 }

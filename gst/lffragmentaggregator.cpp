@@ -1,0 +1,108 @@
+#include "lffragmentaggregator.h"
+
+#include <algorithm>
+
+#include "lf/wire/wire.h"
+#include "lfaggregate.h"
+#include "lfguard.h"
+#include "lfprops.h"
+
+G_DEFINE_ABSTRACT_TYPE(LfFragmentAggregator, lf_fragment_aggregator, GST_TYPE_AGGREGATOR)
+
+gboolean lf_deadline_passed(const LfDeadline* d, GstClockTime running_time) {
+  return d->timeout && (!d->live || !GST_CLOCK_TIME_IS_VALID(running_time) ||
+                        !GST_CLOCK_TIME_IS_VALID(d->now) || d->now >= running_time + d->latency);
+}
+
+gboolean lf_fragment_aggregator_push_upstream(LfFragmentAggregator* self, GstEvent* event) {
+  GList* pads = lfgst::ref_sink_pads(GST_ELEMENT(self));
+  gboolean any = FALSE;
+  for (GList* l = pads; l; l = l->next)
+    any |= gst_pad_push_event(GST_PAD(l->data), gst_event_ref(event));
+  g_list_free_full(pads, gst_object_unref);
+  gst_event_unref(event);
+  return any;
+}
+
+// Request sequence of a queued fragment buffer (-1 if unreadable: the
+// subclass reports it when it takes it).
+static gint64 queued_sequence(GstBuffer* buf) {
+  gint64 seq = -1;
+  lfgst::guard(
+      [&] {
+        const lfgst::MappedBuffer m(buf, GST_MAP_READ);
+        seq = static_cast<gint64>(lf::peek_fragment_header(m.data(), m.size()).sequence);
+      },
+      nullptr);
+  return seq;
+}
+
+static GstFlowReturn lf_fragment_aggregator_aggregate(GstAggregator* agg, gboolean timeout) {
+  LfFragmentAggregator* self = LF_FRAGMENT_AGGREGATOR(agg);
+  LfFragmentAggregatorClass* klass = LF_FRAGMENT_AGGREGATOR_GET_CLASS(self);
+  const GstClockTime latency = gst_aggregator_get_latency(agg);
+  LfDeadline d{timeout, GST_CLOCK_TIME_IS_VALID(latency), GST_CLOCK_TIME_NONE, latency};
+  const gsize batch = d.live ? std::max<gsize>(1, klass->live_batch(self)) : 1;
+  GstFlowReturn ret = GST_FLOW_OK;
+  GList* pads = lfgst::ref_sink_pads(GST_ELEMENT(agg));
+  auto take = [&](GstAggregatorPad* pad) {
+    GstBuffer* buf = gst_aggregator_pad_pop_buffer(pad);
+    if (!buf) return false;
+    ret = klass->absorb(self, pad, buf);
+    gst_buffer_unref(buf);
+    return ret == GST_FLOW_OK;
+  };
+  for (GList* l = pads; l && ret == GST_FLOW_OK; l = l->next)
+    for (gsize i = 0; i < batch && take(GST_AGGREGATOR_PAD(l->data)); ++i) {
+    }
+  if (timeout) d.now = lfgst::running_now(GST_ELEMENT(agg));
+  GstClockTime rt = GST_CLOCK_TIME_NONE;
+  guint64 due = 0;
+  if (ret == GST_FLOW_OK && klass->oldest(self, &rt, &due) && lf_deadline_passed(&d, rt))
+    for (GList* l = pads; l && ret == GST_FLOW_OK; l = l->next) {
+      GstAggregatorPad* pad = GST_AGGREGATOR_PAD(l->data);
+      while (GstBuffer* peek = gst_aggregator_pad_peek_buffer(pad)) {
+        const gint64 seq = queued_sequence(peek);
+        gst_buffer_unref(peek);
+        if (seq > static_cast<gint64>(due) || !take(pad)) break;
+      }
+    }
+  gboolean all_eos = TRUE;
+  for (GList* l = pads; l; l = l->next)
+    if (!gst_aggregator_pad_is_eos(GST_AGGREGATOR_PAD(l->data))) all_eos = FALSE;
+  g_list_free_full(pads, gst_object_unref);
+  if (ret != GST_FLOW_OK) return ret;
+  return klass->emit_due(self, &d, all_eos);
+}
+
+static GstClockTime lf_fragment_aggregator_get_next_time(GstAggregator* agg) {
+  // (gst_aggregator_get_latency() would deadlock here: the caller holds the
+  // aggregator's source lock.)
+  if (lfgst::any_pad_queued(GST_ELEMENT(agg))) return 0;
+  LfFragmentAggregator* self = LF_FRAGMENT_AGGREGATOR(agg);
+  return LF_FRAGMENT_AGGREGATOR_GET_CLASS(self)->earliest(self);
+}
+
+static gboolean lf_fragment_aggregator_src_event(GstAggregator* agg, GstEvent* event) {
+  if (lfgst::refuse_seek(GST_ELEMENT(agg), event)) {
+    gst_event_unref(event);
+    return FALSE;
+  }
+  const bool view_event =
+      GST_EVENT_TYPE(event) == GST_EVENT_CUSTOM_UPSTREAM && gst_event_has_name(event, "lf-view");
+  if (GST_EVENT_TYPE(event) != GST_EVENT_NAVIGATION && !view_event)
+    return GST_AGGREGATOR_CLASS(lf_fragment_aggregator_parent_class)->src_event(agg, event);
+  LfFragmentAggregator* self = LF_FRAGMENT_AGGREGATOR(agg);
+  LfFragmentAggregatorClass* klass = LF_FRAGMENT_AGGREGATOR_GET_CLASS(self);
+  if (klass->tag_upstream) event = klass->tag_upstream(self, event);
+  return lf_fragment_aggregator_push_upstream(self, event);
+}
+
+static void lf_fragment_aggregator_init(LfFragmentAggregator*) {}
+
+static void lf_fragment_aggregator_class_init(LfFragmentAggregatorClass* klass) {
+  GstAggregatorClass* ac = GST_AGGREGATOR_CLASS(klass);
+  ac->aggregate = lf_fragment_aggregator_aggregate;
+  ac->get_next_time = lf_fragment_aggregator_get_next_time;
+  ac->src_event = lf_fragment_aggregator_src_event;
+}

@@ -1,0 +1,46 @@
+// The raw video an adding element sends: frames composited as RGBA
+// (cv::Mat, CV_8UC4) of the view's size, sent as the first of RGBA, RGBx,
+// I420 that downstream takes at the view's size; or, as stock compositor
+// follows a downstream size, at the size downstream asks for (nearest to
+// the view's), scaled by GStreamer's converter. The rate is the viewer's
+// request rate and cannot follow: a mismatch is an error naming both sides.
+// Output buffers come from a pool of its own (a frame is too large for the
+// allocator to reuse: each would be a fresh mapping, zeroed by the kernel
+// page by page). Used on the aggregate thread only.
+#pragma once
+
+#include <gst/base/gstaggregator.h>
+#include <gst/video/video.h>
+
+#include <opencv2/core.hpp>
+
+#include "lfprops.h"
+
+namespace lfgst {
+
+class RawVideoOutput {
+ public:
+  RawVideoOutput() = default;
+  RawVideoOutput(const RawVideoOutput&) = delete;
+  RawVideoOutput& operator=(const RawVideoOutput&) = delete;
+  ~RawVideoOutput();
+  // Negotiates `agg`'s source pad for frames of width x height at `fps`,
+  // unless done already for that size. False after posting an error
+  // message on `agg` (downstream takes no such video).
+  bool negotiate(GstAggregator* agg, int width, int height, Fraction fps);
+  // Forgets the negotiation: the next negotiate() queries downstream again
+  // (GstAggregator's negotiate vfunc, on a reconfigure).
+  void renegotiate() { negotiated_ = false; }
+  // A buffer of the negotiated video holding `rgba` (the negotiated frame size).
+  GstBuffer* frame(const cv::Mat& rgba);
+
+ private:
+  void drop_pool();
+  GstBufferPool* pool_ = nullptr;
+  GstVideoInfo out_{};
+  int width_ = 0, height_ = 0;  // frames composited (scaled to out_ if it differs)
+  bool negotiated_ = false;
+  GstVideoConverter* convert_ = nullptr;  // when scaled or I420
+};
+
+}  // namespace lfgst
