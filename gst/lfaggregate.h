@@ -6,6 +6,8 @@
 #include <gst/base/gstaggregator.h>
 #include <gst/gst.h>
 
+#include <utility>
+
 namespace lfgst {
 
 // The running time now on the element's clock, or GST_CLOCK_TIME_NONE
@@ -43,18 +45,30 @@ inline GList* ref_sink_pads(GstElement* e, size_t* count = nullptr) {
   return pads;
 }
 
-// Live: when an adding aggregator's aggregate() should run next, as a
-// running time to which GstAggregator adds its latency: at once (0) when
-// any pad holds a fragment (one pad may carry many cameras' fragments, so a
-// request's last ones would otherwise wait for the next request's on the
-// other pads, or for the deadline); else the deadline of the oldest request
-// waiting in `pending` (an lf::PendingRequests, or null before start); with
-// nothing waiting, on data (a deadline in the past would make it spin).
+// The request sequence of a pending request's key: the sequence itself, or
+// (sequence, viewer).
+inline guint64 request_sequence(guint64 key) {
+  return key;
+}
+inline guint64 request_sequence(const std::pair<guint64, guint32>& key) {
+  return key.first;
+}
+
+// The oldest request waiting in `pending` (an lf::PendingRequests; null
+// before start): its running time and request sequence; FALSE when none
+// waits (LfFragmentAggregatorClass::oldest).
 template <class Pending>
-GstClockTime next_deadline(GstElement* e, const Pending* pending) {
-  // (gst_aggregator_get_latency() would deadlock here: the caller holds the
-  // aggregator's source lock.)
-  if (any_pad_queued(e)) return 0;
+gboolean oldest_request(Pending* pending, GstClockTime* running_time, guint64* sequence) {
+  if (!pending || pending->empty()) return FALSE;
+  *running_time = pending->front().running_time;
+  *sequence = request_sequence(pending->front_key());
+  return TRUE;
+}
+
+// The earliest running time of the requests waiting in `pending` (null
+// before start: GST_CLOCK_TIME_NONE; LfFragmentAggregatorClass::earliest).
+template <class Pending>
+GstClockTime earliest_request(const Pending* pending) {
   return pending ? pending->earliest_running_time() : GST_CLOCK_TIME_NONE;
 }
 

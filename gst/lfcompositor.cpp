@@ -633,14 +633,12 @@ static gsize lf_compositor_live_batch(LfFragmentAggregator* agg) {
 
 static gboolean lf_compositor_oldest(LfFragmentAggregator* agg, GstClockTime* rt, guint64* seq) {
   State* st = LF_COMPOSITOR(agg)->priv->state.get();
-  if (st->pending.empty()) return FALSE;
-  *rt = st->pending.front().running_time, *seq = st->pending.front_key();
-  return TRUE;
+  return lfgst::oldest_request(st ? &st->pending : nullptr, rt, seq);
 }
 
 static GstClockTime lf_compositor_earliest(LfFragmentAggregator* agg) {
   const State* st = LF_COMPOSITOR(agg)->priv->state.get();
-  return st ? st->pending.earliest_running_time() : GST_CLOCK_TIME_NONE;
+  return lfgst::earliest_request(st ? &st->pending : nullptr);
 }
 
 // Probes past their deadline are scored with what came; then complete

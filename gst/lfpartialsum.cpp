@@ -290,14 +290,12 @@ static gsize lf_partial_sum_live_batch(LfFragmentAggregator*) {
 
 static gboolean lf_partial_sum_oldest(LfFragmentAggregator* agg, GstClockTime* rt, guint64* seq) {
   State* st = LF_PARTIAL_SUM(agg)->priv->state.get();
-  if (st->pending.empty()) return FALSE;
-  *rt = st->pending.front().running_time, *seq = st->pending.front_key().first;
-  return TRUE;
+  return lfgst::oldest_request(st ? &st->pending : nullptr, rt, seq);
 }
 
 static GstClockTime lf_partial_sum_earliest(LfFragmentAggregator* agg) {
   const State* st = LF_PARTIAL_SUM(agg)->priv->state.get();
-  return st ? st->pending.earliest_running_time() : GST_CLOCK_TIME_NONE;
+  return lfgst::earliest_request(st ? &st->pending : nullptr);
 }
 
 // Requests in order: complete ones, and at its deadline (or at the end, or

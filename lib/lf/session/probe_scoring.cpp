@@ -9,6 +9,21 @@
 #include "lf/wire/wire.h"
 
 namespace lf {
+namespace {
+
+// An outcome of `probe` (a ProbeCollector's) with what every kind has.
+template <class Probe>
+ProbeOutcome outcome_of(ProbeOutcome::Kind kind, const Probe& probe) {
+  ProbeOutcome o;
+  o.kind = kind;
+  o.viewer = probe.viewer, o.probe = probe.id;
+  o.fragments = probe.answers.fragments();
+  o.cameras = probe.answers.complete_cameras();
+  o.capture_time_ns = probe.answers.capture_time_ns();
+  return o;
+}
+
+}  // namespace
 
 void ProbeScoring::absorb(const uint8_t* data, size_t size, int width, int height,
                           const SurfaceOptions& surface, int64_t now_us) {
@@ -67,12 +82,7 @@ std::vector<ProbeOutcome> ProbeScoring::take() {
 
 void ProbeScoring::finish_focus(FocusProbes::Iter it) {
   const auto probe = focus_.take(it);
-  ProbeOutcome o;
-  o.kind = ProbeOutcome::Kind::kFocus;
-  o.viewer = probe.viewer, o.probe = probe.id;
-  o.fragments = probe.answers.fragments();
-  o.cameras = probe.answers.complete_cameras();
-  o.capture_time_ns = probe.answers.capture_time_ns();
+  ProbeOutcome o = outcome_of(ProbeOutcome::Kind::kFocus, probe);
   try {
     if (!rig_)
       o.why = "no rig to score it with";
@@ -88,12 +98,7 @@ void ProbeScoring::finish_focus(FocusProbes::Iter it) {
 
 void ProbeScoring::finish_surface(SurfaceProbes::Iter it) {
   const auto probe = surface_.take(it);
-  ProbeOutcome o;
-  o.kind = ProbeOutcome::Kind::kSurface;
-  o.viewer = probe.viewer, o.probe = probe.id;
-  o.fragments = probe.answers.fragments();
-  o.cameras = probe.answers.complete_cameras();
-  o.capture_time_ns = probe.answers.capture_time_ns();
+  ProbeOutcome o = outcome_of(ProbeOutcome::Kind::kSurface, probe);
   const auto t0 = std::chrono::steady_clock::now();
   SurfaceEstimate e;
   bool ok = false;
