@@ -28,6 +28,14 @@ void validate(const SurfaceOptions& opt) {
       !(opt.thin_fraction >= 0 && opt.thin_fraction <= 1) || opt.thin_neighbours < 0 ||
       opt.thin_neighbours > 8)
     bad("thin structure votes: ratio 0..1, margin >= 0, fraction 0..1, neighbours 0..8");
+  if (!(opt.change_penalty >= 0)) bad("change penalty must be >= 0");
+}
+
+SurfacePrior prior_of(const SurfaceEstimate& e, int cols, int rows) {
+  SurfacePrior p;
+  p.cols = cols, p.rows = rows, p.single_q = e.single_q, p.tile_q = e.tile_q;
+  if (!p.fits(cols, rows)) p = SurfacePrior{};
+  return p;
 }
 
 std::vector<int> analysis_bins(int samples, int extent, int bin) {
@@ -117,9 +125,8 @@ void sweep(const AnalysisImages& an, const ViewRequest& req, int W, int H, int T
   }
 }
 
-// Minimum of the whole view's mean cost, parabola-refined: a fractional
-// index into c.qs.
-double best_single(const SweepCosts& c, int tiles, double fallback) {
+// The whole view's mean cost per plane (`fallback` where nothing was seen).
+std::vector<double> global_costs(const SweepCosts& c, int tiles, double fallback) {
   const int n = static_cast<int>(c.qs.size());
   std::vector<double> global(n);
   for (int k = 0; k < n; ++k) {
@@ -127,7 +134,39 @@ double best_single(const SweepCosts& c, int tiles, double fallback) {
     for (int t = 0; t < tiles; ++t) s += c.sum[k * tiles + t], m += c.count[k * tiles + t];
     global[k] = m > 0 ? s / m : fallback;
   }
-  return refined_minimum(global);
+  return global;
+}
+
+// Minimum of the whole view's mean cost, parabola-refined: a fractional
+// index into c.qs.
+double best_single(const SweepCosts& c, int tiles, double fallback) {
+  return refined_minimum(global_costs(c, tiles, fallback));
+}
+
+// The mean cost of plane k over the 3 x 3 tiles around tile (r, q), and
+// its sample count in `m` (solve()'s aggregation).
+double neighbourhood_cost(const SweepCosts& c, int cols, int rows, int r, int q, int k, double* m) {
+  const int tiles = cols * rows;
+  double s = 0;
+  *m = 0;
+  for (int dr = -1; dr <= 1; ++dr)
+    for (int dq = -1; dq <= 1; ++dq) {
+      const int rr = r + dr, qq = q + dq;
+      if (rr < 0 || qq < 0 || rr >= rows || qq >= cols) continue;
+      s += c.sum[k * tiles + rr * cols + qq];
+      *m += c.count[k * tiles + rr * cols + qq];
+    }
+  return *m > 0 ? s / *m : 0.0;
+}
+
+// Per-plane values `v` over the increasing inverse depths `qs`, linearly
+// interpolated at q; NaN outside their range.
+double interpolate_at(const std::vector<double>& qs, const std::vector<double>& v, double q) {
+  if (!(q >= qs.front() && q <= qs.back())) return std::numeric_limits<double>::quiet_NaN();
+  size_t k = 0;
+  while (k + 2 < qs.size() && q > qs[k + 1]) ++k;
+  const double a = (q - qs[k]) / (qs[k + 1] - qs[k]);
+  return v[k] + a * (v[k + 1] - v[k]);
 }
 
 double q_at(const std::vector<double>& qs, double pos) {
@@ -149,16 +188,9 @@ std::vector<int> solve(const SweepCosts& c, int cols, int rows, double gpos, dou
       const int t = r * cols + q;
       bool seen = true;
       for (int k = 0; k < n && seen; ++k) {
-        double s = 0, m = 0;
-        for (int dr = -1; dr <= 1; ++dr)
-          for (int dq = -1; dq <= 1; ++dq) {
-            const int rr = r + dr, qq = q + dq;
-            if (rr < 0 || qq < 0 || rr >= rows || qq >= cols) continue;
-            s += c.sum[k * tiles + rr * cols + qq];
-            m += c.count[k * tiles + rr * cols + qq];
-          }
+        double m = 0;
+        agg[k] = neighbourhood_cost(c, cols, rows, r, q, k, &m);
         if (m < min_count) seen = false;
-        agg[k] = m > 0 ? s / m : 0.0;
       }
       if (!seen) continue;  // no information: neighbours decide, the tile keeps the single plane
       const auto [lo, hi] = std::minmax_element(agg.begin(), agg.end());
@@ -284,14 +316,15 @@ SurfaceEstimate FocalSurfaceEstimator::estimate(const ViewRequest& req, SurfaceC
   if (fpos > 0 && fpos < opt_.fine_planes - 1) out.single_q = q_at(fine_qs, fpos);
   const int evaluated = out.planes_evaluated;
   out = surface_from_costs(*rig_, c.fine, cols, rows, out.single_q, min_count(fine_), opt_,
-                           opt_.second_planes ? &c.coarse : nullptr);
+                           opt_.second_planes ? &c.coarse : nullptr, carry ? &c.prior : nullptr);
   out.planes_evaluated = evaluated;
+  if (carry) c.prior = prior_of(out, cols, rows);
   return out;
 }
 
 SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols, int rows,
                                    double single_q, double min_count, const SurfaceOptions& opt,
-                                   const SweepCosts* cells) {
+                                   const SweepCosts* cells, const SurfacePrior* prior) {
   const int tiles = cols * rows, M = static_cast<int>(c.qs.size());
   if (M < 3 || c.sum.size() != static_cast<size_t>(M) * tiles || c.count.size() != c.sum.size())
     throw std::invalid_argument("surface_from_costs: " + std::to_string(c.sum.size()) +
@@ -300,6 +333,17 @@ SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols
   SurfaceEstimate out;
   if (std::isnan(single_q))
     single_q = q_at(c.qs, best_single(c, tiles, opt.truncate * opt.truncate));
+  // Hysteresis: the prior's single plane holds unless the new one is
+  // cheaper over the whole view by more than change_penalty percent of the
+  // cost curve's range.
+  const bool hysteresis = prior && opt.change_penalty > 0 && prior->fits(cols, rows);
+  if (hysteresis && std::isfinite(prior->single_q) && prior->single_q != single_q) {
+    const std::vector<double> g = global_costs(c, tiles, opt.truncate * opt.truncate);
+    const auto [lo, hi] = std::minmax_element(g.begin(), g.end());
+    const double was = interpolate_at(c.qs, g, prior->single_q),
+                 now = interpolate_at(c.qs, g, single_q);
+    if (was <= now + opt.change_penalty / 100.0 * (*hi - *lo)) single_q = prior->single_q;
+  }
   out.single_q = single_q;
   // Its fractional index into c.qs (the inverse of q_at; c.qs need not be
   // evenly spaced, as when a probe lacks some planes).
@@ -327,6 +371,42 @@ SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols
     }
     fs.plane_of[t] = static_cast<uint8_t>(plane_of_label[l]);
     out.tile_q[t] = l == M ? out.single_q : c.qs[l];
+  }
+  if (hysteresis) {
+    // A labelled tile keeps the prior's depth unless its new plane is
+    // cheaper there by more than change_penalty percent of the contrast.
+    // plane_for(q): the plane of inverse depth q: the single plane, a
+    // label's, one kept before, or a new one (-1: kMaxPlanes already).
+    std::vector<std::pair<double, int>> kept;
+    auto plane_for = [&](double q) {
+      if (q == out.single_q) return 0;
+      const auto l = std::find(c.qs.begin(), c.qs.end(), q);
+      if (l != c.qs.end() && plane_of_label[l - c.qs.begin()] >= 0)
+        return plane_of_label[l - c.qs.begin()];
+      for (const auto& [kq, plane] : kept)
+        if (kq == q) return plane;
+      if (fs.planes.size() >= static_cast<size_t>(FocalSurface::kMaxPlanes)) return -1;
+      fs.planes.push_back(plane_at_inverse_depth(rig, q));
+      kept.emplace_back(q, static_cast<int>(fs.planes.size()) - 1);
+      return kept.back().second;
+    };
+    std::vector<double> cost(M);
+    for (int r = 0; r < rows; ++r)
+      for (int q = 0; q < cols; ++q) {
+        const int t = r * cols + q;
+        const double was = prior->tile_q[t];
+        if (label[t] < 0 || !std::isfinite(was) || was == out.tile_q[t]) continue;
+        double m = 0;
+        for (int k = 0; k < M; ++k) cost[k] = neighbourhood_cost(c, cols, rows, r, q, k, &m);
+        const double cost_was = interpolate_at(c.qs, cost, was);
+        if (!(cost_was <= interpolate_at(c.qs, cost, out.tile_q[t]) + opt.change_penalty * scale))
+          continue;
+        const int plane = plane_for(was);
+        if (plane < 0) continue;  // no room for another plane
+        fs.plane_of[t] = static_cast<uint8_t>(plane);
+        out.tile_q[t] = was;
+        ++out.kept_tiles;
+      }
   }
   if (opt.second_planes) {
     // A tile next to a depth edge holds both depths: its second plane is

@@ -84,6 +84,25 @@ struct SurfaceOptions {
   double thin_margin = 10.0;   // percent of the contrast, >= 0
   double thin_fraction = 0.2;  // of the tile's cells, 0..1
   int thin_neighbours = 2;     // of 8 neighbouring tiles, 0..8
+  // Hysteresis between estimates of one view (a SurfacePrior: a live
+  // stream re-estimates the surface every few frames): a tile keeps the
+  // inverse depth it had unless its new plane is cheaper by more than
+  // change_penalty percent of the scene's contrast (as the penalties), and
+  // the single plane likewise by the percent of its whole-view cost curve's
+  // range; so sensor noise does not switch a tile between two planes of
+  // nearly equal cost from frame to frame (flicker). 0: off.
+  double change_penalty = 4.0;
+};
+
+// The previous estimate of the same view (cols x rows tiles), for
+// SurfaceOptions::change_penalty. Empty (no tiles): none.
+struct SurfacePrior {
+  int cols = 0, rows = 0;
+  double single_q = 0;         // the single plane's inverse depth
+  std::vector<double> tile_q;  // per tile, row-major (SurfaceEstimate::tile_q)
+  bool fits(int c, int r) const {
+    return c == cols && r == rows && tile_q.size() == static_cast<size_t>(c) * r;
+  }
 };
 
 // Per-tile costs of one sweep.
@@ -101,7 +120,12 @@ struct SurfaceCosts {
   int cols = 0, rows = 0, width = 0, height = 0;
   SweepCosts coarse, fine;
   int phase = 0;
+  SurfacePrior prior;  // the last estimate (hysteresis)
 };
+
+struct SurfaceEstimate;
+// The prior that estimate `e` of a cols x rows grid leaves for the next.
+SurfacePrior prior_of(const SurfaceEstimate& e, int cols, int rows);
 
 struct SurfaceEstimate {
   // The request's focal plane is `single`; `surface` is empty when every
@@ -115,6 +139,7 @@ struct SurfaceEstimate {
   int two_plane_tiles = 0;     // tiles with a second plane (SurfaceOptions::second_planes)
   int thin_tiles = 0;          // of those, given one for a thin structure inside the tile
   int planes_evaluated = 0;    // candidate planes swept by this call
+  int kept_tiles = 0;          // labelled tiles that kept the prior's depth (hysteresis)
 };
 
 // Throws std::invalid_argument naming the first bad option.
@@ -142,8 +167,10 @@ class FocalSurfaceEstimator {
   FocalSurfaceEstimator(const Rig& rig, const std::vector<cv::Mat>& images,
                         SurfaceOptions opt = {});
   // The surface for `req` (its focal plane and surface are ignored). With
-  // `carry`, planes are evaluated stride-wise and costs kept across calls; a
-  // carry of another view size starts afresh.
+  // `carry`, planes are evaluated stride-wise and costs kept across calls,
+  // and the last estimate is the next one's prior (hysteresis,
+  // SurfaceOptions::change_penalty); a carry of another view size starts
+  // afresh.
   SurfaceEstimate estimate(const ViewRequest& req, SurfaceCosts* carry = nullptr) const;
   double candidate_q(int k) const { return q_max_ * k / (opt_.planes - 1); }
   const SurfaceOptions& options() const { return opt_; }
@@ -168,11 +195,16 @@ class FocalSurfaceEstimator {
 // a whole fraction of opt.tile, cell_cols x cell_rows cells covering the
 // tiles' grid; its planes may differ from c's). Used
 // by FocalSurfaceEstimator and by surface probes (lf/focus/surface_probe.h), which
-// measure the costs from the cameras' fragments. planes_evaluated is left
-// 0. Throws std::invalid_argument if the costs do not fit the grid.
+// measure the costs from the cameras' fragments. With a `prior` of this
+// grid and opt.change_penalty > 0, tiles and the single plane keep its
+// inverse depths unless clearly worse (hysteresis; a kept depth adds a
+// plane only while the surface has fewer than FocalSurface::kMaxPlanes).
+// planes_evaluated is left 0. Throws std::invalid_argument if the costs do
+// not fit the grid.
 SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols, int rows,
                                    double single_q, double min_count, const SurfaceOptions& opt,
-                                   const SweepCosts* cells = nullptr);
+                                   const SweepCosts* cells = nullptr,
+                                   const SurfacePrior* prior = nullptr);
 
 // Applies an estimate to a request: its focal plane and surface.
 void apply(const SurfaceEstimate& e, ViewRequest& req);

@@ -45,7 +45,8 @@ bool SurfaceProbeAnswers::add(int step, Fragment f) {
   return true;
 }
 
-SurfaceEstimate SurfaceProbeAnswers::estimate(const Rig& rig, bool* ok) const {
+SurfaceEstimate SurfaceProbeAnswers::estimate(const Rig& rig, bool* ok,
+                                              const SurfacePrior* prior) const {
   // The steps that every complete camera answered (the same set for all of
   // them, so every plane compares the same cameras).
   std::vector<int> answered(opt_.planes, 0);
@@ -132,7 +133,7 @@ SurfaceEstimate SurfaceProbeAnswers::estimate(const Rig& rig, bool* ok) const {
   if (std::all_of(c.count.begin(), c.count.end(), [](double v) { return v == 0; })) return none();
   if (ok) *ok = true;
   return surface_from_costs(rig, c, cols, rows, std::numeric_limits<double>::quiet_NaN(),
-                            0.5 * static_cast<double>(npx) / tiles, opt_, C ? &c : nullptr);
+                            0.5 * static_cast<double>(npx) / tiles, opt_, C ? &c : nullptr, prior);
 }
 
 }  // namespace lf

@@ -93,8 +93,11 @@ class SurfaceProbeAnswers : public ProbeFragments {
   // The surface (tiles of opt.tile over the output) from the complete
   // cameras; `ok` false (and a single plane at infinity) when fewer than 3
   // planes were answered by them or no pixel was seen by most of the
-  // aperture (every camera sat the probe out with an empty fragment).
-  SurfaceEstimate estimate(const Rig& rig, bool* ok = nullptr) const;
+  // aperture (every camera sat the probe out with an empty fragment). With
+  // `prior` (the last estimate of this viewer's view), hysteresis
+  // (SurfaceOptions::change_penalty).
+  SurfaceEstimate estimate(const Rig& rig, bool* ok = nullptr,
+                           const SurfacePrior* prior = nullptr) const;
   // The fragment pixels kept: 0 when every answer was an empty fragment
   // (every camera sat the probe out: its instant was not among its frames).
   size_t pixels() const { return pixels_; }

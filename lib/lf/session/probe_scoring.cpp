@@ -103,8 +103,10 @@ void ProbeScoring::finish_surface(SurfaceProbes::Iter it) {
   SurfaceEstimate e;
   bool ok = false;
   bool threw = false;
+  const auto prior = priors_.find(probe.viewer);
   try {
-    if (rig_) e = probe.answers.estimate(*rig_, &ok);
+    if (rig_)
+      e = probe.answers.estimate(*rig_, &ok, prior == priors_.end() ? nullptr : &prior->second);
   } catch (const std::exception& ex) {
     o.why = ex.what(), threw = true;
   }
@@ -125,10 +127,13 @@ void ProbeScoring::finish_surface(SurfaceProbes::Iter it) {
     return;
   }
   sat_out_in_a_row_ = 0;
+  if (priors_.size() >= kMaxPriors && prior == priors_.end()) priors_.clear();
+  const SurfaceOptions opt;
+  priors_[probe.viewer] = prior_of(e, (probe.answers.width() + opt.tile - 1) / opt.tile,
+                                   (probe.answers.height() + opt.tile - 1) / opt.tile);
   o.result = ProbeOutcome::Result::kAnswer;
   o.surface = std::move(e.surface);
   if (o.surface.empty()) {  // one plane everywhere
-    const SurfaceOptions opt;
     const int w = probe.answers.width(), h = probe.answers.height();
     o.surface.tile = opt.tile;
     o.surface.cols = (w + opt.tile - 1) / opt.tile;

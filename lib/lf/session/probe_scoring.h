@@ -4,7 +4,9 @@
 // whole view) are collected per probe and scored, never composited. A probe
 // is scored when every camera of the rig has answered every step, when a
 // newer one needs its place (ProbeCollector), or at a deadline with the
-// cameras that answered every step they sent (a dead camera). This is the
+// cameras that answered every step they sent (a dead camera). A viewer's
+// surfaces are steady in time: each estimate has the viewer's last one as
+// its prior (hysteresis, lib/lf/focus/focal_surface.h SurfacePrior). This is the
 // one place where every camera's contribution arrives separately, so the
 // estimate works the same when the cameras are on other hosts.
 //
@@ -15,6 +17,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -88,6 +91,10 @@ class ProbeScoring {
   void finish_surface(SurfaceProbes::Iter it);
 
   std::shared_ptr<const Rig> rig_;
+  // Each viewer's last surface: the next estimate's prior (hysteresis,
+  // SurfaceOptions::change_penalty); at most kMaxPriors viewers.
+  static constexpr size_t kMaxPriors = 16;
+  std::map<uint32_t, SurfacePrior> priors_;
   FocusProbes focus_{kMaxFocusProbes};
   SurfaceProbes surface_{kMaxSurfaceProbes};
   unsigned sat_out_in_a_row_ = 0;
