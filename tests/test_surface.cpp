@@ -662,6 +662,55 @@ TEST(SurfaceProbe, FromTheCamerasFragmentsFindsTheDiscAndTheBackground) {
   EXPECT_GT(p_probe, p_images - 1.0);
 }
 
+// Surface probes of a still view, each from new sensor noise (sigma 2
+// levels): with the last estimate as the prior (what lf::ProbeScoring keeps
+// per viewer), a tile changes depth only when the new plane is clearly
+// better; without, noise moves tiles between planes of nearly equal cost.
+// The disc is found either way.
+TEST(SurfaceProbe, TheLastEstimateAsThePriorKeepsTilesSteady) {
+  const Held clean = disc_scene(0.3);
+  auto noisy = [&](int seed) {
+    Held h = clean;
+    cv::RNG rng(seed);
+    for (cv::Mat& m : h.images) {
+      cv::Mat n(m.size(), CV_32FC4), out;
+      rng.fill(n, cv::RNG::NORMAL, 0, 2.0);
+      m.convertTo(out, CV_32FC4);
+      out += n;
+      out.convertTo(m, CV_8UC4);
+    }
+    return h;
+  };
+  const int cols = 20, rows = 15;
+  lf::SurfacePrior prior, none;
+  std::vector<double> last_with, last_without;
+  int changed_with = 0, changed_without = 0, kept = 0;
+  const double step = lf::sweep_q_max(clean.rig, {}) / (lf::SurfaceOptions{}.planes - 1);
+  for (int probe = 0; probe < 8; ++probe) {
+    const Held h = noisy(500 + probe);
+    const lf::SurfaceProbeAnswers answers = answer_probe(h);
+    bool ok = false;
+    const lf::SurfaceEstimate with = answers.estimate(h.rig, &ok, &prior);
+    ASSERT_TRUE(ok);
+    const lf::SurfaceEstimate without = answers.estimate(h.rig, &ok, &none);
+    kept += with.kept_tiles;
+    for (size_t t = 0; probe > 0 && t < with.tile_q.size(); ++t) {
+      changed_with += std::abs(with.tile_q[t] - last_with[t]) > 0.5 * step;
+      changed_without += std::abs(without.tile_q[t] - last_without[t]) > 0.5 * step;
+    }
+    last_with = with.tile_q, last_without = without.tile_q;
+    prior = lf::prior_of(with, cols, rows);
+    ASSERT_TRUE(prior.fits(cols, rows));
+    if (probe == 7) expect_two_depths(with, disc_tiles(with, step, 0.3), 0.8);
+  }
+  std::printf(
+      "8 probes of a still view with new noise: tile-changes of half a plane or more %d with the "
+      "prior, %d without (%d tiles kept their depth)\n",
+      changed_with, changed_without, kept);
+  EXPECT_GT(changed_without, 0) << "the noise must move some tiles, or this shows nothing";
+  EXPECT_LE(changed_with, changed_without / 2);
+}
+
 TEST(SurfaceProbe, LateCamerasRepeatsAndStrangersAreLeftOut) {
   const Held h = disc_scene(0.3);
   // Camera 3 answered only the first 10 steps: it is not scored.
