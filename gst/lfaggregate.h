@@ -6,8 +6,6 @@
 #include <gst/base/gstaggregator.h>
 #include <gst/gst.h>
 
-#include <utility>
-
 namespace lfgst {
 
 // The running time now on the element's clock, or GST_CLOCK_TIME_NONE
@@ -43,33 +41,6 @@ inline GList* ref_sink_pads(GstElement* e, size_t* count = nullptr) {
   if (count) *count = e->numsinkpads;
   GST_OBJECT_UNLOCK(e);
   return pads;
-}
-
-// The request sequence of a pending request's key: the sequence itself, or
-// (sequence, viewer).
-inline guint64 request_sequence(guint64 key) {
-  return key;
-}
-inline guint64 request_sequence(const std::pair<guint64, guint32>& key) {
-  return key.first;
-}
-
-// The oldest request waiting in `pending` (an lf::PendingRequests; null
-// before start): its running time and request sequence; FALSE when none
-// waits (LfFragmentAggregatorClass::oldest).
-template <class Pending>
-gboolean oldest_request(Pending* pending, GstClockTime* running_time, guint64* sequence) {
-  if (!pending || pending->empty()) return FALSE;
-  *running_time = pending->front().running_time;
-  *sequence = request_sequence(pending->front_key());
-  return TRUE;
-}
-
-// The earliest running time of the requests waiting in `pending` (null
-// before start: GST_CLOCK_TIME_NONE; LfFragmentAggregatorClass::earliest).
-template <class Pending>
-GstClockTime earliest_request(const Pending* pending) {
-  return pending ? pending->earliest_running_time() : GST_CLOCK_TIME_NONE;
 }
 
 // Emits the requests of `pending` (an lf::PendingRequests) that are due, in

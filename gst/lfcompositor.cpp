@@ -631,14 +631,9 @@ static gsize lf_compositor_live_batch(LfFragmentAggregator* agg) {
   return expected_fragments(LF_COMPOSITOR(agg));
 }
 
-static gboolean lf_compositor_oldest(LfFragmentAggregator* agg, GstClockTime* rt, guint64* seq) {
-  State* st = LF_COMPOSITOR(agg)->priv->state.get();
-  return lfgst::oldest_request(st ? &st->pending : nullptr, rt, seq);
-}
-
-static GstClockTime lf_compositor_earliest(LfFragmentAggregator* agg) {
+static const lf::RequestTimes* lf_compositor_requests(LfFragmentAggregator* agg) {
   const State* st = LF_COMPOSITOR(agg)->priv->state.get();
-  return lfgst::earliest_request(st ? &st->pending : nullptr);
+  return st ? &st->pending : nullptr;
 }
 
 // Probes past their deadline are scored with what came; then complete
@@ -805,8 +800,7 @@ static void lf_compositor_class_init(LfCompositorClass* klass) {
   LfFragmentAggregatorClass* fc = LF_FRAGMENT_AGGREGATOR_CLASS(klass);
   fc->absorb = lf_compositor_absorb;
   fc->live_batch = lf_compositor_live_batch;
-  fc->oldest = lf_compositor_oldest;
-  fc->earliest = lf_compositor_earliest;
+  fc->requests = lf_compositor_requests;
   fc->emit_due = lf_compositor_emit_due;
   fc->tag_upstream = lf_compositor_tag_upstream;
   GST_DEBUG_CATEGORY_INIT(lf_compositor_debug, "lfcompositor", 0, "light field compositor");

@@ -56,9 +56,9 @@ static GstFlowReturn lf_fragment_aggregator_aggregate(GstAggregator* agg, gboole
     for (gsize i = 0; i < batch && take(GST_AGGREGATOR_PAD(l->data)); ++i) {
     }
   if (timeout) d.now = lfgst::running_now(GST_ELEMENT(agg));
-  GstClockTime rt = GST_CLOCK_TIME_NONE;
-  guint64 due = 0;
-  if (ret == GST_FLOW_OK && klass->oldest(self, &rt, &due) && lf_deadline_passed(&d, rt))
+  guint64 rt = GST_CLOCK_TIME_NONE, due = 0;
+  const lf::RequestTimes* requests = klass->requests(self);
+  if (ret == GST_FLOW_OK && requests && requests->oldest(&rt, &due) && lf_deadline_passed(&d, rt))
     for (GList* l = pads; l && ret == GST_FLOW_OK; l = l->next) {
       GstAggregatorPad* pad = GST_AGGREGATOR_PAD(l->data);
       while (GstBuffer* peek = gst_aggregator_pad_peek_buffer(pad)) {
@@ -80,7 +80,8 @@ static GstClockTime lf_fragment_aggregator_get_next_time(GstAggregator* agg) {
   // aggregator's source lock.)
   if (lfgst::any_pad_queued(GST_ELEMENT(agg))) return 0;
   LfFragmentAggregator* self = LF_FRAGMENT_AGGREGATOR(agg);
-  return LF_FRAGMENT_AGGREGATOR_GET_CLASS(self)->earliest(self);
+  const lf::RequestTimes* requests = LF_FRAGMENT_AGGREGATOR_GET_CLASS(self)->requests(self);
+  return requests ? requests->earliest_running_time() : GST_CLOCK_TIME_NONE;
 }
 
 static gboolean lf_fragment_aggregator_src_event(GstAggregator* agg, GstEvent* event) {

@@ -21,6 +21,8 @@
 
 #include <gst/base/gstaggregator.h>
 
+#include "lf/session/frame_assembly.h"
+
 G_BEGIN_DECLS
 
 #define LF_TYPE_FRAGMENT_AGGREGATOR (lf_fragment_aggregator_get_type())
@@ -46,12 +48,10 @@ struct _LfFragmentAggregatorClass {
   GstFlowReturn (*absorb)(LfFragmentAggregator* self, GstAggregatorPad* pad, GstBuffer* buf);
   // Buffers taken from each pad per aggregate() when live (at least 1).
   gsize (*live_batch)(LfFragmentAggregator* self);
-  // The oldest request waiting: its running time and request sequence;
-  // FALSE when none waits.
-  gboolean (*oldest)(LfFragmentAggregator* self, GstClockTime* running_time, guint64* sequence);
-  // The earliest running time of the requests waiting (GST_CLOCK_TIME_NONE:
-  // none, or not started). Called with the source lock held.
-  GstClockTime (*earliest)(LfFragmentAggregator* self);
+  // The requests waiting (its lf::PendingRequests), null before start.
+  // Called on the aggregate thread, and with the source lock held (when to
+  // run next).
+  const lf::RequestTimes* (*requests)(LfFragmentAggregator* self);
   // Emits the requests that are due (lfgst::emit_due); GST_FLOW_EOS when
   // `all_eos` and nothing waits.
   GstFlowReturn (*emit_due)(LfFragmentAggregator* self, const LfDeadline* d, gboolean all_eos);

@@ -37,6 +37,7 @@
 #include "lf/wire/wire.h"
 #include "lfcaps.h"
 #include "lfguard.h"
+#include "lfprops.h"
 #include "lfwarn.h"
 
 GST_DEBUG_CATEGORY_STATIC(lf_fragment_demux_debug);
@@ -49,13 +50,15 @@ G_END_DECLS
 
 namespace {
 
-enum { PROP_0, PROP_ROUTED, PROP_UNROUTED };
+struct Settings {  // read-only counts
+  std::atomic<guint64> routed{0}, unrouted{0};
+};
 
 struct Priv {
+  Settings settings;
   // viewer id -> its source pad (a reference); guarded by the object lock.
   std::map<guint, GstPad*> pads;
   GstFlowCombiner* combiner = gst_flow_combiner_new();  // guarded by the stream lock
-  std::atomic<guint64> routed{0}, unrouted{0};
   lfgst::WarnLimiter bad;
   ~Priv() {
     for (auto& [id, pad] : pads) gst_object_unref(pad);
@@ -63,6 +66,7 @@ struct Priv {
   }
 };
 
+lfgst::Properties<Settings> props;
 }  // namespace
 
 struct _LfFragmentDemux {
@@ -107,11 +111,11 @@ static GstFlowReturn lf_fragment_demux_chain(GstPad*, GstObject* parent, GstBuff
   if (!pad) {
     GST_LOG_OBJECT(self, "fragment of viewer %u: no pad src_%u, dropped", head.viewer_id,
                    head.viewer_id);
-    ++p->unrouted;
+    ++p->settings.unrouted;
     gst_buffer_unref(buf);
     return GST_FLOW_OK;
   }
-  ++p->routed;
+  ++p->settings.routed;
   const GstFlowReturn ret = gst_pad_push(pad, buf);
   // Stream lock held (chain): the combiner is this thread's.
   const GstFlowReturn combined = gst_flow_combiner_update_pad_flow(p->combiner, pad, ret);
@@ -190,25 +194,8 @@ static gboolean lf_fragment_demux_sink_event(GstPad* pad, GstObject* parent, Gst
   return gst_pad_event_default(pad, parent, event);  // to every source pad
 }
 
-static void lf_fragment_demux_get_property(GObject* object, guint id, GValue* value,
-                                           GParamSpec* pspec) {
-  Priv* p = LF_FRAGMENT_DEMUX(object)->priv;
-  switch (id) {
-    case PROP_ROUTED:
-      g_value_set_uint64(value, p->routed.load());
-      break;
-    case PROP_UNROUTED:
-      g_value_set_uint64(value, p->unrouted.load());
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID(object, id, pspec);
-  }
-}
-
-static void lf_fragment_demux_finalize(GObject* object) {
-  delete LF_FRAGMENT_DEMUX(object)->priv;
-  G_OBJECT_CLASS(lf_fragment_demux_parent_class)->finalize(object);
-}
+static void lf_fragment_demux_property_set(GObject*, GParamSpec*, const GValue*) {}
+LF_DEFINE_ELEMENT_GLUE(lf_fragment_demux, LF_FRAGMENT_DEMUX)
 
 static void lf_fragment_demux_init(LfFragmentDemux* self) {
   self->priv = new Priv();
@@ -222,18 +209,14 @@ static void lf_fragment_demux_init(LfFragmentDemux* self) {
 static void lf_fragment_demux_class_init(LfFragmentDemuxClass* klass) {
   GObjectClass* oc = G_OBJECT_CLASS(klass);
   GstElementClass* ec = GST_ELEMENT_CLASS(klass);
+  oc->set_property = lf_fragment_demux_set_property;
   oc->get_property = lf_fragment_demux_get_property;
   oc->finalize = lf_fragment_demux_finalize;
-  g_object_class_install_property(
-      oc, PROP_ROUTED,
-      g_param_spec_uint64("routed", "Routed", "Fragments pushed to a viewer's pad so far", 0,
-                          G_MAXUINT64, 0,
-                          static_cast<GParamFlags>(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
-  g_object_class_install_property(
-      oc, PROP_UNROUTED,
-      g_param_spec_uint64(
-          "unrouted", "Unrouted", "Fragments dropped so far because their viewer has no pad", 0,
-          G_MAXUINT64, 0, static_cast<GParamFlags>(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
+  props.add(oc, &Settings::routed,
+            lfgst::counter_spec("routed", "Routed", "Fragments pushed to a viewer's pad so far"));
+  props.add(oc, &Settings::unrouted,
+            lfgst::counter_spec("unrouted", "Unrouted",
+                                "Fragments dropped so far because their viewer has no pad"));
   ec->request_new_pad = GST_DEBUG_FUNCPTR(lf_fragment_demux_request_new_pad);
   ec->release_pad = GST_DEBUG_FUNCPTR(lf_fragment_demux_release_pad);
   gst_element_class_add_static_pad_template(ec, &sink_template);

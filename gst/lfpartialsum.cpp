@@ -288,14 +288,9 @@ static gsize lf_partial_sum_live_batch(LfFragmentAggregator*) {
   return G_MAXSIZE;
 }
 
-static gboolean lf_partial_sum_oldest(LfFragmentAggregator* agg, GstClockTime* rt, guint64* seq) {
-  State* st = LF_PARTIAL_SUM(agg)->priv->state.get();
-  return lfgst::oldest_request(st ? &st->pending : nullptr, rt, seq);
-}
-
-static GstClockTime lf_partial_sum_earliest(LfFragmentAggregator* agg) {
+static const lf::RequestTimes* lf_partial_sum_requests(LfFragmentAggregator* agg) {
   const State* st = LF_PARTIAL_SUM(agg)->priv->state.get();
-  return lfgst::earliest_request(st ? &st->pending : nullptr);
+  return st ? &st->pending : nullptr;
 }
 
 // Requests in order: complete ones, and at its deadline (or at the end, or
@@ -367,8 +362,7 @@ static void lf_partial_sum_class_init(LfPartialSumClass* klass) {
   LfFragmentAggregatorClass* fc = LF_FRAGMENT_AGGREGATOR_CLASS(klass);
   fc->absorb = lf_partial_sum_absorb;
   fc->live_batch = lf_partial_sum_live_batch;
-  fc->oldest = lf_partial_sum_oldest;
-  fc->earliest = lf_partial_sum_earliest;
+  fc->requests = lf_partial_sum_requests;
   fc->emit_due = lf_partial_sum_emit_due;
   GST_DEBUG_CATEGORY_INIT(lf_partial_sum_debug, "lfpartialsum", 0, "light field partial sums");
 }

@@ -11,6 +11,7 @@
 #include <gst/base/gstbasesrc.h>
 #include <gst/gst.h>
 
+#include <atomic>
 #include <functional>
 #include <string>
 #include <type_traits>
@@ -30,8 +31,9 @@ class Properties {
   // Installs `spec` on `oc` as the next property id, bound to member `m`.
   // Member types: std::string (string), gint, guint, guint64, gdouble,
   // bool (boolean), Fraction (GstFraction), std::vector<double>
-  // (GstValueArray of doubles, gst_param_spec_array) and enums (registered
-  // GEnums).
+  // (GstValueArray of doubles, gst_param_spec_array), enums (registered
+  // GEnums) and std::atomic<guint64> (read-only counts that streaming
+  // threads bump without the lock: counter_spec()).
   template <class T>
   void add(GObjectClass* oc, T S::*m, GParamSpec* spec) {
     Entry e;
@@ -69,6 +71,7 @@ class Properties {
   static void assign(gint& x, const GValue* v) { x = g_value_get_int(v); }
   static void assign(guint& x, const GValue* v) { x = g_value_get_uint(v); }
   static void assign(guint64& x, const GValue* v) { x = g_value_get_uint64(v); }
+  static void assign(std::atomic<guint64>& x, const GValue* v) { x = g_value_get_uint64(v); }
   static void assign(gdouble& x, const GValue* v) { x = g_value_get_double(v); }
   static void assign(bool& x, const GValue* v) { x = g_value_get_boolean(v); }
   static void assign(Fraction& x, const GValue* v) {
@@ -94,6 +97,7 @@ class Properties {
   static void fetch(gint x, GValue* v) { g_value_set_int(v, x); }
   static void fetch(guint x, GValue* v) { g_value_set_uint(v, x); }
   static void fetch(guint64 x, GValue* v) { g_value_set_uint64(v, x); }
+  static void fetch(const std::atomic<guint64>& x, GValue* v) { g_value_set_uint64(v, x.load()); }
   static void fetch(gdouble x, GValue* v) { g_value_set_double(v, x); }
   static void fetch(bool x, GValue* v) { g_value_set_boolean(v, x); }
   static void fetch(const Fraction& x, GValue* v) { gst_value_set_fraction(v, x.n, x.d); }
@@ -134,6 +138,12 @@ T read_setting(GstObject* obj, const S& s, T S::*m) {
   T copy = s.*m;
   GST_OBJECT_UNLOCK(obj);
   return copy;
+}
+
+// A read-only count since the element was made (guint64).
+inline GParamSpec* counter_spec(const char* name, const char* nick, const char* blurb) {
+  return g_param_spec_uint64(name, nick, blurb, 0, G_MAXUINT64, 0,
+                             static_cast<GParamFlags>(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS));
 }
 
 // Flags of the elements' properties.

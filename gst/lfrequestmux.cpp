@@ -48,6 +48,8 @@
 #include <atomic>
 #include <new>
 
+#include "lfprops.h"
+
 GST_DEBUG_CATEGORY_STATIC(lf_request_mux_debug);
 #define GST_CAT_DEFAULT lf_request_mux_debug
 
@@ -57,14 +59,17 @@ G_DECLARE_FINAL_TYPE(LfRequestMux, lf_request_mux, LF, REQUEST_MUX, GstAggregato
 G_END_DECLS
 
 namespace {
-enum { PROP_0, PROP_FORWARDED, PROP_DROPPED };
+struct Settings {  // read-only counts
+  std::atomic<guint64> forwarded{0}, dropped{0};
+};
+lfgst::Properties<Settings> props;
 }  // namespace
 
 struct _LfRequestMux {
   GstAggregator parent;
   guint next = 0;           // the pad (by index) served first in the next round
   GstCaps* caps = nullptr;  // the caps sent downstream last (aggregate thread)
-  std::atomic<guint64> forwarded{0}, dropped{0};
+  Settings* settings;       // properties
 };
 
 G_DEFINE_TYPE(LfRequestMux, lf_request_mux, GST_TYPE_AGGREGATOR)
@@ -84,7 +89,7 @@ static GstFlowReturn forward(LfRequestMux* self, GstAggregatorPad* pad, GstBuffe
     gst_caps_replace(&self->caps, caps);
   }
   if (caps) gst_caps_unref(caps);
-  self->forwarded++;
+  self->settings->forwarded++;
   return gst_aggregator_finish_buffer(GST_AGGREGATOR(self), buf);
 }
 
@@ -108,7 +113,7 @@ static GstFlowReturn lf_request_mux_aggregate(GstAggregator* agg, gboolean) {
       while (GstBuffer* newer = gst_aggregator_pad_pop_buffer(pad)) {
         gst_buffer_unref(buf);
         buf = newer;
-        self->dropped++;
+        self->settings->dropped++;
       }
     if (buf) ret = forward(self, pad, buf);
     if (!gst_aggregator_pad_is_eos(pad)) all_eos = false;
@@ -127,21 +132,12 @@ static gboolean lf_request_mux_stop(GstAggregator* agg) {
 }
 
 static void lf_request_mux_get_property(GObject* obj, guint id, GValue* v, GParamSpec* ps) {
-  LfRequestMux* self = LF_REQUEST_MUX(obj);
-  switch (id) {
-    case PROP_FORWARDED:
-      g_value_set_uint64(v, self->forwarded.load());
-      break;
-    case PROP_DROPPED:
-      g_value_set_uint64(v, self->dropped.load());
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
-  }
+  props.get(obj, *LF_REQUEST_MUX(obj)->settings, id, v, ps);
 }
 
 static void lf_request_mux_finalize(GObject* obj) {
   gst_caps_replace(&LF_REQUEST_MUX(obj)->caps, nullptr);
+  delete LF_REQUEST_MUX(obj)->settings;
   G_OBJECT_CLASS(lf_request_mux_parent_class)->finalize(obj);
 }
 
@@ -151,18 +147,12 @@ static void lf_request_mux_class_init(LfRequestMuxClass* klass) {
   GstAggregatorClass* ac = GST_AGGREGATOR_CLASS(klass);
   oc->get_property = lf_request_mux_get_property;
   oc->finalize = lf_request_mux_finalize;
-  g_object_class_install_property(
-      oc, PROP_FORWARDED,
-      g_param_spec_uint64("forwarded", "Forwarded", "View requests sent downstream so far", 0,
-                          G_MAXUINT64, 0,
-                          static_cast<GParamFlags>(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
-  g_object_class_install_property(
-      oc, PROP_DROPPED,
-      g_param_spec_uint64("dropped", "Dropped",
-                          "Live: view requests dropped because a newer one of the same viewer "
-                          "was queued behind them (the newest request wins)",
-                          0, G_MAXUINT64, 0,
-                          static_cast<GParamFlags>(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
+  props.add(oc, &Settings::forwarded,
+            lfgst::counter_spec("forwarded", "Forwarded", "View requests sent downstream so far"));
+  props.add(oc, &Settings::dropped,
+            lfgst::counter_spec("dropped", "Dropped",
+                                "Live: view requests dropped because a newer one of the same "
+                                "viewer was queued behind them (the newest request wins)"));
   gst_element_class_add_static_pad_template_with_gtype(ec, &sink_template, GST_TYPE_AGGREGATOR_PAD);
   gst_element_class_add_static_pad_template_with_gtype(ec, &src_template, GST_TYPE_AGGREGATOR_PAD);
   gst_element_class_set_static_metadata(
@@ -189,7 +179,5 @@ static void lf_request_mux_class_init(LfRequestMuxClass* klass) {
 }
 
 static void lf_request_mux_init(LfRequestMux* self) {
-  // (GObject zeroes the instance; the atomics are constructed in place.)
-  new (&self->forwarded) std::atomic<guint64>(0);
-  new (&self->dropped) std::atomic<guint64>(0);
+  self->settings = new Settings();
 }

@@ -32,6 +32,7 @@
 #include "lf/focus/focus_probe.h"
 #include "lf/focus/surface_probe.h"
 #include "lf/session/request_queue.h"
+#include "lfprops.h"
 #include "lfrate.h"
 
 GST_DEBUG_CATEGORY_STATIC(lf_request_queue_debug);
@@ -43,7 +44,11 @@ G_DECLARE_FINAL_TYPE(LfRequestQueue, lf_request_queue, LF, REQUEST_QUEUE, GstEle
 G_END_DECLS
 
 namespace {
-enum { PROP_0, PROP_MAX_AGE, PROP_DROPPED };
+struct Settings {
+  guint64 max_age = 0;  // ns, under the object lock
+  std::atomic<guint64> dropped{0};
+};
+lfgst::Properties<Settings> props;
 constexpr guint64 kDefaultMaxAge = 0;
 constexpr size_t kCapacity = 64;
 
@@ -66,10 +71,9 @@ struct _LfRequestQueue {
   GMutex lock;
   GCond cond;
   lf::RequestQueue<GstBuffer*>* queue;  // under lock
-  guint64 max_age;                      // ns, under the object lock
   bool flushing, eos;                   // under lock
   GstFlowReturn last_ret;               // under lock: what the source pad got last
-  std::atomic<guint64> dropped;
+  Settings* settings;                   // properties (max-age under the object lock)
 };
 
 G_DEFINE_TYPE(LfRequestQueue, lf_request_queue, GST_TYPE_ELEMENT)
@@ -134,7 +138,7 @@ static GstFlowReturn lf_request_queue_chain(GstPad*, GstObject* parent, GstBuffe
   g_cond_signal(&self->cond);
   g_mutex_unlock(&self->lock);
   if (!dropped.empty()) {
-    self->dropped += dropped.size();
+    self->settings->dropped += dropped.size();
     GST_LOG_OBJECT(self, "%zu stale requests dropped", dropped.size());
     release(dropped);
   }
@@ -143,7 +147,7 @@ static GstFlowReturn lf_request_queue_chain(GstPad*, GstObject* parent, GstBuffe
 
 static void lf_request_queue_start(LfRequestQueue* self) {
   GST_OBJECT_LOCK(self);
-  const guint64 max_age = self->max_age;
+  const guint64 max_age = self->settings->max_age;
   GST_OBJECT_UNLOCK(self);
   g_mutex_lock(&self->lock);
   release(self->queue->clear());
@@ -212,32 +216,11 @@ static gboolean lf_request_queue_src_activate_mode(GstPad*, GstObject* parent, G
 }
 
 static void lf_request_queue_set_property(GObject* obj, guint id, const GValue* v, GParamSpec* ps) {
-  LfRequestQueue* self = LF_REQUEST_QUEUE(obj);
-  switch (id) {
-    case PROP_MAX_AGE:
-      GST_OBJECT_LOCK(self);
-      self->max_age = g_value_get_uint64(v);
-      GST_OBJECT_UNLOCK(self);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
-  }
+  props.set(obj, *LF_REQUEST_QUEUE(obj)->settings, id, v, ps);
 }
 
 static void lf_request_queue_get_property(GObject* obj, guint id, GValue* v, GParamSpec* ps) {
-  LfRequestQueue* self = LF_REQUEST_QUEUE(obj);
-  switch (id) {
-    case PROP_MAX_AGE:
-      GST_OBJECT_LOCK(self);
-      g_value_set_uint64(v, self->max_age);
-      GST_OBJECT_UNLOCK(self);
-      break;
-    case PROP_DROPPED:
-      g_value_set_uint64(v, self->dropped.load());
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
-  }
+  props.get(obj, *LF_REQUEST_QUEUE(obj)->settings, id, v, ps);
 }
 
 static void lf_request_queue_finalize(GObject* obj) {
@@ -246,6 +229,7 @@ static void lf_request_queue_finalize(GObject* obj) {
   delete self->queue;
   g_mutex_clear(&self->lock);
   g_cond_clear(&self->cond);
+  delete self->settings;
   G_OBJECT_CLASS(lf_request_queue_parent_class)->finalize(obj);
 }
 
@@ -255,22 +239,17 @@ static void lf_request_queue_class_init(LfRequestQueueClass* klass) {
   oc->set_property = lf_request_queue_set_property;
   oc->get_property = lf_request_queue_get_property;
   oc->finalize = lf_request_queue_finalize;
-  g_object_class_install_property(
-      oc, PROP_MAX_AGE,
-      g_param_spec_uint64(
-          "max-age", "Max age",
-          "A viewer's request waiting behind one of the same viewer this much newer (ns, by their "
-          "PTS) is dropped as stale; 0: only each viewer's newest request waits (the newest "
-          "request wins). Read when the element starts",
-          0, G_MAXUINT64, kDefaultMaxAge,
-          static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
-                                   GST_PARAM_MUTABLE_READY)));
-  g_object_class_install_property(
-      oc, PROP_DROPPED,
-      g_param_spec_uint64("dropped", "Dropped",
-                          "View requests dropped as stale (or over the 64 that may wait) so far", 0,
-                          G_MAXUINT64, 0,
-                          static_cast<GParamFlags>(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
+  props.add(oc, &Settings::max_age,
+            g_param_spec_uint64("max-age", "Max age",
+                                "A viewer's request waiting behind one of the same viewer this "
+                                "much newer (ns, by their PTS) is dropped as stale; 0: only each "
+                                "viewer's newest request waits (the newest request wins). Read "
+                                "when the element starts",
+                                0, G_MAXUINT64, kDefaultMaxAge, lfgst::kReadWriteReady));
+  props.add(oc, &Settings::dropped,
+            lfgst::counter_spec("dropped", "Dropped",
+                                "View requests dropped as stale (or over the 64 that may wait) "
+                                "so far"));
   gst_element_class_add_static_pad_template(ec, &sink_template);
   gst_element_class_add_static_pad_template(ec, &src_template);
   gst_element_class_set_static_metadata(
@@ -293,11 +272,11 @@ static void lf_request_queue_class_init(LfRequestQueueClass* klass) {
 }
 
 static void lf_request_queue_init(LfRequestQueue* self) {
-  new (&self->dropped) std::atomic<guint64>(0);
+  self->settings = new Settings();
+  self->settings->max_age = kDefaultMaxAge;
   g_mutex_init(&self->lock);
   g_cond_init(&self->cond);
   self->queue = new lf::RequestQueue<GstBuffer*>(kCapacity, kDefaultMaxAge);
-  self->max_age = kDefaultMaxAge;
   self->flushing = true;
   self->eos = false;
   self->last_ret = GST_FLOW_FLUSHING;

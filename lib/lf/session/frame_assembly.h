@@ -110,6 +110,28 @@ struct PendingRequest {
   uint64_t running_time = kNoTime;  // of its first fragment: its deadline's start
 };
 
+// The request sequence of a pending request's key: the sequence itself, or
+// (sequence, viewer).
+inline uint64_t request_sequence(uint64_t key) {
+  return key;
+}
+inline uint64_t request_sequence(const std::pair<uint64_t, uint32_t>& key) {
+  return key.first;
+}
+
+// When the requests waiting fall due, whatever their key and pieces (what an
+// element's scheduling needs of a PendingRequests).
+class RequestTimes {
+ public:
+  virtual ~RequestTimes() = default;
+  // The oldest request waiting: its running time and request sequence;
+  // false when none waits.
+  virtual bool oldest(uint64_t* running_time, uint64_t* sequence) const = 0;
+  // The earliest running time of a waiting request (kNoTime: none): when
+  // the next deadline falls.
+  virtual uint64_t earliest_running_time() const = 0;
+};
+
 // The requests waiting for their fragments, by key (ordered: the request
 // sequence first), and the rule by which each leaves: complete (every
 // camera counted, no conflict) in order; at its own deadline (or the end of
@@ -117,7 +139,7 @@ struct PendingRequest {
 // `max_pending` wait. Each request has its own deadline: one that came late
 // does not take the next ones, still in time, with it.
 template <class Key, class Piece>
-class PendingRequests {
+class PendingRequests : public RequestTimes {
  public:
   using Request = PendingRequest<Piece>;
   enum class Added { kAdded, kDuplicate };
@@ -178,12 +200,16 @@ class PendingRequests {
   const Key& front_key() const { return requests_.begin()->first; }
   Request& front() { return requests_.begin()->second; }
   void pop_front() { requests_.erase(requests_.begin()); }
-  // The earliest running time of a waiting request (kNoTime: none): when
-  // the next deadline falls.
-  uint64_t earliest_running_time() const {
+  uint64_t earliest_running_time() const override {
     uint64_t t = kNoTime;
     for (const auto& [k, r] : requests_) t = std::min(t, r.running_time);
     return t;
+  }
+  bool oldest(uint64_t* running_time, uint64_t* sequence) const override {
+    if (requests_.empty()) return false;
+    *running_time = requests_.begin()->second.running_time;
+    *sequence = request_sequence(requests_.begin()->first);
+    return true;
   }
   bool empty() const { return requests_.empty(); }
   size_t size() const { return requests_.size(); }
