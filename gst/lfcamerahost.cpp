@@ -225,48 +225,6 @@ static GstElement* adopt(GstBin* bin, Priv* p, GstElement* e) {
   return e;
 }
 
-// lfarray with one request thread for all cameras: the request rate limit
-// (lffragment max-rate and max-pixel-rate) is kept here, once for all cameras, on the requests
-// coming in, and the lffragments have none: each of 64 buckets deciding
-// alone could drop a request in some cameras and not in others, and a
-// non-live compositor's pads out of step hold the request thread for ever.
-struct RequestLimit {
-  GstElement* host = nullptr;  // not owned: the probe dies with its child
-  double rate = 0, pixel_rate = 0;
-  bool live = false;
-  lfgst::RequestLimits limits;
-  lfgst::WarnLimiter warned;
-};
-
-static GstPadProbeReturn limit_requests(GstPad*, GstPadProbeInfo* info, gpointer data) {
-  auto* l = static_cast<RequestLimit*>(data);
-  const bool list = GST_PAD_PROBE_INFO_TYPE(info) & GST_PAD_PROBE_TYPE_BUFFER_LIST;
-  const guint n = list ? gst_buffer_list_length(GST_PAD_PROBE_INFO_BUFFER_LIST(info)) : 1;
-  for (guint i = 0; i < n; ++i) {
-    GstBuffer* buf = list ? gst_buffer_list_get(GST_PAD_PROBE_INFO_BUFFER_LIST(info), i)
-                          : GST_PAD_PROBE_INFO_BUFFER(info);
-    guint8 head[88] = {};
-    const gsize got = buf ? gst_buffer_extract(buf, 0, head, sizeof head) : 0;
-    const guint32 viewer = lfgst::request_viewer(head, got);
-    switch (l->limits.admit(viewer, l->rate, l->pixel_rate, lfgst::request_pixels(head, got),
-                            l->live)) {
-      case lfgst::RequestLimits::Verdict::kOverRate:
-        LF_ELEMENT_WARNING_LIMITED(
-            l->host, l->warned, STREAM, DECODE, ("Dropping view requests above max-rate"),
-            "viewer %u sends more than %g requests a second", viewer, l->rate);
-        return GST_PAD_PROBE_DROP;
-      case lfgst::RequestLimits::Verdict::kOverPixelRate:
-        LF_ELEMENT_WARNING_LIMITED(
-            l->host, l->warned, STREAM, DECODE, ("Dropping view requests above max-pixel-rate"),
-            "viewer %u asks for more than %.0f output pixels a second", viewer, l->pixel_rate);
-        return GST_PAD_PROBE_DROP;
-      default:
-        break;
-    }
-  }
-  return GST_PAD_PROBE_OK;
-}
-
 // Builds the graph from the rig (NULL->READY).
 static bool build(LfCameraHost* self) {
   Priv* p = priv_of(self);
@@ -429,18 +387,13 @@ static bool build(LfCameraHost* self) {
             }
             GstPad* tsink = gst_element_get_static_pad(first, "sink");
             if (one_thread && !frags.empty()) {
-              auto* limit = new RequestLimit;
-              limit->host = GST_ELEMENT(self);
-              g_object_get(frags.front(), "max-rate", &limit->rate, "max-pixel-rate",
-                           &limit->pixel_rate, nullptr);
-              limit->live = live;  // (as lffragment: the pixel rate live only)
+              // The requests' limits once for all cameras (lfrate.h).
+              double rate = 0, pixel_rate = 0;
+              g_object_get(frags.front(), "max-rate", &rate, "max-pixel-rate", &pixel_rate,
+                           nullptr);
               for (GstElement* f : frags)
                 g_object_set(f, "max-rate", 0.0, "max-pixel-rate", 0.0, nullptr);
-              gst_pad_add_probe(tsink,
-                                static_cast<GstPadProbeType>(GST_PAD_PROBE_TYPE_BUFFER |
-                                                             GST_PAD_PROBE_TYPE_BUFFER_LIST),
-                                limit_requests, limit,
-                                [](gpointer d) { delete static_cast<RequestLimit*>(d); });
+              lfgst::limit_requests(tsink, GST_ELEMENT(self), rate, pixel_rate, live);
             }
             GstPad* osrc = gst_element_get_static_pad(out, "src");
             gst_ghost_pad_set_target(GST_GHOST_PAD(p->sink), tsink);

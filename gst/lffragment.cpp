@@ -526,23 +526,9 @@ static bool admit(LfFragment* self, State* st, const lf::ViewRequest& req) {
   g_mutex_lock(&self->priv->lock);
   const bool live = self->priv->camera_live != 0;
   g_mutex_unlock(&self->priv->lock);
-  switch (st->limits.admit(req.viewer_id, s.max_rate, s.max_pixel_rate, static_cast<double>(px),
-                           live)) {
-    case lfgst::RequestLimits::Verdict::kOverRate:
-      LF_ELEMENT_WARNING_LIMITED(
-          self, st->too_fast, STREAM, DECODE, ("Dropping view requests above max-rate"),
-          "viewer %u sends more than %g requests a second", req.viewer_id, s.max_rate);
-      return false;
-    case lfgst::RequestLimits::Verdict::kOverPixelRate:
-      LF_ELEMENT_WARNING_LIMITED(self, st->too_fast, STREAM, DECODE,
-                                 ("Dropping view requests above max-pixel-rate"),
-                                 "viewer %u asks for more than %.0f output pixels a second (%dx%d "
-                                 "views)",
-                                 req.viewer_id, s.max_pixel_rate, req.view.width, req.view.height);
-      return false;
-    default:
-      break;
-  }
+  if (!lfgst::admit_or_warn(GST_ELEMENT(self), st->limits, st->too_fast, req.viewer_id, s.max_rate,
+                            s.max_pixel_rate, static_cast<double>(px), live))
+    return false;
   return true;
 }
 

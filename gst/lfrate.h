@@ -5,7 +5,7 @@
 // thread-safe: one streaming thread uses it.
 #pragma once
 
-#include <glib.h>
+#include <gst/gst.h>
 
 #include <algorithm>
 #include <iterator>
@@ -103,6 +103,21 @@ inline double request_pixels(const guint8* data, gsize size) {
   const guint h = static_cast<guint>(data[86]) << 8 | data[87];
   return static_cast<double>(w) * h;
 }
+
+class WarnLimiter;
+
+// RequestLimits::admit; a request it drops gets a rate-limited warning on
+// `el` naming the limit (max-rate or max-pixel-rate) and the viewer.
+bool admit_or_warn(GstElement* el, RequestLimits& limits, WarnLimiter& warned, guint32 viewer,
+                   double rate, double pixel_rate, double pixels, bool live);
+
+// Drops the view requests through `pad` beyond `rate` requests and
+// (live) `pixel_rate` output pixels a second per viewer, warning on
+// `host`: lfarray's limits kept once for all its cameras on one request
+// thread (each of 64 lffragments deciding alone could drop a request in
+// some cameras and not in others, and a non-live compositor's pads out of
+// step hold the request thread for ever).
+void limit_requests(GstPad* pad, GstElement* host, double rate, double pixel_rate, bool live);
 
 // The default pixel budget per viewer (lffragment max-pixel-rate): a
 // 1920x1080 view 60 times a second (a 3840x2160 view 15 times).
