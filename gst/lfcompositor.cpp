@@ -68,6 +68,7 @@
 #include "lf/render/fragment.h"
 #include "lf/render/render.h"
 #include "lf/render/renderer.h"
+#include "lf/session/compositor_host.h"
 #include "lf/session/frame_assembly.h"
 #include "lf/session/probe_scoring.h"
 #include "lf/wire/probe_bundle.h"
@@ -119,21 +120,13 @@ struct Settings {
   guint64 frames = 0;      // frames composited since start
   guint last_cameras = 0;  // cameras (per eye) whose fragment was in the last frame
 };
-// A fragment waiting for its frame. Raw fragments are parsed in place: their
-// pixels stay in the received buffer, which stays mapped (and referenced)
-// until the frame is composited; JPEG ones are decoded into `f.pixels`.
-// A buffer holding a camera's two layers, or its fragments of a quilt's
-// eyes (lib/lf/wire/wire.h), gives a piece each; the first keeps the mapping,
-// the others' raw pixels point into it.
-struct Piece {
-  lf::Fragment f;
-  std::optional<lfgst::MappedBuffer> buffer;
-  const uint8_t* raw_pixels = nullptr;  // inside a mapped buffer (this piece's or the one before)
-  // An empty fragment whose drawing lffragment left to us (`defer`,
-  // gst/lfmeta.h): drawn by GL with the others, or on the CPU into `f`.
-  std::shared_ptr<const lfgst::DeferredDraw> deferred;
-  const uint8_t* pixels() const { return raw_pixels ? raw_pixels : f.pixels.data(); }
-};
+// A fragment waiting for its frame (lf::ReceivedPiece): raw fragments are
+// parsed in place, their pixels in the received buffer, which stays mapped
+// (and referenced) until the frame is composited; JPEG ones are decoded
+// into `f.pixels`. A buffer holding a camera's two layers, or its fragments
+// of a quilt's eyes (lib/lf/wire/wire.h), gives a piece each, sharing the
+// mapping.
+using Piece = lf::ReceivedPiece;
 // A request waiting for its fragments (lib/lf/session/frame_assembly.h): a
 // buffer's pieces are filed under its camera (viewer << 32 | camera).
 using Request = lf::PendingRequest<Piece>;
@@ -154,13 +147,10 @@ struct State {
   lf::RequestWindow window;
   guint64 conflicts = 0;       // fragments dropped as a second copy of a camera's in a request
   lf::ViewerSelection viewer;  // the viewer composited (viewer-id, or the first seen)
-  // The renderer (lib/lf/render/renderer.h: the CPU kernels, or GL), chosen at
-  // start by `backend`; its image slots hold the camera frames of
-  // drawings left to us (each uploaded once with GL).
-  std::unique_ptr<lf::Renderer> renderer;
-  cv::Mat last_frame;  // RGBA of the last frame emitted (missing pixels come from it)
-  cv::Mat frames[2];   // the RGBA frames resolved into, in turn (one is last_frame)
-  int next_frame = 0;
+  // The frames, made by the renderer (lib/lf/render/renderer.h: the CPU
+  // kernels, or GL) chosen at start by `backend`; its image slots hold the
+  // camera frames of drawings left to us (each uploaded once with GL).
+  std::optional<lf::FrameCompositor> frames;
   lfgst::RawVideoOutput output;          // the negotiated raw video (gst/lfvideoout.h)
   lfgst::Fraction caps_fps{0, 1};        // from the fragment caps (0/1: none yet)
   gint caps_width = 0, caps_height = 0;  // the view size from the fragment caps
@@ -228,7 +218,9 @@ static gboolean lf_compositor_start(GstAggregator* agg) {
   }
   st->viewer = lf::ViewerSelection(st->s.viewer_id);
   st->probes.emplace(st->rig);
-  if (!lfgst::open_renderer(GST_ELEMENT(self), st->s.backend, st->renderer)) return FALSE;
+  std::unique_ptr<lf::Renderer> renderer;
+  if (!lfgst::open_renderer(GST_ELEMENT(self), st->s.backend, renderer)) return FALSE;
+  st->frames.emplace(std::move(renderer));
   self->priv->state = std::move(st);
   return TRUE;
 }
@@ -321,60 +313,26 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Request& g, bool com
   const int W = st->s.stereo ? 2 * w : w;          // stereo: left | right side by side
   if (!st->output.negotiate(GST_AGGREGATOR(self), W, H, st->fps())) return GST_FLOW_NOT_NEGOTIATED;
   const guint left_id = static_cast<guint>(std::max<int64_t>(0, st->viewer.viewer()));
-  // Each eye's fragments, and the drawings lffragment left to us (defer:
-  // whole-view mode), composited at once by the renderer (lib/lf/render/renderer.h:
-  // on the CPU each band of rows draws its part of every drawing straight
-  // into its sums, on all cores; with GL each camera frame is uploaded
-  // once), resolved into the frame that is not last_frame (no allocation
-  // per frame).
-  std::vector<lf::FragmentPixels> eye[2];
-  std::vector<const lfgst::DeferredDraw*> deferred[2];
-  for (const Piece& piece : g.pieces) {
-    const int e = st->s.stereo && piece.f.viewer_id != left_id;
-    if (piece.deferred)
-      deferred[e].push_back(piece.deferred.get());
-    else
-      eye[e].push_back({&piece.f, piece.pixels()});
+  // Each eye's fragments and the drawings lffragment left to us (defer:
+  // whole-view mode), composited at once (lib/lf/session/compositor_host.h).
+  lf::FrameCompositor::Result r;
+  GError* err = nullptr;
+  if (!lfgst::guard(
+          [&] { r = st->frames->composite(g.pieces, w, H, st->s.stereo, left_id, complete); },
+          &err)) {
+    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("Cannot composite the frame"), ("%s", err->message));
+    g_error_free(err);
+    return GST_FLOW_ERROR;
   }
-  cv::Mat& rgba = st->frames[st->next_frame];
-  st->next_frame ^= 1;
-  cv::Mat right;
-  for (int e = 0; e < (st->s.stereo ? 2 : 1); ++e) {
-    GError* err = nullptr;
-    std::vector<std::pair<size_t, std::string>> refused;
-    std::vector<lf::SlotDrawing> drawings;
-    if (!lfgst::guard(
-            [&] {
-              // (Per eye: the two eyes' requests may have taken other frames.)
-              for (const lfgst::DeferredDraw* d : deferred[e]) {
-                st->renderer->set_image(d->slot, d->image, d->frame_key, d->frame_pts);
-                drawings.push_back({&d->plan, &d->camera, d->slot});
-              }
-              refused = st->renderer->composite(e, w, H, eye[e], drawings, e ? right : rgba);
-            },
-            &err)) {
-      GST_ELEMENT_ERROR(self, STREAM, FAILED, ("Cannot composite the frame"), ("%s", err->message));
-      g_error_free(err);
-      return GST_FLOW_ERROR;
-    }
-    for (const auto& [i, why] : refused)  // fragments, then drawings
-      GST_WARNING_OBJECT(self, "dropping fragment of camera %d: %s",
-                         i < eye[e].size() ? static_cast<int>(eye[e][i].fragment->camera_id)
-                                           : drawings[i - eye[e].size()].camera->id,
-                         why.c_str());
-  }
-  if (st->s.stereo) cv::hconcat(rgba, right, rgba);
-  // Missing fragments (a missed deadline): the last picture where no weight
-  // arrived, not black.
-  size_t filled = 0;
-  if (!complete && st->last_frame.size() == rgba.size())
-    filled = lf::Compositor::fill_from(rgba, st->last_frame);
+  for (const auto& [camera, why] : r.refused)
+    GST_WARNING_OBJECT(self, "dropping fragment of camera %d: %s", camera, why.c_str());
+  const size_t filled = r.filled;  // a missed deadline: pixels from the last frame
   if (filled) {
     st->filled_frames++;
     GST_DEBUG_OBJECT(self, "request %" G_GUINT64_FORMAT ": %zu pixels from the last frame", seq,
                      filled);
   }
-  st->last_frame = rgba;
+  const cv::Mat& rgba = *r.frame;
   GstBuffer* out = st->output.frame(rgba);
   if (lfgst::trace_enabled()) {
     const uint32_t sum = libdeflate_crc32(0, rgba.data, rgba.total() * rgba.elemSize());
@@ -585,8 +543,7 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
     });
     std::vector<Piece> pieces;
     for (lf::AnswerPiece& a : parts)
-      pieces.push_back(
-          {std::move(a.f), std::nullopt, a.encoding == lf::Encoding::kRaw ? a.pixels : nullptr});
+      pieces.push_back({std::move(a.f), a.encoding == lf::Encoding::kRaw ? a.pixels : nullptr});
     Piece& piece = pieces.front();
     // A drawing left to us: only on an empty fragment this process made
     // (the meta is never copied), for this camera and this view size.
@@ -595,7 +552,11 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
                                             d->camera.id == static_cast<int>(piece.f.camera_id) &&
                                             d->plan.out_width == w && d->plan.out_height == h)
         piece.deferred = std::move(d);
-    if (any_raw) piece.buffer.emplace(std::move(*mapped));
+    if (any_raw) {
+      const std::shared_ptr<const void> keep =
+          std::make_shared<const lfgst::MappedBuffer>(std::move(*mapped));
+      for (Piece& p : pieces) p.keep = keep;
+    }
     const GstClockTime pts = GST_BUFFER_PTS(buf);
     const GstClockTime rt = GST_CLOCK_TIME_IS_VALID(pts)
                                 ? gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, pts)

@@ -11,6 +11,7 @@
 
 #include "lf/geometry/camera.h"
 #include "lf/render/plan.h"
+#include "lf/render/renderer.h"
 
 namespace lfgst {
 
@@ -30,21 +31,13 @@ void add_sealed_meta(GstBuffer* buf);
 bool has_sealed_meta(GstBuffer* buf);
 
 // A fragment's drawing left to the compositor (lffragment `defer`,
-// lfarray's whole-view mode): what lf::render_pixels() would take. On an
+// lfarray's whole-view mode: lf::DeferredDrawing). On an
 // empty fragment buffer (lib/lf/wire/wire.h kEmpty) as LfDeferredMeta, which,
 // like LfSealedMeta, no copy of the buffer carries: only buffers that stay
 // in this process have it, and anywhere else the fragment is just empty.
-struct DeferredDraw {
-  lf::FragmentPlan plan;  // in output pixels of the view
-  lf::Camera camera;      // intrinsics and distortion of the camera drawn
-  int slot = 0;           // the camera's index in the rig: its image slot in a GL compositor
-  // The camera image to sample (RGBA, the camera's size): the frame itself
-  // (mapped in `frame` while this lives) or its colour-corrected copy.
-  cv::Mat image;
-  // The frame's identity (its buffer and PTS), so that a compositor uploads
-  // each frame once however many requests use it; compared, never used.
-  const void* frame_key = nullptr;
-  GstClockTime frame_pts = GST_CLOCK_TIME_NONE;
+struct DeferredDraw : lf::DeferredDrawing {
+  // `image` is the frame itself, mapped in `frame` while this lives, or its
+  // colour-corrected copy.
   GstVideoFrame frame{};  // holds a reference to the frame buffer while mapped
   bool mapped = false;
   DeferredDraw() = default;

@@ -616,7 +616,8 @@ TEST(GlBackend, RendererInterfaceDrawsAndCompositesAsEachBackend) {
     // A drawing from an empty slot is refused.
     const auto fresh = lf::make_renderer(backend);
     cv::Mat none;
-    if (backend == lf::Backend::kCpu)
+    if (backend == lf::Backend::kCpu) {
       EXPECT_THROW(fresh->composite(0, W, H, {}, drawings, none), std::invalid_argument);
+    }
   }
 }

@@ -12,6 +12,7 @@
 #include "lf/render/quilt.h"
 #include "lf/render/render.h"
 #include "lf/session/camera_host.h"
+#include "lf/session/compositor_host.h"
 #include "lf/session/frame_assembly.h"
 #include "lf/session/request_queue.h"
 #include "lf/session/viewer.h"
@@ -471,6 +472,82 @@ TEST(CameraAnswer, RawJpegAndQuiltAnswersAreTheFragmentsOnTheWire) {
   EXPECT_TRUE(none.quilt());
   EXPECT_TRUE(none.sees_nothing());
   EXPECT_EQ(none.count(), 0u);
+}
+
+// lf::FrameCompositor (lib/lf/session/compositor_host.h), the compositor
+// host's frames: the cameras' fragments added and renormalised as
+// lf::Compositor does; a drawing left to it gives the frame its fragment
+// would; stereo puts the right viewer's pieces on the right; an incomplete
+// request takes the last frame where no weight came; a bad piece is left
+// out and named.
+TEST(FrameCompositor, FragmentsDrawingsStereoAndTheLastFrame) {
+  const lf::Rig rig = lf::synthetic_grid_rig(3, 3, 0.5, 160, 120, 50);
+  lf::ViewRequest req;
+  req.viewer_id = 3, req.sequence = 5;
+  req.view = lf::VirtualView::look_at({0.4, 0.3, -1}, {0, 0, 10}, {0, 1, 0}, 40, 160, 120);
+  req.focal_plane = lf::FocalPlane::through({0, 0, 10}, {0, 0, 1});
+  std::vector<cv::Mat> images;
+  std::vector<lf::ReceivedPiece> pieces, drawn;
+  std::vector<lf::CameraAnswer> answers;
+  for (size_t i = 0; i < rig.cameras.size(); ++i) {
+    images.push_back(lf::render_textured_plane(rig.cameras[i], 10, 1.0));
+    answers.emplace_back(rig, req, static_cast<int>(i));
+  }
+  lf::Compositor reference;
+  reference.reset(160, 120);
+  for (size_t i = 0; i < rig.cameras.size(); ++i) {
+    if (answers[i].sees_nothing()) continue;
+    lf::ReceivedPiece p;
+    p.f.viewer_id = req.viewer_id, p.f.sequence = req.sequence;
+    lf::render_fragment(answers[i].plan(0), rig.cameras[i], images[i], p.f);
+    reference.add(p.f);
+    pieces.push_back(p);
+    lf::ReceivedPiece d;
+    d.f.viewer_id = req.viewer_id, d.f.camera_id = rig.cameras[i].id;
+    auto drawing = std::make_shared<lf::DeferredDrawing>();
+    drawing->plan = answers[i].plan(0), drawing->camera = rig.cameras[i];
+    drawing->slot = static_cast<int>(i), drawing->image = images[i];
+    drawing->frame_key = &images[i];
+    d.deferred = drawing;
+    drawn.push_back(d);
+  }
+  ASSERT_GE(pieces.size(), 3u);
+  cv::Mat want;
+  reference.resolve(want);
+  lf::FrameCompositor frames(lf::make_renderer(lf::Backend::kCpu));
+  auto r = frames.composite(pieces, 160, 120, false, 3, true);
+  EXPECT_EQ(cv::norm(*r.frame, want, cv::NORM_INF), 0);
+  EXPECT_EQ(r.filled, 0u);
+  EXPECT_TRUE(r.refused.empty());
+  const cv::Mat complete = r.frame->clone();
+  r = frames.composite(drawn, 160, 120, false, 3, true);
+  EXPECT_EQ(cv::norm(*r.frame, want, cv::NORM_INF), 0) << "drawn here = drawn by the camera";
+
+  // Stereo: the same pieces as viewer 4 on the right.
+  std::vector<lf::ReceivedPiece> pair = pieces;
+  for (lf::ReceivedPiece p : pieces) {
+    p.f.viewer_id = 4;
+    pair.push_back(p);
+  }
+  r = frames.composite(pair, 160, 120, true, 3, true);
+  ASSERT_EQ(r.frame->size(), cv::Size(320, 120));
+  EXPECT_EQ(cv::norm((*r.frame)(cv::Rect(0, 0, 160, 120)), want, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm((*r.frame)(cv::Rect(160, 0, 160, 120)), want, cv::NORM_INF), 0);
+
+  // Incomplete after a mono frame: where only one camera's fragment came is
+  // its picture, elsewhere the last frame's.
+  frames.composite(pieces, 160, 120, false, 3, true);
+  lf::ReceivedPiece bad = pieces[1];
+  bad.f.out_width = 320;  // for another frame size: refused
+  r = frames.composite({pieces[0], bad}, 160, 120, false, 3, false);
+  EXPECT_GT(r.filled, 0u);
+  ASSERT_EQ(r.refused.size(), 1u);
+  EXPECT_EQ(r.refused[0].first, static_cast<int>(pieces[1].f.camera_id));
+  const cv::Rect only = pieces[0].f.rect;
+  for (int y = 0; y < 120; y += 7)
+    for (int x = 0; x < 160; x += 7)
+      if (!only.contains({x, y}))
+        EXPECT_EQ(r.frame->at<cv::Vec4b>(y, x), complete.at<cv::Vec4b>(y, x)) << x << "," << y;
 }
 
 // lf::shared_geometry: the cameras answering one plane request share one

@@ -33,6 +33,19 @@ namespace lf {
 // camera and the slot (lf/render/gl_render.h PlannedFragment).
 using SlotDrawing = PlannedFragment;
 
+// A fragment whose drawing its camera host left to the compositor
+// (whole-view mode, all in one process): its plan and camera, and the
+// camera frame to draw it from, named (frame_key, frame_pts) so that a
+// renderer sets each frame into the slot once however many requests use it.
+struct DeferredDrawing {
+  FragmentPlan plan;  // in output pixels of the view
+  Camera camera;      // intrinsics and distortion of the camera drawn
+  int slot = 0;       // the camera's index in the rig: its image slot
+  cv::Mat image;      // CV_8UC4, the camera's size; valid while this lives
+  const void* frame_key = nullptr;
+  uint64_t frame_pts = UINT64_MAX;
+};
+
 class Renderer {
  public:
   static constexpr int kMaxSlots = 4096;
