@@ -97,12 +97,17 @@ constexpr const char* kFocalPlane = "param:-0.2";
 // compositor draws them all, fused into its CPU compositing or with GL) or
 // cpu-fragments and gl-fragments (whole-view=false: a request thread per
 // camera, where each lffragment draws its own fragment, and the compositor
-// adds them).
-std::string backend_properties(const std::string& backend) {
-  if (backend == "cpu") return "backend=cpu";
-  if (backend == "cpu-fragments") return "backend=cpu whole-view=false";
-  if (backend == "gl") return "backend=gl";
-  if (backend == "gl-fragments") return "backend=gl whole-view=false";
+// adds them). More lfarray properties may follow after '+' signs
+// ("cpu-fragments+request-max-age=0").
+std::string backend_properties(const std::string& spec) {
+  const size_t plus = spec.find('+');
+  const std::string backend = spec.substr(0, plus);
+  std::string more = plus == std::string::npos ? "" : spec.substr(plus);
+  std::replace(more.begin(), more.end(), '+', ' ');
+  if (backend == "cpu") return "backend=cpu" + more;
+  if (backend == "cpu-fragments") return "backend=cpu whole-view=false" + more;
+  if (backend == "gl") return "backend=gl" + more;
+  if (backend == "gl-fragments") return "backend=gl whole-view=false" + more;
   throw std::invalid_argument("backend '" + backend +
                               "': use cpu, cpu-fragments, gl or gl-fragments");
 }
@@ -432,7 +437,8 @@ int main(int argc, char** argv) {
        "and gl are lfarray's whole-view mode (the fragments only plan, on one request thread; "
        "the compositor draws them all, fused into its CPU compositing or with EGL/GLES); "
        "cpu-fragments and gl-fragments are whole-view=false (each lffragment draws its own, on "
-       "a request thread per camera); each row is compared with the cpu plane row",
+       "a request thread per camera); each optionally with more lfarray properties after '+' "
+       "signs, e.g. cpu-fragments+request-max-age=0; each row is compared with the cpu plane row",
        "LIST"},
       {"skip-bound", 0, 0, G_OPTION_ARG_NONE, &skip_bound,
        "Leave out the kernel bound and the pipeline efficiency", nullptr},
@@ -631,7 +637,7 @@ int main(int argc, char** argv) {
         double plane[3] = {0, 0, 0};
         for (const Focus& focus : focals)
           for (const std::string& backend : backends) {
-            if (backend != "cpu" && enc != "raw") continue;
+            if (backend.substr(0, backend.find('+')) != "cpu" && enc != "raw") continue;
             const int surface = focus.surface;
             const bool baseline = surface == 0 && focus.props.empty() && backend == "cpu";
             reset_peak_rss();
