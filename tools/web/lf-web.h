@@ -1,4 +1,5 @@
 // lf-web's shared parts (tools/lf-web.cpp: the server and its viewers;
+// tools/web/signalling.cpp: SDP and ICE with a browser;
 // tools/web/control.cpp: the view control protocol on the data channel;
 // tools/web/whep.cpp: WHEP): the limits on what a browser may send, the
 // options, a viewer's state and the functions the parts call in one
@@ -170,7 +171,6 @@ void post(Control& c, std::string text);
 void remove_viewer(Server* s, guint64 serial, const char* why);
 std::unique_ptr<Viewer> build_viewer(Server* s, const std::string& address, bool own_channel);
 bool add_viewer(Server* s, SoupWebsocketConnection* ws, const std::string& address);
-void on_ws_message(SoupWebsocketConnection*, gint type, GBytes* message, gpointer data);
 void on_ws_closed(SoupWebsocketConnection*, gpointer data);
 // The handshake deadline of a viewer (tools/lf-web.cpp on_deadline).
 struct Deadline {
@@ -178,6 +178,22 @@ struct Deadline {
   guint64 serial;
 };
 gboolean on_deadline(gpointer data);
+
+// tools/web/signalling.cpp: WebRTC signalling with a browser (SDP and ICE
+// over the WebSocket).
+void on_offer(GstPromise* promise, gpointer data);
+void on_negotiation_needed(GstElement* webrtc, gpointer data);
+void on_ice_candidate(GstElement*, guint mline, gchar* candidate, gpointer data);
+void on_ice_state(GstElement* webrtc, GParamSpec*, gpointer data);
+void on_ws_message(SoupWebsocketConnection*, gint type, GBytes* message, gpointer data);
+
+// tools/web/signalling.cpp: WebRTC signalling with a browser (SDP and ICE
+// over the WebSocket).
+void on_offer(GstPromise* promise, gpointer data);
+void on_negotiation_needed(GstElement* webrtc, gpointer data);
+void on_ice_candidate(GstElement*, guint mline, gchar* candidate, gpointer data);
+void on_ice_state(GstElement* webrtc, GParamSpec*, gpointer data);
+void on_ws_message(SoupWebsocketConnection*, gint type, GBytes* message, gpointer data);
 
 // tools/web/control.cpp: the view control protocol (docs/web.md), one
 // message at a time, and the data channel it comes on.
