@@ -34,21 +34,19 @@
  *   videoconvert ! autovideosink
  * ]|
  */
-#include <gst/app/gstappsink.h>
 #include <gst/base/gstpushsrc.h>
 #include <gst/video/video.h>
 
-#include <condition_variable>
 #include <future>
 #include <memory>
-#include <mutex>
 #include <opencv2/imgproc.hpp>
-#include <thread>
+#include <optional>
 
 #include "lf/io/image_io.h"
 #include "lf/io/parse.h"
 #include "lf/io/still_cache.h"
 #include "lf/quality/synthetic.h"
+#include "lfcamerainput.h"
 #include "lfclock.h"
 #include "lfguard.h"
 #include "lfmeta.h"
@@ -132,43 +130,16 @@ struct State {
   std::future<cv::Mat> still;
   lf::SyntheticScene scene;
   guint64 frame = 0;
-  // file / v4l2 modes: an internal decoding pipeline ending in an appsink.
-  GstElement* decoder = nullptr;
-  GstElement* appsink = nullptr;
+  // file / v4l2 modes: GStreamer's decoders (gst/lfcamerainput.h).
+  std::unique_ptr<lfgst::DecodedInput> decoder;
   GstBuffer* last = nullptr;  // newest decoded frame (not the sample: appsink reuses those)
-  // File mode, skip-bad-frames: the decoders' warnings of frames they
-  // skipped, taken by create() and posted with the count so far.
-  std::mutex bad_lock;
-  std::vector<std::string> bad;  // warnings not yet posted
-  guint64 skipped = 0;
+  guint64 skipped = 0;        // skip-bad-frames: frames skipped so far
   // File mode with PNG or JPEG stills (one file, or a sequence): decoded here
-  // by lf::read_image, so a damaged, truncated or wrong-sized frame is an
-  // error naming its file (GStreamer's parsers drop such a frame silently,
-  // and jpegdec greys out the rest of a truncated one).
-  bool own_decode = false;
-  gint64 next_index = 0;  // the next frame of the sequence (a still: 0, then the end)
-  // The name of input frame k: the sequence's file, or the file.
-  // (The pattern is never a printf format: lf::camera_file_name; open_input
-  // has checked it.)
-  std::string frame_path(gint64 k) const {
-    if (s.location.find('%') == std::string::npos) return s.location;
-    try {
-      return lf::camera_file_name(s.location, static_cast<int>(k), "location");
-    } catch (const std::exception&) {
-      return s.location;
-    }
-  }
-  std::string frame_name(gint64 k) const {
-    if (s.location.find('%') == std::string::npos) return s.location;
-    return frame_path(k) + " (frame " + std::to_string(k) + ")";
-  }
+  // (lib/lf/io/image_io.h), so a damaged, truncated or wrong-sized frame is
+  // an error naming its file.
+  std::optional<lf::StillSequence> stills;
   ~State() {
     if (last) gst_buffer_unref(last);
-    if (decoder) {
-      gst_element_set_state(decoder, GST_STATE_NULL);
-      gst_object_unref(appsink);
-      gst_object_unref(decoder);
-    }
   }
 };
 
@@ -201,133 +172,6 @@ LF_DEFINE_ELEMENT_GLUE(lf_cam_src, LF_CAM_SRC)
 
 using lfgst::make_element;
 
-// The internal decoding pipeline (file and v4l2 modes), built from elements
-// with their properties set directly: user strings (location, device) are
-// never spliced into a pipeline description.
-// Every video decoder inside decodebin: the first frame it cannot decode is
-// an error (max-errors 0), or, with skip-bad-frames, a warning (no limit).
-static void on_decoder_element(GstBin*, GstBin*, GstElement* e, gpointer skip) {
-  if (GST_IS_VIDEO_DECODER(e))
-    g_object_set(e, "max-errors", GPOINTER_TO_INT(skip) ? -1 : 0, nullptr);
-}
-
-// With skip-bad-frames, the internal pipeline's warnings (a decoder's
-// skipped frame), in the decoding thread as they are posted: kept for
-// create() to post as this element's, never dropped unseen.
-static GstBusSyncReply on_decoder_message(GstBus*, GstMessage* m, gpointer data) {
-  auto* st = static_cast<State*>(data);
-  if (GST_MESSAGE_TYPE(m) != GST_MESSAGE_WARNING || !st->s.skip_bad_frames) return GST_BUS_PASS;
-  GError* e = nullptr;
-  gst_message_parse_warning(m, &e, nullptr);
-  std::lock_guard<std::mutex> l(st->bad_lock);
-  st->bad.push_back(st->s.location + ": " + (e ? e->message : "not decoded"));
-  g_clear_error(&e);
-  return GST_BUS_DROP;
-}
-
-static GstElement* build_decoder(State* st, const lf::Camera& cam, GstElement** sink) {
-  const Settings& s = st->s;
-  GstElement* pipe = gst_pipeline_new(nullptr);
-  GstBus* bus = gst_element_get_bus(pipe);
-  gst_bus_set_sync_handler(bus, on_decoder_message, st, nullptr);
-  gst_object_unref(bus);
-  GstElement* convert = make_element("videoconvert");
-  GstElement* scale = make_element("videoscale");
-  GstElement* filter = make_element("capsfilter");
-  GstElement* app = make_element("appsink");
-  GstCaps* caps = gst_caps_new_simple("video/x-raw", "format", G_TYPE_STRING, "RGBA", "width",
-                                      G_TYPE_INT, cam.width, "height", G_TYPE_INT, cam.height,
-                                      "pixel-aspect-ratio", GST_TYPE_FRACTION, 1, 1, nullptr);
-  g_object_set(filter, "caps", caps, nullptr);
-  gst_caps_unref(caps);
-  g_object_set(app, "sync", FALSE, "max-buffers", 2, "drop", s.mode == Mode::kV4l2, nullptr);
-  gst_bin_add_many(GST_BIN(pipe), convert, scale, filter, app, nullptr);
-  gst_element_link_many(convert, scale, filter, app, nullptr);
-  if (s.mode == Mode::kV4l2) {
-    GstElement* src = make_element("v4l2src");
-    g_object_set(src, "device", s.device.c_str(), nullptr);
-    gst_bin_add(GST_BIN(pipe), src);
-    gst_element_link(src, convert);
-  } else if (s.location.find('%') != std::string::npos) {
-    GstElement* src = make_element("multifilesrc");
-    GstElement* dec = make_element("decodebin");
-    g_object_set(src, "location", s.location.c_str(), "loop", s.loop, nullptr);
-    gst_bin_add_many(GST_BIN(pipe), src, dec, nullptr);
-    gst_element_link(src, dec);
-    g_signal_connect(dec, "deep-element-added", G_CALLBACK(on_decoder_element),
-                     GINT_TO_POINTER(s.skip_bad_frames));
-    lfgst::link_decoded_video(dec, convert);
-  } else {
-    gchar* uri = gst_uri_is_valid(s.location.c_str())
-                     ? g_strdup(s.location.c_str())
-                     : gst_filename_to_uri(s.location.c_str(), nullptr);
-    if (!uri) {
-      gst_object_unref(pipe);
-      throw std::invalid_argument("location '" + s.location + "' is not a file or URI");
-    }
-    GstElement* dec = make_element("uridecodebin");
-    g_object_set(dec, "uri", uri, nullptr);
-    g_signal_connect(dec, "deep-element-added", G_CALLBACK(on_decoder_element),
-                     GINT_TO_POINTER(s.skip_bad_frames));
-    g_free(uri);
-    gst_bin_add(GST_BIN(pipe), dec);
-    lfgst::link_decoded_video(dec, convert);
-  }
-  *sink = GST_ELEMENT(gst_object_ref(app));
-  return pipe;
-}
-
-// The first error the internal decoding pipeline posted ("" if none),
-// waiting up to `wait` for it.
-static std::string decoder_error(GstElement* decoder, GstClockTime wait = 0) {
-  GstBus* bus = gst_element_get_bus(decoder);
-  GstMessage* m = gst_bus_timed_pop_filtered(bus, wait, GST_MESSAGE_ERROR);
-  gst_object_unref(bus);
-  if (!m) return "";
-  GError* e = nullptr;
-  gchar* dbg = nullptr;
-  gst_message_parse_error(m, &e, &dbg);
-  std::string what = std::string(e->message) + " (" + (dbg ? dbg : "") + ")";
-  g_clear_error(&e);
-  g_free(dbg);
-  gst_message_unref(m);
-  return what;
-}
-
-// One of as many decodes of stills at once as the machine has cores (a
-// process of 64 cameras would otherwise hold 64 full-size images at once).
-class DecodeSlot {
- public:
-  DecodeSlot() {
-    std::unique_lock<std::mutex> l(m());
-    cond().wait(l, [] { return busy() < std::max(1u, std::thread::hardware_concurrency()); });
-    ++busy();
-  }
-  ~DecodeSlot() {
-    {
-      std::lock_guard<std::mutex> l(m());
-      --busy();
-    }
-    cond().notify_one();
-  }
-  DecodeSlot(const DecodeSlot&) = delete;
-  DecodeSlot& operator=(const DecodeSlot&) = delete;
-
- private:
-  static std::mutex& m() {
-    static std::mutex mu;
-    return mu;
-  }
-  static std::condition_variable& cond() {
-    static std::condition_variable c;
-    return c;
-  }
-  static unsigned& busy() {
-    static unsigned n = 0;
-    return n;
-  }
-};
-
 // Opens the camera's input for `st` (throws std::exception on failure).
 // `self` outlives the still's decoding: State's destructor waits for it.
 static void open_input(GstElement* self, State* st) {
@@ -342,25 +186,17 @@ static void open_input(GstElement* self, State* st) {
             "for an image sequence)");
       if (s.location.find('%') != std::string::npos)
         lf::camera_file_name(s.location, 0, "location");  // throws naming a bad pattern
-      if (lf::is_still_image(st->frame_path(0))) {
-        st->own_decode = true;
+      if (lf::StillSequence seq(s.location, cam.width, cam.height, s.loop, s.skip_bad_frames);
+          lf::is_still_image(seq.path(0))) {
+        st->stills.emplace(std::move(seq));
         st->rgba = cv::Mat(cam.height, cam.width, CV_8UC4);  // size for caps
         break;
       }
-      st->decoder = build_decoder(st, cam, &st->appsink);
-      const std::string input = s.mode == Mode::kV4l2 ? "device " + s.device : s.location;
       // Errors surface here, when the element starts (a missing file, a
       // busy device, an undecodable stream), not later as a missing frame.
-      if (gst_element_set_state(st->decoder, GST_STATE_PLAYING) == GST_STATE_CHANGE_FAILURE ||
-          gst_element_get_state(st->decoder, nullptr, nullptr, 10 * GST_SECOND) ==
-              GST_STATE_CHANGE_FAILURE) {
-        // The failure can be seen before its error message is posted (it
-        // comes from the decoder's thread): wait for the reason a little.
-        const std::string why = decoder_error(st->decoder, GST_SECOND);
-        throw std::runtime_error("cannot open " + input + (why.empty() ? "" : ": " + why));
-      }
-      if (const std::string why = decoder_error(st->decoder); !why.empty())
-        throw std::runtime_error("cannot decode " + input + ": " + why);
+      st->decoder = std::make_unique<lfgst::DecodedInput>(
+          lfgst::DecodedInput::Options{s.mode == Mode::kV4l2, s.location, s.device, s.loop,
+                                       s.skip_bad_frames, cam.width, cam.height});
       st->rgba = cv::Mat(cam.height, cam.width, CV_8UC4);  // size for caps
       break;
     }
@@ -380,20 +216,13 @@ static void open_input(GstElement* self, State* st) {
       lf::StillCache cache;
       cache.dir = s.still_cache;
       st->still = std::async(std::launch::async, [cam, cache, self] {
-        const DecodeSlot slot;
+        const lf::DecodeSlot slot;
         lf::StillSource from = lf::StillSource::kDecoded;
         std::string note;
         cv::Mat rgba = lf::cached_still(
             cache, cam.image, cam.width, cam.height, CV_8UC4,
-            [&cam] {
-              cv::Mat bgr = lf::read_image(cam.image), rgba;
-              lf::check_image_fits(cam.image, bgr.size(), cam.width, cam.height);
-              if (bgr.cols != cam.width || bgr.rows != cam.height)
-                cv::resize(bgr, bgr, cv::Size(cam.width, cam.height), 0, 0, cv::INTER_AREA);
-              cv::cvtColor(bgr, rgba, cv::COLOR_BGR2RGBA);
-              return rgba;
-            },
-            &from, &note);
+            [&cam] { return lf::read_camera_image(cam.image, cam.width, cam.height); }, &from,
+            &note);
         GST_DEBUG_OBJECT(self, "still of camera %d %s", cam.id,
                          from == lf::StillSource::kCache ? "read from the cache" : "decoded");
         if (!note.empty()) GST_WARNING_OBJECT(self, "still cache: %s", note.c_str());
@@ -459,93 +288,45 @@ static void free_mat(gpointer p) {
   delete static_cast<cv::Mat*>(p);
 }
 
-// The next decoded frame, waiting at most `timeout` in 50 ms slices: an error
-// of the decoding pipeline is posted as this element's error at once.
+// The next decoded frame, waiting at most `timeout`: an error of the
+// decoding pipeline is posted as this element's error at once.
 static GstSample* pull_or_error(LfCamSrc* self, State* st, GstClockTime timeout) {
-  GstAppSink* sink = GST_APP_SINK(st->appsink);
-  for (GstClockTime waited = 0; waited < timeout; waited += 50 * GST_MSECOND) {
-    if (GstSample* s = gst_app_sink_try_pull_sample(sink, 50 * GST_MSECOND)) return s;
-    if (gst_app_sink_is_eos(sink)) return nullptr;
-    if (const std::string why = decoder_error(st->decoder); !why.empty()) {
-      GST_ELEMENT_ERROR(self, STREAM, DECODE, ("Cannot decode the camera input"),
-                        ("%s: %s%s", st->s.location.c_str(), why.c_str(),
-                         st->s.skip_bad_frames ? "" : " (skip-bad-frames=true skips such frames)"));
-      return nullptr;
-    }
-  }
-  return nullptr;
+  std::string why;
+  GstSample* s = st->decoder->pull(timeout, &why);
+  if (!why.empty())
+    GST_ELEMENT_ERROR(self, STREAM, DECODE, ("Cannot decode the camera input"),
+                      ("%s: %s%s", st->s.location.c_str(), why.c_str(),
+                       st->s.skip_bad_frames ? "" : " (skip-bad-frames=true skips such frames)"));
+  return s;
 }
 
 // skip-bad-frames: the frames the decoder skipped since the last call, as
 // warnings with the count so far.
 static void post_skipped(LfCamSrc* self, State* st) {
-  std::vector<std::string> bad;
-  {
-    std::lock_guard<std::mutex> l(st->bad_lock);
-    bad.swap(st->bad);
-  }
-  for (const auto& b : bad)
+  for (const auto& b : st->decoder->take_skipped())
     GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Skipped a frame that does not decode"),
                         ("%s (%" G_GUINT64_FORMAT " skipped so far)", b.c_str(), ++st->skipped));
 }
 
 // File mode with PNG or JPEG stills: the next frame of the sequence (or the
-// one still) into st->rgba; at the end EOS, or the first frame again with
-// loop. A frame that does not decode is an error naming it, or with
-// skip-bad-frames a warning, and the next frame is taken.
+// one still) into st->rgba (lf::StillSequence); at the end EOS, or the first
+// frame again with loop; a frame that does not decode is an error naming it,
+// or with skip-bad-frames a warning.
 static GstFlowReturn next_still(LfCamSrc* self, State* st) {
-  const Settings& set = st->s;
-  const lf::Camera& cam = st->rig->cameras[st->index];
-  const bool sequence = set.location.find('%') != std::string::npos;
-  int wraps = 0;  // back to the first frame in this call: twice, and no frame decodes
-  for (;;) {
-    const std::string path = st->frame_path(st->next_index);
-    const bool exists =
-        (sequence || st->next_index == 0) && g_file_test(path.c_str(), G_FILE_TEST_IS_REGULAR);
-    if (!exists) {
-      if (st->next_index == 0) {
-        GST_ELEMENT_ERROR(self, RESOURCE, NOT_FOUND, ("No frame in the camera input"),
-                          ("%s: missing or unreadable", path.c_str()));
-        return GST_FLOW_ERROR;
-      }
-      if (!set.loop) return GST_FLOW_EOS;
-      if (!sequence) return GST_FLOW_OK;  // a still, looped: the same picture again
-      if (++wraps > 1) {
-        GST_ELEMENT_ERROR(self, STREAM, DECODE, ("No frame in the camera input"),
-                          ("%s: no frame of the sequence decodes", set.location.c_str()));
-        return GST_FLOW_ERROR;
-      }
-      st->next_index = 0;
-      continue;
-    }
-    cv::Mat rgba;
-    GError* err = nullptr;
-    const bool ok = lfgst::guard(
-        [&] {
-          cv::Mat bgr = lf::read_image(path);
-          lf::check_image_fits(path, bgr.size(), cam.width, cam.height);
-          if (bgr.cols != cam.width || bgr.rows != cam.height)
-            cv::resize(bgr, bgr, cv::Size(cam.width, cam.height), 0, 0, cv::INTER_AREA);
-          cv::cvtColor(bgr, rgba, cv::COLOR_BGR2RGBA);
-        },
-        &err);
-    const gint64 k = st->next_index++;
-    if (ok) {
-      st->rgba = rgba;
-      return GST_FLOW_OK;
-    }
-    const std::string why = err->message;
-    g_error_free(err);
-    if (!set.skip_bad_frames || !sequence) {  // a still is the whole input
-      GST_ELEMENT_ERROR(self, STREAM, DECODE, ("Cannot decode the camera input"),
-                        ("%s: %s (skip-bad-frames=true skips such frames)",
-                         st->frame_name(k).c_str(), why.c_str()));
-      return GST_FLOW_ERROR;
-    }
+  using What = lf::StillSequence::Next::What;
+  const lf::StillSequence::Next n = st->stills->next(&st->rgba);
+  for (const std::string& why : n.skipped)
     GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Skipped a frame that does not decode"),
-                        ("%s: %s (%" G_GUINT64_FORMAT " skipped so far)", st->frame_name(k).c_str(),
-                         why.c_str(), ++st->skipped));
-  }
+                        ("%s (%" G_GUINT64_FORMAT " skipped so far)", why.c_str(), ++st->skipped));
+  if (n.what == What::kMissing)
+    GST_ELEMENT_ERROR(self, RESOURCE, NOT_FOUND, ("No frame in the camera input"),
+                      ("%s", n.error.c_str()));
+  if (n.what == What::kUndecodable)
+    GST_ELEMENT_ERROR(self, STREAM, DECODE, ("Cannot decode the camera input"),
+                      ("%s", n.error.c_str()));
+  return n.what == What::kEnd                                       ? GST_FLOW_EOS
+         : n.what == What::kMissing || n.what == What::kUndecodable ? GST_FLOW_ERROR
+                                                                    : GST_FLOW_OK;
 }
 
 static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
@@ -570,35 +351,31 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
   };
   // Live: emit at running time pts on the pipeline clock.
   if (set.live && !self->priv->waiter.wait_until(GST_ELEMENT(src), pts)) return GST_FLOW_FLUSHING;
-  if (st->own_decode) {
+  if (st->stills) {
     const GstFlowReturn r = next_still(self, st);
     if (r != GST_FLOW_OK) return r;
   } else if (st->decoder) {
     // File: the next decoded frame (looping a plain file on EOS if asked);
     // V4L2 (live): the newest frame at the capture instant.
-    GstAppSink* sink = GST_APP_SINK(st->appsink);
+    lfgst::DecodedInput& input = *st->decoder;
     GstSample* s = nullptr;
     if (set.mode == Mode::kV4l2) {
-      while (GstSample* n = gst_app_sink_try_pull_sample(sink, 0)) {
-        if (s) gst_sample_unref(s);
-        s = n;
-      }
-      if (!s && !st->last) s = gst_app_sink_try_pull_sample(sink, 5 * GST_SECOND);
+      s = input.newest();
+      if (!s && !st->last) s = pull_or_error(self, st, 5 * GST_SECOND);
     } else {
       s = pull_or_error(self, st, 30 * GST_SECOND);
-      if (!s && gst_app_sink_is_eos(sink) && set.loop &&
-          gst_element_seek_simple(st->decoder, GST_FORMAT_TIME, GST_SEEK_FLAG_FLUSH, 0))
+      if (!s && input.at_end() && set.loop && input.rewind())
         s = pull_or_error(self, st, 30 * GST_SECOND);
       post_skipped(self, st);
       if (!s) {
-        if (gst_app_sink_is_eos(sink) && !st->last) {
+        if (input.at_end() && !st->last) {
           // The end before a single frame: nothing in the file decoded
           // (a damaged still, a sequence of damaged frames).
           GST_ELEMENT_ERROR(self, STREAM, DECODE, ("No frame in the camera input"),
                             ("%s: the input ended before a frame decoded", set.location.c_str()));
           return GST_FLOW_ERROR;
         }
-        if (gst_app_sink_is_eos(sink)) return GST_FLOW_EOS;
+        if (input.at_end()) return GST_FLOW_EOS;
         if (!st->last) return GST_FLOW_ERROR;  // pull_or_error posted the decoder's error
       }
     }

@@ -524,6 +524,60 @@ TEST(ImageIo, BadFilesGiveClearErrors) {
 
 // A still fits a camera only by one uniform resize (a scaled rig), never by
 // stretching: another shape names the file.
+// lf::StillSequence (lfcamsrc mode=file with stills): frames in order, a
+// damaged one an error naming it or with skip_bad_frames skipped, the end
+// or (loop) the first frame again, a missing first frame, and a sequence
+// of which no frame decodes.
+TEST(ImageIo, StillSequenceFramesSkipsLoopsAndEnds) {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("lf-test-still-sequence-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  for (int k = 0; k < 3; ++k) {
+    cv::Mat m(40, 60, CV_8UC3, cv::Scalar(10 * k, 20, 30));
+    cv::imwrite((dir / ("f" + std::to_string(k) + ".png")).string(), m);
+  }
+  std::ofstream((dir / "f1.png").string(), std::ios::binary | std::ios::trunc) << "not a png";
+  const std::string pattern = (dir / "f%d.png").string();
+  using What = lf::StillSequence::Next::What;
+  cv::Mat rgba;
+  lf::StillSequence strict(pattern, 60, 40, false, false);
+  auto n = strict.next(&rgba);
+  ASSERT_EQ(n.what, What::kFrame) << n.error;
+  EXPECT_EQ(rgba.type(), CV_8UC4);
+  EXPECT_EQ(rgba.at<cv::Vec4b>(0, 0), cv::Vec4b(30, 20, 0, 255));  // BGR (0, 20, 30) as RGBA
+  n = strict.next(&rgba);
+  EXPECT_EQ(n.what, What::kUndecodable);
+  EXPECT_NE(n.error.find("f1.png (frame 1)"), std::string::npos) << n.error;
+
+  lf::StillSequence skipping(pattern, 30, 20, true, true);  // half size: one uniform resize
+  EXPECT_EQ(skipping.next(&rgba).what, What::kFrame);
+  n = skipping.next(&rgba);
+  ASSERT_EQ(n.what, What::kFrame);
+  ASSERT_EQ(n.skipped.size(), 1u);
+  EXPECT_NE(n.skipped[0].find("frame 1"), std::string::npos);
+  EXPECT_EQ(rgba.size(), cv::Size(30, 20));
+  EXPECT_EQ(rgba.at<cv::Vec4b>(0, 0)[2], 20);  // frame 2
+  n = skipping.next(&rgba);                    // the end, looped: frame 0 again
+  EXPECT_EQ(n.what, What::kFrame);
+  EXPECT_EQ(rgba.at<cv::Vec4b>(0, 0)[2], 0);
+
+  lf::StillSequence once(pattern, 60, 40, false, true);
+  for (int k = 0; k < 2; ++k) EXPECT_EQ(once.next(&rgba).what, What::kFrame);
+  EXPECT_EQ(once.next(&rgba).what, What::kEnd);
+
+  lf::StillSequence still((dir / "f0.png").string(), 60, 40, true, false);
+  EXPECT_EQ(still.next(&rgba).what, What::kFrame);
+  EXPECT_EQ(still.next(&rgba).what, What::kSame);
+  EXPECT_EQ(lf::StillSequence((dir / "g%d.png").string(), 60, 40, true, true).next(&rgba).what,
+            What::kMissing);
+  std::ofstream((dir / "f0.png").string(), std::ios::binary | std::ios::trunc) << "bad";
+  std::ofstream((dir / "f2.png").string(), std::ios::binary | std::ios::trunc) << "bad";
+  n = lf::StillSequence(pattern, 60, 40, true, true).next(&rgba);
+  EXPECT_EQ(n.what, What::kUndecodable);
+  EXPECT_NE(n.error.find("no frame of the sequence decodes"), std::string::npos) << n.error;
+  std::filesystem::remove_all(dir);
+}
+
 TEST(ImageIo, StillOfAnotherSizeIsRefused) {
   EXPECT_NO_THROW(lf::check_image_fits("a.png", cv::Size(1400, 800), 1400, 800));
   EXPECT_NO_THROW(lf::check_image_fits("a.png", cv::Size(1400, 800), 700, 400));

@@ -6,10 +6,14 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <opencv2/imgproc.hpp>
 #include <stdexcept>
 #include <vector>
+
+#include "lf/io/parse.h"
 
 namespace lf {
 namespace {
@@ -184,6 +188,72 @@ void check_image_fits(const std::string& path, cv::Size image, int width, int he
                         " pixels, which no uniform resize makes the camera's " +
                         std::to_string(width) + "x" + std::to_string(height) +
                         " (a still of another camera or another rig?)");
+}
+
+cv::Mat read_camera_image(const std::string& path, int width, int height) {
+  cv::Mat bgr = read_image(path), rgba;
+  check_image_fits(path, bgr.size(), width, height);
+  if (bgr.cols != width || bgr.rows != height)
+    cv::resize(bgr, bgr, cv::Size(width, height), 0, 0, cv::INTER_AREA);
+  cv::cvtColor(bgr, rgba, cv::COLOR_BGR2RGBA);
+  return rgba;
+}
+
+std::string StillSequence::path(int64_t k) const {
+  if (!is_sequence()) return location_;
+  try {
+    return camera_file_name(location_, static_cast<int>(k), "location");
+  } catch (const std::exception&) {
+    return location_;
+  }
+}
+
+std::string StillSequence::name(int64_t k) const {
+  return is_sequence() ? path(k) + " (frame " + std::to_string(k) + ")" : location_;
+}
+
+StillSequence::Next StillSequence::next(cv::Mat* rgba) {
+  Next n;
+  const bool sequence = is_sequence();
+  int wraps = 0;  // back to the first frame in this call: twice, and no frame decodes
+  for (;;) {
+    const std::string file = path(index_);
+    std::error_code ec;
+    const bool exists = (sequence || index_ == 0) && std::filesystem::is_regular_file(file, ec);
+    if (!exists) {
+      if (index_ == 0) {
+        n.what = Next::What::kMissing, n.error = file + ": missing or unreadable";
+        return n;
+      }
+      if (!loop_) {
+        n.what = Next::What::kEnd;
+        return n;
+      }
+      if (!sequence) {
+        n.what = Next::What::kSame;
+        return n;
+      }
+      if (++wraps > 1) {
+        n.what = Next::What::kUndecodable;
+        n.error = location_ + ": no frame of the sequence decodes";
+        return n;
+      }
+      index_ = 0;
+      continue;
+    }
+    const int64_t k = index_++;
+    try {
+      *rgba = read_camera_image(file, width_, height_);
+      return n;
+    } catch (const std::exception& e) {
+      if (!skip_bad_ || !sequence) {  // a still is the whole input
+        n.what = Next::What::kUndecodable;
+        n.error = name(k) + ": " + e.what() + " (skip-bad-frames=true skips such frames)";
+        return n;
+      }
+      n.skipped.push_back(name(k) + ": " + e.what());
+    }
+  }
 }
 
 }  // namespace lf

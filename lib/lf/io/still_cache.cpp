@@ -8,12 +8,15 @@
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <condition_variable>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <mutex>
 #include <stdexcept>
 #include <system_error>
+#include <thread>
 #include <vector>
 
 namespace fs = std::filesystem;
@@ -221,6 +224,26 @@ cv::Mat cached_still(const StillCache& cache, const std::string& image, int widt
   std::string why = store(dir, file, h, s.path, m, cache.max_bytes);
   if (note) *note = std::move(why);
   return m;
+}
+
+namespace {
+std::mutex slot_mutex;
+std::condition_variable slot_free;
+unsigned slots_busy = 0;
+}  // namespace
+
+DecodeSlot::DecodeSlot() {
+  std::unique_lock<std::mutex> l(slot_mutex);
+  slot_free.wait(l, [] { return slots_busy < std::max(1u, std::thread::hardware_concurrency()); });
+  ++slots_busy;
+}
+
+DecodeSlot::~DecodeSlot() {
+  {
+    std::lock_guard<std::mutex> l(slot_mutex);
+    --slots_busy;
+  }
+  slot_free.notify_one();
 }
 
 }  // namespace lf

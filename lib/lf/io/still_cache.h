@@ -51,4 +51,15 @@ cv::Mat cached_still(const StillCache& cache, const std::string& image, int widt
                      int type, const std::function<cv::Mat()>& decode,
                      StillSource* source = nullptr, std::string* note = nullptr);
 
+// One of as many decodes of stills at once as the machine has cores,
+// process-wide, held while it lives (a process of 64 cameras would
+// otherwise hold 64 full-size images being decoded at once).
+class DecodeSlot {
+ public:
+  DecodeSlot();
+  ~DecodeSlot();
+  DecodeSlot(const DecodeSlot&) = delete;
+  DecodeSlot& operator=(const DecodeSlot&) = delete;
+};
+
 }  // namespace lf
