@@ -157,6 +157,21 @@ bool DecodedInput::rewind() {
   return gst_element_seek_simple(pipe_, GST_FORMAT_TIME, GST_SEEK_FLAG_FLUSH, 0);
 }
 
+DecodedInput::Next DecodedInput::next(bool have_one) {
+  Next n;
+  if (o_.v4l2) {
+    n.sample = newest();
+    if (!n.sample && !have_one) n.sample = pull(5 * GST_SECOND, &n.error);
+    return n;
+  }
+  n.sample = pull(30 * GST_SECOND, &n.error);
+  if (!n.sample && n.error.empty() && at_end() && o_.loop && rewind())
+    n.sample = pull(30 * GST_SECOND, &n.error);
+  n.end = !n.sample && at_end();
+  n.skipped = take_skipped();
+  return n;
+}
+
 std::vector<std::string> DecodedInput::take_skipped() {
   std::lock_guard<std::mutex> l(lock_);
   return std::exchange(skipped_, {});

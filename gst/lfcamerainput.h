@@ -47,6 +47,17 @@ class DecodedInput {
   // The frames the decoders skipped since the last call (skip_bad_frames).
   std::vector<std::string> take_skipped();
 
+  // lfcamsrc's next frame: V4L2, the newest one decoded (waiting up to 5 s
+  // when there is none yet and `have_one` is false); a file, the next one
+  // (waiting up to 30 s; at its end the first again with `loop`).
+  struct Next {
+    GstSample* sample = nullptr;       // owned by the caller; null: none
+    bool end = false;                  // the input ended
+    std::string error;                 // the pipeline's error, when it posted one
+    std::vector<std::string> skipped;  // take_skipped()
+  };
+  Next next(bool have_one);
+
  private:
   static GstBusSyncReply on_message(GstBus*, GstMessage* m, gpointer self);
   void teardown();

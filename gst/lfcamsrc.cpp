@@ -21,12 +21,10 @@
  * The camera is named like lffragment's: `camera-id`, or `row` and `col` of
  * the rig's grid.
  *
- * `noise` adds sensor noise to the dataset and synthetic modes' frames:
- * zero-mean Gaussian noise of that standard deviation (8-bit levels) on each
- * colour channel of each pixel, drawn afresh for every frame from a seed of
- * the camera id and the frame number (OFFSET), so a run is reproducible.
- * Noise is what separates a real camera's video from a still and what costs
- * a video codec its temporal prediction (issue 15's H.264 baseline).
+ * `noise` adds sensor noise to the dataset and synthetic modes' frames
+ * (lf::with_sensor_noise: Gaussian, per channel, seeded by camera and frame
+ * number, so a run is reproducible): what separates a real camera's video
+ * from a still, and what costs a video codec its temporal prediction.
  *
  * ## Example launch line
  * |[
@@ -288,26 +286,6 @@ static void free_mat(gpointer p) {
   delete static_cast<cv::Mat*>(p);
 }
 
-// The next decoded frame, waiting at most `timeout`: an error of the
-// decoding pipeline is posted as this element's error at once.
-static GstSample* pull_or_error(LfCamSrc* self, State* st, GstClockTime timeout) {
-  std::string why;
-  GstSample* s = st->decoder->pull(timeout, &why);
-  if (!why.empty())
-    GST_ELEMENT_ERROR(self, STREAM, DECODE, ("Cannot decode the camera input"),
-                      ("%s: %s%s", st->s.location.c_str(), why.c_str(),
-                       st->s.skip_bad_frames ? "" : " (skip-bad-frames=true skips such frames)"));
-  return s;
-}
-
-// skip-bad-frames: the frames the decoder skipped since the last call, as
-// warnings with the count so far.
-static void post_skipped(LfCamSrc* self, State* st) {
-  for (const auto& b : st->decoder->take_skipped())
-    GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Skipped a frame that does not decode"),
-                        ("%s (%" G_GUINT64_FORMAT " skipped so far)", b.c_str(), ++st->skipped));
-}
-
 // File mode with PNG or JPEG stills: the next frame of the sequence (or the
 // one still) into st->rgba (lf::StillSequence); at the end EOS, or the first
 // frame again with loop; a frame that does not decode is an error naming it,
@@ -357,28 +335,25 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
   } else if (st->decoder) {
     // File: the next decoded frame (looping a plain file on EOS if asked);
     // V4L2 (live): the newest frame at the capture instant.
-    lfgst::DecodedInput& input = *st->decoder;
-    GstSample* s = nullptr;
-    if (set.mode == Mode::kV4l2) {
-      s = input.newest();
-      if (!s && !st->last) s = pull_or_error(self, st, 5 * GST_SECOND);
-    } else {
-      s = pull_or_error(self, st, 30 * GST_SECOND);
-      if (!s && input.at_end() && set.loop && input.rewind())
-        s = pull_or_error(self, st, 30 * GST_SECOND);
-      post_skipped(self, st);
-      if (!s) {
-        if (input.at_end() && !st->last) {
-          // The end before a single frame: nothing in the file decoded
-          // (a damaged still, a sequence of damaged frames).
-          GST_ELEMENT_ERROR(self, STREAM, DECODE, ("No frame in the camera input"),
-                            ("%s: the input ended before a frame decoded", set.location.c_str()));
-          return GST_FLOW_ERROR;
-        }
-        if (input.at_end()) return GST_FLOW_EOS;
-        if (!st->last) return GST_FLOW_ERROR;  // pull_or_error posted the decoder's error
-      }
+    lfgst::DecodedInput::Next n = st->decoder->next(st->last != nullptr);
+    for (const std::string& b : n.skipped)
+      GST_ELEMENT_WARNING(self, STREAM, DECODE, ("Skipped a frame that does not decode"),
+                          ("%s (%" G_GUINT64_FORMAT " skipped so far)", b.c_str(), ++st->skipped));
+    if (!n.error.empty()) {
+      GST_ELEMENT_ERROR(self, STREAM, DECODE, ("Cannot decode the camera input"),
+                        ("%s: %s%s", set.location.c_str(), n.error.c_str(),
+                         set.skip_bad_frames ? "" : " (skip-bad-frames=true skips such frames)"));
+      if (!st->last) return GST_FLOW_ERROR;
     }
+    if (n.end && !st->last) {
+      // The end before a single frame: nothing in the file decoded (a
+      // damaged still, a sequence of damaged frames).
+      GST_ELEMENT_ERROR(self, STREAM, DECODE, ("No frame in the camera input"),
+                        ("%s: the input ended before a frame decoded", set.location.c_str()));
+      return GST_FLOW_ERROR;
+    }
+    if (n.end) return GST_FLOW_EOS;
+    GstSample* s = n.sample;
     if (s) {
       gst_buffer_replace(&st->last, gst_sample_get_buffer(s));
       gst_sample_unref(s);
@@ -405,17 +380,8 @@ static GstFlowReturn lf_cam_src_create(GstPushSrc* src, GstBuffer** out) {
   auto* ref = new cv::Mat(set.mode == Mode::kSynthetic
                               ? st->scene.render(st->rig->cameras[st->index], pts / 1e9)
                               : st->rgba);
-  if (set.noise > 0) {
-    // Seeded by camera and frame: the same run gives the same frames.
-    cv::RNG rng((static_cast<uint64_t>(st->rig->cameras[st->index].id) << 40) ^ st->frame ^
-                0x9e3779b97f4a7c15ULL);
-    cv::Mat noise(ref->size(), CV_16SC4);
-    rng.fill(noise, cv::RNG::NORMAL, cv::Scalar::all(0),
-             cv::Scalar(set.noise, set.noise, set.noise, 0));
-    cv::Mat noisy;
-    cv::add(*ref, noise, noisy, cv::noArray(), CV_8UC4);  // saturating
-    *ref = noisy;
-  }
+  if (set.noise > 0)  // seeded by camera and frame: the same run gives the same frames
+    *ref = lf::with_sensor_noise(*ref, set.noise, st->rig->cameras[st->index].id, st->frame);
   GstBuffer* buf = gst_buffer_new_wrapped_full(GST_MEMORY_FLAG_READONLY, ref->data,
                                                ref->total() * ref->elemSize(), 0,
                                                ref->total() * ref->elemSize(), ref, free_mat);

@@ -129,4 +129,12 @@ cv::Mat SyntheticScene::render(const Camera& cam, double t, bool rgba) const {
   return img;
 }
 
+cv::Mat with_sensor_noise(const cv::Mat& rgba, double sigma, int camera_id, uint64_t frame) {
+  cv::RNG rng((static_cast<uint64_t>(camera_id) << 40) ^ frame ^ 0x9e3779b97f4a7c15ULL);
+  cv::Mat noise(rgba.size(), CV_16SC4), noisy;
+  rng.fill(noise, cv::RNG::NORMAL, cv::Scalar::all(0), cv::Scalar(sigma, sigma, sigma, 0));
+  cv::add(rgba, noise, noisy, cv::noArray(), CV_8UC4);  // saturating
+  return noisy;
+}
+
 }  // namespace lf

@@ -50,4 +50,10 @@ struct SyntheticScene {
   cv::Vec3d disc_centre(double t) const;
 };
 
+// Sensor noise (lfcamsrc `noise`): zero-mean Gaussian noise of standard
+// deviation `sigma` (8-bit levels) added to each colour channel of each
+// pixel of `rgba` (CV_8UC4; alpha untouched), saturating, drawn from a seed
+// of camera `camera_id` and frame `frame`, so a run is reproducible.
+cv::Mat with_sensor_noise(const cv::Mat& rgba, double sigma, int camera_id, uint64_t frame);
+
 }  // namespace lf
