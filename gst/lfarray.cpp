@@ -33,6 +33,7 @@
 #include <gst/gst.h>
 
 #include "lfcamerahost.h"
+#include "lfprops.h"
 
 G_BEGIN_DECLS
 #define LF_TYPE_ARRAY (lf_array_get_type())
@@ -57,7 +58,18 @@ static void lf_array_class_init(LfArrayClass* klass) {
   GObjectClass* oc = G_OBJECT_CLASS(klass);
   GstElementClass* ec = GST_ELEMENT_CLASS(klass);
   LF_CAMERA_HOST_CLASS(klass)->composite = TRUE;
-  lf_camera_host_install_composite_properties(oc);
+  lf_camera_host_install_composite_properties(
+      oc, g_param_spec_boolean(
+              "whole-view", "Whole-view mode",
+              "With raw fragments: the fragments only plan, all on one request thread (each on "
+              "its own where frames are picked by capture time), and leave their drawing to the "
+              "compositor (lffragment defer), which draws all cameras of a view: on the CPU "
+              "fused into its compositing, on all cores; with GL in one pass sequence, each "
+              "camera frame uploaded once, no fragment read back. FALSE: a request thread per "
+              "camera, and every lffragment draws its own fragment (in its own GL context with "
+              "the GL backend). The same frames either way. No effect with JPEG fragments or "
+              "partial-sums",
+              TRUE, lfgst::kReadWriteReady));
   // Video out instead of fragments.
   GstPadTemplate* src = gst_static_pad_template_get(&video_src);
   gst_element_class_add_pad_template(ec, src);

@@ -13,23 +13,13 @@
  * camera's `lfcamsrc` or `lffragment` (their documentation is theirs). The
  * graph is built when the bin goes to READY, from the rig as it is then.
  *
- * Partial sums: with `partial-sums=true` the cameras' fragments (raw, in
- * process) go to an `lfpartialsum`, which adds up each request's into one
- * fragment and encodes it (`encoding`, `jpeg-quality`); `lfcompositor`
- * gives the same frame. It pays when the host's cameras are a contiguous
- * block of the grid (`lf-rig --hosts N` deals them so): about half the
- * bytes of per-camera JPEG fragments at 64 cameras and 4 hosts
- * (tools/lf-baseline).
- *
- * Recording and playback: `record=rec/cam%02d.mkv` also writes every
- * camera's frames with their capture times (PTS) to one Matroska file per
- * camera (`record-quality=0`: lossless raw RGB; 1..100: JPEG), with
- * GStreamer's own muxer; `playback=rec/cam%02d.mkv` replaces the cameras by
- * those files (`filesrc ! decodebin ! videoconvert ! clocksync`), played on
- * the recorded capture schedule. Both make `lffragment` pick frames by
- * capture time, so the same requests give the same fragments (bit-identical
- * from a lossless recording). Send EOS to the pipeline to end a recording
- * (the files are then complete).
+ * `partial-sums=true` adds each request's fragments of this host's cameras
+ * into one (`lfpartialsum`; docs/deploy.md: it pays for a contiguous block
+ * of the grid). `record=rec/cam%02d.mkv` also writes every camera's frames
+ * with their capture times to one Matroska file per camera, and
+ * `playback=...` replaces the cameras by such files, played on the recorded
+ * schedule; both pick frames by capture time, so the same requests give the
+ * same fragments (docs/steering.md, "Recording and playback").
  *
  * ## Example launch line
  * |[
@@ -51,6 +41,7 @@
 #include "lfbackend.h"
 #include "lfforward.h"
 #include "lfguard.h"
+#include "lfprops.h"
 #include "lfrate.h"
 #include "lfrecording.h"
 #include "lfrig.h"
@@ -65,19 +56,9 @@ GST_DEBUG_CATEGORY_STATIC(lf_camera_host_debug);
 
 namespace {
 
-enum {
-  PROP_0,
-  PROP_RIG,
-  PROP_CAMERAS,
-  PROP_RECORD,
-  PROP_RECORD_QUALITY,
-  PROP_PLAYBACK,
-  PROP_REQUEST_MAX_AGE,
-  PROP_PARTIAL_SUMS,
-  PROP_SUM_LATENCY,
-  PROP_WHOLE_VIEW,  // lfarray only
-  PROP_FIRST_FORWARD
-};
+// Property ids: 1..8 the camera host's own (`props`, in the order added),
+// 9 lfarray's whole-view, then the children's properties it forwards.
+constexpr guint PROP_FIRST_FORWARD = 10;
 #define DEFAULT_RECORD_QUALITY 0
 #define DEFAULT_REQUEST_MAX_AGE (200 * GST_MSECOND)
 #define DEFAULT_SUM_LATENCY (20 * GST_MSECOND)
@@ -105,16 +86,23 @@ std::vector<Forward> forwards(bool composite) {
   return f;
 }
 
-struct Priv {
-  std::string rig, cameras;      // object lock
-  std::string record, playback;  // file name patterns (camera_file_name), object lock
+// The bin's own properties (object lock).
+struct Settings {
+  std::string rig, cameras;
+  std::string record, playback;  // file name patterns (camera_file_name)
   gint record_quality = DEFAULT_RECORD_QUALITY;
-  guint64 request_max_age = DEFAULT_REQUEST_MAX_AGE;  // ns, object lock
-  bool partial_sums = false;                          // object lock
-  guint64 sum_latency = DEFAULT_SUM_LATENCY;          // ns, object lock
-  bool whole_view = DEFAULT_WHOLE_VIEW;               // lfarray, object lock
-  std::vector<GValue> values;                         // forwarded property values (only those set)
-  std::vector<bool> set;
+  guint64 request_max_age = DEFAULT_REQUEST_MAX_AGE;  // ns
+  bool partial_sums = false;
+  guint64 sum_latency = DEFAULT_SUM_LATENCY;  // ns
+  bool whole_view = DEFAULT_WHOLE_VIEW;       // lfarray
+};
+lfgst::Properties<Settings> props;
+
+struct Priv {
+  Settings settings;
+  // Forwarded property values (object lock); sized for lfarray's list (a
+  // superset): during instance init the class is still LfCameraHost's.
+  lfgst::ForwardedValues values{forwards(true).size()};
   GstPad* sink = nullptr;  // ghost pads, targets set when built
   GstPad* src = nullptr;
   std::vector<GstElement*> children;
@@ -146,72 +134,23 @@ static GstStaticPadTemplate request_sink = GST_STATIC_PAD_TEMPLATE(
 static GstStaticPadTemplate fragment_src = GST_STATIC_PAD_TEMPLATE(
     "src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS("application/x-lf-fragment"));
 
-static std::string& string_prop(Priv* p, guint id) {
-  switch (id) {
-    case PROP_RIG:
-      return p->rig;
-    case PROP_CAMERAS:
-      return p->cameras;
-    case PROP_RECORD:
-      return p->record;
-    default:
-      return p->playback;
-  }
-}
-
+// Own properties through the table, the children's through `values`.
 static void lf_camera_host_set_property(GObject* obj, guint id, const GValue* v, GParamSpec* ps) {
   Priv* p = priv_of(obj);
+  if (id < PROP_FIRST_FORWARD) return props.set(obj, p->settings, id, v, ps);
   GST_OBJECT_LOCK(obj);
-  if (id == PROP_RIG || id == PROP_CAMERAS || id == PROP_RECORD || id == PROP_PLAYBACK) {
-    const gchar* s = g_value_get_string(v);
-    string_prop(p, id) = s ? s : "";
-  } else if (id == PROP_RECORD_QUALITY) {
-    p->record_quality = g_value_get_int(v);
-  } else if (id == PROP_REQUEST_MAX_AGE) {
-    p->request_max_age = g_value_get_uint64(v);
-  } else if (id == PROP_PARTIAL_SUMS) {
-    p->partial_sums = g_value_get_boolean(v);
-  } else if (id == PROP_SUM_LATENCY) {
-    p->sum_latency = g_value_get_uint64(v);
-  } else if (id == PROP_WHOLE_VIEW) {
-    p->whole_view = g_value_get_boolean(v);
-  } else if (id - PROP_FIRST_FORWARD < p->values.size()) {
-    GValue& dst = p->values[id - PROP_FIRST_FORWARD];
-    if (G_IS_VALUE(&dst)) g_value_unset(&dst);
-    g_value_init(&dst, G_VALUE_TYPE(v));
-    g_value_copy(v, &dst);
-    p->set[id - PROP_FIRST_FORWARD] = true;
-  } else {
-    G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
-  }
+  const bool known = p->values.set(id - PROP_FIRST_FORWARD, v);
   GST_OBJECT_UNLOCK(obj);
+  if (!known) G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
 }
 
 static void lf_camera_host_get_property(GObject* obj, guint id, GValue* v, GParamSpec* ps) {
   Priv* p = priv_of(obj);
+  if (id < PROP_FIRST_FORWARD) return props.get(obj, p->settings, id, v, ps);
   GST_OBJECT_LOCK(obj);
-  if (id == PROP_RIG || id == PROP_CAMERAS || id == PROP_RECORD || id == PROP_PLAYBACK) {
-    const std::string& s = string_prop(p, id);
-    g_value_set_string(v, s.empty() ? nullptr : s.c_str());
-  } else if (id == PROP_RECORD_QUALITY) {
-    g_value_set_int(v, p->record_quality);
-  } else if (id == PROP_REQUEST_MAX_AGE) {
-    g_value_set_uint64(v, p->request_max_age);
-  } else if (id == PROP_PARTIAL_SUMS) {
-    g_value_set_boolean(v, p->partial_sums);
-  } else if (id == PROP_SUM_LATENCY) {
-    g_value_set_uint64(v, p->sum_latency);
-  } else if (id == PROP_WHOLE_VIEW) {
-    g_value_set_boolean(v, p->whole_view);
-  } else if (id - PROP_FIRST_FORWARD < p->values.size()) {
-    if (p->set[id - PROP_FIRST_FORWARD])
-      g_value_copy(&p->values[id - PROP_FIRST_FORWARD], v);
-    else
-      g_param_value_set_default(ps, v);
-  } else {
-    G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
-  }
+  const bool known = p->values.get(id - PROP_FIRST_FORWARD, v, ps);
   GST_OBJECT_UNLOCK(obj);
+  if (!known) G_OBJECT_WARN_INVALID_PROPERTY_ID(obj, id, ps);
 }
 
 static GstElement* make(const char* factory, const std::string& name) {
@@ -228,23 +167,16 @@ static GstElement* adopt(GstBin* bin, Priv* p, GstElement* e) {
 // Builds the graph from the rig (NULL->READY).
 static bool build(LfCameraHost* self) {
   Priv* p = priv_of(self);
+  const Settings ps = lfgst::snapshot(GST_OBJECT(self), p->settings);
+  const std::string &rig_path = ps.rig, &cameras = ps.cameras;
+  const std::string &record = ps.record, &playback = ps.playback;
+  guint64 max_age = ps.request_max_age;
+  const bool sums = ps.partial_sums;
+  const bool whole_view = ps.whole_view && composite_of(self) && !sums;
   GST_OBJECT_LOCK(self);
-  const std::string rig_path = p->rig, cameras = p->cameras;
-  const std::string record = p->record, playback = p->playback;
-  const gint record_quality = p->record_quality;
-  guint64 max_age = p->request_max_age;
-  const bool sums = p->partial_sums;
-  const guint64 sum_latency = p->sum_latency;
-  const bool whole_view = p->whole_view && composite_of(self) && !sums;
-  const std::vector<Forward> fw = forwards(composite_of(self));
-  std::vector<std::pair<Forward, GValue>> values;
-  for (size_t i = 0; i < fw.size(); ++i) {
-    if (!p->set[i]) continue;
-    GValue v = G_VALUE_INIT;
-    g_value_init(&v, G_VALUE_TYPE(&p->values[i]));
-    g_value_copy(&p->values[i], &v);
-    values.emplace_back(fw[i], v);
-  }
+  lfgst::ForwardedValues::Copy forwarded;
+  p->values.copy(forwards(composite_of(self)), &forwarded);
+  std::vector<lfgst::ForwardedValues::Set>& values = forwarded.values;
   GST_OBJECT_UNLOCK(self);
   const std::shared_ptr<const lf::Rig> rig = lfgst::open_rig(GST_ELEMENT(self), rig_path);
   bool ok = rig != nullptr;
@@ -270,14 +202,11 @@ static bool build(LfCameraHost* self) {
               if (g_str_equal(f.name, "latency"))
                 max_age = std::max<guint64>(max_age, g_value_get_uint64(&v));
             }
-            // Whole-view mode: the fragments leave their drawing to
-            // the compositor (lffragment defer), which draws them
-            // all, with GL or fused into its CPU compositing; they
-            // only plan, so one request thread plans every camera
-            // (one hand-off a request, not one a camera), unless
-            // frames are picked by capture time (recording, playback,
-            // frame-select): there a request may wait for a camera's
-            // frame, and each camera keeps its own request thread.
+            // Whole-view mode: the fragments leave their drawing to the compositor
+            // (lffragment defer); they only plan, so one request thread plans every
+            // camera (one hand-off a request, not one a camera), unless frames are
+            // picked by capture time (recording, playback, frame-select): there a
+            // request may wait for a camera's frame, and each camera keeps its own.
             const bool defer = whole_view && raw;
             const bool one_thread = defer && record.empty() && playback.empty() && !by_capture_time;
             // Bad file name patterns fail here, before anything is made.
@@ -285,17 +214,12 @@ static bool build(LfCameraHost* self) {
             if (!playback.empty()) lf::camera_file_name(playback, 0, "playback");
             GstElement* tee = make("tee", "requests");
             g_object_set(tee, "allow-not-linked", TRUE, nullptr);
-            // Live: lfrequestqueue, the viewers in turn, and a viewer's
-            // request that waits behind one of the same viewer
-            // request-max-age newer is stale. Bounded in time per
-            // viewer, not in count: the requests of several viewers
-            // arrive in the same tick (a two-request queue dropped two of
-            // four viewers' requests at every camera, lf-web with four
-            // browsers), and in turns, so one viewer's flood does not
-            // push another's requests out (a queue in arrival order
-            // did). Not live: a queue with its defaults (requests of
-            // several viewers interleave; a short queue here can stall
-            // them behind one another).
+            // Live: lfrequestqueue, the viewers in turn, and a viewer's request
+            // waiting behind one of its own request-max-age newer is stale: bounded
+            // in time per viewer, not in count (several viewers' requests arrive in
+            // one tick: a two-request queue dropped two of four viewers' requests),
+            // and in turns (one viewer's flood does not push another's out). Not
+            // live: a queue with its defaults (a short one can stall the viewers).
             const lfgst::Adopt adopt_here = [&](GstElement* e) {
               return adopt(GST_BIN(self), p, e);
             };
@@ -321,7 +245,7 @@ static bool build(LfCameraHost* self) {
               sum = out;
             }
             if (sum) {
-              g_object_set(sum, "latency", sum_latency, nullptr);
+              g_object_set(sum, "latency", ps.sum_latency, nullptr);
               for (auto& [f, v] : values)
                 if (g_str_equal(f.name, "encoding") || g_str_equal(f.name, "jpeg-quality"))
                   g_object_set_property(G_OBJECT(sum), f.name, &v);
@@ -367,7 +291,7 @@ static bool build(LfCameraHost* self) {
               if (!record.empty())
                 cam = lfgst::add_recorder(adopt_here, cam,
                                           lf::camera_file_name(record, cam_id, "record"),
-                                          record_quality, id);
+                                          ps.record_quality, id);
               if ((q && (!gst_element_link_pads(tee, "src_%u", q, "sink") ||
                          !gst_element_link_pads(q, "src", frag, "request"))) ||
                   (!q && !gst_element_link_pads(tee, "src_%u", frag, "request")) ||
@@ -408,7 +332,6 @@ static bool build(LfCameraHost* self) {
     g_error_free(err);
     ok = false;
   }
-  for (auto& kv : values) g_value_unset(&kv.second);
   return ok;
 }
 
@@ -448,10 +371,7 @@ static GstStateChangeReturn lf_camera_host_change_state(GstElement* el, GstState
 }
 
 static void lf_camera_host_finalize(GObject* obj) {
-  Priv* p = priv_of(obj);
-  for (GValue& v : p->values)
-    if (G_IS_VALUE(&v)) g_value_unset(&v);
-  delete p;
+  delete priv_of(obj);
   G_OBJECT_CLASS(lf_camera_host_parent_class)->finalize(obj);
 }
 
@@ -459,12 +379,6 @@ static void lf_camera_host_init(LfCameraHost* self) {
   auto* ip = static_cast<LfCameraHostPrivate*>(lf_camera_host_get_instance_private(self));
   ip->priv = new Priv();
   Priv* p = ip->priv;
-  // Sized for lfarray's list (a superset); during this init the instance's
-  // class is still LfCameraHost's, even for an lfarray.
-  const size_t n = forwards(true).size();
-  p->values.resize(n);
-  for (GValue& v : p->values) v = G_VALUE_INIT;
-  p->set.assign(n, false);
   GstElementClass* ec = GST_ELEMENT_GET_CLASS(self);
   p->sink = gst_ghost_pad_new_no_target_from_template(
       "sink", gst_element_class_get_pad_template(ec, "sink"));
@@ -476,41 +390,36 @@ static void lf_camera_host_init(LfCameraHost* self) {
 
 // Installs the camera host's own and forwarded properties on `oc`.
 static void install_properties(GObjectClass* oc) {
-  const GParamFlags rw = static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
-                                                  GST_PARAM_MUTABLE_READY);
-  g_object_class_install_property(
-      oc, PROP_RIG,
-      g_param_spec_string("rig", "Rig", "Rig file (.json) or dataset folder", nullptr, rw));
-  g_object_class_install_property(
-      oc, PROP_CAMERAS,
+  const GParamFlags rw = lfgst::kReadWriteReady;
+  props.add(oc, &Settings::rig,
+            g_param_spec_string("rig", "Rig", "Rig file (.json) or dataset folder", nullptr, rw));
+  props.add(
+      oc, &Settings::cameras,
       g_param_spec_string("cameras", "Cameras",
                           "Cameras of this host: rig-order indices and ranges, e.g. \"0-15\" or "
                           "\"0,4,8\" (empty: all)",
                           nullptr, rw));
-  g_object_class_install_property(
-      oc, PROP_RECORD,
-      g_param_spec_string(
-          "record", "Record",
-          "Record every camera's frames and capture times to a Matroska file (matroskamux, "
-          "nanosecond timecodes): a file name with one %d for the camera id, e.g. "
-          "\"rec/cam%02d.mkv\" (empty: no recording)",
-          nullptr, rw));
-  g_object_class_install_property(
-      oc, PROP_RECORD_QUALITY,
-      g_param_spec_int("record-quality", "Recording quality",
-                       "0: lossless (raw RGB); 1..100: JPEG at that quality", 0, 100,
-                       DEFAULT_RECORD_QUALITY, rw));
-  g_object_class_install_property(
-      oc, PROP_PLAYBACK,
-      g_param_spec_string(
-          "playback", "Playback",
-          "Play a recording (see record) instead of the cameras: same pattern; each camera's "
-          "frames come on their recorded capture schedule (clocksync). The camera properties "
-          "(mode, framerate, ...) are then unused. With record or playback, frame-select "
-          "defaults to capture-time, so the same requests give the same output",
-          nullptr, rw));
-  g_object_class_install_property(
-      oc, PROP_REQUEST_MAX_AGE,
+  props.add(oc, &Settings::record,
+            g_param_spec_string(
+                "record", "Record",
+                "Record every camera's frames and capture times to a Matroska file (matroskamux, "
+                "nanosecond timecodes): a file name with one %d for the camera id, e.g. "
+                "\"rec/cam%02d.mkv\" (empty: no recording)",
+                nullptr, rw));
+  props.add(oc, &Settings::record_quality,
+            g_param_spec_int("record-quality", "Recording quality",
+                             "0: lossless (raw RGB); 1..100: JPEG at that quality", 0, 100,
+                             DEFAULT_RECORD_QUALITY, rw));
+  props.add(oc, &Settings::playback,
+            g_param_spec_string(
+                "playback", "Playback",
+                "Play a recording (see record) instead of the cameras: same pattern; each camera's "
+                "frames come on their recorded capture schedule (clocksync). The camera properties "
+                "(mode, framerate, ...) are then unused. With record or playback, frame-select "
+                "defaults to capture-time, so the same requests give the same output",
+                nullptr, rw));
+  props.add(
+      oc, &Settings::request_max_age,
       g_param_spec_uint64(
           "request-max-age", "Request max age",
           "Live (is-live): a view request still waiting for its camera behind a request of the "
@@ -519,8 +428,8 @@ static void install_properties(GObjectClass* oc) {
           "its latency (a request its compositor still waits for is not stale). 0: only each "
           "viewer's newest request waits (the newest request wins)",
           0, G_MAXUINT64, DEFAULT_REQUEST_MAX_AGE, rw));
-  g_object_class_install_property(
-      oc, PROP_PARTIAL_SUMS,
+  props.add(
+      oc, &Settings::partial_sums,
       g_param_spec_boolean(
           "partial-sums", "Partial sums",
           "Add up this host's fragments of each request into one (lfpartialsum: premultiplied "
@@ -529,14 +438,13 @@ static void install_properties(GObjectClass* oc) {
           "the grid (their fragments overlap); a dead host then leaves a hole where only its "
           "block sees",
           FALSE, rw));
-  g_object_class_install_property(
-      oc, PROP_SUM_LATENCY,
-      g_param_spec_uint64(
-          "sum-latency", "Partial sum latency",
-          "Live, with partial-sums: how long after a request's time (ns, its PTS) the sum "
-          "leaves with the cameras that answered when one of them has not (lfpartialsum's "
-          "latency); keep it inside the compositor's deadline",
-          0, G_MAXUINT64, DEFAULT_SUM_LATENCY, rw));
+  props.add(oc, &Settings::sum_latency,
+            g_param_spec_uint64(
+                "sum-latency", "Partial sum latency",
+                "Live, with partial-sums: how long after a request's time (ns, its PTS) the sum "
+                "leaves with the cameras that answered when one of them has not (lfpartialsum's "
+                "latency); keep it inside the compositor's deadline",
+                0, G_MAXUINT64, DEFAULT_SUM_LATENCY, rw));
   lfgst::install_forwards(oc, PROP_FIRST_FORWARD, std::begin(kCameraHostForwards),
                           std::end(kCameraHostForwards));
 }
@@ -571,23 +479,10 @@ static void lf_camera_host_class_init(LfCameraHostClass* klass) {
                           "light field camera host and array bins");
 }
 
-void lf_camera_host_install_composite_properties(GObjectClass* oc) {
+void lf_camera_host_install_composite_properties(GObjectClass* oc, GParamSpec* whole_view) {
   oc->set_property = lf_camera_host_set_property;  // GObject wants them per class
   oc->get_property = lf_camera_host_get_property;
-  g_object_class_install_property(
-      oc, PROP_WHOLE_VIEW,
-      g_param_spec_boolean(
-          "whole-view", "Whole-view mode",
-          "With raw fragments: the fragments only plan, all on one request thread (each on its "
-          "own where frames are picked by capture time), and leave their drawing to the "
-          "compositor (lffragment defer), which draws all cameras of a view: on the CPU fused "
-          "into its compositing, on all cores; with GL in one pass sequence, each camera frame "
-          "uploaded once, no fragment read back. FALSE: a request thread per camera, and every "
-          "lffragment draws its own fragment (in its own GL context with the GL backend). The "
-          "same frames either way. No effect with JPEG fragments or partial-sums",
-          DEFAULT_WHOLE_VIEW,
-          static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS |
-                                   GST_PARAM_MUTABLE_READY)));
+  props.add(oc, &Settings::whole_view, whole_view);
   // The base class installed the camera host's properties; add lfarray's.
   lfgst::install_forwards(oc, PROP_FIRST_FORWARD + G_N_ELEMENTS(kCameraHostForwards),
                           std::begin(kArrayForwards), std::end(kArrayForwards));

@@ -14,9 +14,9 @@ struct _LfCameraHostClass {
 G_END_DECLS
 
 // For a subclass that composites (lfarray): installs its own properties
-// (whole-view, and the lfcompositor properties it sets on its compositor)
-// on `oc`, with the camera host's property handlers.
-void lf_camera_host_install_composite_properties(GObjectClass* oc);
+// (`whole_view`, the boolean whole-view, and the lfcompositor properties it
+// sets on its compositor) on `oc`, with the camera host's property handlers.
+void lf_camera_host_install_composite_properties(GObjectClass* oc, GParamSpec* whole_view);
 // For such a subclass's instance init: replaces the fragment `src` pad by a
 // ghost pad of the class's own `src` template.
 void lf_camera_host_replace_src(LfCameraHost* self);

@@ -61,4 +61,31 @@ void install_forwards(GObjectClass* oc, guint id, const Forward* begin, const Fo
   }
 }
 
+bool ForwardedValues::set(size_t i, const GValue* v) {
+  if (i >= values_.size()) return false;
+  if (G_IS_VALUE(&values_[i])) g_value_unset(&values_[i]);
+  g_value_init(&values_[i], G_VALUE_TYPE(v));
+  g_value_copy(v, &values_[i]);
+  set_[i] = true;
+  return true;
+}
+
+bool ForwardedValues::get(size_t i, GValue* v, GParamSpec* ps) const {
+  if (i >= values_.size()) return false;
+  if (set_[i])
+    g_value_copy(&values_[i], v);
+  else
+    g_param_value_set_default(ps, v);
+  return true;
+}
+
+void ForwardedValues::copy(const std::vector<Forward>& fw, Copy* out) const {
+  for (size_t i = 0; i < fw.size() && i < values_.size(); ++i) {
+    if (!set_[i]) continue;
+    out->values.push_back({fw[i], G_VALUE_INIT});
+    g_value_init(&out->values.back().value, G_VALUE_TYPE(&values_[i]));
+    g_value_copy(&values_[i], &out->values.back().value);
+  }
+}
+
 }  // namespace lfgst
