@@ -21,6 +21,20 @@
 
 using Verdict = lf::RequestWindow::Verdict;
 
+namespace {
+// A request of viewer `viewer` (sequence `seq`) for a 40-degree view from
+// `eye` looking at `at`, focused on the plane z = 10 (the synthetic rigs'
+// cameras look along +z from z = 0).
+lf::ViewRequest view_request(uint32_t viewer, uint64_t seq, cv::Vec3d eye,
+                             cv::Vec3d at = {0, 0, 10}, int width = 160, int height = 120) {
+  lf::ViewRequest req;
+  req.viewer_id = viewer, req.sequence = seq;
+  req.view = lf::VirtualView::look_at(eye, at, {0, 1, 0}, 40, width, height);
+  req.focal_plane = lf::FocalPlane::through({0, 0, 10}, {0, 0, 1});
+  return req;
+}
+}  // namespace
+
 // lf::RequestQueue (lib/lf/session/request_queue.h): each key keeps its requests
 // within max_age of its newest (0: the newest alone), the keys are served in
 // turn, and the capacity takes the oldest of the longest queue.
@@ -375,10 +389,7 @@ TEST(Navigation, KeysDragAndWheel) {
 // baseline given, from a view cone, or the array's extent.
 TEST(ViewerTick, AloneAStereoPairOrAQuilt) {
   const lf::Rig rig = lf::synthetic_grid_rig(3, 3, 0.5, 160, 120, 50);
-  lf::ViewRequest req;
-  req.viewer_id = 4, req.sequence = 9;
-  req.view = lf::VirtualView::look_at({0.1, 0.2, -1}, {0.1, 0.2, 10}, {0, 1, 0}, 40, 96, 72);
-  req.focal_plane = lf::FocalPlane::through({0, 0, 10}, {0, 0, 1});
+  const lf::ViewRequest req = view_request(4, 9, {0.1, 0.2, -1}, {0.1, 0.2, 10}, 96, 72);
   const cv::Vec3d x(req.view.R(0, 0), req.view.R(0, 1), req.view.R(0, 2));
   EXPECT_EQ(lf::tick_requests(rig, req, {}).size(), 1u);
 
@@ -417,10 +428,7 @@ TEST(CameraAnswer, RawJpegAndQuiltAnswersAreTheFragmentsOnTheWire) {
   const int index = 4;
   const lf::Camera& cam = rig.cameras[index];
   const cv::Mat image = lf::render_textured_plane(cam, 10, 1.0);
-  lf::ViewRequest req;
-  req.viewer_id = 3, req.sequence = 77;
-  req.view = lf::VirtualView::look_at({0.1, 0.1, -1}, {0, 0, 10}, {0, 1, 0}, 40, 160, 120);
-  req.focal_plane = lf::FocalPlane::through({0, 0, 10}, {0, 0, 1});
+  const lf::ViewRequest req = view_request(3, 77, {0.1, 0.1, -1});
   const auto renderer = lf::make_renderer(lf::Backend::kCpu);
   renderer->set_image(0, image, &image, 1);
   lf::Fragment base;
@@ -482,10 +490,7 @@ TEST(CameraAnswer, RawJpegAndQuiltAnswersAreTheFragmentsOnTheWire) {
 // out and named.
 TEST(FrameCompositor, FragmentsDrawingsStereoAndTheLastFrame) {
   const lf::Rig rig = lf::synthetic_grid_rig(3, 3, 0.5, 160, 120, 50);
-  lf::ViewRequest req;
-  req.viewer_id = 3, req.sequence = 5;
-  req.view = lf::VirtualView::look_at({0.4, 0.3, -1}, {0, 0, 10}, {0, 1, 0}, 40, 160, 120);
-  req.focal_plane = lf::FocalPlane::through({0, 0, 10}, {0, 0, 1});
+  const lf::ViewRequest req = view_request(3, 5, {0.4, 0.3, -1});
   std::vector<cv::Mat> images;
   std::vector<lf::ReceivedPiece> pieces, drawn;
   std::vector<lf::CameraAnswer> answers;
@@ -555,9 +560,7 @@ TEST(FrameCompositor, FragmentsDrawingsStereoAndTheLastFrame) {
 // its own.
 TEST(CameraAnswer, CamerasShareTheGeometryOfARequest) {
   const auto rig = std::make_shared<const lf::Rig>(lf::synthetic_grid_rig(3, 3, 0.5, 160, 120, 50));
-  lf::ViewRequest req;
-  req.view = lf::VirtualView::look_at({0.1, 0.1, -1}, {0, 0, 10}, {0, 1, 0}, 40, 160, 120);
-  req.focal_plane = lf::FocalPlane::through({0, 0, 10}, {0, 0, 1});
+  const lf::ViewRequest req = view_request(0, 0, {0.1, 0.1, -1});
   const std::string key = "request-bytes-1";
   const auto a = lf::shared_geometry(rig, req, 0, key);
   const auto b = lf::shared_geometry(rig, req, 5, key);
