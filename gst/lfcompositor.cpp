@@ -580,6 +580,13 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
   }
 }
 
+// `stereo` may change while playing: the requests from here on follow it.
+static void lf_compositor_begin(LfFragmentAggregator* agg) {
+  LfCompositor* self = LF_COMPOSITOR(agg);
+  self->priv->state->s.stereo =
+      lfgst::read_setting(GST_OBJECT(self), self->priv->settings, &Settings::stereo);
+}
+
 // lffragmentaggregator.h: a fragment buffer taken from a pad.
 static GstFlowReturn lf_compositor_absorb(LfFragmentAggregator* agg, GstAggregatorPad* pad,
                                           GstBuffer* buf) {
@@ -759,6 +766,7 @@ static void lf_compositor_class_init(LfCompositorClass* klass) {
   ac->sink_event = lf_compositor_sink_event;
   ac->negotiate = lf_compositor_negotiate;
   LfFragmentAggregatorClass* fc = LF_FRAGMENT_AGGREGATOR_CLASS(klass);
+  fc->begin = lf_compositor_begin;
   fc->absorb = lf_compositor_absorb;
   fc->live_batch = lf_compositor_live_batch;
   fc->requests = lf_compositor_requests;

@@ -40,6 +40,7 @@ static gint64 queued_sequence(GstBuffer* buf) {
 static GstFlowReturn lf_fragment_aggregator_aggregate(GstAggregator* agg, gboolean timeout) {
   LfFragmentAggregator* self = LF_FRAGMENT_AGGREGATOR(agg);
   LfFragmentAggregatorClass* klass = LF_FRAGMENT_AGGREGATOR_GET_CLASS(self);
+  if (klass->begin) klass->begin(self);
   const GstClockTime latency = gst_aggregator_get_latency(agg);
   LfDeadline d{timeout, GST_CLOCK_TIME_IS_VALID(latency), GST_CLOCK_TIME_NONE, latency};
   const gsize batch = d.live ? std::max<gsize>(1, klass->live_batch(self)) : 1;

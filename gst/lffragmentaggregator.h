@@ -43,6 +43,9 @@ gboolean lf_deadline_passed(const LfDeadline* d, GstClockTime running_time);
 
 struct _LfFragmentAggregatorClass {
   GstAggregatorClass parent_class;
+  // Optional: called at the start of every aggregate(), before a fragment
+  // is taken (settings that may change while playing apply from there on).
+  void (*begin)(LfFragmentAggregator* self);
   // Files one fragment buffer (borrowed) taken from `pad`. A flow other
   // than GST_FLOW_OK ends the aggregate() with it.
   GstFlowReturn (*absorb)(LfFragmentAggregator* self, GstAggregatorPad* pad, GstBuffer* buf);

@@ -276,6 +276,36 @@ TEST_F(Gst, ColourCorrectionFromTheRigIsApplied) {
   EXPECT_NEAR(cv::mean(diff - half)[0], 10.0, 0.3);  // green + 10 (saturating)
 }
 
+// `stereo` changed while playing: the compositor composites the pair from
+// the next requests on, twice as wide (the output renegotiated).
+TEST_F(Gst, StereoSwitchedOnWhilePlayingWidensTheOutput) {
+  GError* err = nullptr;
+  GstElement* p = gst_parse_launch(
+      pipeline("num-buffers=60 width=160 height=120 stereo-baseline=2", "", "viewer-id=0").c_str(),
+      &err);
+  ASSERT_NE(p, nullptr) << (err ? err->message : "");
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(p), "out");
+  GstElement* comp = gst_bin_get_by_name(GST_BIN(p), "comp");
+  gst_element_set_state(p, GST_STATE_PLAYING);
+  std::vector<int> widths;
+  while (GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 10 * GST_SECOND)) {
+    int w = 0;
+    gst_structure_get_int(gst_caps_get_structure(gst_sample_get_caps(s), 0), "width", &w);
+    widths.push_back(w);
+    gst_sample_unref(s);
+    if (widths.size() == 5) g_object_set(comp, "stereo", TRUE, nullptr);
+    if (widths.size() > 5 && w == 320) break;
+  }
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(comp);
+  gst_object_unref(sink);
+  gst_object_unref(p);
+  ASSERT_GE(widths.size(), 6u);
+  EXPECT_EQ(widths.front(), 160);
+  EXPECT_EQ(widths.back(), 320) << "still " << widths.back() << " wide after " << widths.size()
+                                << " frames";
+}
+
 TEST_F(Gst, StereoPairIsSideBySide) {
   const lf::Rig rig = lf::load_rig(rig_path_);
   const cv::Vec3d eye = rig.plane().origin + cv::Vec3d(0.5, -1.0, 0);
