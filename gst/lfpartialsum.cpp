@@ -355,7 +355,9 @@ static void lf_partial_sum_class_init(LfPartialSumClass* klass) {
       "lfcompositor ! videoconvert ! autovideosink");
   gst_element_class_add_static_metadata(
       ec, "Events",
-      "A rate-limited warning message for a malformed fragment, which is left out of the sum.");
+      "A rate-limited warning message for a malformed fragment, which is left out of the sum. "
+      "Navigation and lf-view events from downstream go up every sink pad, to the cameras and on "
+      "to lfviewrequest; seeks are refused.");
   ac->start = lf_partial_sum_start;
   ac->stop = lf_partial_sum_stop;
   ac->sink_event = lf_partial_sum_sink_event;
