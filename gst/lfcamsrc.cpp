@@ -37,7 +37,7 @@
 
 #include <future>
 #include <memory>
-#include <opencv2/imgproc.hpp>
+#include <opencv2/core.hpp>
 #include <optional>
 
 #include "lf/io/image_io.h"

@@ -57,16 +57,12 @@
 
 #include <algorithm>
 #include <atomic>
-#include <map>
 #include <memory>
-#include <opencv2/imgproc.hpp>
 #include <optional>
 
 #include "lf/focus/focus_probe.h"
 #include "lf/focus/surface_probe.h"
-#include "lf/render/composite.h"
 #include "lf/render/fragment.h"
-#include "lf/render/render.h"
 #include "lf/render/renderer.h"
 #include "lf/session/compositor_host.h"
 #include "lf/session/frame_assembly.h"
