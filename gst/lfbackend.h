@@ -31,6 +31,17 @@ inline GstCaps* fragment_caps(FragmentEncoding e, const GstCaps* from) {
   copy_stream_facts(from, caps);
   return caps;
 }
+// lffragment's fragment caps event for request caps `in` and encoding
+// `enc`: one
+// GstEvent for all the process's lffragments with equal request caps and
+// encoding (a new reference). A funnel joining cameras' fragments
+// (lfcamerahost) forwards a pad's sticky events whenever it switches pads,
+// and a sticky event only goes downstream when it is another GstEvent than
+// the one before: with an equal but distinct caps event per camera, caps
+// went down with nearly every fragment and each made rtpgstpay negotiate
+// again (15 % of a camera host's CPU in the emulated deployment, perf).
+GstEvent* shared_fragment_caps_event(const GstCaps* in, FragmentEncoding enc);
+
 inline GType fragment_encoding_type() {
   static GType type = 0;
   static const GEnumValue values[] = {

@@ -272,15 +272,7 @@ static GstCaps* lf_cam_src_get_caps(GstBaseSrc* src, GstCaps* filter) {
   return caps;
 }
 
-static gboolean lf_cam_src_unlock(GstBaseSrc* src) {
-  LF_CAM_SRC(src)->priv->waiter.unlock();
-  return TRUE;
-}
-
-static gboolean lf_cam_src_unlock_stop(GstBaseSrc* src) {
-  LF_CAM_SRC(src)->priv->waiter.unlock_stop();
-  return TRUE;
-}
+LF_DEFINE_SRC_UNLOCK(lf_cam_src, LF_CAM_SRC)
 
 static void free_mat(gpointer p) {
   delete static_cast<cv::Mat*>(p);

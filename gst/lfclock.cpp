@@ -4,9 +4,11 @@ namespace lfgst {
 
 ClockWaiter::ClockWaiter() {
   g_mutex_init(&lock_);
+  g_cond_init(&cond_);
 }
 ClockWaiter::~ClockWaiter() {
   g_mutex_clear(&lock_);
+  g_cond_clear(&cond_);
 }
 
 bool ClockWaiter::wait_until(GstElement* el, GstClockTime t) {
@@ -29,6 +31,22 @@ bool ClockWaiter::wait_until(GstElement* el, GstClockTime t) {
   return r != GST_CLOCK_UNSCHEDULED;
 }
 
+bool ClockWaiter::wait_for(const std::function<bool()>& done, gint64 timeout_us) {
+  const gint64 until = g_get_monotonic_time() + timeout_us;
+  g_mutex_lock(&lock_);
+  while (!unlocked_ && !done())
+    if (!g_cond_wait_until(&cond_, &lock_, until)) break;
+  const bool ok = !unlocked_;
+  g_mutex_unlock(&lock_);
+  return ok;
+}
+
+void ClockWaiter::notify() {
+  g_mutex_lock(&lock_);
+  g_cond_broadcast(&cond_);
+  g_mutex_unlock(&lock_);
+}
+
 guint64 first_current_tick(GstElement* el, guint64 frame, GstClockTime period, GstClockTime phase) {
   GstClock* clock = gst_element_get_clock(el);
   if (!clock || period == 0) {
@@ -47,6 +65,7 @@ void ClockWaiter::unlock() {
   g_mutex_lock(&lock_);
   unlocked_ = true;
   if (id_) gst_clock_id_unschedule(id_);
+  g_cond_broadcast(&cond_);
   g_mutex_unlock(&lock_);
 }
 
@@ -54,6 +73,27 @@ void ClockWaiter::unlock_stop() {
   g_mutex_lock(&lock_);
   unlocked_ = false;
   g_mutex_unlock(&lock_);
+}
+
+TickBacklog::~TickBacklog() {
+  for (GstBuffer* b : rest_) gst_buffer_unref(b);
+}
+
+GstBuffer* TickBacklog::pop() {
+  if (rest_.empty()) return nullptr;
+  GstBuffer* b = rest_.front();
+  rest_.pop_front();
+  return b;
+}
+
+GstBuffer* TickBacklog::push(GstBaseSrc* src, const std::vector<GstBuffer*>& bufs) {
+  rest_.insert(rest_.end(), bufs.begin() + 1, bufs.end());
+  if (bufs.size() > 1) {
+    g_mutex_lock(&src->live_lock);  // the base class reads it under this lock
+    if (src->num_buffers_left >= 0) src->num_buffers_left += static_cast<gint>(bufs.size() - 1);
+    g_mutex_unlock(&src->live_lock);
+  }
+  return bufs[0];
 }
 
 }  // namespace lfgst

@@ -1,5 +1,7 @@
 #include "lfevents.h"
 
+#include <gst/video/navigation.h>
+
 #include <cmath>
 
 namespace lfgst {
@@ -181,6 +183,44 @@ GstStructure* view_change_structure(const std::vector<std::pair<std::string, dou
   for (const auto& [name, value] : fields)
     gst_structure_set(s, name.c_str(), G_TYPE_DOUBLE, value, nullptr);
   return s;
+}
+
+std::optional<guint> addressed_viewer(const GstStructure* s) {
+  guint id = 0;
+  gint sid = 0;
+  if (gst_structure_get_uint(s, "viewer-id", &id)) return id;
+  if (gst_structure_get_int(s, "viewer-id", &sid) && sid >= 0) return static_cast<guint>(sid);
+  return std::nullopt;
+}
+
+bool read_gesture(GstEvent* event, lf::Gesture* g) {
+  using Kind = lf::Gesture::Kind;
+  double dx = 0;
+  const gchar* key = nullptr;
+  switch (gst_navigation_event_get_type(event)) {
+    case GST_NAVIGATION_EVENT_MOUSE_BUTTON_PRESS: {
+      GstNavigationModifierType mods = GST_NAVIGATION_MODIFIER_NONE;
+      gst_navigation_event_parse_modifier_state(event, &mods);
+      g->kind = Kind::kPress, g->control = mods & GST_NAVIGATION_MODIFIER_CONTROL_MASK;
+      return gst_navigation_event_parse_mouse_button_event(event, &g->button, &g->x, &g->y);
+    }
+    case GST_NAVIGATION_EVENT_MOUSE_BUTTON_RELEASE:
+      g->kind = Kind::kRelease;
+      return gst_navigation_event_parse_mouse_button_event(event, &g->button, &g->x, &g->y);
+    case GST_NAVIGATION_EVENT_MOUSE_MOVE:
+      g->kind = Kind::kMove;
+      return gst_navigation_event_parse_mouse_move_event(event, &g->x, &g->y);
+    case GST_NAVIGATION_EVENT_MOUSE_SCROLL:
+      g->kind = Kind::kScroll;
+      return gst_navigation_event_parse_mouse_scroll_event(event, &g->x, &g->y, &dx, &g->dy);
+    case GST_NAVIGATION_EVENT_KEY_PRESS:
+      g->kind = Kind::kKey;
+      if (!gst_navigation_event_parse_key_event(event, &key) || !key) return false;
+      g->key = key;
+      return true;
+    default:
+      return false;
+  }
 }
 
 }  // namespace lfgst

@@ -20,11 +20,13 @@
 
 #include <gst/gst.h>
 
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "lf/geometry/view.h"
+#include "lf/session/viewer_session.h"
 
 namespace lfgst {
 
@@ -73,6 +75,15 @@ bool read_view_change(const GstStructure* s, GObject* target, double max_coord,
 // `viewer` (< 0: every viewer that gets it).
 GstStructure* view_change_structure(const std::vector<std::pair<std::string, double>>& fields,
                                     gint64 viewer = -1);
+
+// The viewer an event addresses: its viewer-id field (uint, or an int >= 0,
+// as gst-launch and JSON write it), or none (every viewer).
+std::optional<guint> addressed_viewer(const GstStructure* s);
+
+// A navigation event (GstNavigation: a video sink's pointer and keys) as a
+// viewer's gesture (lib/lf/session/viewer_session.h); false for one that a
+// viewer does not use.
+bool read_gesture(GstEvent* event, lf::Gesture* g);
 
 // Whether a structure's version is one this codec reads (else `why`).
 bool version_ok(const GstStructure* s, std::string* why);

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <exception>
 #include <stdexcept>
+#include <utility>
 
 namespace lfgst {
 
@@ -30,6 +31,28 @@ gboolean guard(F&& fn, GError** error) noexcept {
   }
   return FALSE;
 }
+
+// A counted reference to a GstBuffer (a copy is a new reference; none
+// converts to false): a frame handle for lib templates (lf::CameraFrames).
+class BufferRef {
+ public:
+  BufferRef() = default;
+  explicit BufferRef(GstBuffer* b) : b_(b ? gst_buffer_ref(b) : nullptr) {}
+  BufferRef(const BufferRef& o) : BufferRef(o.b_) {}
+  BufferRef(BufferRef&& o) noexcept : b_(o.b_) { o.b_ = nullptr; }
+  BufferRef& operator=(BufferRef o) noexcept {
+    std::swap(b_, o.b_);
+    return *this;
+  }
+  ~BufferRef() {
+    if (b_) gst_buffer_unref(b_);
+  }
+  GstBuffer* get() const { return b_; }
+  explicit operator bool() const { return b_ != nullptr; }
+
+ private:
+  GstBuffer* b_ = nullptr;
+};
 
 // A buffer mapped for the lifetime of this object (also when an exception
 // leaves the scope). Throws std::runtime_error if it cannot be mapped. Holds

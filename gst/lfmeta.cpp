@@ -1,5 +1,7 @@
 #include "lfmeta.h"
 
+#include <stdexcept>
+
 namespace lfgst {
 
 static const GstMetaInfo* capture_meta_info() {
@@ -91,6 +93,40 @@ std::shared_ptr<const DeferredDraw> deferred_of(GstBuffer* buf) {
   deferred_meta.registered();
   auto* m = reinterpret_cast<DeferredMeta*>(gst_buffer_get_meta(buf, deferred_meta.api));
   return m && m->draw ? *m->draw : nullptr;
+}
+
+int64_t capture_time_of(GstBuffer* frame, int camera_id, GstObject* warn_on) {
+  int meta_cam = -1;
+  guint64 meta_time = 0;
+  if (read_capture_meta(frame, &meta_cam, &meta_time)) {
+    if (meta_cam != camera_id)
+      GST_WARNING_OBJECT(warn_on, "frames come from camera %d, this is camera %d", meta_cam,
+                         camera_id);
+    return static_cast<int64_t>(meta_time);
+  }
+  return GST_BUFFER_PTS_IS_VALID(frame) ? static_cast<int64_t>(GST_BUFFER_PTS(frame)) : -1;
+}
+
+std::shared_ptr<DeferredDraw> deferred_draw(GstBuffer* frame, const GstVideoInfo& info,
+                                            const cv::Mat& image, const lf::Camera& cam, int slot,
+                                            lf::FragmentPlan plan) {
+  auto d = std::make_shared<DeferredDraw>();
+  if (image.empty()) {  // the frame itself: mapped while the drawing waits
+    if (!gst_video_frame_map(&d->frame, &info, frame, GST_MAP_READ))
+      throw std::runtime_error("cannot map the camera frame");
+    d->mapped = true;
+    d->image = cv::Mat(GST_VIDEO_FRAME_HEIGHT(&d->frame), GST_VIDEO_FRAME_WIDTH(&d->frame), CV_8UC4,
+                       GST_VIDEO_FRAME_PLANE_DATA(&d->frame, 0),
+                       GST_VIDEO_FRAME_PLANE_STRIDE(&d->frame, 0));
+  } else {
+    d->image = image;
+  }
+  d->frame_key = frame;
+  d->frame_pts = GST_BUFFER_PTS(frame);
+  d->camera = cam;
+  d->slot = slot;
+  d->plan = std::move(plan);
+  return d;
 }
 
 }  // namespace lfgst

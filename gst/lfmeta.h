@@ -21,6 +21,9 @@ namespace lfgst {
 // in their header).
 void add_capture_meta(GstBuffer* buf, int camera_id, guint64 capture_time);
 bool read_capture_meta(GstBuffer* buf, int* camera_id, guint64* capture_time);
+// A camera frame's capture time (ns): its capture meta's, else its PTS, else
+// -1. A meta naming another camera than `camera_id` is logged on `warn_on`.
+int64_t capture_time_of(GstBuffer* frame, int camera_id, GstObject* warn_on);
 
 // Sealed meta (LfSealedMeta): on a fragment buffer that lffragment
 // serialised and sealed (CRC written) in this process. Never copied with a
@@ -47,6 +50,13 @@ struct DeferredDraw : lf::DeferredDrawing {
     if (mapped) gst_video_frame_unmap(&frame);
   }
 };
+// The drawing of `plan` (camera `cam`, renderer slot `slot`) from camera
+// frame `frame` (`info`): `image` when it is a copy (colour-corrected,
+// shared), else (empty) the frame itself, mapped while the drawing lives.
+// Throws std::runtime_error when the frame cannot be mapped.
+std::shared_ptr<DeferredDraw> deferred_draw(GstBuffer* frame, const GstVideoInfo& info,
+                                            const cv::Mat& image, const lf::Camera& cam, int slot,
+                                            lf::FragmentPlan plan);
 void add_deferred_meta(GstBuffer* buf, std::shared_ptr<const DeferredDraw> draw);
 // The drawing on `buf`, or null.
 std::shared_ptr<const DeferredDraw> deferred_of(GstBuffer* buf);

@@ -43,6 +43,13 @@ class Properties {
     g_object_class_install_property(oc, static_cast<guint>(entries_.size()), spec);
   }
 
+  // A member of a base of S (settings that extend a lib struct).
+  template <class T, class B,
+            std::enable_if_t<!std::is_same<B, S>::value && std::is_base_of<B, S>::value, int> = 0>
+  void add(GObjectClass* oc, T B::*m, GParamSpec* spec) {
+    add(oc, static_cast<T S::*>(m), spec);
+  }
+
   // set_property / get_property of an element whose settings are `s`.
   void set(GObject* obj, S& s, guint id, const GValue* v, GParamSpec* ps) const {
     if (const Entry* e = find(obj, id, ps)) {
@@ -132,8 +139,8 @@ S snapshot(GstObject* obj, const S& s) {
 }
 
 // One member, read under the object lock (properties mutable in PLAYING).
-template <class S, class T>
-T read_setting(GstObject* obj, const S& s, T S::*m) {
+template <class S, class T, class B, std::enable_if_t<std::is_base_of<B, S>::value, int> = 0>
+T read_setting(GstObject* obj, const S& s, T B::*m) {
   GST_OBJECT_LOCK(obj);
   T copy = s.*m;
   GST_OBJECT_UNLOCK(obj);

@@ -44,9 +44,17 @@ GstPadProbeReturn limit(GstPad*, GstPadProbeInfo* info, gpointer data) {
 }  // namespace
 
 bool admit_or_warn(GstElement* el, RequestLimits& limits, WarnLimiter& warned, guint32 viewer,
-                   double rate, double pixel_rate, double pixels, bool live) {
+                   double rate, double pixel_rate, double pixels, bool live, double max_pixels,
+                   WarnLimiter* too_large) {
   init_debug();
-  switch (limits.admit(viewer, rate, pixel_rate, pixels, live)) {
+  switch (
+      limits.admit(viewer, rate, pixel_rate, pixels, live, g_get_monotonic_time(), max_pixels)) {
+    case RequestLimits::Verdict::kTooLarge:
+      LF_ELEMENT_WARNING_LIMITED(el, too_large ? *too_large : warned, STREAM, DECODE,
+                                 ("Dropping a view request larger than max-pixels"),
+                                 "viewer %u asks for a view of %.0f pixels, the limit is %.0f",
+                                 viewer, pixels, max_pixels);
+      return false;
     case RequestLimits::Verdict::kOverRate:
       LF_ELEMENT_WARNING_LIMITED(el, warned, STREAM, DECODE,
                                  ("Dropping view requests above max-rate"),

@@ -67,15 +67,17 @@ class ViewerBuckets {
 };
 
 // A camera host's limits on the view requests it answers, per viewer
-// (lffragment's max-rate and max-pixel-rate; lfarray keeps them once for
-// all its cameras): requests a second, and live, output pixels a second
-// (a non-live pipeline renders every request). One per element that admits
+// (lffragment's max-pixels, max-rate and max-pixel-rate; lfarray keeps them
+// once for all its cameras): the view's size (max_pixels > 0), requests a
+// second, and live, output pixels a second (a non-live pipeline renders
+// every request). One per element that admits
 // requests; not thread-safe.
 class RequestLimits {
  public:
-  enum class Verdict { kAdmit, kOverRate, kOverPixelRate };
+  enum class Verdict { kAdmit, kTooLarge, kOverRate, kOverPixelRate };
   Verdict admit(guint32 viewer, double rate, double pixel_rate, double pixels, bool live,
-                gint64 now_us = g_get_monotonic_time()) {
+                gint64 now_us = g_get_monotonic_time(), double max_pixels = 0) {
+    if (max_pixels > 0 && pixels > max_pixels) return Verdict::kTooLarge;
     if (!rate_.take(viewer, rate, now_us)) return Verdict::kOverRate;
     if (live && !pixels_.take(viewer, pixel_rate, now_us, pixels)) return Verdict::kOverPixelRate;
     return Verdict::kAdmit;
@@ -108,8 +110,11 @@ class WarnLimiter;
 
 // RequestLimits::admit; a request it drops gets a rate-limited warning on
 // `el` naming the limit (max-rate or max-pixel-rate) and the viewer.
+// With max_pixels > 0, a larger view is dropped too, warned about on
+// `too_large` (a limiter of its own).
 bool admit_or_warn(GstElement* el, RequestLimits& limits, WarnLimiter& warned, guint32 viewer,
-                   double rate, double pixel_rate, double pixels, bool live);
+                   double rate, double pixel_rate, double pixels, bool live, double max_pixels = 0,
+                   WarnLimiter* too_large = nullptr);
 
 // Drops the view requests through `pad` beyond `rate` requests and
 // (live) `pixel_rate` output pixels a second per viewer, warning on

@@ -2,20 +2,28 @@
 // and the compositor host's frame assembly, without a pipeline.
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <memory>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
+#include "lf/focus/focus.h"
+#include "lf/focus/focus_probe.h"
+#include "lf/focus/surface_probe.h"
 #include "lf/quality/synthetic.h"
 #include "lf/render/quilt.h"
 #include "lf/render/render.h"
+#include "lf/session/camera_frames.h"
 #include "lf/session/camera_host.h"
 #include "lf/session/compositor_host.h"
 #include "lf/session/frame_assembly.h"
 #include "lf/session/request_queue.h"
 #include "lf/session/viewer.h"
+#include "lf/session/viewer_session.h"
 #include "lf/wire/probe_bundle.h"
 #include "lf/wire/wire.h"
 
@@ -417,6 +425,207 @@ TEST(ViewerTick, AloneAStereoPairOrAQuilt) {
   quilt.view_cone = 0;  // the array's extent along x: 2 spacings of 0.5
   q = lf::tick_requests(rig, req, quilt);
   EXPECT_NEAR(q[0].quilt.baseline, 1.0, 1e-9);
+}
+
+// lf::ViewerSession (lib/lf/session/viewer_session.h): gestures move the eye
+// and the focus (kept over the array), a click's focus probe and the surface
+// probes go with the next tick, an answered surface is carried by the
+// requests, a refocus takes the view off it, and what a tick cannot do is a
+// notice, not an exception.
+TEST(ViewerSession, GesturesProbesAndTheSurfaceInUse) {
+  using Kind = lf::Gesture::Kind;
+  auto rig = std::make_shared<const lf::Rig>(lf::synthetic_grid_rig(3, 3, 0.5, 160, 120, 50));
+  lf::ViewerSettings s;
+  s.width = 160, s.height = 120, s.focal_plane = "depth:10";
+  lf::ViewerSession v(rig, 7, lf::build_viewer_views(s, *rig));
+  lf::ViewerSettings now = s;  // the settings a tick reads live
+  now.focal_surface = false;
+  constexpr int64_t kPeriodUs = 33'333;
+  lf::ViewerTick t = v.tick(3, now, kPeriodUs, 0);
+  ASSERT_EQ(t.requests.size(), 1u);
+  EXPECT_EQ(t.requests[0].viewer_id, 7u);
+  EXPECT_EQ(t.requests[0].sequence, 3u);
+  EXPECT_EQ(t.requests[0].view.width, 160);
+  EXPECT_NEAR(lf::inverse_depth_of(*rig, t.requests[0].focal_plane), 0.1, 1e-12);
+  EXPECT_TRUE(t.probes.empty());
+  EXPECT_TRUE(t.notices.empty());
+
+  // Drag 20 px right: the eye 20/40 of a spacing (0.5) left; far beyond
+  // the array it stops at its edge (s = -0.5); release ends the drag.
+  lf::Gesture g;
+  g.kind = Kind::kPress, g.button = 1, g.x = 10, g.y = 10;
+  EXPECT_FALSE(v.navigate(g, s, 1e12));
+  g.kind = Kind::kMove, g.x = 30;
+  auto moved = v.navigate(g, s, 1e12);
+  ASSERT_TRUE(moved);
+  EXPECT_NEAR(moved->eye[0], -0.25, 1e-12);
+  EXPECT_NEAR(moved->eye[1], 0, 1e-12);
+  g.x = 1000;
+  moved = v.navigate(g, s, 1e12);
+  ASSERT_TRUE(moved);
+  EXPECT_NEAR(moved->eye[0], -0.5, 1e-3);  // (just inside the border)
+  EXPECT_GE(moved->eye[0], -0.5);
+  g.kind = Kind::kRelease;
+  EXPECT_FALSE(v.navigate(g, s, 1e12));
+  g.kind = Kind::kMove, g.x = 0;
+  EXPECT_FALSE(v.navigate(g, s, 1e12));
+  // A wheel notch up: nearer (inverse depth + 0.25 / (fx * spacing)).
+  g.kind = Kind::kScroll, g.dy = 1;
+  moved = v.navigate(g, s, 1e12);
+  ASSERT_TRUE(moved);
+  const double fx = rig->cameras[0].intrinsics.fx;
+  EXPECT_NEAR(1.0 / moved->focal_depth, 0.1 + 0.25 / (fx * 0.5), 1e-12);
+  // A key: a quarter spacing.
+  g.kind = Kind::kKey, g.key = "Right";
+  moved = v.navigate(g, s, 1e12);
+  ASSERT_TRUE(moved);
+  EXPECT_NEAR(moved->eye[0], 0.125, 1e-12);
+
+  // A right click: the next tick carries its focus probe at that point.
+  g.kind = Kind::kPress, g.button = 3, g.x = 40, g.y = 30;
+  EXPECT_FALSE(v.navigate(g, s, 1e12));
+  t = v.tick(4, now, kPeriodUs, 0);
+  ASSERT_TRUE(t.focus_probe);
+  EXPECT_TRUE(t.focus_probe->click);
+  EXPECT_EQ(t.focus_probe->x, 40);
+  ASSERT_EQ(t.probes.size(), 1u);
+  EXPECT_TRUE(lf::is_focus_probe(t.probes[0][0].sequence));
+  // Its answer (depth 4) applies once; the same again does not.
+  EXPECT_NEAR(v.focus_answer(t.focus_probe->id, 0.25, 0, 1e12).value_or(-1), 4, 1e-12);
+  EXPECT_FALSE(v.focus_answer(t.focus_probe->id, 0.25, 0, 1e12));
+
+  // The focal surface: a probe with the first tick, none the next; an
+  // answer is carried from then on; a refocus takes the view off it.
+  now.focal_surface = true;
+  t = v.tick(5, now, kPeriodUs, 0);
+  ASSERT_EQ(t.probes.size(), 1u);
+  EXPECT_TRUE(lf::is_surface_probe(t.probes[0][0].sequence));
+  EXPECT_EQ(t.surface_planes, 0u);
+  lf::FocalSurface surface;
+  surface.tile = 16, surface.cols = 10, surface.rows = 8;
+  surface.planes = {lf::plane_at_inverse_depth(*rig, 0.1), lf::plane_at_inverse_depth(*rig, 0.2)};
+  surface.plane_of.assign(80, 0);
+  surface.plane_of[5] = 1;
+  ASSERT_TRUE(v.surface().answer(t.surface_probe, surface));
+  t = v.tick(6, now, kPeriodUs, 0);
+  EXPECT_TRUE(t.probes.empty());
+  EXPECT_EQ(t.surface_planes, 2u);
+  EXPECT_EQ(t.requests[0].surface.plane_of, surface.plane_of);
+  now.focal_depth = 3;
+  t = v.tick(7, now, kPeriodUs, 0);
+  EXPECT_TRUE(t.refocused);
+  EXPECT_EQ(t.surface_planes, 0u);
+  EXPECT_TRUE(t.requests[0].surface.empty());
+
+  // A stereo pair; f-number on a rig without a length unit is a notice.
+  s.stereo_baseline = 0.2, s.f_number = 2;
+  lf::Rig unitless = *rig;
+  unitless.unit = "";
+  lf::ViewerSession w(std::make_shared<const lf::Rig>(unitless), 2,
+                      lf::build_viewer_views(s, unitless));
+  now = s;
+  now.focal_surface = false;
+  t = w.tick(0, now, kPeriodUs, 0);
+  ASSERT_EQ(t.requests.size(), 2u);
+  EXPECT_EQ(t.requests[1].viewer_id, 3u);
+  ASSERT_EQ(t.notices.size(), 1u);
+  EXPECT_EQ(t.notices[0].kind, lf::ViewerNotice::Kind::kFNumberIgnored);
+  // A bad setting is refused when the views are built.
+  s.position = {1, 2};
+  EXPECT_THROW(lf::build_viewer_views(s, *rig), std::invalid_argument);
+}
+
+// lf::CameraFrames (lib/lf/session/camera_frames.h): the newest frame, the
+// frame of a request's capture time (waiting until it is known, at most the
+// timeout when live), a probe's one frame (a live camera without the
+// probe's instant sits it out), a camera not live held kAhead frames ahead
+// of the requests, and the ends and flushing that release every wait.
+TEST(CameraFrames, NewestCaptureTimeProbesHoldingAndEnds) {
+  using Frames = lf::CameraFrames<std::shared_ptr<int>>;
+  using namespace std::chrono;
+  constexpr int64_t kMs = 1'000'000;  // ns
+  const auto frame = [](int v) { return std::make_shared<int>(v); };
+  const auto value = [](const Frames::Pick& p) { return p.frame ? *p.frame : -1; };
+  {
+    Frames f(2);
+    f.set_camera(1, 33 * kMs);
+    f.push(0, frame(0)), f.push(33 * kMs, frame(33));
+    EXPECT_EQ(value(f.pick({}, seconds(5))), 33);
+    f.set_keep(8);
+    f.push(66 * kMs, frame(66));
+    Frames::Want w;
+    w.by_capture_time = true, w.time_ns = 40 * kMs;  // 33 is known to be the one: 66 came
+    EXPECT_EQ(value(f.pick(w, seconds(5))), 33);
+    // 100 ms: not known until a frame after 67 ms comes.
+    w.time_ns = 100 * kMs;
+    std::thread camera([&] {
+      std::this_thread::sleep_for(milliseconds(20));
+      f.push(100 * kMs, frame(100));
+    });
+    EXPECT_EQ(value(f.pick(w, seconds(5))), 100);
+    camera.join();
+    // Live, nothing newer comes: after the timeout, the newest before.
+    w.time_ns = 200 * kMs;
+    const auto t0 = steady_clock::now();
+    EXPECT_EQ(value(f.pick(w, milliseconds(30))), 100);
+    EXPECT_GE(steady_clock::now() - t0, milliseconds(29));
+    // A probe at 300 ms: the camera has no frame of its tick, it sits out.
+    Frames::Want probe;
+    probe.time_ns = 300 * kMs, probe.probe = 7;
+    EXPECT_FALSE(f.pick(probe, milliseconds(10)).frame);
+    // Another probe at 300 ms: its frame, and every step gets the same one
+    // after newer frames pushed it out of the ring.
+    f.push(300 * kMs, frame(300));
+    probe.probe = 8;
+    EXPECT_EQ(value(f.pick(probe, seconds(5))), 300);
+    for (int k = 1; k <= 9; ++k) f.push((300 + 33 * k) * kMs, frame(300 + 33 * k));
+    EXPECT_EQ(value(f.pick(probe, seconds(5))), 300);
+    EXPECT_EQ(value(f.pick({}, seconds(5))), 597);
+  }
+  {
+    // Not live: held once kAhead frames ahead of the requests.
+    Frames f(2);
+    f.set_camera(0, 33 * kMs);
+    std::atomic<int> pushed{0};
+    std::atomic<bool> ended{false};
+    std::thread camera([&] {
+      for (int k = 0; k < 10; ++k) {
+        const Frames::Pushed r = f.push(k, frame(k));
+        ++pushed;
+        if (r == Frames::Pushed::kEnd) {
+          ended = true;
+          return;
+        }
+      }
+    });
+    const auto reach = [&](int n) {
+      const auto until = steady_clock::now() + seconds(10);
+      while (pushed < n && steady_clock::now() < until)
+        std::this_thread::sleep_for(milliseconds(1));
+      std::this_thread::sleep_for(milliseconds(50));  // and no further
+      return pushed.load();
+    };
+    EXPECT_EQ(reach(1), 1);  // the second push waits
+    EXPECT_EQ(value(f.pick({}, seconds(5))), 1);
+    EXPECT_EQ(reach(3), 3);  // a request took one: two more
+    f.requests_ended();
+    camera.join();
+    EXPECT_TRUE(ended);
+    EXPECT_EQ(pushed, 4);
+  }
+  {
+    // Not live, no frame: a request waits without a deadline until flushing.
+    Frames f(2);
+    f.set_camera(0, 33 * kMs);
+    Frames::Pick got;
+    std::thread request([&] { got = f.pick({}, milliseconds(1)); });
+    std::this_thread::sleep_for(milliseconds(50));
+    f.set_flushing(true);
+    request.join();
+    EXPECT_TRUE(got.flushing);
+    EXPECT_FALSE(got.frame);
+    EXPECT_EQ(f.push(0, frame(0)), Frames::Pushed::kFlushing);
+  }
 }
 
 // lf::CameraAnswer: a camera's answer on the wire equals its fragment

@@ -42,4 +42,14 @@ void colour_correct_images(const Rig& rig, std::vector<cv::Mat>& images, Channel
       images[i] = colour_correct(rig.cameras[i].colour, images[i], order);
 }
 
+cv::Mat CorrectedFrame::get(const Camera& cam, const void* key, const cv::Mat& image, bool opaque) {
+  if (!opaque && !cam.has_colour_correction()) return image;
+  std::lock_guard<std::mutex> l(m_);
+  if (key_ != key || copy_.empty()) {
+    copy_ = colour_correct(cam.colour, image, ChannelOrder::kRGBA, opaque);
+    key_ = key;
+  }
+  return copy_;
+}
+
 }  // namespace lf

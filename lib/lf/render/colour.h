@@ -5,6 +5,7 @@
 // calib/colour.h estimates it). The matrix is written for RGB channel order.
 #pragma once
 
+#include <mutex>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -22,6 +23,23 @@ enum class ChannelOrder { kRGBA, kBGRA };
 // not opaque). Throws std::invalid_argument unless image is CV_8UC4.
 cv::Mat colour_correct(const cv::Matx34d& colour, const cv::Mat& image, ChannelOrder order,
                        bool opaque = false);
+
+// A camera's current frame as it is warped: corrected (colour_correct, RGBA),
+// the copy made once per frame however many requests the frame answers
+// (lffragment). Thread-safe.
+class CorrectedFrame {
+ public:
+  // `image`, the frame known by `key` (compared only: a new key is a new
+  // frame), corrected by `cam`'s matrix and made opaque with `opaque`; the
+  // last copy when the key is the last one's; `image` itself when the
+  // camera has no correction and nothing is opaque.
+  cv::Mat get(const Camera& cam, const void* key, const cv::Mat& image, bool opaque);
+
+ private:
+  std::mutex m_;
+  const void* key_ = nullptr;
+  cv::Mat copy_;
+};
 
 // Corrects, in place, the images of every camera of `rig` that has a
 // correction (images[i] belongs to rig.cameras[i]).

@@ -7,6 +7,7 @@
 
 #include "lf/render/quilt.h"
 #include "lf/render/render.h"
+#include "lf/wire/probe_bundle.h"
 #include "lf/wire/wire.h"
 
 namespace lf {
@@ -172,6 +173,29 @@ std::vector<uint8_t> CameraAnswer::encode_jpeg(const Fragment& base, const Camer
     bytes.insert(bytes.end(), one.begin(), one.end());
   }
   return bytes;
+}
+
+std::vector<std::pair<ViewRequest, std::string>> parse_keyed_requests(const uint8_t* data,
+                                                                      size_t size) {
+  std::vector<size_t> sizes;
+  std::vector<ViewRequest> reqs = parse_requests(data, size, &sizes);
+  std::vector<std::pair<ViewRequest, std::string>> out;
+  size_t at = 0;
+  for (size_t k = 0; k < reqs.size(); at += sizes[k++]) {
+    out.emplace_back(std::move(reqs[k]), std::string());
+    if (sizes[k] <= kMaxSharedKeyBytes)
+      out.back().second.assign(reinterpret_cast<const char*>(data + at), sizes[k]);
+  }
+  return out;
+}
+
+std::vector<uint8_t> empty_answer(const ViewRequest& req, int camera_id, int64_t capture_time_ns) {
+  Fragment f;
+  f.viewer_id = req.viewer_id, f.sequence = req.sequence;
+  f.camera_id = static_cast<uint32_t>(camera_id);
+  f.capture_time_ns = capture_time_ns;
+  f.out_width = req.view.width, f.out_height = req.view.height;
+  return serialize_fragment(f, Encoding::kEmpty, 90);
 }
 
 }  // namespace lf

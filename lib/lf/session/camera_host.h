@@ -37,6 +37,16 @@ constexpr size_t kMaxSharedKeyBytes = 16384;
 std::shared_ptr<const ViewGeometry> shared_geometry(const std::shared_ptr<const Rig>& rig,
                                                     const ViewRequest& req, int index,
                                                     const std::string& key);
+// The requests of a request buffer (lf::parse_requests: one, or a probe
+// bundle's steps), each with its bytes as its shared_geometry key (empty
+// over kMaxSharedKeyBytes). Throws WireError as parse_requests does.
+std::vector<std::pair<ViewRequest, std::string>> parse_keyed_requests(const uint8_t* data,
+                                                                      size_t size);
+// Camera `camera_id`'s explicitly empty fragment for `req` (wire kEmpty):
+// an answer without pixels (capture_time_ns -1: none), so that the
+// compositor knows the camera answered.
+std::vector<uint8_t> empty_answer(const ViewRequest& req, int camera_id,
+                                  int64_t capture_time_ns = -1);
 
 // What camera `index` answers to `req`: one fragment; its layer-0 and
 // layer-1 fragments for a focal surface with second planes (back to back

@@ -132,4 +132,8 @@ std::vector<AnswerPiece> parse_frame_answer(const uint8_t* data, size_t size, si
   return out;
 }
 
+std::vector<uint8_t> serialize_requests(const std::vector<ViewRequest>& requests) {
+  return requests.size() == 1 ? serialize_request(requests[0]) : serialize_probe_bundle(requests);
+}
+
 }  // namespace lf

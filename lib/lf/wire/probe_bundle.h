@@ -48,6 +48,9 @@ inline bool same_probe(uint64_t a, uint64_t b) {
 // with a focal surface, each of at most kMaxBundleStepPixels). Throws
 // std::invalid_argument otherwise.
 std::vector<uint8_t> serialize_probe_bundle(const std::vector<ViewRequest>& steps);
+// A request buffer's bytes: one request as itself (lf::serialize_request),
+// more as a probe bundle; what parse_requests reads back.
+std::vector<uint8_t> serialize_requests(const std::vector<ViewRequest>& requests);
 
 // The requests in a request buffer: one request (lf::parse_request), or a
 // probe bundle of 2..kMaxBundleSteps. Throws WireError for anything else: a

@@ -1,0 +1,43 @@
+// lfviewrequest's interface as gst-inspect-1.0 shows it: its documentation,
+// metadata and properties. The properties: the viewer's settings (lib/lf/session/
+// viewer_session.h ViewerSettings) and what the element adds (rig, viewer
+// id, rate, liveness, read-only surface figures), each declared once with
+// its GParamSpec (units, ranges, frames: what gst-inspect-1.0 and
+// docs/elements.md show). The view properties are also the fields of an
+// lf-view event (gst/lfevents.h read_view_change reads them by these specs).
+#pragma once
+
+#include <gst/gst.h>
+
+#include <string>
+
+#include "lf/session/viewer_session.h"
+#include "lfprops.h"
+
+namespace lfgst {
+
+// Largest eye offset or coordinate, rig units.
+constexpr double kMaxCoordinate = 1e12;
+
+struct ViewRequestSettings : lf::ViewerSettings {
+  std::string rig;
+  guint viewer_id = 0;
+  Fraction framerate{30, 1};
+  bool live = false;
+  guint surface_planes = 0;           // read-only: planes of the surface in use (object lock)
+  guint surface_two_plane_tiles = 0;  // read-only: its tiles with a second plane
+};
+
+// The specs that navigation and focus answers notify.
+struct ViewRequestSpecs {
+  GParamSpec *eye_s = nullptr, *eye_t = nullptr, *eye_w = nullptr, *focal_depth = nullptr;
+};
+
+// lfviewrequest's metadata (long name, class, description, example, events).
+void describe_view_request(GstElementClass* ec);
+
+// Installs the properties on lfviewrequest's class `oc`, bound in `props`.
+ViewRequestSpecs install_view_request_properties(GObjectClass* oc,
+                                                 Properties<ViewRequestSettings>* props);
+
+}  // namespace lfgst
