@@ -133,15 +133,16 @@ void install_fragment_properties(GObjectClass* oc, Properties<FragmentSettings>*
                  "requests a second (0: no limit; not live: none, every request is rendered)",
                  0, 1e12, kDefaultMaxPixelRate, kReadWriteReady));
   props->add(oc, &FragmentSettings::frame_timeout,
-             g_param_spec_uint64("frame-timeout", "Frame timeout",
-                                 "How long a request waits for a camera frame (the first one; with "
-                                 "frame-select=capture-time or for a focus probe, the one of its "
-                                 "time), ns, when the camera is live; a request without a frame is "
-                                 "dropped with a warning (with defer, answered with an empty "
-                                 "fragment). A non-live camera has no deadline: the request waits "
-                                 "for its frame, and the camera is held two frames ahead of the "
-                                 "requests; the requests' end of stream ends the camera's",
-                                 0, G_MAXUINT64, DEFAULT_FRAME_TIMEOUT, kReadWriteReady));
+             g_param_spec_uint64(
+                 "frame-timeout", "Frame timeout",
+                 "How long a request waits, in all, for its camera frame (the "
+                 "first one; with frame-select=capture-time or for a probe, the "
+                 "one of its time), ns, when the camera is live; a request without a frame is "
+                 "dropped with a warning (with defer, answered with an empty "
+                 "fragment). A non-live camera has no deadline: the request waits "
+                 "for its frame, and the camera is held two frames ahead of the "
+                 "requests; the requests' end of stream ends the camera's",
+                 0, G_MAXUINT64, DEFAULT_FRAME_TIMEOUT, kReadWriteReady));
   props->add(oc, &FragmentSettings::frame_select,
              g_param_spec_enum("frame-select", "Frame selection",
                                "Which camera frame a request is rendered from",
