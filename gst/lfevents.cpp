@@ -223,4 +223,11 @@ bool read_gesture(GstEvent* event, lf::Gesture* g) {
   }
 }
 
+GstStructure* answer_structure(lf::ProbeOutcome&& o) {
+  if (o.kind == lf::ProbeOutcome::Kind::kFocus)
+    return focus_structure({o.viewer, o.probe, o.inverse_depth, o.capture_time_ns});
+  return surface_structure(
+      {o.viewer, o.probe, o.capture_time_ns, std::move(o.surface), o.planes_used});
+}
+
 }  // namespace lfgst

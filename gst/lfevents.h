@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "lf/geometry/view.h"
+#include "lf/session/probe_scoring.h"
 #include "lf/session/viewer_session.h"
 
 namespace lfgst {
@@ -84,6 +85,10 @@ std::optional<guint> addressed_viewer(const GstStructure* s);
 // viewer's gesture (lib/lf/session/viewer_session.h); false for one that a
 // viewer does not use.
 bool read_gesture(GstEvent* event, lf::Gesture* g);
+
+// The lf-focus or lf-surface structure answering a probe (an outcome
+// lf::ProbeScoring gave with result kAnswer).
+GstStructure* answer_structure(lf::ProbeOutcome&& o);
 
 // Whether a structure's version is one this codec reads (else `why`).
 bool version_ok(const GstStructure* s, std::string* why);

@@ -2,6 +2,8 @@
 
 #include <cstring>
 
+#include "lfcaps.h"
+
 namespace lfgst {
 
 RawVideoOutput::~RawVideoOutput() {
@@ -118,6 +120,41 @@ GstBuffer* RawVideoOutput::frame(const cv::Mat& rgba) {
   }
   gst_video_frame_unmap(&vf);
   return out;
+}
+
+bool ViewFormat::take_caps(GstElement* el, const GstCaps* caps, int max_side) {
+  const GstStructure* cs = gst_caps_get_structure(caps, 0);
+  gint w = 0, h = 0;
+  if (gst_structure_get_int(cs, "width", &w) && gst_structure_get_int(cs, "height", &h)) {
+    if (w < 1 || h < 1 || w > max_side || h > max_side) {
+      GST_ELEMENT_WARNING(el, STREAM, FORMAT, ("Ignoring a view size out of range"),
+                          ("fragment caps announce %dx%d (1..%d)", w, h, max_side));
+    } else if (width_ <= 0 || height_ <= 0) {
+      if (caps_width_ > 0 && (w != caps_width_ || h != caps_height_))
+        GST_WARNING_OBJECT(el, "fragment caps change the view size from %dx%d to %dx%d",
+                           caps_width_, caps_height_, w, h);
+      caps_width_ = w, caps_height_ = h;
+    }
+  }
+  gint n, d;
+  if (!caps_framerate(caps, &n, &d) || Fraction{n, d} == caps_rate_) return false;
+  if (caps_rate_.n > 0)
+    GST_WARNING_OBJECT(el, "fragment caps change the request rate from %d/%d to %d/%d",
+                       caps_rate_.n, caps_rate_.d, n, d);
+  caps_rate_ = {n, d};
+  return true;
+}
+
+Fraction ViewFormat::fps() const {
+  if (rate_.n > 0) return rate_;
+  if (caps_rate_.n > 0) return caps_rate_;
+  return {30, 1};
+}
+
+bool ViewFormat::view_size(int* w, int* h) const {
+  *w = width_ > 0 ? width_ : caps_width_;
+  *h = height_ > 0 ? height_ : caps_height_;
+  return *w > 0 && *h > 0;
 }
 
 }  // namespace lfgst

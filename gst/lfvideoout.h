@@ -18,6 +18,28 @@
 
 namespace lfgst {
 
+// The view's size and the output rate of an adding element: the
+// properties when set, else the fragment caps (the viewer's request size and
+// rate), else for the rate 30/1; never what a fragment claims.
+class ViewFormat {
+ public:
+  // The properties (0 and 0/1: from the caps).
+  ViewFormat(int width, int height, Fraction rate) : width_(width), height_(height), rate_(rate) {}
+  // Fragment caps on `el`'s pads: a view size outside 1..max_side is
+  // refused with a warning message, a change logged. True when the rate
+  // changed.
+  bool take_caps(GstElement* el, const GstCaps* caps, int max_side);
+  Fraction fps() const;
+  // The size of one view; false if unknown.
+  bool view_size(int* w, int* h) const;
+
+ private:
+  int width_, height_;
+  Fraction rate_;
+  Fraction caps_rate_{0, 1};
+  int caps_width_ = 0, caps_height_ = 0;
+};
+
 class RawVideoOutput {
  public:
   RawVideoOutput() = default;

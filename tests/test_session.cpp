@@ -628,6 +628,54 @@ TEST(CameraFrames, NewestCaptureTimeProbesHoldingAndEnds) {
   }
 }
 
+// lf::FragmentIntake (lib/lf/session/compositor_host.h): a fragment's
+// header is checked before anything is decoded: the viewer (the first seen
+// when none is named), the rig's cameras, probes aside, the output size,
+// and the request window, where one stray sequence is held on probation
+// and a second one after it moves the window.
+TEST(FragmentIntake, ViewerCameraSizeWindowAndProbes) {
+  using V = lf::Intake::Verdict;
+  auto rig = std::make_shared<const lf::Rig>(lf::synthetic_grid_rig(3, 3, 0.5, 160, 120, 50));
+  lf::FragmentIntake intake(rig, -1);
+  const auto take = [&](uint32_t viewer, uint64_t seq, int camera, int w = 96, int h = 72) {
+    const std::vector<uint8_t> b =
+        lf::empty_answer(view_request(viewer, seq, {0, 0, -1}, {0, 0, 10}, w, h), camera);
+    lf::Intake in = intake.take(b.data(), b.size(), true, 96, 72, false);
+    if (in.verdict == V::kAccept) intake.viewer.taken(in.head.viewer_id);
+    return in;
+  };
+  lf::Intake in = take(5, 1, rig->cameras[0].id);
+  EXPECT_EQ(in.verdict, V::kAccept);
+  ASSERT_EQ(in.parts.size(), 1u);
+  EXPECT_EQ(in.parts[0].f.sequence, 1u);
+  EXPECT_EQ(take(6, 1, rig->cameras[0].id).verdict, V::kForeign);  // viewer 5 was taken
+  in = take(5, 2, 999);
+  EXPECT_EQ(in.verdict, V::kUnknownCamera);
+  EXPECT_NE(in.why.find("999"), std::string::npos);
+  EXPECT_STREQ(in.summary(), "Dropping a fragment of an unknown camera");
+  EXPECT_EQ(take(5, lf::focus_probe_sequence(3, 0), rig->cameras[1].id).verdict, V::kProbe);
+  in = take(5, 2, rig->cameras[1].id, 64, 48);
+  EXPECT_EQ(in.verdict, V::kWrongSize);
+  EXPECT_NE(in.why.find("64x48"), std::string::npos);
+  // Without a size: refused (a probe's answer is scored still, focus only).
+  std::vector<uint8_t> b = lf::empty_answer(view_request(5, 3, {0, 0, -1}), rig->cameras[0].id);
+  EXPECT_EQ(intake.take(b.data(), b.size(), true, 0, 0, false).verdict, V::kNoSize);
+  // The window: request 1 was accepted, 1000 is held on probation, 1001 moves it.
+  intake.window.emitted(1);
+  EXPECT_EQ(take(5, 1000, rig->cameras[0].id).verdict, V::kOutsideWindow);
+  in = take(5, 1001, rig->cameras[0].id);
+  EXPECT_EQ(in.verdict, V::kAccept);
+  EXPECT_TRUE(in.followed);
+  EXPECT_EQ(in.candidate, 1000);
+  // Bytes that are no fragment, and a fragment cut short.
+  const uint8_t junk[40] = {'L', 'F', 'F', 'R'};
+  EXPECT_EQ(intake.take(junk, sizeof junk, true, 96, 72, false).verdict, V::kMalformed);
+  b = lf::empty_answer(view_request(5, 1002, {0, 0, -1}, {0, 0, 10}, 96, 72), rig->cameras[0].id);
+  in = intake.take(b.data(), b.size() - 1, true, 96, 72, false);
+  EXPECT_EQ(in.verdict, V::kMalformed);
+  EXPECT_FALSE(in.why.empty());
+}
+
 // lf::CameraAnswer: a camera's answer on the wire equals its fragment
 // rendered and serialized the long way (raw: the same pixels; JPEG: the
 // same bytes), and a quilt's eyes land in their tiles, apart, as the

@@ -1,7 +1,11 @@
 #include "lf/session/compositor_host.h"
 
 #include <opencv2/core.hpp>
+#include <stdexcept>
+#include <string>
 
+#include "lf/focus/focus_probe.h"
+#include "lf/focus/surface_probe.h"
 #include "lf/render/composite.h"
 
 namespace lf {
@@ -43,6 +47,93 @@ FrameCompositor::Result FrameCompositor::composite(const std::vector<ReceivedPie
   last_ = frame;
   r.frame = &frame;
   return r;
+}
+
+const char* Intake::summary() const {
+  switch (verdict) {
+    case Verdict::kMalformed:
+      return "Dropping a malformed fragment";
+    case Verdict::kUnknownCamera:
+      return "Dropping a fragment of an unknown camera";
+    case Verdict::kNoSize:
+      return "No output size: dropping fragments";
+    case Verdict::kWrongSize:
+      return "Dropping a fragment for another output size";
+    default:
+      return nullptr;
+  }
+}
+
+std::vector<ReceivedPiece> received_pieces(std::vector<AnswerPiece>&& parts,
+                                           const std::shared_ptr<const void>& keep) {
+  std::vector<ReceivedPiece> pieces;
+  for (AnswerPiece& a : parts) {
+    const bool raw = a.encoding == Encoding::kRaw;
+    pieces.push_back({std::move(a.f), raw ? a.pixels : nullptr, raw ? keep : nullptr, nullptr});
+  }
+  return pieces;
+}
+
+Intake FragmentIntake::take(const uint8_t* data, size_t size, bool check_crc, int w, int h,
+                            bool stereo) {
+  using V = Intake::Verdict;
+  Intake in;
+  try {
+    in.head = peek_fragment_header(data, size);
+  } catch (const std::exception& e) {
+    in.why = e.what();
+    return in;
+  }
+  const FragmentHeader& head = in.head;
+  const bool size_known = w > 0 && h > 0;
+  if (!viewer.accepts(head.viewer_id, stereo))
+    in.verdict = V::kForeign;
+  else if (rig_ && rig_->index_of(static_cast<int>(head.camera_id)) < 0)
+    in.verdict = V::kUnknownCamera,
+    in.why = "camera " + std::to_string(head.camera_id) + " is not in the rig";
+  else if (is_focus_probe(head.sequence) || (is_surface_probe(head.sequence) && size_known))
+    in.verdict = V::kProbe;
+  else if (!size_known)
+    in.verdict = V::kNoSize,
+    in.why =
+        "set width and height, or send fragment caps with the view's width and height "
+        "(lfviewrequest does) (camera " +
+        std::to_string(head.camera_id) + ")";
+  if (in.verdict != V::kMalformed) return in;
+  in.candidate = window.candidate();
+  switch (window.offer(head.sequence)) {
+    case RequestWindow::Verdict::kAccept:
+      break;
+    case RequestWindow::Verdict::kFollow:
+      in.followed = true;
+      break;
+    default:
+      in.verdict = V::kOutsideWindow;
+      return in;
+  }
+  try {  // all of them together carry at most the frame's pixels
+    in.parts = parse_frame_answer(data, size, static_cast<size_t>(w) * h, check_crc);
+  } catch (const std::exception& e) {
+    in.why = e.what();
+    return in;
+  }
+  const Fragment& f = in.parts.front().f;
+  if (f.cameras > 1 && rig_ && f.cameras > rig_->cameras.size()) {
+    in.why = "camera " + std::to_string(f.camera_id) + ": a partial sum of " +
+             std::to_string(f.cameras) + " cameras, the rig has " +
+             std::to_string(rig_->cameras.size());
+    return in;
+  }
+  for (const AnswerPiece& a : in.parts)
+    if (a.f.out_width != w || a.f.out_height != h) {
+      in.verdict = V::kWrongSize;
+      in.why = "camera " + std::to_string(f.camera_id) + ": fragment for " +
+               std::to_string(a.f.out_width) + "x" + std::to_string(a.f.out_height) +
+               ", the output is " + std::to_string(w) + "x" + std::to_string(h);
+      return in;
+    }
+  in.verdict = V::kAccept;
+  return in;
 }
 
 }  // namespace lf

@@ -17,8 +17,12 @@
 #include <utility>
 #include <vector>
 
+#include "lf/geometry/rig.h"
 #include "lf/render/fragment.h"
 #include "lf/render/renderer.h"
+#include "lf/session/frame_assembly.h"
+#include "lf/wire/probe_bundle.h"
+#include "lf/wire/wire.h"
 
 namespace lf {
 
@@ -56,6 +60,58 @@ class FrameCompositor {
   cv::Mat last_;       // the last frame (missing pixels come from it)
   cv::Mat frames_[2];  // the frames resolved into, in turn (one is last_): no allocation per frame
   int next_ = 0;
+};
+
+// What the compositor host does with a fragment buffer (a peer's bytes)
+// before anything is decoded: its header is checked against the viewer
+// composited (lf::ViewerSelection), the rig's cameras, the output size and
+// the request window (lf::RequestWindow, RFC 3550 A.1); then the camera's
+// answer is parsed (lf::parse_frame_answer) with the frame's area as its
+// pixel limit, and a partial sum may not hold more cameras than the rig.
+struct Intake {
+  enum class Verdict {
+    kAccept,         // `parts`: the camera's answer, to file under its request
+    kProbe,          // a focus or surface probe's answer, to score (lf::ProbeScoring)
+    kMalformed,      // `why`
+    kForeign,        // another viewer's fragment (not an error)
+    kUnknownCamera,  // a camera the rig does not have
+    kNoSize,         // no output size is known yet
+    kOutsideWindow,  // outside the request window (late, or on probation)
+    kWrongSize,      // for another output size (`why`)
+  } verdict = Verdict::kMalformed;
+  FragmentHeader head;
+  std::vector<AnswerPiece> parts;
+  std::string why;
+  // Accepted by moving the window (a restarted viewer, or requests lost for
+  // a while): what waits for the old window is to be dropped. `candidate`:
+  // the sequence the window held on probation.
+  bool followed = false;
+  int64_t candidate = -1;
+  // A warning's title for a dropped fragment (`why` its detail); null for
+  // kAccept, kProbe, kForeign and kOutsideWindow (not warned about).
+  const char* summary() const;
+};
+
+// The pieces a camera's answer gives (`parts`, lf::parse_frame_answer): raw
+// pixels in place, in what was received (`keep` holds it), decoded ones
+// moved.
+std::vector<ReceivedPiece> received_pieces(std::vector<AnswerPiece>&& parts,
+                                           const std::shared_ptr<const void>& keep);
+
+class FragmentIntake {
+ public:
+  // `rig` may be null (no rig: any camera id).
+  FragmentIntake(std::shared_ptr<const Rig> rig, int64_t viewer)
+      : viewer(viewer), rig_(std::move(rig)) {}
+  // A buffer's fragment(s), for a view of width x height (0: unknown; the
+  // output is twice as wide with `stereo`); `check_crc` false only for
+  // bytes that never left this process. Never throws.
+  Intake take(const uint8_t* data, size_t size, bool check_crc, int width, int height, bool stereo);
+
+  ViewerSelection viewer;  // the viewer composited
+  RequestWindow window;    // the request sequences accepted
+ private:
+  std::shared_ptr<const Rig> rig_;
 };
 
 }  // namespace lf

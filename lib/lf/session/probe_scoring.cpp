@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <exception>
 #include <utility>
 
@@ -145,6 +146,34 @@ void ProbeScoring::finish_surface(SurfaceProbes::Iter it) {
   o.textured = static_cast<size_t>(std::count(e.textured.begin(), e.textured.end(), true));
   o.tiles = e.textured.size();
   outcomes_.push_back(std::move(o));
+}
+
+std::string ProbeOutcome::describe() const {
+  char line[256];
+  const bool focus = kind == Kind::kFocus;
+  if (result == Result::kSatOut)
+    std::snprintf(line, sizeof line, "surface probe %u: every camera sat it out (%d cameras)",
+                  probe, cameras);
+  else if (result == Result::kFailed && focus)
+    std::snprintf(line, sizeof line, "probe %u: %s (%zu fragments)", probe, why.c_str(), fragments);
+  else if (result == Result::kFailed)
+    std::snprintf(line, sizeof line, "surface probe %u: %s (%zu fragments from %d cameras)", probe,
+                  why.c_str(), fragments, cameras);
+  else if (focus)
+    std::snprintf(line, sizeof line,
+                  "focus probe %u: inverse depth %g from %d cameras (%zu fragments)", probe,
+                  inverse_depth, cameras, fragments);
+  else
+    std::snprintf(line, sizeof line,
+                  "surface probe %u: %d planes (%zu of %zu tiles textured) from %d cameras (%zu "
+                  "fragments), estimated in %.1f ms",
+                  probe, planes_used, textured, tiles, cameras, fragments, estimate_ms);
+  return line;
+}
+
+const char* ProbeOutcome::summary() const {
+  return kind == Kind::kFocus ? "Cannot focus at the clicked point"
+                              : "Cannot estimate the focal surface";
 }
 
 }  // namespace lf

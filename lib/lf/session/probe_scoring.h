@@ -52,6 +52,10 @@ struct ProbeOutcome {
   int planes_used = 0;
   size_t textured = 0, tiles = 0;
   double estimate_ms = 0;  // time spent estimating the surface
+  // A line saying what came of the probe (for a log, or a warning's detail).
+  std::string describe() const;
+  // kFailed: a warning's title ("Cannot focus at the clicked point", ...).
+  const char* summary() const;
 };
 
 class ProbeScoring {
