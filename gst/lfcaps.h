@@ -15,6 +15,8 @@
 
 #include <gst/gst.h>
 
+#include <initializer_list>
+
 #define LF_FRAGMENT_CAPS "application/x-lf-fragment, encoding = (string) { raw, jpeg }"
 #define LF_REQUEST_CAPS "application/x-lf-view-request"
 

@@ -116,6 +116,19 @@ LF_DEFINE_ELEMENT_GLUE(lf_fragment, LF_FRAGMENT)
 
 // ---- camera frames -------------------------------------------------------
 
+// The camera's latency query: live 1, not 0, unknown -1 (no answer).
+static int camera_liveness(GstPad* sinkpad) {
+  GstQuery* q = gst_query_new_latency();
+  int live = -1;
+  if (gst_pad_peer_query(sinkpad, q)) {
+    gboolean is_live = FALSE;
+    gst_query_parse_latency(q, &is_live, nullptr, nullptr);
+    live = is_live ? 1 : 0;
+  }
+  gst_query_unref(q);
+  return live;
+}
+
 static gboolean lf_fragment_sink_event(GstPad* pad, GstObject* parent, GstEvent* event) {
   LfFragment* self = LF_FRAGMENT(parent);
   Priv* p = self->priv;
@@ -141,14 +154,7 @@ static gboolean lf_fragment_sink_event(GstPad* pad, GstObject* parent, GstEvent*
           return FALSE;
         }
       }
-      GstQuery* q = gst_query_new_latency();
-      int live = -1;
-      if (gst_pad_peer_query(pad, q)) {
-        gboolean is_live = FALSE;
-        gst_query_parse_latency(q, &is_live, nullptr, nullptr);
-        live = is_live ? 1 : 0;
-      }
-      gst_query_unref(q);
+      const int live = camera_liveness(pad);
       g_mutex_lock(&p->lock);
       p->vinfo = info;
       p->have_vinfo = true;
@@ -270,6 +276,9 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
   want.by_capture_time = st->s.frame_select == FrameSelect::kCaptureTime;
   const bool probe = lf::is_focus_probe(req.sequence) || lf::is_surface_probe(req.sequence);
   if (probe) want.probe = req.sequence >> 16;  // the probe without its step
+  // Before the camera's caps (still starting): is it live? A non-live one
+  // has no deadline then either (the demo's stall, 1 run in 5).
+  if (p->frames.live() < 0) p->frames.set_live(camera_liveness(self->sinkpad));
   const auto pick = p->frames.pick(want, std::chrono::nanoseconds(st->s.frame_timeout));
   if (pick.flushing) return GST_FLOW_FLUSHING;
   GstBuffer* frame = pick.frame ? gst_buffer_ref(pick.frame.get()) : nullptr;

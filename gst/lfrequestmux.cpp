@@ -48,6 +48,7 @@
 #include <atomic>
 #include <new>
 
+#include "lfcaps.h"
 #include "lfprops.h"
 
 GST_DEBUG_CATEGORY_STATIC(lf_request_mux_debug);
@@ -76,9 +77,9 @@ G_DEFINE_TYPE(LfRequestMux, lf_request_mux, GST_TYPE_AGGREGATOR)
 GST_ELEMENT_REGISTER_DEFINE(lfrequestmux, "lfrequestmux", GST_RANK_NONE, LF_TYPE_REQUEST_MUX)
 
 static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE(
-    "sink_%u", GST_PAD_SINK, GST_PAD_REQUEST, GST_STATIC_CAPS("application/x-lf-view-request"));
-static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE(
-    "src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS("application/x-lf-view-request"));
+    "sink_%u", GST_PAD_SINK, GST_PAD_REQUEST, GST_STATIC_CAPS(LF_REQUEST_CAPS));
+static GstStaticPadTemplate src_template =
+    GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(LF_REQUEST_CAPS));
 
 // One request of `pad` downstream, after its caps when they differ from the
 // last ones sent.

@@ -32,6 +32,7 @@
 #include "lf/focus/focus_probe.h"
 #include "lf/focus/surface_probe.h"
 #include "lf/session/request_queue.h"
+#include "lfcaps.h"
 #include "lfprops.h"
 #include "lfrate.h"
 
@@ -79,10 +80,10 @@ struct _LfRequestQueue {
 G_DEFINE_TYPE(LfRequestQueue, lf_request_queue, GST_TYPE_ELEMENT)
 GST_ELEMENT_REGISTER_DEFINE(lfrequestqueue, "lfrequestqueue", GST_RANK_NONE, LF_TYPE_REQUEST_QUEUE)
 
-static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE(
-    "sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS("application/x-lf-view-request"));
-static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE(
-    "src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS("application/x-lf-view-request"));
+static GstStaticPadTemplate sink_template =
+    GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS(LF_REQUEST_CAPS));
+static GstStaticPadTemplate src_template =
+    GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(LF_REQUEST_CAPS));
 
 static void release(const std::vector<GstBuffer*>& bufs) {
   for (GstBuffer* b : bufs) gst_buffer_unref(b);

@@ -56,6 +56,10 @@ class CameraFrames {
     std::lock_guard<std::mutex> l(m_);
     live_ = live, period_ = period_ns;
   }
+  // Liveness alone (learnt before the format: the frame period stays).
+  void set_live(int live) {
+    set([&] { live_ = live; });
+  }
   int live() const {
     std::lock_guard<std::mutex> l(m_);
     return live_;
