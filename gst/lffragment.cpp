@@ -277,7 +277,7 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
   const bool probe = lf::is_focus_probe(req.sequence) || lf::is_surface_probe(req.sequence);
   if (probe) want.probe = req.sequence >> 16;  // the probe without its step
   // Before the camera's caps (still starting): is it live? A non-live one
-  // has no deadline then either (the demo's stall, 1 run in 5).
+  // gets ten timeouts to start (the demo's stall, 1 run in 5).
   if (p->frames.live() < 0) p->frames.set_live(camera_liveness(self->sinkpad));
   const auto pick = p->frames.pick(want, std::chrono::nanoseconds(st->s.frame_timeout));
   if (pick.flushing) return GST_FLOW_FLUSHING;

@@ -11,7 +11,10 @@
  * header (lib/lf/wire/wire.h; read without decoding the payload) or, when no
  * such pad exists, nowhere: the viewer ids a peer writes only select among
  * the pads the application asked for, so a peer cannot make this element
- * allocate anything. A malformed buffer is dropped with a rate-limited
+ * allocate anything. Each pad gets the caps that came with its viewer's
+ * fragments (the view size and request rate of that viewer's requests, as
+ * lfrequestmux sends them), not every viewer's in turn: a compositor takes
+ * its view size from them. A malformed buffer is dropped with a rate-limited
  * warning. Events from downstream (navigation, `lf-view`, `lf-focus`) go
  * upstream unchanged, towards the viewers' lfviewrequest.
  *
@@ -33,6 +36,7 @@
 
 #include <atomic>
 #include <map>
+#include <vector>
 
 #include "lf/wire/wire.h"
 #include "lfcaps.h"
@@ -116,6 +120,15 @@ static GstFlowReturn lf_fragment_demux_chain(GstPad*, GstObject* parent, GstBuff
     return GST_FLOW_OK;
   }
   ++p->settings.routed;
+  // The caps before a fragment are its request's (each camera sends its
+  // request's caps before its answer, and a funnel forwards a pad's caps
+  // when it switches): the viewer's own, its pad's when they differ.
+  GstCaps* caps = gst_pad_get_current_caps(self->sinkpad);
+  GstCaps* had = gst_pad_get_current_caps(pad);
+  if (caps && (!had || !gst_caps_is_equal(caps, had)))
+    gst_pad_push_event(pad, gst_event_new_caps(caps));
+  for (GstCaps* c : {caps, had})
+    if (c) gst_caps_unref(c);
   const GstFlowReturn ret = gst_pad_push(pad, buf);
   // Stream lock held (chain): the combiner is this thread's.
   const GstFlowReturn combined = gst_flow_combiner_update_pad_flow(p->combiner, pad, ret);
@@ -187,6 +200,22 @@ static void lf_fragment_demux_release_pad(GstElement* element, GstPad* pad) {
 }
 
 static gboolean lf_fragment_demux_sink_event(GstPad* pad, GstObject* parent, GstEvent* event) {
+  if (GST_EVENT_TYPE(event) == GST_EVENT_CAPS) {
+    // A pad with caps gets new ones with its viewer's fragments (chain); one
+    // without, now (caps go before the segment).
+    LfFragmentDemux* self = LF_FRAGMENT_DEMUX(parent);
+    std::vector<GstPad*> bare;
+    GST_OBJECT_LOCK(self);
+    for (auto& [id, src] : self->priv->pads)
+      if (!gst_pad_has_current_caps(src)) bare.push_back(GST_PAD(gst_object_ref(src)));
+    GST_OBJECT_UNLOCK(self);
+    for (GstPad* src : bare) {
+      gst_pad_push_event(src, gst_event_ref(event));
+      gst_object_unref(src);
+    }
+    gst_event_unref(event);
+    return TRUE;
+  }
   if (GST_EVENT_TYPE(event) == GST_EVENT_FLUSH_STOP) {
     LfFragmentDemux* self = LF_FRAGMENT_DEMUX(parent);
     gst_flow_combiner_reset(self->priv->combiner);  // serialised: stream lock held

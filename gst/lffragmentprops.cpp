@@ -139,9 +139,10 @@ void install_fragment_properties(GObjectClass* oc, Properties<FragmentSettings>*
                  "first one; with frame-select=capture-time or for a probe, the "
                  "one of its time), ns, when the camera is live; a request without a frame is "
                  "dropped with a warning (with defer, answered with an empty "
-                 "fragment). A non-live camera has no deadline: the request waits "
-                 "for its frame, and the camera is held two frames ahead of the "
-                 "requests; the requests' end of stream ends the camera's",
+                 "fragment). A non-live camera has no deadline once its caps came "
+                 "(before, ten frame-timeouts to start): the request waits for its "
+                 "frame, and the camera is held two frames ahead of the requests; the "
+                 "requests' end of stream ends the camera's",
                  0, G_MAXUINT64, DEFAULT_FRAME_TIMEOUT, kReadWriteReady));
   props->add(oc, &FragmentSettings::frame_select,
              g_param_spec_enum("frame-select", "Frame selection",

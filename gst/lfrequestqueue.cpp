@@ -13,9 +13,10 @@
  * that floods requests takes only its own turns.
  *
  * lfarray and lfcamerahost put one before their cameras when live. Requests
- * dropped are counted in `dropped`; serialized events other than end of
- * stream go downstream at once (each request carries its own view), end of
- * stream after the queued requests.
+ * dropped are counted in `dropped`; caps (the view size and rate of the
+ * viewer whose requests follow them) go downstream with the requests they
+ * came before, end of stream after the queued requests, other serialized
+ * events at once (each request carries its own view).
  *
  * ## Example launch line
  * |[
@@ -64,6 +65,13 @@ guint64 request_key(GstBuffer* buf) {
   const bool probe = got >= 20 && (lf::is_focus_probe(seq) || lf::is_surface_probe(seq));
   return static_cast<guint64>(viewer) << 1 | (probe ? 1 : 0);
 }
+
+// A queued request and the caps it came with (its viewer's view size and
+// rate: they go downstream before it when they differ from the last sent).
+struct Queued {
+  GstBuffer* buf;
+  GstCaps* caps;  // or null
+};
 }  // namespace
 
 struct _LfRequestQueue {
@@ -71,10 +79,10 @@ struct _LfRequestQueue {
   GstPad *sinkpad, *srcpad;
   GMutex lock;
   GCond cond;
-  lf::RequestQueue<GstBuffer*>* queue;  // under lock
-  bool flushing, eos;                   // under lock
-  GstFlowReturn last_ret;               // under lock: what the source pad got last
-  Settings* settings;                   // properties (max-age under the object lock)
+  lf::RequestQueue<Queued>* queue;  // under lock
+  bool flushing, eos;               // under lock
+  GstFlowReturn last_ret;           // under lock: what the source pad got last
+  Settings* settings;               // properties (max-age under the object lock)
 };
 
 G_DEFINE_TYPE(LfRequestQueue, lf_request_queue, GST_TYPE_ELEMENT)
@@ -85,8 +93,11 @@ static GstStaticPadTemplate sink_template =
 static GstStaticPadTemplate src_template =
     GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(LF_REQUEST_CAPS));
 
-static void release(const std::vector<GstBuffer*>& bufs) {
-  for (GstBuffer* b : bufs) gst_buffer_unref(b);
+static void release(const std::vector<Queued>& items) {
+  for (const Queued& q : items) {
+    gst_buffer_unref(q.buf);
+    if (q.caps) gst_caps_unref(q.caps);
+  }
 }
 
 // The source pad's thread: the next request in turn downstream, end of
@@ -107,9 +118,14 @@ static void lf_request_queue_loop(gpointer data) {
     gst_pad_pause_task(self->srcpad);
     return;
   }
-  GstBuffer* buf = self->queue->pop();
+  const Queued q = self->queue->pop();
   g_mutex_unlock(&self->lock);
-  const GstFlowReturn ret = gst_pad_push(self->srcpad, buf);
+  GstCaps* sent = gst_pad_get_current_caps(self->srcpad);
+  if (q.caps && (!sent || !gst_caps_is_equal(q.caps, sent)))
+    gst_pad_push_event(self->srcpad, gst_event_new_caps(q.caps));
+  if (sent) gst_caps_unref(sent);
+  if (q.caps) gst_caps_unref(q.caps);
+  const GstFlowReturn ret = gst_pad_push(self->srcpad, q.buf);
   g_mutex_lock(&self->lock);
   self->last_ret = ret;
   g_mutex_unlock(&self->lock);
@@ -135,7 +151,8 @@ static GstFlowReturn lf_request_queue_chain(GstPad*, GstObject* parent, GstBuffe
     return ret;
   }
   const GstFlowReturn ret = self->last_ret;
-  const std::vector<GstBuffer*> dropped = self->queue->push(key, time, buf);
+  const std::vector<Queued> dropped =
+      self->queue->push(key, time, {buf, gst_pad_get_current_caps(self->sinkpad)});
   g_cond_signal(&self->cond);
   g_mutex_unlock(&self->lock);
   if (!dropped.empty()) {
@@ -153,7 +170,7 @@ static void lf_request_queue_start(LfRequestQueue* self) {
   g_mutex_lock(&self->lock);
   release(self->queue->clear());
   delete self->queue;
-  self->queue = new lf::RequestQueue<GstBuffer*>(kCapacity, max_age);
+  self->queue = new lf::RequestQueue<Queued>(kCapacity, max_age);
   self->flushing = self->eos = false;
   self->last_ret = GST_FLOW_OK;
   g_mutex_unlock(&self->lock);
@@ -190,6 +207,12 @@ static gboolean lf_request_queue_sink_event(GstPad* pad, GstObject* parent, GstE
       lf_request_queue_start(self);  // (empties the queue)
       return ok;
     }
+    case GST_EVENT_CAPS:  // with the requests after them (the loop), but the first at once
+      if (gst_pad_has_current_caps(self->srcpad)) {
+        gst_event_unref(ev);
+        return TRUE;
+      }
+      return gst_pad_push_event(self->srcpad, ev);
     case GST_EVENT_EOS:  // after the queued requests (the source pad's thread)
       g_mutex_lock(&self->lock);
       self->eos = true;
@@ -266,7 +289,8 @@ static void lf_request_queue_class_init(LfRequestQueueClass* klass) {
       "rig=../shared/data/stanford-chess ! videoconvert ! autovideosink");
   gst_element_class_add_static_metadata(
       ec, "Events",
-      "Serialized events go downstream at once, end of stream after the queued requests; "
+      "Caps go downstream with the requests they came before (each viewer's view size and "
+      "rate), end of stream after the queued requests, other serialized events at once; "
       "dropped requests are counted in dropped.");
   GST_DEBUG_CATEGORY_INIT(lf_request_queue_debug, "lfrequestqueue", 0,
                           "light field view request queue");
@@ -277,7 +301,7 @@ static void lf_request_queue_init(LfRequestQueue* self) {
   self->settings->max_age = kDefaultMaxAge;
   g_mutex_init(&self->lock);
   g_cond_init(&self->cond);
-  self->queue = new lf::RequestQueue<GstBuffer*>(kCapacity, kDefaultMaxAge);
+  self->queue = new lf::RequestQueue<Queued>(kCapacity, kDefaultMaxAge);
   self->flushing = true;
   self->eos = false;
   self->last_ret = GST_FLOW_FLUSHING;

@@ -614,6 +614,15 @@ TEST(CameraFrames, NewestCaptureTimeProbesHoldingAndEnds) {
     EXPECT_EQ(pushed, 4);
   }
   {
+    // Known not live but its format not yet (still starting): kStarting
+    // timeouts, then no frame (a camera that never starts holds nothing).
+    Frames f(2);
+    f.set_live(0);
+    const auto t0 = steady_clock::now();
+    EXPECT_FALSE(f.pick({}, milliseconds(5)).frame);
+    EXPECT_GE(steady_clock::now() - t0, milliseconds(5 * Frames::kStarting - 1));
+  }
+  {
     // Not live, no frame: a request waits without a deadline until flushing.
     Frames f(2);
     f.set_camera(0, 33 * kMs);

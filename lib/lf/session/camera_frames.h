@@ -14,8 +14,11 @@
 //  * Live cameras never wait for requests; a request waits for a frame at
 //    most the timeout, so a camera that never delivers cannot hold it.
 //  * A camera known not to be live (a file, a still repeated) has no
-//    deadline: a request waits for its frame as long as it takes (as
-//    GstAggregator waits without a latency), and the camera is held once it
+//    deadline once its format is known (set_camera): a request waits for
+//    its frame as long as it takes (as GstAggregator waits without a
+//    latency); before (the camera still starting: set_live), kStarting
+//    timeouts, so one that never starts cannot hold the requests for
+//    ever. The camera is held once it
 //    is kAhead frames ahead of the requests, unless a request waits for a
 //    frame it has not made yet: it then makes about one frame a request
 //    instead of as many as the CPU allows (64 still cameras took 37 s for
@@ -46,6 +49,7 @@ template <class Frame>
 class CameraFrames {
  public:
   static constexpr int kAhead = 2;
+  static constexpr int kStarting = 10;  // timeouts a non-live camera has to start
 
   // Frames kept: `keep` (at least 1).
   explicit CameraFrames(size_t keep = 2) : keep_(keep < 1 ? 1 : keep) {}
@@ -54,7 +58,7 @@ class CameraFrames {
   // or unknown (-1), and its frame period (ns; <= 0 unknown).
   void set_camera(int live, int64_t period_ns) {
     std::lock_guard<std::mutex> l(m_);
-    live_ = live, period_ = period_ns;
+    live_ = live, period_ = period_ns, started_ = true;
   }
   // Liveness alone (learnt before the format: the frame period stays).
   void set_live(int live) {
@@ -113,7 +117,7 @@ class CameraFrames {
       ring_.clear();
       probe_frame_ = Frame();
       camera_ended_ = requests_ended_ = false;
-      live_ = -1, period_ = -1;
+      live_ = -1, period_ = -1, started_ = false;
       ahead_ = waiting_ = 0;
     });
   }
@@ -132,7 +136,8 @@ class CameraFrames {
   // `timeout` (a camera not live: without limit).
   Pick pick(const Want& w, std::chrono::nanoseconds timeout) {
     std::unique_lock<std::mutex> l(m_);
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    const auto deadline = std::chrono::steady_clock::now() +
+                          (live_ == 0 && !started_ ? kStarting * timeout : timeout);
     Pick out;
     while (ring_.empty() && !flushing_ && !camera_ended_)
       if (!wait(l, deadline, kAnyFrame)) break;
@@ -176,7 +181,7 @@ class CameraFrames {
     want_ = want;
     if (waiting_++ == 0) cv_.notify_all();
     bool woken = true;
-    if (live_ == 0)
+    if (live_ == 0 && started_)
       cv_.wait(l);
     else
       woken = cv_.wait_until(l, deadline) == std::cv_status::no_timeout;
@@ -212,6 +217,7 @@ class CameraFrames {
   uint64_t probe_key_ = 0;
   Frame probe_frame_;
   int live_ = -1;
+  bool started_ = false;  // the format is known (set_camera)
   int64_t period_ = -1;
   bool flushing_ = false, camera_ended_ = false, requests_ended_ = false;
   int ahead_ = 0;    // frames since a request last took one
