@@ -65,6 +65,20 @@ class Gst : public ::testing::Test {
   }
   static std::string rig_path_;
 
+  // One non-live camera (the rig's first, lfcamsrc "cam", mode=dataset)
+  // answering `requests` requests of 160x120 views: lffragment "f" into
+  // fakesink "out".
+  static GstElement* one_camera_pipeline(int requests) {
+    const std::string id = std::to_string(lf::load_rig(rig_path_).cameras[0].id);
+    return gst_parse_launch(
+        ("lfviewrequest rig=" + rig_path_ + " num-buffers=" + std::to_string(requests) +
+         " width=160 height=120 focal-surface=false ! f.request lffragment name=f rig=" +
+         rig_path_ + " camera-id=" + id + " ! fakesink name=out lfcamsrc name=cam rig=" +
+         rig_path_ + " camera-id=" + id + " mode=dataset ! f.sink")
+            .c_str(),
+        nullptr);
+  }
+
   // The test rig with every camera's colour correction halving red and
   // adding 10 to green (the rig's 3x4 `colour` matrix), saved as `name` in
   // the temporary folder; returns its path.
@@ -1064,16 +1078,8 @@ TEST_F(Gst, OneRequestThreadKeepsTheCamerasInStep) {
 // 0.5 s now), requests are never dropped on the wall clock, and the end of
 // the requests ends the camera's stream too.
 TEST_F(Gst, NonLiveCamerasFollowTheRequests) {
-  const lf::Rig rig = lf::load_rig(rig_path_);
-  const std::string id = std::to_string(rig.cameras[0].id);
   constexpr int kRequests = 20;
-  GstElement* p = gst_parse_launch(
-      ("lfviewrequest rig=" + rig_path_ + " num-buffers=" + std::to_string(kRequests) +
-       " width=160 height=120 focal-surface=false ! f.request lffragment name=f rig=" + rig_path_ +
-       " camera-id=" + id + " ! fakesink name=out lfcamsrc name=cam rig=" + rig_path_ +
-       " camera-id=" + id + " mode=dataset ! f.sink")
-          .c_str(),
-      nullptr);
+  GstElement* p = one_camera_pipeline(kRequests);
   ASSERT_NE(p, nullptr);
   std::atomic<int> frames{0}, fragments{0};
   GstElement* cam = gst_bin_get_by_name(GST_BIN(p), "cam");
@@ -1119,16 +1125,8 @@ TEST_F(Gst, NonLiveCamerasFollowTheRequests) {
 // request before the caps waited a live camera's second and was dropped:
 // the demo's "No camera frame" stall, 1 run in 5.
 TEST_F(Gst, ASlowStartingNonLiveCameraIsWaitedFor) {
-  const lf::Rig rig = lf::load_rig(rig_path_);
-  const std::string id = std::to_string(rig.cameras[0].id);
   constexpr int kRequests = 3;
-  GstElement* p = gst_parse_launch(
-      ("lfviewrequest rig=" + rig_path_ + " num-buffers=" + std::to_string(kRequests) +
-       " width=160 height=120 focal-surface=false ! f.request lffragment name=f rig=" + rig_path_ +
-       " camera-id=" + id + " ! fakesink name=out lfcamsrc name=cam rig=" + rig_path_ +
-       " camera-id=" + id + " mode=dataset ! f.sink")
-          .c_str(),
-      nullptr);
+  GstElement* p = one_camera_pipeline(kRequests);
   ASSERT_NE(p, nullptr);
   std::atomic<int> fragments{0};
   GstElement* cam = gst_bin_get_by_name(GST_BIN(p), "cam");
