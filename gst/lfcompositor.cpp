@@ -338,52 +338,49 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
   }
   std::vector<lf::AnswerPiece>& parts = in.parts;
   const lf::Fragment& f = parts.front().f;
-  {
-    gint64 on_arrival_ns = 0;
-    lfgst::ArrivalDecoder::decoded(buf, &on_arrival_ns);
-    lfgst::trace(GST_ELEMENT(self), "decoded", f.viewer_id, f.sequence,
-                 static_cast<gint>(f.camera_id),
-                 (g_get_monotonic_time() - t0) * 1000 + on_arrival_ns);
-    if (st->intake->viewer.taken(f.viewer_id))  // viewer-id -1: the first viewer seen, then only it
-      GST_INFO_OBJECT(self, "compositing viewer %u", f.viewer_id);
-    const uint64_t seq = f.sequence;
-    const uint64_t source = (static_cast<uint64_t>(f.viewer_id) << 32) | f.camera_id;
-    const size_t cameras = f.cameras;
-    const uint32_t camera = f.camera_id;
-    const bool any_raw = std::any_of(parts.begin(), parts.end(), [](const lf::AnswerPiece& a) {
-      return a.encoding == lf::Encoding::kRaw;
-    });
-    std::vector<Piece> pieces = lf::received_pieces(
-        std::move(parts),
-        any_raw ? std::make_shared<const lfgst::MappedBuffer>(std::move(*mapped)) : nullptr);
-    Piece& piece = pieces.front();
-    // A drawing left to us: only on an empty fragment this process made
-    // (the meta is never copied), for this camera and this view size.
-    if (piece.f.empty() && pieces.size() == 1)
-      if (auto d = lfgst::deferred_of(buf); d &&
-                                            d->camera.id == static_cast<int>(piece.f.camera_id) &&
-                                            d->plan.out_width == w && d->plan.out_height == h)
-        piece.deferred = std::move(d);
-    const GstClockTime pts = GST_BUFFER_PTS(buf);
-    const GstClockTime rt = GST_CLOCK_TIME_IS_VALID(pts)
-                                ? gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, pts)
-                                : GST_CLOCK_TIME_NONE;
-    if (st->pending.add(seq, source, cameras, std::move(pieces), rt, pts,
-                        GST_BUFFER_DURATION(buf)) ==
-        lf::PendingRequests<uint64_t, Piece>::Added::kDuplicate) {
-      // A second fragment of this camera for this request: one of the two is
-      // forged (plain RTP) or a stray copy, and nothing tells which. Neither
-      // is used, so a forgery can cost a camera's part of one frame (filled
-      // by the others) but never put its pixels in it.
-      st->pending.discard(seq, source);
-      st->conflicts++;
-      LF_ELEMENT_WARNING_LIMITED(
-          self, st->duplicate, STREAM, DECODE, ("Dropping both copies of a fragment"),
-          "camera %u sent two fragments for request %" G_GUINT64_FORMAT " (%" G_GUINT64_FORMAT
-          " so far): one is forged or a stray copy, so neither is used "
-          "(on an untrusted network authenticate the streams: SRTP_KEY)",
-          camera, seq, st->conflicts);
-    }
+  gint64 on_arrival_ns = 0;
+  lfgst::ArrivalDecoder::decoded(buf, &on_arrival_ns);
+  lfgst::trace(GST_ELEMENT(self), "decoded", f.viewer_id, f.sequence,
+               static_cast<gint>(f.camera_id),
+               (g_get_monotonic_time() - t0) * 1000 + on_arrival_ns);
+  if (st->intake->viewer.taken(f.viewer_id))  // viewer-id -1: the first viewer seen, then only it
+    GST_INFO_OBJECT(self, "compositing viewer %u", f.viewer_id);
+  const uint64_t seq = f.sequence;
+  const uint64_t source = (static_cast<uint64_t>(f.viewer_id) << 32) | f.camera_id;
+  const size_t cameras = f.cameras;
+  const uint32_t camera = f.camera_id;
+  const bool any_raw = std::any_of(parts.begin(), parts.end(), [](const lf::AnswerPiece& a) {
+    return a.encoding == lf::Encoding::kRaw;
+  });
+  std::vector<Piece> pieces = lf::received_pieces(
+      std::move(parts),
+      any_raw ? std::make_shared<const lfgst::MappedBuffer>(std::move(*mapped)) : nullptr);
+  Piece& piece = pieces.front();
+  // A drawing left to us: only on an empty fragment this process made
+  // (the meta is never copied), for this camera and this view size.
+  if (piece.f.empty() && pieces.size() == 1)
+    if (auto d = lfgst::deferred_of(buf); d &&
+                                          d->camera.id == static_cast<int>(piece.f.camera_id) &&
+                                          d->plan.out_width == w && d->plan.out_height == h)
+      piece.deferred = std::move(d);
+  const GstClockTime pts = GST_BUFFER_PTS(buf);
+  const GstClockTime rt = GST_CLOCK_TIME_IS_VALID(pts)
+                              ? gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, pts)
+                              : GST_CLOCK_TIME_NONE;
+  if (st->pending.add(seq, source, cameras, std::move(pieces), rt, pts, GST_BUFFER_DURATION(buf)) ==
+      lf::PendingRequests<uint64_t, Piece>::Added::kDuplicate) {
+    // A second fragment of this camera for this request: one of the two is
+    // forged (plain RTP) or a stray copy, and nothing tells which. Neither
+    // is used, so a forgery can cost a camera's part of one frame (filled
+    // by the others) but never put its pixels in it.
+    st->pending.discard(seq, source);
+    st->conflicts++;
+    LF_ELEMENT_WARNING_LIMITED(
+        self, st->duplicate, STREAM, DECODE, ("Dropping both copies of a fragment"),
+        "camera %u sent two fragments for request %" G_GUINT64_FORMAT " (%" G_GUINT64_FORMAT
+        " so far): one is forged or a stray copy, so neither is used "
+        "(on an untrusted network authenticate the streams: SRTP_KEY)",
+        camera, seq, st->conflicts);
   }
 }
 

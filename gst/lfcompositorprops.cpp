@@ -55,13 +55,6 @@
 
 #include "lfbackend.h"
 
-#define DEFAULT_VIEWER_ID 0
-#define DEFAULT_WIDTH 0  // 0: from the fragment caps (the viewer's request size)
-#define DEFAULT_HEIGHT 0
-#define DEFAULT_FPS_N 0  // 0/1: from the fragment caps
-#define DEFAULT_FPS_D 1
-#define DEFAULT_STEREO FALSE
-
 namespace lfgst {
 
 void describe_compositor(GstElementClass* ec) {
@@ -91,6 +84,7 @@ void describe_compositor(GstElementClass* ec) {
 }
 
 void install_compositor_properties(GObjectClass* oc, Properties<CompositorSettings>* props) {
+  const CompositorSettings d;  // the defaults: the settings as constructed
   const GParamFlags rw = kReadWriteReady;
   props->add(oc, &CompositorSettings::rig,
              g_param_spec_string("rig", "Rig",
@@ -101,29 +95,29 @@ void install_compositor_properties(GObjectClass* oc, Properties<CompositorSettin
   props->add(
       oc, &CompositorSettings::viewer_id,
       g_param_spec_int("viewer-id", "Viewer id", "Composite only this viewer's requests (-1: any)",
-                       -1, G_MAXINT, DEFAULT_VIEWER_ID, rw));
+                       -1, G_MAXINT, d.viewer_id, rw));
   props->add(oc, &CompositorSettings::width,
              g_param_spec_int("width", "Width",
                               "Width of one view, pixels (0: from the fragment caps, the viewer's "
                               "request size). Set it where fragments arrive from a network: caps "
                               "travel in band and any sender can announce them",
-                              0, kMaxOutputSide, DEFAULT_WIDTH, rw));
+                              0, kMaxOutputSide, d.width, rw));
   props->add(
       oc, &CompositorSettings::height,
       g_param_spec_int("height", "Height", "Height of one view, pixels (0: from the fragment caps)",
-                       0, kMaxOutputSide, DEFAULT_HEIGHT, rw));
+                       0, kMaxOutputSide, d.height, rw));
   props->add(oc, &CompositorSettings::framerate,
              gst_param_spec_fraction("framerate", "Frame rate",
                                      "Output frame rate; 0/1: the request rate from the fragment "
                                      "caps (30/1 if they carry none)",
-                                     0, 1, 1000, 1, DEFAULT_FPS_N, DEFAULT_FPS_D, rw));
+                                     0, 1, 1000, 1, d.framerate.n, d.framerate.d, rw));
   props->add(oc, &CompositorSettings::stereo,
              g_param_spec_boolean("stereo", "Stereo",
                                   "Composite the requests of viewer-id (left) and viewer-id + 1 "
                                   "(right) side by side (lfviewrequest stereo-baseline), output "
                                   "twice as wide; changeable while playing (the output is then "
                                   "renegotiated)",
-                                  DEFAULT_STEREO, kReadWritePlaying));
+                                  d.stereo, kReadWritePlaying));
   props->add(
       oc, &CompositorSettings::second_planes,
       g_param_spec_boolean(

@@ -51,13 +51,6 @@
 
 #include "lfbackend.h"
 
-#define DEFAULT_ENCODING FragmentEncoding::kRaw
-#define DEFAULT_JPEG_QUALITY 90
-#define DEFAULT_MAX_PIXELS (G_GUINT64_CONSTANT(3840) * 2160)
-#define DEFAULT_MAX_RATE 240.0
-#define DEFAULT_FRAME_TIMEOUT GST_SECOND
-#define DEFAULT_FRAME_SELECT FrameSelect::kNewest
-#define DEFAULT_BACKEND lf::Backend::kAuto
 #define LF_TYPE_FRAGMENT_ENCODING (fragment_encoding_type())
 #define LF_TYPE_BACKEND (backend_type())
 
@@ -100,29 +93,30 @@ void describe_fragment(GstElementClass* ec) {
 }
 
 void install_fragment_properties(GObjectClass* oc, Properties<FragmentSettings>* props) {
+  const FragmentSettings d;  // the defaults: the settings as constructed
   props->add(oc, &FragmentSettings::rig,
              g_param_spec_string("rig", "Rig", "Rig file (.json) or dataset folder", nullptr,
                                  kReadWriteReady));
   add_camera_properties(*props, oc);
-  props->add(oc, &FragmentSettings::encoding,
-             g_param_spec_enum("encoding", "Encoding", "Fragment payload encoding",
-                               LF_TYPE_FRAGMENT_ENCODING, static_cast<gint>(DEFAULT_ENCODING),
-                               kReadWriteReady));
+  props->add(
+      oc, &FragmentSettings::encoding,
+      g_param_spec_enum("encoding", "Encoding", "Fragment payload encoding",
+                        LF_TYPE_FRAGMENT_ENCODING, static_cast<gint>(d.encoding), kReadWriteReady));
   props->add(
       oc, &FragmentSettings::quality,
       g_param_spec_int("jpeg-quality", "JPEG quality", "JPEG quality (encoding=jpeg), 1..100", 1,
-                       100, DEFAULT_JPEG_QUALITY, kReadWritePlaying));
+                       100, d.quality, kReadWritePlaying));
   props->add(oc, &FragmentSettings::max_pixels,
              g_param_spec_uint64("max-pixels", "Maximum view size",
                                  "Requests for views of more pixels (width x height) are dropped "
                                  "with a warning",
-                                 1, G_MAXUINT64, DEFAULT_MAX_PIXELS, kReadWriteReady));
+                                 1, G_MAXUINT64, d.max_pixels, kReadWriteReady));
   props->add(oc, &FragmentSettings::max_rate,
              g_param_spec_double("max-rate", "Maximum request rate",
                                  "Requests per second answered for each viewer (bursts up to one "
                                  "second's worth; one viewer's flood never spends another's); more "
                                  "are dropped with a warning (0: no limit)",
-                                 0, 1e6, DEFAULT_MAX_RATE, kReadWriteReady));
+                                 0, 1e6, d.max_rate, kReadWriteReady));
   props->add(oc, &FragmentSettings::max_pixel_rate,
              g_param_spec_double(
                  "max-pixel-rate", "Maximum output pixel rate",
@@ -143,12 +137,12 @@ void install_fragment_properties(GObjectClass* oc, Properties<FragmentSettings>*
                  "(before, ten frame-timeouts to start): the request waits for its "
                  "frame, and the camera is held two frames ahead of the requests; the "
                  "requests' end of stream ends the camera's",
-                 0, G_MAXUINT64, DEFAULT_FRAME_TIMEOUT, kReadWriteReady));
+                 0, G_MAXUINT64, d.frame_timeout, kReadWriteReady));
   props->add(oc, &FragmentSettings::frame_select,
              g_param_spec_enum("frame-select", "Frame selection",
                                "Which camera frame a request is rendered from",
-                               LF_TYPE_FRAGMENT_FRAME_SELECT,
-                               static_cast<gint>(DEFAULT_FRAME_SELECT), kReadWriteReady));
+                               LF_TYPE_FRAGMENT_FRAME_SELECT, static_cast<gint>(d.frame_select),
+                               kReadWriteReady));
   gst_type_mark_as_plugin_api(LF_TYPE_FRAGMENT_ENCODING, static_cast<GstPluginAPIFlags>(0));
   props->add(
       oc, &FragmentSettings::backend,
@@ -156,7 +150,7 @@ void install_fragment_properties(GObjectClass* oc, Properties<FragmentSettings>*
                         "Which renderer draws the fragments (lib/lf/render/gl_render.h): the CPU "
                         "kernels or EGL/GLES 3; both give the same pixels within 1 LSB "
                         "(identical on Mesa's llvmpipe)",
-                        LF_TYPE_BACKEND, static_cast<gint>(DEFAULT_BACKEND), kReadWriteReady));
+                        LF_TYPE_BACKEND, static_cast<gint>(d.backend), kReadWriteReady));
   props->add(
       oc, &FragmentSettings::defer,
       g_param_spec_boolean(

@@ -46,20 +46,6 @@
 #include "lf/focus/focal_surface.h"
 #include "lf/render/quilt.h"
 
-#define DEFAULT_VIEWER_ID 0
-#define DEFAULT_WIDTH 640
-#define DEFAULT_HEIGHT 480
-#define DEFAULT_VFOV 0.0
-#define DEFAULT_FOCAL_PLANE "infinity"
-#define DEFAULT_FOCAL_DEPTH 0.0
-#define DEFAULT_ORBIT 0.0
-#define DEFAULT_DOLLY 0.0
-#define DEFAULT_PATH_FRAMES 120
-#define DEFAULT_FPS_N 30
-#define DEFAULT_FPS_D 1
-#define DEFAULT_IS_LIVE FALSE
-#define DEFAULT_STEREO_BASELINE 0.0
-#define DEFAULT_SURFACE_INTERVAL 60
 #define MAX_COORD kMaxCoordinate
 
 namespace lfgst {
@@ -99,6 +85,7 @@ void describe_view_request(GstElementClass* ec) {
 
 ViewRequestSpecs install_view_request_properties(GObjectClass* oc,
                                                  Properties<ViewRequestSettings>* props) {
+  const ViewRequestSettings d;  // the defaults: the settings as constructed
   ViewRequestSpecs specs;
   const GParamFlags rw = kReadWriteReady;
   props->add(
@@ -107,13 +94,11 @@ ViewRequestSpecs install_view_request_properties(GObjectClass* oc,
                           nullptr, rw));
   props->add(oc, &ViewRequestSettings::viewer_id,
              g_param_spec_uint("viewer-id", "Viewer id", "Tag of this viewer's requests and output",
-                               0, G_MAXUINT32, DEFAULT_VIEWER_ID, rw));
-  props->add(
-      oc, &ViewRequestSettings::width,
-      g_param_spec_int("width", "Width", "Output width, pixels", 2, 16384, DEFAULT_WIDTH, rw));
-  props->add(
-      oc, &ViewRequestSettings::height,
-      g_param_spec_int("height", "Height", "Output height, pixels", 2, 16384, DEFAULT_HEIGHT, rw));
+                               0, G_MAXUINT32, d.viewer_id, rw));
+  props->add(oc, &ViewRequestSettings::width,
+             g_param_spec_int("width", "Width", "Output width, pixels", 2, 16384, d.width, rw));
+  props->add(oc, &ViewRequestSettings::height,
+             g_param_spec_int("height", "Height", "Output height, pixels", 2, 16384, d.height, rw));
   // View properties: changeable in PLAYING, from the next request on.
   const GParamFlags play = kReadWritePlaying;
   const GParamFlags ctrl = static_cast<GParamFlags>(play | GST_PARAM_CONTROLLABLE);
@@ -154,14 +139,14 @@ ViewRequestSpecs install_view_request_properties(GObjectClass* oc,
              g_param_spec_double(
                  "vfov", "Vertical FOV",
                  "Vertical field of view, degrees (0: from the cameras, or 50 with look-at)", 0,
-                 179.9, DEFAULT_VFOV, ctrl));
+                 179.9, d.vfov, ctrl));
   props->add(oc, &ViewRequestSettings::focal_plane,
              g_param_spec_string("focal-plane", "Focal plane",
                                  "infinity | depth:Z (rig units from the camera plane) | param:A "
                                  "(light-slab focal parameter, pixels of shift per unit) | "
                                  "plane:nx,ny,nz,d (world frame, n.X + d = 0); used while "
                                  "focal-depth is 0",
-                                 DEFAULT_FOCAL_PLANE, play));
+                                 d.focal_plane.c_str(), play));
   props->add(oc, &ViewRequestSettings::continuous_focus,
              g_param_spec_boolean(
                  "continuous-focus", "Continuous focus",
@@ -191,7 +176,7 @@ ViewRequestSpecs install_view_request_properties(GObjectClass* oc,
                                "Requests from one surface probe to the next with focal-surface "
                                "(in between, the view keeps the last surface: meant for a steady "
                                "or slowly moving view)",
-                               1, G_MAXINT32, DEFAULT_SURFACE_INTERVAL, play));
+                               1, G_MAXINT32, d.surface_interval, play));
   props->add(
       oc, &ViewRequestSettings::surface_planes,
       g_param_spec_uint("surface-planes", "Surface planes",
@@ -210,7 +195,7 @@ ViewRequestSpecs install_view_request_properties(GObjectClass* oc,
       "focal-depth", "Focal depth",
       "Focal plane parallel to the camera plane at this depth, rig units along its normal "
       "(0: use focal-plane); the wheel changes it",
-      0, MAX_COORD, DEFAULT_FOCAL_DEPTH, ctrl);
+      0, MAX_COORD, d.focal_depth, ctrl);
   props->add(oc, &ViewRequestSettings::focal_depth, specs.focal_depth);
   props->add(oc, &ViewRequestSettings::aperture,
              g_param_spec_double(
@@ -252,29 +237,28 @@ ViewRequestSpecs install_view_request_properties(GObjectClass* oc,
              g_param_spec_double("orbit", "Orbit",
                                  "Circular path on the camera plane, radius as a fraction of the "
                                  "array's half extent (0: off)",
-                                 0, 10, DEFAULT_ORBIT, play));
+                                 0, 10, d.orbit, play));
   props->add(oc, &ViewRequestSettings::dolly,
              g_param_spec_double(
                  "dolly", "Dolly",
                  "With orbit: amplitude of motion along the camera-plane normal, rig units",
-                 -MAX_COORD, MAX_COORD, DEFAULT_DOLLY, play));
+                 -MAX_COORD, MAX_COORD, d.dolly, play));
   props->add(oc, &ViewRequestSettings::path_frames,
              g_param_spec_int("path-frames", "Path frames", "Requests per pass over the path/orbit",
-                              1, 1000000, DEFAULT_PATH_FRAMES, play));
+                              1, 1000000, d.path_frames, play));
   props->add(oc, &ViewRequestSettings::framerate,
              gst_param_spec_fraction("framerate", "Frame rate",
                                      "Requests per second (also in the src caps)", 1, 1000, 1000, 1,
-                                     DEFAULT_FPS_N, DEFAULT_FPS_D, rw));
-  props->add(
-      oc, &ViewRequestSettings::live,
-      g_param_spec_boolean("is-live", "Live", "Emit requests in real time on the pipeline clock",
-                           DEFAULT_IS_LIVE, rw));
+                                     d.framerate.n, d.framerate.d, rw));
+  props->add(oc, &ViewRequestSettings::live,
+             g_param_spec_boolean("is-live", "Live",
+                                  "Emit requests in real time on the pipeline clock", d.live, rw));
   props->add(oc, &ViewRequestSettings::stereo_baseline,
              g_param_spec_double("stereo-baseline", "Stereo baseline",
                                  "Eye separation in rig units; > 0 emits a left (viewer-id) and a "
                                  "right (viewer-id + 1) request per tick, for lfcompositor "
                                  "stereo=true",
-                                 0, MAX_COORD, DEFAULT_STEREO_BASELINE, ctrl));
+                                 0, MAX_COORD, d.stereo_baseline, ctrl));
   props->add(oc, &ViewRequestSettings::quilt_views,
              g_param_spec_uint(
                  "quilt-views", "Quilt views",

@@ -176,8 +176,11 @@ LF_DEFINE_SRC_UNLOCK(lf_view_request, LF_VIEW_REQUEST)
 // stereo baseline, the right eye's).
 static bool for_this_viewer(LfViewRequest* self, const GstStructure* st) {
   const std::optional<guint> id = lfgst::addressed_viewer(st);
-  const Settings s = lfgst::snapshot(GST_OBJECT(self), self->priv->settings);
-  return !id || *id == s.viewer_id || (s.stereo_baseline > 0 && *id == s.viewer_id + 1);
+  GstObject* o = GST_OBJECT(self);
+  const Settings& s = self->priv->settings;
+  const guint v = id ? lfgst::read_setting(o, s, &Settings::viewer_id) : 0;
+  return !id || *id == v ||
+         (*id == v + 1 && lfgst::read_setting(o, s, &Settings::stereo_baseline) > 0);
 }
 
 // Sets eye-s/t/w and focal-depth from a navigation gesture, then notifies.
