@@ -261,7 +261,7 @@ static void send_probe_outcomes(LfCompositor* self, State* st) {
   using Result = lf::ProbeOutcome::Result;
   for (lf::ProbeOutcome& o : st->probes->take()) {
     const bool focus = o.kind == lf::ProbeOutcome::Kind::kFocus;
-    if (o.result == Result::kSatOut) {
+    if (o.result == Result::kSatOut || o.result == Result::kIncomplete) {
       GST_INFO_OBJECT(self, "%s", o.describe().c_str());
     } else if (o.result == Result::kFailed) {
       LF_ELEMENT_WARNING_LIMITED(self, focus ? st->no_focus : st->no_surface, STREAM, FAILED,

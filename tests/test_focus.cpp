@@ -299,6 +299,35 @@ TEST(ProbeScoring, CompleteAtOnceIncompleteAtTheDeadlineAndSatOutProbes) {
               id == 20 ? lf::ProbeOutcome::Result::kSatOut : lf::ProbeOutcome::Result::kFailed);
     if (id == 21) EXPECT_FALSE(out[0].why.empty());
   }
+
+  // Surface probes that only one camera answered, with pixels, for one step
+  // (a busy host: scored at the deadline), whose estimate fails: quiet the
+  // first time, a failure the second (a scoring of their own: the run of
+  // unmeasured probes above goes on until a probe measures).
+  lf::ProbeScoring busy(rig);
+  for (uint32_t id : {22u, 23u}) {
+    const lf::ViewRequest step = lf::surface_probe_requests(*rig, view, id, opt).front();
+    lf::Fragment f;
+    for (size_t i = 0; i < rig->cameras.size() && f.pixel_count() == 0; ++i) {
+      f = lf::Fragment{};
+      f.sequence = step.sequence, f.viewer_id = 2, f.camera_id = rig->cameras[i].id;
+      lf::render_fragment(lf::plan_fragment(lf::ViewGeometry(*rig, step), static_cast<int>(i)),
+                          rig->cameras[i], scene.render(rig->cameras[i], t), f);
+    }
+    ASSERT_GT(f.pixel_count(), 0u);
+    const auto bytes = lf::serialize_fragment(f, lf::Encoding::kRaw);
+    busy.absorb(bytes.data(), bytes.size(), 320, 240, opt, 400);
+    EXPECT_TRUE(busy.take().empty());
+    busy.expire(400 + 1001, 1000);
+    out = busy.take();
+    ASSERT_EQ(out.size(), 1u) << "probe " << id << " at its deadline";
+    EXPECT_EQ(out[0].result,
+              id == 22 ? lf::ProbeOutcome::Result::kIncomplete : lf::ProbeOutcome::Result::kFailed);
+    EXPECT_EQ(out[0].fragments, 1u);
+    EXPECT_NE(out[0].describe().find(id == 22 ? "before every camera answered" : "fewer than 3"),
+              std::string::npos)
+        << out[0].describe();
+  }
 }
 
 // The point of the disc's plane that the moving disc covers from t0 to t1

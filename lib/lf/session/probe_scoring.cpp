@@ -118,8 +118,13 @@ void ProbeScoring::finish_surface(SurfaceProbes::Iter it) {
     // frames: a live pipeline starting, or a host overloaded): nothing was
     // measured and the next probe measures. Only twice in a row is it worth
     // a warning (the viewer keeps its plane meanwhile).
-    if (!threw && rig_ && probe.answers.pixels() == 0 && sat_out_in_a_row_++ == 0)
-      o.result = ProbeOutcome::Result::kSatOut;
+    // A probe scored before every camera answered every step (a busy host)
+    // is the same: the next probe measures again.
+    const size_t expected = rig_ ? rig_->cameras.size() * SurfaceOptions{}.planes : 0;
+    const bool unmeasured = probe.answers.pixels() == 0 || probe.answers.fragments() < expected;
+    if (!threw && rig_ && unmeasured && unmeasured_in_a_row_++ == 0)
+      o.result = probe.answers.pixels() == 0 ? ProbeOutcome::Result::kSatOut
+                                             : ProbeOutcome::Result::kIncomplete;
     else if (!threw)
       o.why = rig_ ? "fewer than 3 planes answered by every complete camera, or no pixel seen "
                      "by most of the aperture"
@@ -127,7 +132,7 @@ void ProbeScoring::finish_surface(SurfaceProbes::Iter it) {
     outcomes_.push_back(std::move(o));
     return;
   }
-  sat_out_in_a_row_ = 0;
+  unmeasured_in_a_row_ = 0;
   if (priors_.size() >= kMaxPriors && prior == priors_.end()) priors_.clear();
   const SurfaceOptions opt;
   priors_[probe.viewer] = prior_of(e, (probe.answers.width() + opt.tile - 1) / opt.tile,
@@ -154,6 +159,11 @@ std::string ProbeOutcome::describe() const {
   if (result == Result::kSatOut)
     std::snprintf(line, sizeof line, "surface probe %u: every camera sat it out (%d cameras)",
                   probe, cameras);
+  else if (result == Result::kIncomplete)
+    std::snprintf(line, sizeof line,
+                  "surface probe %u: scored before every camera answered (%zu fragments from %d "
+                  "complete cameras); the next probe measures again",
+                  probe, fragments, cameras);
   else if (result == Result::kFailed && focus)
     std::snprintf(line, sizeof line, "probe %u: %s (%zu fragments)", probe, why.c_str(), fragments);
   else if (result == Result::kFailed)

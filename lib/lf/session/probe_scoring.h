@@ -34,10 +34,14 @@ namespace lf {
 struct ProbeOutcome {
   enum class Kind { kFocus, kSurface } kind = Kind::kFocus;
   enum class Result {
-    kAnswer,  // `inverse_depth` (focus) or `surface` (surface) hold the answer
-    kSatOut,  // a surface probe every camera sat out (its instant was not among
-              // their frames), the first in a row: worth a log line, not a warning
-    kFailed,  // nothing could be measured: `why` says what was wrong
+    kAnswer,      // `inverse_depth` (focus) or `surface` (surface) hold the answer
+    kSatOut,      // a surface probe every camera sat out (its instant was not among
+                  // their frames), the first in a row: worth a log line, not a warning
+    kIncomplete,  // a surface probe scored before every camera answered every
+                  // step (a newer probe needed its place, or its deadline passed:
+                  // a busy host), whose estimate failed, the first in a row:
+                  // worth a log line, not a warning
+    kFailed,      // nothing could be measured: `why` says what was wrong
   } result = Result::kFailed;
   uint32_t viewer = 0, probe = 0;
   int64_t capture_time_ns = -1;  // newest capture time of the frames measured (-1: unknown)
@@ -101,7 +105,8 @@ class ProbeScoring {
   std::map<uint32_t, SurfacePrior> priors_;
   FocusProbes focus_{kMaxFocusProbes};
   SurfaceProbes surface_{kMaxSurfaceProbes};
-  unsigned sat_out_in_a_row_ = 0;
+  // Surface probes in a row that measured nothing (kSatOut, kIncomplete).
+  unsigned unmeasured_in_a_row_ = 0;
   std::vector<ProbeOutcome> outcomes_;
 };
 
