@@ -17,8 +17,8 @@
  * once, no fragment read back, no GL context per camera;
  * lib/lf/render/gl_render.h). Planning is cheap, so one request thread plans
  * every camera (not one thread per camera: one hand-off per request
- * instead of 64, which a profile of the pipeline showed to cost), with the request
- * rate limit (`max-rate`) kept once for all cameras; only where frames are
+ * instead of 64, which a profile of the pipeline showed to cost); the request
+ * limits (`max-rate`, `max-pixel-rate`) are kept once for all cameras; only where frames are
  * picked by capture time (`record`, `playback`, `frame-select`), a request
  * may wait for a camera's frame and each camera keeps its own request
  * thread. The frames equal those of every `lffragment` drawing its own

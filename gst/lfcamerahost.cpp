@@ -310,8 +310,11 @@ static bool build(LfCameraHost* self) {
                 throw std::runtime_error("cannot link the request queue");
             }
             GstPad* tsink = gst_element_get_static_pad(first, "sink");
-            if (one_thread && !frags.empty()) {
-              // The requests' limits once for all cameras (lfrate.h).
+            if (!frags.empty()) {
+              // The requests' limits once for all cameras (lfrate.h), on
+              // the one thread that brings the requests: each camera
+              // deciding alone dropped a request in some cameras and
+              // answered it in others (a frame composited incomplete).
               double rate = 0, pixel_rate = 0;
               g_object_get(frags.front(), "max-rate", &rate, "max-pixel-rate", &pixel_rate,
                            nullptr);

@@ -64,8 +64,9 @@ struct State {
   lfgst::RawVideoOutput output;             // the negotiated raw video (gst/lfvideoout.h)
   std::optional<lfgst::ViewFormat> format;  // the view's size and rate: properties or caps
   std::optional<lf::ProbeScoring> probes;   // focus and surface probes being collected
-  lfgst::WarnLimiter no_focus, no_surface, bad, foreign, unknown_camera, wrong_size, no_size,
-      out_of_window, duplicate;
+  lfgst::WarnLimiter no_focus, no_surface, bad, foreign, out_of_window, duplicate;
+  // The warnings of fragments dropped by the intake's checks, one per verdict.
+  lfgst::WarnLimiter dropped[static_cast<int>(lf::Intake::Verdict::kOverBudget) + 1];
 };
 
 struct Priv {
@@ -105,6 +106,7 @@ static gboolean lf_compositor_start(GstAggregator* agg) {
   auto st = std::make_unique<State>();
   GST_OBJECT_LOCK(self);
   self->priv->settings.frames = 0, self->priv->settings.last_cameras = 0;
+  self->priv->settings.over_budget = 0;
   GST_OBJECT_UNLOCK(self);
   st->s = lfgst::snapshot(GST_OBJECT(self), self->priv->settings);
   if (!st->s.rig.empty()) {
@@ -312,17 +314,17 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
   st->format->view_size(&w, &h);
   const gint64 t0 = g_get_monotonic_time();
   lf::Intake in = st->intake->take(mapped->data(), mapped->size(), !lfgst::has_sealed_meta(buf), w,
-                                   h, st->s.stereo);
+                                   h, st->s.stereo, t0);
   const lf::FragmentHeader& head = in.head;
   if (in.verdict == V::kProbe)
     return absorb_probe_answer(self, st, mapped->data(), mapped->size(), w, h);
   if (in.verdict == V::kForeign) return note_foreign(self, st, head.viewer_id);
   if (in.verdict == V::kOutsideWindow) return;  // late, or on probation (lf::RequestWindow)
   if (in.verdict != V::kAccept) {
-    lfgst::WarnLimiter& limiter = in.verdict == V::kUnknownCamera ? st->unknown_camera
-                                  : in.verdict == V::kNoSize      ? st->no_size
-                                  : in.verdict == V::kWrongSize   ? st->wrong_size
-                                                                  : st->bad;
+    if (in.verdict == V::kOverBudget)
+      lfgst::write_setting<Settings, guint64>(GST_OBJECT(self), self->priv->settings,
+                                              &Settings::over_budget, st->intake->budget.refused());
+    lfgst::WarnLimiter& limiter = st->dropped[static_cast<int>(in.verdict)];
     LF_ELEMENT_WARNING_LIMITED(self, limiter, STREAM, DECODE, ("%s", in.summary()), "%s",
                                in.why.c_str());
     return;
@@ -420,6 +422,7 @@ static GstFlowReturn lf_compositor_emit_due(LfFragmentAggregator* agg, const LfD
   const gint64 probe_deadline_us =
       d->live ? std::max<gint64>(kProbeDeadlineUs, static_cast<gint64>(d->latency / GST_USECOND))
               : kProbeDeadlineUs;
+  st->intake->max_pixel_rate = d->live ? st->s.max_pixel_rate : 0;  // not live: every request
   st->probes->expire(g_get_monotonic_time(), probe_deadline_us);
   send_probe_outcomes(self, st);
   const size_t expected = expected_fragments(self);

@@ -137,6 +137,17 @@ void install_compositor_properties(GObjectClass* oc, Properties<CompositorSettin
                         "EGL/GLES 3 (blending); the same frame within 1 LSB (identical on "
                         "Mesa's llvmpipe)",
                         backend_type(), static_cast<gint>(lf::Backend::kAuto), kReadWriteReady));
+  props->add(oc, &CompositorSettings::max_pixel_rate,
+             g_param_spec_double(
+                 "max-pixel-rate", "Maximum output pixel rate",
+                 "Live: output pixels (width x height, of one eye in stereo) of the requests "
+                 "composited per second, the camera hosts' budget (lffragment max-pixel-rate) "
+                 "kept again here: a request over it is dropped whole, undecoded, with a warning, "
+                 "so requests the camera hosts let through (their budget raised, or forged on "
+                 "plain RTP) cost this host at most this much (bursts up to one second's worth). "
+                 "Default: 1920x1080 at 60 requests a second (0: no limit; not live: none, every "
+                 "request is composited)",
+                 0, 1e12, d.max_pixel_rate, kReadWriteReady));
   const GParamFlags ro = static_cast<GParamFlags>(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS);
   props->add(oc, &CompositorSettings::frames,
              g_param_spec_uint64("frames", "Frames", "Frames composited since the element started",
@@ -147,6 +158,11 @@ void install_compositor_properties(GObjectClass* oc, Properties<CompositorSettin
                                "eyes counted in stereo); fewer than the rig's: the deadline "
                                "passed without them",
                                0, G_MAXUINT, 0, ro));
+  props->add(oc, &CompositorSettings::over_budget,
+             g_param_spec_uint64("over-budget", "Requests over the budget",
+                                 "Requests dropped since the element started because they were "
+                                 "over max-pixel-rate",
+                                 0, G_MAXUINT64, 0, ro));
 }
 
 }  // namespace lfgst

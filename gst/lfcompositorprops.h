@@ -9,6 +9,7 @@
 
 #include "lf/render/renderer.h"
 #include "lfprops.h"
+#include "lfrate.h"
 
 namespace lfgst {
 
@@ -23,9 +24,11 @@ struct CompositorSettings {
   bool stereo = false;
   bool second_planes = false;  // surface probes: second planes at depth edges and thin structures
   lf::Backend backend = lf::Backend::kAuto;
+  gdouble max_pixel_rate = kDefaultMaxPixelRate;  // live: output pixels a second composited
   // Read-only statistics, written by the aggregate thread under the lock.
-  guint64 frames = 0;      // frames composited since start
-  guint last_cameras = 0;  // cameras (per eye) whose fragment was in the last frame
+  guint64 frames = 0;       // frames composited since start
+  guint last_cameras = 0;   // cameras (per eye) whose fragment was in the last frame
+  guint64 over_budget = 0;  // requests dropped above max-pixel-rate
 };
 
 // lfcompositor's metadata (long name, class, description, example, events).

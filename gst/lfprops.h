@@ -147,6 +147,14 @@ T read_setting(GstObject* obj, const S& s, T B::*m) {
   return copy;
 }
 
+// One member written under the object lock (a read-only statistic).
+template <class S, class T, class B, std::enable_if_t<std::is_base_of<B, S>::value, int> = 0>
+void write_setting(GstObject* obj, S& s, T B::*m, T value) {
+  GST_OBJECT_LOCK(obj);
+  s.*m = value;
+  GST_OBJECT_UNLOCK(obj);
+}
+
 // A read-only count since the element was made (guint64).
 inline GParamSpec* counter_spec(const char* name, const char* nick, const char* blurb) {
   return g_param_spec_uint64(name, nick, blurb, 0, G_MAXUINT64, 0,

@@ -1,77 +1,24 @@
-// Request rate limit (input from the network is bounded in rate): a token
-// bucket holding up to `rate` tokens (a burst of one second's worth),
-// refilled at `rate` per second; each admitted request takes its cost (one
-// for a count of requests, its output pixels for a pixel budget). Not
-// thread-safe: one streaming thread uses it.
+// A camera host's request limits as GStreamer elements apply them: the
+// view size, requests a second and output pixels a second, per viewer
+// (token buckets of lib/lf/session/rate_limit.h), with the warnings. Not
+// thread-safe: one streaming thread uses each.
 #pragma once
 
 #include <gst/gst.h>
 
-#include <algorithm>
-#include <iterator>
-#include <map>
+#include "lf/session/rate_limit.h"
 
 namespace lfgst {
 
-class TokenBucket {
- public:
-  // True if a request of `cost` tokens may pass now (they are taken);
-  // `rate` in tokens per second, 0: no limit. The bucket starts full; a
-  // request costing more than `rate` never passes.
-  bool take(double rate, gint64 now_us = g_get_monotonic_time(), double cost = 1) {
-    if (rate <= 0) return true;
-    tokens_ =
-        refilled_us_ < 0 ? rate : std::min(rate, tokens_ + rate * (now_us - refilled_us_) / 1e6);
-    refilled_us_ = now_us;
-    if (tokens_ < cost) return false;
-    tokens_ -= cost;
-    return true;
-  }
-
- private:
-  double tokens_ = 0;
-  gint64 refilled_us_ = -1;
-};
-
-// The request rate limit per viewer: each viewer id has its own bucket, so
-// one viewer's flood spends its own tokens and never another's (before, one
-// bucket for all viewers: a flood took the real viewer's requests with it).
-// At most kViewers ids have buckets of their own (ids idle for kIdleUs
-// give theirs up); requests of any further id share one more bucket, so ids
-// a peer makes up allocate nothing and get no fresh tokens. Not
-// thread-safe: one streaming thread uses it.
-class ViewerBuckets {
- public:
-  static constexpr size_t kViewers = 64;
-  static constexpr gint64 kIdleUs = 10 * G_USEC_PER_SEC;
-  bool take(guint32 viewer, double rate, gint64 now_us = g_get_monotonic_time(), double cost = 1) {
-    if (rate <= 0) return true;
-    auto it = buckets_.find(viewer);
-    if (it == buckets_.end()) {
-      for (auto i = buckets_.begin(); buckets_.size() >= kViewers && i != buckets_.end();)
-        i = now_us - i->second.used_us > kIdleUs ? buckets_.erase(i) : std::next(i);
-      if (buckets_.size() >= kViewers) return overflow_.take(rate, now_us, cost);
-      it = buckets_.emplace(viewer, Entry{}).first;
-    }
-    it->second.used_us = now_us;
-    return it->second.bucket.take(rate, now_us, cost);
-  }
-
- private:
-  struct Entry {
-    TokenBucket bucket;
-    gint64 used_us = 0;
-  };
-  std::map<guint32, Entry> buckets_;
-  TokenBucket overflow_;
-};
+// The buckets themselves are the core's (lib/lf/session/rate_limit.h).
+using lf::TokenBucket;
+using lf::ViewerBuckets;
 
 // A camera host's limits on the view requests it answers, per viewer
-// (lffragment's max-pixels, max-rate and max-pixel-rate; lfarray keeps them
-// once for all its cameras): the view's size (max_pixels > 0), requests a
-// second, and live, output pixels a second (a non-live pipeline renders
-// every request). One per element that admits
-// requests; not thread-safe.
+// (lffragment's max-pixels, max-rate and max-pixel-rate; lfcamerahost and
+// lfarray keep the rates once for all their cameras, limit_requests): the view's size (max_pixels >
+// 0), requests a second, and live, output pixels a second (a non-live pipeline renders every
+// request). One per element that admits requests; not thread-safe.
 class RequestLimits {
  public:
   enum class Verdict { kAdmit, kTooLarge, kOverRate, kOverPixelRate };
@@ -118,10 +65,11 @@ bool admit_or_warn(GstElement* el, RequestLimits& limits, WarnLimiter& warned, g
 
 // Drops the view requests through `pad` beyond `rate` requests and
 // (live) `pixel_rate` output pixels a second per viewer, warning on
-// `host`: lfarray's limits kept once for all its cameras on one request
-// thread (each of 64 lffragments deciding alone could drop a request in
-// some cameras and not in others, and a non-live compositor's pads out of
-// step hold the request thread for ever).
+// `host`: a camera host's limits (lfcamerahost, lfarray) kept once for
+// all its cameras on the thread that brings the requests (each of 64
+// lffragments deciding alone dropped a request in some cameras and not in
+// others: a frame composited incomplete, and a non-live compositor's pads
+// out of step hold the request thread for ever).
 void limit_requests(GstPad* pad, GstElement* host, double rate, double pixel_rate, bool live);
 
 // The default pixel budget per viewer (lffragment max-pixel-rate): a

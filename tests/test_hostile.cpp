@@ -137,8 +137,9 @@ class Hostile : public ::testing::Test {
     Compositor(const std::string& rig, const std::string& comp_props,
                const std::string& filter = "",
                const std::string& caps =
-                   "application/x-lf-fragment,encoding=raw,width=80,height=60,framerate=30/1") {
-      const std::string desc = "appsrc name=in format=time caps=" + caps +
+                   "application/x-lf-fragment,encoding=raw,width=80,height=60,framerate=30/1",
+               const std::string& src_props = "") {
+      const std::string desc = "appsrc name=in format=time " + src_props + " caps=" + caps +
                                " ! lfcompositor name=c rig=" + rig + " " + comp_props + " ! " +
                                (filter.empty() ? "" : filter + " ! ") +
                                "appsink name=out sync=false max-buffers=64";
@@ -376,6 +377,42 @@ TEST_F(Hostile, OneViewersLargeViewsLeaveAnotherItsPixels) {
   EXPECT_LE(answered[1], 10 + static_cast<int>(10 * secs) + 1)
       << "the large views are cut at max-pixel-rate";
   EXPECT_GE(cam.count(GST_MESSAGE_WARNING), 1);
+}
+
+// The compositor host keeps the pixel budget again (lfcompositor
+// max-pixel-rate, live): a flood of requests the camera hosts let through
+// (here 60 at once, fragments straight in) is composited up to a second's
+// budget plus what refills meanwhile, each over it dropped whole with a
+// warning and counted; the frames that come out are whole requests.
+TEST_F(Hostile, TheCompositorKeepsItsPixelBudget) {
+  const double budget = 10.0 * 80 * 60;  // ten 80x60 requests a second
+  Compositor c(rig1_path_, "viewer-id=0 max-pixel-rate=" + std::to_string(budget), "",
+               "application/x-lf-fragment,encoding=raw,width=80,height=60,framerate=30/1",
+               "is-live=true");
+  const auto t0 = std::chrono::steady_clock::now();
+  for (uint64_t seq = 1; seq <= 60; ++seq)
+    push(c.src, lf::serialize_fragment(fragment(rig1_, request(rig1_, seq), 0), lf::Encoding::kRaw),
+         0);
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  int frames = 0;
+  while (pull(c.sink, nullptr, 1.0) >= 0) ++frames;
+  guint64 over = 0;
+  GstElement* comp = gst_bin_get_by_name(GST_BIN(c.pipe), "c");
+  g_object_get(comp, "over-budget", &over, nullptr);
+  gst_object_unref(comp);
+  EXPECT_GE(frames, 10);
+  EXPECT_LE(frames, 10 + static_cast<int>(10 * secs) + 1) << "the flood is cut at max-pixel-rate";
+  EXPECT_EQ(static_cast<guint64>(frames) + over, 60u) << "every request composited or counted";
+  GstBus* bus = gst_element_get_bus(c.pipe);
+  GstMessage* m = gst_bus_pop_filtered(bus, GST_MESSAGE_WARNING);
+  ASSERT_NE(m, nullptr);
+  GError* err = nullptr;
+  gst_message_parse_warning(m, &err, nullptr);
+  EXPECT_STREQ(err->message, "Dropping requests above max-pixel-rate");
+  g_error_free(err);
+  gst_message_unref(m);
+  gst_object_unref(bus);
+  EXPECT_FALSE(c.error());
 }
 
 // 3. Fragments announcing another output size (8192x8192, 16384x16384, 2x2):

@@ -649,7 +649,7 @@ TEST(FragmentIntake, ViewerCameraSizeWindowAndProbes) {
   const auto take = [&](uint32_t viewer, uint64_t seq, int camera, int w = 96, int h = 72) {
     const std::vector<uint8_t> b =
         lf::empty_answer(view_request(viewer, seq, {0, 0, -1}, {0, 0, 10}, w, h), camera);
-    lf::Intake in = intake.take(b.data(), b.size(), true, 96, 72, false);
+    lf::Intake in = intake.take(b.data(), b.size(), true, 96, 72, false, 0);
     if (in.verdict == V::kAccept) intake.viewer.taken(in.head.viewer_id);
     return in;
   };
@@ -668,7 +668,7 @@ TEST(FragmentIntake, ViewerCameraSizeWindowAndProbes) {
   EXPECT_NE(in.why.find("64x48"), std::string::npos);
   // Without a size: refused (a probe's answer is scored still, focus only).
   std::vector<uint8_t> b = lf::empty_answer(view_request(5, 3, {0, 0, -1}), rig->cameras[0].id);
-  EXPECT_EQ(intake.take(b.data(), b.size(), true, 0, 0, false).verdict, V::kNoSize);
+  EXPECT_EQ(intake.take(b.data(), b.size(), true, 0, 0, false, 0).verdict, V::kNoSize);
   // The window: request 1 was accepted, 1000 is held on probation, 1001 moves it.
   intake.window.emitted(1);
   EXPECT_EQ(take(5, 1000, rig->cameras[0].id).verdict, V::kOutsideWindow);
@@ -678,11 +678,59 @@ TEST(FragmentIntake, ViewerCameraSizeWindowAndProbes) {
   EXPECT_EQ(in.candidate, 1000);
   // Bytes that are no fragment, and a fragment cut short.
   const uint8_t junk[40] = {'L', 'F', 'F', 'R'};
-  EXPECT_EQ(intake.take(junk, sizeof junk, true, 96, 72, false).verdict, V::kMalformed);
+  EXPECT_EQ(intake.take(junk, sizeof junk, true, 96, 72, false, 0).verdict, V::kMalformed);
   b = lf::empty_answer(view_request(5, 1002, {0, 0, -1}, {0, 0, 10}, 96, 72), rig->cameras[0].id);
-  in = intake.take(b.data(), b.size() - 1, true, 96, 72, false);
+  in = intake.take(b.data(), b.size() - 1, true, 96, 72, false, 0);
   EXPECT_EQ(in.verdict, V::kMalformed);
   EXPECT_FALSE(in.why.empty());
+}
+
+// lf::FrameBudget through lf::FragmentIntake: live, the requests composited
+// are held to max_pixel_rate output pixels a second (a second's burst), each
+// admitted or refused whole at its first fragment, so a refused request's
+// other cameras are refused too and an admitted one's are never cut off;
+// the bucket refills with time; no limit at 0.
+TEST(FragmentIntake, PixelBudgetAdmitsOrRefusesWholeRequests) {
+  using V = lf::Intake::Verdict;
+  auto rig = std::make_shared<const lf::Rig>(lf::synthetic_grid_rig(3, 3, 0.5, 160, 120, 50));
+  lf::FragmentIntake intake(rig, 5);
+  const double pixels = 96.0 * 72;
+  intake.max_pixel_rate = 10 * pixels;  // ten requests a second
+  int64_t now = 1'000'000;
+  const auto take = [&](uint64_t seq, int camera) {
+    const std::vector<uint8_t> b =
+        lf::empty_answer(view_request(5, seq, {0, 0, -1}, {0, 0, 10}, 96, 72), camera);
+    return intake.take(b.data(), b.size(), true, 96, 72, false, now).verdict;
+  };
+  // 30 requests at once, each camera's fragment in turn: the first ten
+  // whole, the other twenty refused whole.
+  int admitted = 0, refused = 0;
+  for (uint64_t seq = 1; seq <= 30; ++seq) {
+    std::vector<V> v;
+    for (const lf::Camera& c : rig->cameras) v.push_back(take(seq, c.id));
+    const bool all_in = std::all_of(v.begin(), v.end(), [](V x) { return x == V::kAccept; });
+    const bool all_out = std::all_of(v.begin(), v.end(), [](V x) { return x == V::kOverBudget; });
+    ASSERT_TRUE(all_in || all_out) << "request " << seq << " split";
+    admitted += all_in, refused += all_out;
+  }
+  EXPECT_EQ(admitted, 10);
+  EXPECT_EQ(refused, 20);
+  EXPECT_EQ(intake.budget.refused(), 20u);
+  // The refused verdict names the limit.
+  std::vector<uint8_t> b =
+      lf::empty_answer(view_request(5, 31, {0, 0, -1}, {0, 0, 10}, 96, 72), rig->cameras[0].id);
+  lf::Intake in = intake.take(b.data(), b.size(), true, 96, 72, false, now);
+  EXPECT_EQ(in.verdict, V::kOverBudget);
+  EXPECT_STREQ(in.summary(), "Dropping requests above max-pixel-rate");
+  EXPECT_NE(in.why.find("request 31"), std::string::npos) << in.why;
+  // Half a second later, five more requests pass.
+  now += 500'000;
+  admitted = 0;
+  for (uint64_t seq = 32; seq <= 41; ++seq) admitted += take(seq, rig->cameras[0].id) == V::kAccept;
+  EXPECT_EQ(admitted, 5);
+  // No limit (0, and not live): every request.
+  intake.max_pixel_rate = 0;
+  for (uint64_t seq = 42; seq <= 60; ++seq) EXPECT_EQ(take(seq, rig->cameras[0].id), V::kAccept);
 }
 
 // lf::CameraAnswer: a camera's answer on the wire equals its fragment

@@ -74,7 +74,7 @@ class RateLimit {
  public:
   bool take() {
     std::lock_guard<std::mutex> l(m_);
-    return bucket_.take(kControlRate);
+    return bucket_.take(kControlRate, g_get_monotonic_time());
   }
   // True at most once a second (for warnings about a flood).
   bool may_warn() {

@@ -59,6 +59,8 @@ const char* Intake::summary() const {
       return "No output size: dropping fragments";
     case Verdict::kWrongSize:
       return "Dropping a fragment for another output size";
+    case Verdict::kOverBudget:
+      return "Dropping requests above max-pixel-rate";
     default:
       return nullptr;
   }
@@ -74,8 +76,19 @@ std::vector<ReceivedPiece> received_pieces(std::vector<AnswerPiece>&& parts,
   return pieces;
 }
 
+bool FrameBudget::admit(uint64_t sequence, double pixels, double rate, int64_t now_us) {
+  if (rate <= 0) return true;
+  const auto it = decided_.find(sequence);
+  if (it != decided_.end()) return it->second;
+  const bool admitted = bucket_.take(rate, now_us, pixels);
+  refused_ += !admitted;
+  decided_.emplace(sequence, admitted);
+  if (decided_.size() > kRemembered) decided_.erase(decided_.begin());
+  return admitted;
+}
+
 Intake FragmentIntake::take(const uint8_t* data, size_t size, bool check_crc, int w, int h,
-                            bool stereo) {
+                            bool stereo, int64_t now_us) {
   using V = Intake::Verdict;
   Intake in;
   try {
@@ -110,6 +123,16 @@ Intake FragmentIntake::take(const uint8_t* data, size_t size, bool check_crc, in
     default:
       in.verdict = V::kOutsideWindow;
       return in;
+  }
+  const double pixels = static_cast<double>(w) * h;  // one eye: the camera hosts count per viewer
+  if (!budget.admit(head.sequence, pixels, max_pixel_rate, now_us)) {
+    in.verdict = V::kOverBudget;
+    in.why = "request " + std::to_string(head.sequence) + " of viewer " +
+             std::to_string(head.viewer_id) + " (" + std::to_string(w) + "x" + std::to_string(h) +
+             "): over " + std::to_string(static_cast<uint64_t>(max_pixel_rate)) +
+             " output pixels a second; " + std::to_string(budget.refused()) +
+             " requests dropped so far";
+    return in;
   }
   try {  // all of them together carry at most the frame's pixels
     in.parts = parse_frame_answer(data, size, static_cast<size_t>(w) * h, check_crc);

@@ -11,6 +11,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <string>
@@ -21,6 +22,7 @@
 #include "lf/render/fragment.h"
 #include "lf/render/renderer.h"
 #include "lf/session/frame_assembly.h"
+#include "lf/session/rate_limit.h"
 #include "lf/wire/probe_bundle.h"
 #include "lf/wire/wire.h"
 
@@ -78,6 +80,7 @@ struct Intake {
     kNoSize,         // no output size is known yet
     kOutsideWindow,  // outside the request window (late, or on probation)
     kWrongSize,      // for another output size (`why`)
+    kOverBudget,     // a request over the pixel budget (`why`; lf::FrameBudget)
   } verdict = Verdict::kMalformed;
   FragmentHeader head;
   std::vector<AnswerPiece> parts;
@@ -98,6 +101,28 @@ struct Intake {
 std::vector<ReceivedPiece> received_pieces(std::vector<AnswerPiece>&& parts,
                                            const std::shared_ptr<const void>& keep);
 
+// The compositor host's pixel budget for its viewer (lfcompositor
+// max-pixel-rate): output pixels a second of the requests it composites, in
+// the camera hosts' unit (lffragment max-pixel-rate, a token bucket with a
+// second's burst). A request is admitted or refused whole, at its first
+// fragment, and the later fragments of a refused request are refused
+// unparsed: a flood the camera hosts let through (their budgets raised, or
+// packets forged on plain RTP) costs the compositor host at most its budget,
+// and it never composites half a frame.
+class FrameBudget {
+ public:
+  static constexpr size_t kRemembered = 256;  // requests whose decision is kept
+  // Whether request `sequence` (an output of `pixels` pixels) is composited,
+  // at `rate` output pixels a second (0: no limit) at `now_us`.
+  bool admit(uint64_t sequence, double pixels, double rate, int64_t now_us);
+  uint64_t refused() const { return refused_; }  // requests refused so far
+
+ private:
+  TokenBucket bucket_;
+  std::map<uint64_t, bool> decided_;  // sequence -> admitted
+  uint64_t refused_ = 0;
+};
+
 class FragmentIntake {
  public:
   // `rig` may be null (no rig: any camera id).
@@ -105,11 +130,15 @@ class FragmentIntake {
       : viewer(viewer), rig_(std::move(rig)) {}
   // A buffer's fragment(s), for a view of width x height (0: unknown; the
   // output is twice as wide with `stereo`); `check_crc` false only for
-  // bytes that never left this process. Never throws.
-  Intake take(const uint8_t* data, size_t size, bool check_crc, int width, int height, bool stereo);
+  // bytes that never left this process; at `now_us` (the budget's clock).
+  // Never throws.
+  Intake take(const uint8_t* data, size_t size, bool check_crc, int width, int height, bool stereo,
+              int64_t now_us);
 
-  ViewerSelection viewer;  // the viewer composited
-  RequestWindow window;    // the request sequences accepted
+  ViewerSelection viewer;     // the viewer composited
+  RequestWindow window;       // the request sequences accepted
+  FrameBudget budget;         // the requests composited, at max_pixel_rate
+  double max_pixel_rate = 0;  // output pixels a second (0: no limit; not live: 0)
  private:
   std::shared_ptr<const Rig> rig_;
 };
