@@ -20,6 +20,7 @@
 #include "lfevents.h"
 #include "lffragmentaggregator.h"
 #include "lfguard.h"
+#include "lfmemory.h"
 #include "lfmeta.h"
 #include "lfrig.h"
 #include "lftrace.h"
@@ -105,8 +106,8 @@ static gboolean lf_compositor_start(GstAggregator* agg) {
   LfCompositor* self = LF_COMPOSITOR(agg);
   auto st = std::make_unique<State>();
   GST_OBJECT_LOCK(self);
-  self->priv->settings.frames = 0, self->priv->settings.last_cameras = 0;
-  self->priv->settings.over_budget = 0;
+  self->priv->settings.frames = self->priv->settings.over_budget = 0;
+  self->priv->settings.last_cameras = 0;
   GST_OBJECT_UNLOCK(self);
   st->s = lfgst::snapshot(GST_OBJECT(self), self->priv->settings);
   if (!st->s.rig.empty()) {
@@ -129,8 +130,7 @@ static gboolean lf_compositor_stop(GstAggregator* agg) {
   return TRUE;
 }
 
-// Publishes what absorb() accepts now (aggregate thread), for
-// decode_on_arrival().
+// Publishes what absorb() accepts now (aggregate thread), for the arrival decoder.
 static void publish_acceptance(Priv* p, const State* st) {
   int w = 0, h = 0;
   p->arrival.publish(st->format->view_size(&w, &h) ? static_cast<uint64_t>(w) * h : 0,
@@ -164,8 +164,7 @@ static gboolean lf_compositor_sink_event(GstAggregator* agg, GstAggregatorPad* p
   return GST_AGGREGATOR_CLASS(lf_compositor_parent_class)->sink_event(agg, pad, event);
 }
 
-// Number of fragments a complete request has: the rig's cameras, or else one
-// per sink pad (twice that in stereo).
+// Fragments in a complete request: the rig's cameras, else one per sink pad (x2 in stereo).
 static size_t expected_fragments(LfCompositor* self) {
   State* st = self->priv->state.get();
   GST_OBJECT_LOCK(self);
@@ -239,21 +238,15 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Request& g, bool com
   return gst_aggregator_finish_buffer(agg, out);
 }
 
-// A fragment of another viewer: after a while of only those
-// (lf::ViewerSelection), warn once that viewer-id names a viewer that is
-// not there (a misconfiguration that would otherwise produce nothing,
-// silently).
+// A fragment of another viewer: after a while of only those (lf::ViewerSelection),
+// warn once that viewer-id names a viewer that is not there (else: silence).
 static void note_foreign(LfCompositor* self, State* st, guint viewer) {
   GST_LOG_OBJECT(self, "fragment of viewer %u: not ours", viewer);
   const gint64 now = g_get_monotonic_time();
   if (!st->intake->viewer.foreign(now)) return;
-  GST_ELEMENT_WARNING(
-      self, STREAM, WRONG_TYPE,
-      ("No fragments of viewer %" G_GINT64_FORMAT, st->intake->viewer.viewer()),
-      ("%" G_GUINT64_FORMAT " fragments in %.1f s, all of other viewers (such "
-       "as %u): check viewer-id (lfviewrequest viewer-id, or -1 here to "
-       "take the first viewer seen)",
-       st->intake->viewer.foreign_count(), st->intake->viewer.foreign_seconds(now), viewer));
+  GST_ELEMENT_WARNING(self, STREAM, WRONG_TYPE,
+                      ("No fragments of viewer %" G_GINT64_FORMAT, st->intake->viewer.viewer()),
+                      ("%s", st->intake->viewer.foreign_detail(now, viewer).c_str()));
 }
 
 // Sends what probe scoring (lib/lf/session/probe_scoring.h) gave upstream:
@@ -440,6 +433,15 @@ static GstFlowReturn lf_compositor_emit_due(LfFragmentAggregator* agg, const LfD
   return ret;
 }
 
+// Its frames freed once idle (LfFragmentAggregator's release_idle), and the
+// heap trimmed: a viewer gone quiet leaves its memory behind no longer.
+static gboolean lf_compositor_release_idle(LfFragmentAggregator* agg, gboolean release) {
+  State* st = LF_COMPOSITOR(agg)->priv->state.get();
+  if (!st || !release) return st && st->frames->holds_memory();
+  if (st->frames->release()) st->output.release(), lfgst::trim_heap();
+  return TRUE;
+}
+
 static GstPad* lf_compositor_request_new_pad(GstElement* el, GstPadTemplate* templ,
                                              const gchar* name, const GstCaps* caps) {
   GstPad* pad =
@@ -453,14 +455,9 @@ static GstPad* lf_compositor_request_new_pad(GstElement* el, GstPadTemplate* tem
 // lffragmentaggregator.h) are tagged with this compositor's viewer-id
 // (unless they name one), so only this viewer is steered.
 static GstEvent* lf_compositor_tag_upstream(LfFragmentAggregator* agg, GstEvent* event) {
-  const gint viewer = lfgst::read_setting(GST_OBJECT(agg), LF_COMPOSITOR(agg)->priv->settings,
-                                          &Settings::viewer_id);
-  if (viewer >= 0 && !gst_structure_has_field(gst_event_get_structure(event), "viewer-id")) {
-    event = gst_event_make_writable(event);
-    gst_structure_set(gst_event_writable_structure(event), "viewer-id", G_TYPE_UINT,
-                      static_cast<guint>(viewer), nullptr);
-  }
-  return event;
+  return lfgst::address_to_viewer(
+      event, lfgst::read_setting(GST_OBJECT(agg), LF_COMPOSITOR(agg)->priv->settings,
+                                 &Settings::viewer_id));
 }
 
 static void on_latency_changed(GObject* obj, GParamSpec*, gpointer) {
@@ -492,6 +489,7 @@ static void lf_compositor_class_init(LfCompositorClass* klass) {
   fc->begin = lf_compositor_begin;
   fc->absorb = lf_compositor_absorb;
   fc->live_batch = lf_compositor_live_batch;
+  fc->release_idle = lf_compositor_release_idle;
   fc->requests = lf_compositor_requests;
   fc->emit_due = lf_compositor_emit_due;
   fc->tag_upstream = lf_compositor_tag_upstream;

@@ -193,6 +193,15 @@ std::optional<guint> addressed_viewer(const GstStructure* s) {
   return std::nullopt;
 }
 
+GstEvent* address_to_viewer(GstEvent* event, gint viewer) {
+  if (viewer < 0 || gst_structure_has_field(gst_event_get_structure(event), "viewer-id"))
+    return event;
+  event = gst_event_make_writable(event);
+  gst_structure_set(gst_event_writable_structure(event), "viewer-id", G_TYPE_UINT,
+                    static_cast<guint>(viewer), nullptr);
+  return event;
+}
+
 bool read_gesture(GstEvent* event, lf::Gesture* g) {
   using Kind = lf::Gesture::Kind;
   double dx = 0;

@@ -81,6 +81,11 @@ GstStructure* view_change_structure(const std::vector<std::pair<std::string, dou
 // as gst-launch and JSON write it), or none (every viewer).
 std::optional<guint> addressed_viewer(const GstStructure* s);
 
+// `event` (transfer full) addressed to `viewer` (>= 0) unless it names one
+// already: an adding element tags the navigation and lf-view events from
+// its video sink so that only its viewer is steered. Returns it (transfer full).
+GstEvent* address_to_viewer(GstEvent* event, gint viewer);
+
 // A navigation event (GstNavigation: a video sink's pointer and keys) as a
 // viewer's gesture (lib/lf/session/viewer_session.h); false for one that a
 // viewer does not use.

@@ -37,6 +37,14 @@ static gint64 queued_sequence(GstBuffer* buf) {
   return seq;
 }
 
+// LF_IDLE_RELEASE after the last output, in running time (none before one).
+// On the source thread (aggregate, get_next_time), which sets the position.
+static GstClockTime idle_deadline(LfFragmentAggregator* self) {
+  const GstSegment* seg = &GST_AGGREGATOR_PAD(GST_AGGREGATOR(self)->srcpad)->segment;
+  const GstClockTime rt = gst_segment_to_running_time(seg, GST_FORMAT_TIME, seg->position);
+  return GST_CLOCK_TIME_IS_VALID(rt) ? rt + LF_IDLE_RELEASE : GST_CLOCK_TIME_NONE;
+}
+
 static GstFlowReturn lf_fragment_aggregator_aggregate(GstAggregator* agg, gboolean timeout) {
   LfFragmentAggregator* self = LF_FRAGMENT_AGGREGATOR(agg);
   LfFragmentAggregatorClass* klass = LF_FRAGMENT_AGGREGATOR_GET_CLASS(self);
@@ -73,7 +81,13 @@ static GstFlowReturn lf_fragment_aggregator_aggregate(GstAggregator* agg, gboole
     if (!gst_aggregator_pad_is_eos(GST_AGGREGATOR_PAD(l->data))) all_eos = FALSE;
   g_list_free_full(pads, gst_object_unref);
   if (ret != GST_FLOW_OK) return ret;
-  return klass->emit_due(self, &d, all_eos);
+  ret = klass->emit_due(self, &d, all_eos);
+  const GstClockTime idle = idle_deadline(self);
+  if (klass->release_idle && requests && requests->earliest_running_time() == GST_CLOCK_TIME_NONE &&
+      (all_eos || (d.live && GST_CLOCK_TIME_IS_VALID(d.now) && GST_CLOCK_TIME_IS_VALID(idle) &&
+                   d.now >= idle)))
+    klass->release_idle(self, TRUE);
+  return ret;
 }
 
 static GstClockTime lf_fragment_aggregator_get_next_time(GstAggregator* agg) {
@@ -81,8 +95,12 @@ static GstClockTime lf_fragment_aggregator_get_next_time(GstAggregator* agg) {
   // aggregator's source lock.)
   if (lfgst::any_pad_queued(GST_ELEMENT(agg))) return 0;
   LfFragmentAggregator* self = LF_FRAGMENT_AGGREGATOR(agg);
-  const lf::RequestTimes* requests = LF_FRAGMENT_AGGREGATOR_GET_CLASS(self)->requests(self);
-  return requests ? requests->earliest_running_time() : GST_CLOCK_TIME_NONE;
+  LfFragmentAggregatorClass* klass = LF_FRAGMENT_AGGREGATOR_GET_CLASS(self);
+  const lf::RequestTimes* requests = klass->requests(self);
+  const GstClockTime next = requests ? requests->earliest_running_time() : GST_CLOCK_TIME_NONE;
+  if (next == GST_CLOCK_TIME_NONE && klass->release_idle && klass->release_idle(self, FALSE))
+    return idle_deadline(self);  // woken once, to free it
+  return next;
 }
 
 static gboolean lf_fragment_aggregator_src_event(GstAggregator* agg, GstEvent* event) {

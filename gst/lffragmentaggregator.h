@@ -37,6 +37,10 @@ typedef struct {
   GstClockTime now, latency;
 } LfDeadline;
 
+// A live adding element frees what it holds this long after its last output
+// when nothing comes (a viewer gone quiet: a flood's 4K frames).
+#define LF_IDLE_RELEASE (2 * GST_SECOND)
+
 // Whether a request of `running_time` is due: on a timeout, past its
 // deadline (running time + latency), or not live, or without times.
 gboolean lf_deadline_passed(const LfDeadline* d, GstClockTime running_time);
@@ -58,6 +62,11 @@ struct _LfFragmentAggregatorClass {
   // Emits the requests that are due (lfgst::emit_due); GST_FLOW_EOS when
   // `all_eos` and nothing waits.
   GstFlowReturn (*emit_due)(LfFragmentAggregator* self, const LfDeadline* d, gboolean all_eos);
+  // Optional: memory the subclass frees once idle (lfcompositor's frames).
+  // With `release` FALSE: whether it holds any; TRUE: free it. Called when
+  // no request waits, at the end of the stream or, live, LF_IDLE_RELEASE
+  // after the last output (aggregate() is woken then for it).
+  gboolean (*release_idle)(LfFragmentAggregator* self, gboolean release);
   // Optional: a navigation or lf-view event (transfer full) before it goes
   // up the sink pads; returns the event to send (transfer full).
   GstEvent* (*tag_upstream)(LfFragmentAggregator* self, GstEvent* event);

@@ -55,6 +55,9 @@ class RawVideoOutput {
   void renegotiate() { negotiated_ = false; }
   // A buffer of the negotiated video holding `rgba` (the negotiated frame size).
   GstBuffer* frame(const cv::Mat& rgba);
+  // Frees the pool's buffers (the stream ended); frames after it are
+  // allocated one by one until the next negotiation.
+  void release() { drop_pool(); }
 
  private:
   void drop_pool();

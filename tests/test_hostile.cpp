@@ -29,6 +29,10 @@
 #include "lf/render/render.h"
 #include "lf/wire/wire.h"
 
+#ifdef LF_TEST_ASAN
+#include <sanitizer/allocator_interface.h>
+#endif
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -39,6 +43,17 @@ double rss_mib() {
   long pages = 0, resident = 0;
   in >> pages >> resident;
   return resident * (sysconf(_SC_PAGESIZE) / 1048576.0);
+}
+
+// The memory the process holds: its RSS; under ASan, whose allocator keeps
+// freed memory in quarantine and ignores malloc_trim, the bytes allocated
+// and not freed (what the RSS would give back).
+double held_mib() {
+#ifdef LF_TEST_ASAN
+  return static_cast<double>(__sanitizer_get_current_allocated_bytes()) / 1048576.0;
+#else
+  return rss_mib();
+#endif
 }
 
 class Hostile : public ::testing::Test {
@@ -412,6 +427,33 @@ TEST_F(Hostile, TheCompositorKeepsItsPixelBudget) {
   g_error_free(err);
   gst_message_unref(m);
   gst_object_unref(bus);
+  EXPECT_FALSE(c.error());
+}
+
+// A live compositor whose viewer went quiet frees its frames and sums
+// (LF_IDLE_RELEASE, 2 s, after its last output) and trims the heap: the
+// memory of a viewer's 3840x2160 frames (sums of 16 bytes a pixel, two
+// frames, the output pool: about 230 MB) does not stay with the process
+// after a flood. Measured: 58 MiB before, 312-344 with the frames, 154
+// MiB 2 s after the last one.
+TEST_F(Hostile, AQuietViewersCompositorGivesItsMemoryBack) {
+  Compositor c(rig1_path_, "viewer-id=0", "",
+               "application/x-lf-fragment,encoding=raw,width=3840,height=2160,framerate=30/1",
+               "is-live=true");
+  const double rss0 = held_mib();
+  for (uint64_t seq = 1; seq <= 3; ++seq)
+    push(c.src, lf::serialize_fragment(fragment(rig1_, request(rig1_, seq, 0, 3840, 2160), 0),
+                                       lf::Encoding::kRaw));
+  for (int i = 0; i < 3; ++i) ASSERT_GE(pull(c.sink), 0) << "frame " << i;
+  const double busy = held_mib();
+  double rss = busy;
+  for (int i = 0; i < 100 && rss > busy - 100; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    rss = held_mib();
+  }
+  EXPECT_GT(busy - rss0, 150) << "the 4K frames took their memory";
+  EXPECT_LT(rss, busy - 100) << "freed within 10 s of the last frame (MiB before, during, after: "
+                             << rss0 << ", " << busy << ", " << rss << ")";
   EXPECT_FALSE(c.error());
 }
 

@@ -143,6 +143,9 @@ TEST(ViewerSelection, FirstViewerSeenAndTheStereoRightEye) {
   EXPECT_FALSE(named.foreign(lf::ViewerSelection::kForeignWarnUs * 2));
   EXPECT_EQ(named.foreign_count(), 4u);
   EXPECT_DOUBLE_EQ(named.foreign_seconds(lf::ViewerSelection::kForeignWarnUs), 2.0);
+  EXPECT_NE(named.foreign_detail(lf::ViewerSelection::kForeignWarnUs, 9)
+                .find("4 fragments in 2.0 s, all of other viewers (such as 9)"),
+            std::string::npos);
   // One of ours restarts the count (no warning while ours come).
   lf::ViewerSelection b(3);
   b.foreign(0);

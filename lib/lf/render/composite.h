@@ -39,6 +39,8 @@ struct FragmentDrawing {
 class Compositor {
  public:
   void reset(int width, int height);
+  // Frees the sums (16 bytes a pixel); the next reset() allocates them again.
+  void release() { std::vector<uint32_t>().swap(acc_); }
   // Adds a fragment. Throws std::invalid_argument if it does not fit the frame.
   void add(const Fragment& f);
   // Adds a fragment whose pixels live elsewhere (f.pixels is not read; e.g.
@@ -162,6 +164,10 @@ class LayerCompositor {
   // The last composite's colour variance of a layer (CV_32FC1, levels^2
   // summed over 3 channels) where layer 1 has weight; 0 elsewhere.
   cv::Mat variance(int layer) const;
+  // Frees the sums; the next composite() allocates them again.
+  void release() {
+    for (int l = 0; l < 2; ++l) comp_[l].release(), sq_[l].release();
+  }
 
  private:
   float variance_at(int layer, int x, int y) const;

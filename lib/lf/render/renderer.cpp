@@ -82,6 +82,10 @@ class CpuRenderer final : public Renderer {
       throw std::invalid_argument("renderer: no image in slot " + std::to_string(slot));
     return images_[slot];
   }
+  void release() override {
+    Renderer::release();
+    for (Compositor& c : compositors_) c.release();
+  }
   std::vector<cv::Mat> images_;
   Compositor compositors_[2];
 };

@@ -74,6 +74,11 @@ class Renderer {
   std::vector<std::pair<size_t, std::string>> composite(
       int eye, int width, int height, const std::vector<FragmentPixels>& fragments,
       const std::vector<SlotDrawing>& drawings, cv::Mat& into);
+  // Frees the memory the frames' sums take (a stream ended); the next
+  // composite() allocates it again. The images in the slots stay.
+  virtual void release() {
+    for (LayerCompositor& l : layers_) l.release();
+  }
   // As interleave_quilt() (lf/render/lenticular.h).
   virtual void interleave(const DisplayCalibration& cal, const Quilt& layout, const cv::Mat& quilt,
                           cv::Mat& panel) = 0;

@@ -26,6 +26,7 @@ FrameCompositor::Result FrameCompositor::composite(const std::vector<ReceivedPie
       eye[e].push_back({&piece.f, piece.pixels()});
   }
   Result r;
+  released_ = false;
   cv::Mat& frame = frames_[next_];
   next_ ^= 1;
   cv::Mat right;
@@ -47,6 +48,14 @@ FrameCompositor::Result FrameCompositor::composite(const std::vector<ReceivedPie
   last_ = frame;
   r.frame = &frame;
   return r;
+}
+
+bool FrameCompositor::release() {
+  if (released_) return false;
+  last_.release(), frames_[0].release(), frames_[1].release();
+  renderer_->release();
+  released_ = true;
+  return true;
 }
 
 const char* Intake::summary() const {

@@ -56,12 +56,19 @@ class FrameCompositor {
   Result composite(const std::vector<ReceivedPiece>& pieces, int width, int height, bool stereo,
                    uint32_t left_viewer, bool complete);
   Renderer& renderer() { return *renderer_; }
+  // Frees the frames and the renderer's sums (its viewer went quiet, or the
+  // stream ended: a 3840x2160 view holds about 230 MB of them); the next
+  // composite() allocates them again, its missing pixels black (no last
+  // frame). False when nothing was held (freed already, or never used).
+  bool release();
+  bool holds_memory() const { return !released_; }
 
  private:
   std::unique_ptr<Renderer> renderer_;
   cv::Mat last_;       // the last frame (missing pixels come from it)
   cv::Mat frames_[2];  // the frames resolved into, in turn (one is last_): no allocation per frame
   int next_ = 0;
+  bool released_ = true;  // nothing held since the last release (or ever)
 };
 
 // What the compositor host does with a fragment buffer (a peer's bytes)

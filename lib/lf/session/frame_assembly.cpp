@@ -1,5 +1,7 @@
 #include "lf/session/frame_assembly.h"
 
+#include <cstdio>
+
 namespace lf {
 
 RequestWindow::Verdict RequestWindow::offer(uint64_t seq) {
@@ -37,6 +39,15 @@ bool ViewerSelection::foreign(int64_t now_us) {
   if (warned_ || now_us - foreign_since_us_ < kForeignWarnUs) return false;
   warned_ = true;
   return true;
+}
+
+std::string ViewerSelection::foreign_detail(int64_t now_us, uint32_t other) const {
+  char line[256];
+  std::snprintf(line, sizeof line,
+                "%llu fragments in %.1f s, all of other viewers (such as %u): check viewer-id "
+                "(lfviewrequest viewer-id, or -1 here to take the first viewer seen)",
+                static_cast<unsigned long long>(foreign_count_), foreign_seconds(now_us), other);
+  return line;
 }
 
 }  // namespace lf

@@ -17,6 +17,7 @@
 #include <cstdint>
 #include <deque>
 #include <map>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -89,6 +90,8 @@ class ViewerSelection {
   int64_t viewer() const { return viewer_; }
   uint64_t foreign_count() const { return foreign_count_; }
   double foreign_seconds(int64_t now_us) const { return (now_us - foreign_since_us_) / 1e6; }
+  // The warning's detail when foreign() said so (`other`: a viewer seen).
+  std::string foreign_detail(int64_t now_us, uint32_t other) const;
 
  private:
   int64_t viewer_;
