@@ -22,6 +22,13 @@
  * (lib/lf/render/renderer.h: GL uploads each camera frame once; the CPU
  * fuses the drawing into the compositing, bands of rows on all cores).
  *
+ * Live, requests over `max-pixel-rate` (output pixels a second, the camera
+ * hosts' budget) are dropped whole at their first fragment, counted in
+ * `over-budget`. When no fragment came for 2 s (LF_IDLE_RELEASE) or the
+ * stream ended, the frames, sums and output pool are freed and the heap
+ * trimmed (a 3840x2160 view holds about 230 MB); the next frame allocates
+ * them again.
+ *
  * The output rate is the fragment caps' `framerate` (the viewer's request
  * rate; the `framerate` property overrides it); the deadline is one frame
  * period after a request's running time (gst_aggregator_set_latency),
