@@ -67,6 +67,27 @@ class Gst : public ::testing::Test {
   }
   static std::string rig_path_;
 
+  // A pipeline with an appsrc "in" and an appsink "out", playing from its
+  // construction to its end (pipe null: the description did not parse).
+  struct AppPipeline {
+    GstElement *pipe = nullptr, *in = nullptr, *out = nullptr;
+    explicit AppPipeline(const std::string& desc) : pipe(gst_parse_launch(desc.c_str(), nullptr)) {
+      if (!pipe) return;
+      in = gst_bin_get_by_name(GST_BIN(pipe), "in");
+      out = gst_bin_get_by_name(GST_BIN(pipe), "out");
+      gst_element_set_state(pipe, GST_STATE_PLAYING);
+    }
+    ~AppPipeline() {
+      if (!pipe) return;
+      gst_element_set_state(pipe, GST_STATE_NULL);
+      if (in) gst_object_unref(in);
+      if (out) gst_object_unref(out);
+      gst_object_unref(pipe);
+    }
+    AppPipeline(const AppPipeline&) = delete;
+    AppPipeline& operator=(const AppPipeline&) = delete;
+  };
+
   // One non-live camera (the rig's first, lfcamsrc "cam", mode=dataset)
   // answering `requests` requests of 160x120 views: lffragment "f" into
   // fakesink "out".
@@ -1225,17 +1246,13 @@ TEST_F(Gst, ViewersOfDifferentSizesEachGetTheirOwnCaps) {
 TEST_F(Gst, ACameraHostDropsARequestOverItsBudgetInEveryCamera) {
   const lf::Rig rig = lf::load_rig(rig_path_);
   const double budget = 10.0 * 1280 * 960;  // ten 1280x960 requests a second
-  GstElement* p =
-      gst_parse_launch(("appsrc name=in is-live=true do-timestamp=true format=time "
-                        "caps=application/x-lf-view-request ! lfcamerahost rig=" +
-                        rig_path_ + " is-live=true max-pixel-rate=" + std::to_string(budget) +
-                        " ! appsink name=out sync=false max-buffers=0")
-                           .c_str(),
-                       nullptr);
-  ASSERT_NE(p, nullptr);
-  GstElement* in = gst_bin_get_by_name(GST_BIN(p), "in");
-  GstElement* out = gst_bin_get_by_name(GST_BIN(p), "out");
-  gst_element_set_state(p, GST_STATE_PLAYING);
+  const AppPipeline a(
+      "appsrc name=in is-live=true do-timestamp=true format=time "
+      "caps=application/x-lf-view-request ! lfcamerahost rig=" +
+      rig_path_ + " is-live=true max-pixel-rate=" + std::to_string(budget) +
+      " ! appsink name=out sync=false max-buffers=0");
+  ASSERT_NE(a.pipe, nullptr);
+  GstElement *in = a.in, *out = a.out;
   std::this_thread::sleep_for(std::chrono::seconds(1));  // the cameras' first frames
   constexpr int kRequests = 40;
   const auto t0 = std::chrono::steady_clock::now();
@@ -1264,10 +1281,6 @@ TEST_F(Gst, ACameraHostDropsARequestOverItsBudgetInEveryCamera) {
   EXPECT_GE(fragments.size(), 10u);
   EXPECT_LE(fragments.size(), 10u + static_cast<size_t>(10 * secs) + 1) << "cut at the budget";
   EXPECT_LT(fragments.size(), static_cast<size_t>(kRequests));
-  gst_element_set_state(p, GST_STATE_NULL);
-  gst_object_unref(in);
-  gst_object_unref(out);
-  gst_object_unref(p);
 }
 
 // Several non-live viewers through lfrequestmux (the line of docs/steering.md made non-live, with
@@ -1411,48 +1424,43 @@ TEST_F(Gst, BadPropertiesGiveClearErrors) {
 TEST_F(Gst, MalformedRequestsAndFragmentsAreDroppedWithAWarning) {
   // Garbage view requests into lffragment, then a valid one.
   const lf::Rig rig = lf::load_rig(rig_path_);
-  GstElement* p = gst_parse_launch(
-      ("appsrc name=in caps=application/x-lf-view-request format=time ! f.request lffragment rig=" +
-       rig_path_ + " camera-id=" + std::to_string(rig.cameras[0].id) +
-       " name=f ! appsink name=out sync=false  lfcamsrc rig=" + rig_path_ +
-       " camera-id=" + std::to_string(rig.cameras[0].id) + " num-buffers=1 ! f.sink")
-          .c_str(),
-      nullptr);
-  ASSERT_NE(p, nullptr);
-  GstElement* in = gst_bin_get_by_name(GST_BIN(p), "in");
-  GstElement* out = gst_bin_get_by_name(GST_BIN(p), "out");
-  gst_element_set_state(p, GST_STATE_PLAYING);
-  std::vector<uint8_t> garbage(lf::kRequestSize, 0x41);
-  std::memcpy(garbage.data(), "LFVR", 4);
-  gst_app_src_push_buffer(GST_APP_SRC(in), gst_buffer_new_memdup(garbage.data(), garbage.size()));
-  gst_app_src_push_buffer(GST_APP_SRC(in), gst_buffer_new_memdup("x", 1));
-  lf::ViewRequest req;
-  req.sequence = 7;
-  req.view = lf::view_between_cameras(rig, rig.plane().origin, 160, 120);
-  req.focal_plane = lf::FocalPlane::infinity();
-  const auto good = lf::serialize_request(req);
-  gst_app_src_push_buffer(GST_APP_SRC(in), gst_buffer_new_memdup(good.data(), good.size()));
-  gst_app_src_end_of_stream(GST_APP_SRC(in));
-  GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(out), 5 * GST_SECOND);
-  ASSERT_NE(s, nullptr) << "the valid request after the malformed ones must be answered";
-  GstMapInfo m;
-  gst_buffer_map(gst_sample_get_buffer(s), &m, GST_MAP_READ);
-  const lf::Fragment f = lf::parse_fragment(m.data, m.size);
-  EXPECT_EQ(f.sequence, 7u);
-  gst_buffer_unmap(gst_sample_get_buffer(s), &m);
-  gst_sample_unref(s);
-  int warnings = 0;
-  GstBus* bus = gst_element_get_bus(p);
-  while (GstMessage* msg = gst_bus_pop_filtered(bus, GST_MESSAGE_WARNING)) {
-    ++warnings;
-    gst_message_unref(msg);
+  {
+    const AppPipeline a(
+        "appsrc name=in caps=application/x-lf-view-request format=time ! f.request lffragment "
+        "rig=" +
+        rig_path_ + " camera-id=" + std::to_string(rig.cameras[0].id) +
+        " name=f ! appsink name=out sync=false  lfcamsrc rig=" + rig_path_ +
+        " camera-id=" + std::to_string(rig.cameras[0].id) + " num-buffers=1 ! f.sink");
+    ASSERT_NE(a.pipe, nullptr);
+    GstElement *in = a.in, *out = a.out;
+    std::vector<uint8_t> garbage(lf::kRequestSize, 0x41);
+    std::memcpy(garbage.data(), "LFVR", 4);
+    gst_app_src_push_buffer(GST_APP_SRC(in), gst_buffer_new_memdup(garbage.data(), garbage.size()));
+    gst_app_src_push_buffer(GST_APP_SRC(in), gst_buffer_new_memdup("x", 1));
+    lf::ViewRequest req;
+    req.sequence = 7;
+    req.view = lf::view_between_cameras(rig, rig.plane().origin, 160, 120);
+    req.focal_plane = lf::FocalPlane::infinity();
+    const auto good = lf::serialize_request(req);
+    gst_app_src_push_buffer(GST_APP_SRC(in), gst_buffer_new_memdup(good.data(), good.size()));
+    gst_app_src_end_of_stream(GST_APP_SRC(in));
+    GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(out), 5 * GST_SECOND);
+    ASSERT_NE(s, nullptr) << "the valid request after the malformed ones must be answered";
+    GstMapInfo m;
+    gst_buffer_map(gst_sample_get_buffer(s), &m, GST_MAP_READ);
+    const lf::Fragment f = lf::parse_fragment(m.data, m.size);
+    EXPECT_EQ(f.sequence, 7u);
+    gst_buffer_unmap(gst_sample_get_buffer(s), &m);
+    gst_sample_unref(s);
+    int warnings = 0;
+    GstBus* bus = gst_element_get_bus(a.pipe);
+    while (GstMessage* msg = gst_bus_pop_filtered(bus, GST_MESSAGE_WARNING)) {
+      ++warnings;
+      gst_message_unref(msg);
+    }
+    EXPECT_EQ(warnings, 2);
+    gst_object_unref(bus);
   }
-  EXPECT_EQ(warnings, 2);
-  gst_object_unref(bus);
-  gst_element_set_state(p, GST_STATE_NULL);
-  gst_object_unref(in);
-  gst_object_unref(out);
-  gst_object_unref(p);
 
   // Garbage fragments into lfcompositor next to real ones: output continues.
   std::vector<std::string> warns;
