@@ -65,6 +65,7 @@ struct State {
   lfgst::RawVideoOutput output;             // the negotiated raw video (gst/lfvideoout.h)
   std::optional<lfgst::ViewFormat> format;  // the view's size and rate: properties or caps
   std::optional<lf::ProbeScoring> probes;   // focus and surface probes being collected
+  lf::OutputRate rate;                      // frames out a second: the lf-rate message
   lfgst::WarnLimiter no_focus, no_surface, bad, foreign, out_of_window, duplicate;
   // The warnings of fragments dropped by the intake's checks, one per verdict.
   lfgst::WarnLimiter dropped[static_cast<int>(lf::Intake::Verdict::kOverBudget) + 1];
@@ -222,13 +223,15 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Request& g, bool com
   GST_BUFFER_DURATION(out) = g.duration;
   GST_BUFFER_OFFSET(out) = seq;
   st->intake->window.emitted(seq);
-  // Before the frame goes out: whoever sees it and sends on can rely on
-  // the new window (decode_on_arrival).
+  // Before the frame goes out: whoever sees it may rely on the new window.
   publish_acceptance(self->priv, st);
   GST_OBJECT_LOCK(self);
   self->priv->settings.frames++;
   self->priv->settings.last_cameras = static_cast<guint>(g.count);
   GST_OBJECT_UNLOCK(self);
+  if (const auto r = st->rate.frame(t0, complete))  // once a second (gst/lfevents.h)
+    lfgst::post_rate(GST_ELEMENT(self), st->intake->viewer.viewer(), st->format->fps().value(), *r,
+                     st->intake->budget.refused());
   GstAggregator* agg = GST_AGGREGATOR(self);
   if (GST_CLOCK_TIME_IS_VALID(g.pts)) {
     GstSegment* seg = &GST_AGGREGATOR_PAD(agg->srcpad)->segment;

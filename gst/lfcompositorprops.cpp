@@ -85,7 +85,9 @@ void describe_compositor(GstElementClass* ec) {
       "Upstream custom events it sends: lf-focus (viewer-id, probe-id, inverse-depth, "
       "capture-time) and lf-surface (a focal surface: tile, cols, rows, planes, plane-of) "
       "answering the probes of lfviewrequest; navigation and lf-view events from the video sink go "
-      "upstream tagged with its viewer-id. Warning messages, rate-limited, name what was dropped: "
+      "upstream tagged with its viewer-id. An lf-rate element message once a second while frames "
+      "go out: viewer-id, requested-fps, fps, complete-fps, interval, over-budget (the rate "
+      "achieved; docs/steering.md). Warning messages, rate-limited, name what was dropped: "
       "a malformed fragment, a fragment of another size or outside the sequence window, a camera's "
       "second fragment for one request, a click that cannot be focused.");
 }

@@ -239,4 +239,20 @@ GstStructure* answer_structure(lf::ProbeOutcome&& o) {
       {o.viewer, o.probe, o.capture_time_ns, std::move(o.surface), o.planes_used});
 }
 
+GstStructure* rate_structure(gint64 viewer, double requested_fps, const lf::OutputRate::Report& r,
+                             guint64 over_budget) {
+  return gst_structure_new("lf-rate", "version", G_TYPE_UINT, kEventVersion, "viewer-id",
+                           G_TYPE_INT64, viewer, "requested-fps", G_TYPE_DOUBLE, requested_fps,
+                           "fps", G_TYPE_DOUBLE, r.fps(), "complete-fps", G_TYPE_DOUBLE,
+                           r.seconds > 0 ? r.complete / r.seconds : 0.0, "interval", G_TYPE_DOUBLE,
+                           r.seconds, "over-budget", G_TYPE_UINT64, over_budget, nullptr);
+}
+
+void post_rate(GstElement* el, gint64 viewer, double requested_fps, const lf::OutputRate::Report& r,
+               guint64 over_budget) {
+  gst_element_post_message(
+      el, gst_message_new_element(GST_OBJECT(el),
+                                  rate_structure(viewer, requested_fps, r, over_budget)));
+}
+
 }  // namespace lfgst

@@ -16,6 +16,8 @@
 //  * lf-surface (upstream: lfcompositor -> lfviewrequest): the answer to a
 //    surface probe (lib/lf/focus/surface_probe.h), the focal surface the
 //    next requests carry.
+//  * lf-rate (an element message on the bus, from lfcompositor, once a
+//    second while frames go out): the rate achieved against the rate asked.
 #pragma once
 
 #include <gst/gst.h>
@@ -26,6 +28,7 @@
 #include <vector>
 
 #include "lf/geometry/view.h"
+#include "lf/session/compositor_host.h"
 #include "lf/session/probe_scoring.h"
 #include "lf/session/viewer_session.h"
 
@@ -94,6 +97,17 @@ bool read_gesture(GstEvent* event, lf::Gesture* g);
 // The lf-focus or lf-surface structure answering a probe (an outcome
 // lf::ProbeScoring gave with result kAnswer).
 GstStructure* answer_structure(lf::ProbeOutcome&& o);
+
+// lf-rate: viewer-id (int64, -1: not chosen yet), requested-fps (double: the
+// viewer's request rate), fps (double: frames composited a second over the
+// window), complete-fps (double: of them complete, every camera in by the
+// deadline), interval (double, s: the window), over-budget (uint64:
+// requests dropped over max-pixel-rate since the start).
+GstStructure* rate_structure(gint64 viewer, double requested_fps, const lf::OutputRate::Report& r,
+                             guint64 over_budget);
+// Posts it on `el`'s bus as an element message.
+void post_rate(GstElement* el, gint64 viewer, double requested_fps, const lf::OutputRate::Report& r,
+               guint64 over_budget);
 
 // Whether a structure's version is one this codec reads (else `why`).
 bool version_ok(const GstStructure* s, std::string* why);

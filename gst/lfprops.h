@@ -23,6 +23,7 @@ namespace lfgst {
 struct Fraction {
   gint n = 0, d = 1;
   bool operator==(const Fraction& o) const { return n == o.n && d == o.d; }
+  double value() const { return d ? static_cast<double>(n) / d : 0; }
 };
 
 template <class S>

@@ -430,6 +430,50 @@ TEST_F(Hostile, TheCompositorKeepsItsPixelBudget) {
   EXPECT_FALSE(c.error());
 }
 
+// The compositor reports the rate it achieves once a second (an lf-rate
+// element message, gst/lfevents.h): frames composited a second and of them
+// complete, against the viewer's request rate (the caps' 30/1), and the
+// requests dropped over its budget. Fragments of a one-camera rig at about
+// 20 a second: every frame complete, about 20 a second.
+TEST_F(Hostile, TheCompositorReportsTheRateItAchieves) {
+  Compositor c(rig1_path_, "viewer-id=0", "",
+               "application/x-lf-fragment,encoding=raw,width=80,height=60,framerate=30/1",
+               "is-live=true");
+  GstBus* bus = gst_element_get_bus(c.pipe);
+  const GstStructure* s = nullptr;
+  GstMessage* m = nullptr;
+  for (uint64_t seq = 1; seq <= 80 && !s; ++seq) {
+    push(c.src,
+         lf::serialize_fragment(fragment(rig1_, request(rig1_, seq), 0), lf::Encoding::kRaw));
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    while (!s && (m = gst_bus_pop_filtered(bus, GST_MESSAGE_ELEMENT))) {
+      if (gst_message_has_name(m, "lf-rate"))
+        s = gst_message_get_structure(m);
+      else
+        gst_message_unref(m);
+    }
+  }
+  ASSERT_NE(s, nullptr) << "no lf-rate message in 4 s of frames";
+  double requested = 0, fps = 0, complete = 0, interval = 0;
+  gint64 viewer = -2;
+  guint64 over = 1;
+  ASSERT_TRUE(gst_structure_get(s, "viewer-id", G_TYPE_INT64, &viewer, "requested-fps",
+                                G_TYPE_DOUBLE, &requested, "fps", G_TYPE_DOUBLE, &fps,
+                                "complete-fps", G_TYPE_DOUBLE, &complete, "interval", G_TYPE_DOUBLE,
+                                &interval, "over-budget", G_TYPE_UINT64, &over, nullptr));
+  EXPECT_EQ(viewer, 0);
+  EXPECT_DOUBLE_EQ(requested, 30.0);
+  EXPECT_GE(interval, 1.0);
+  EXPECT_LT(interval, 1.5);
+  EXPECT_GT(fps, 8.0) << "about 20 fragments a second went in";
+  EXPECT_LE(fps, 21.0);
+  EXPECT_DOUBLE_EQ(complete, fps) << "one camera: every frame complete";
+  EXPECT_EQ(over, 0u);
+  gst_message_unref(m);
+  gst_object_unref(bus);
+  EXPECT_FALSE(c.error());
+}
+
 // A live compositor whose viewer went quiet frees its frames and sums
 // (LF_IDLE_RELEASE, 2 s, after its last output) and trims the heap: the
 // memory of a viewer's 3840x2160 frames (sums of 16 bytes a pixel, two

@@ -736,6 +736,29 @@ TEST(FragmentIntake, PixelBudgetAdmitsOrRefusesWholeRequests) {
   for (uint64_t seq = 42; seq <= 60; ++seq) EXPECT_EQ(take(seq, rig->cameras[0].id), V::kAccept);
 }
 
+// lf::OutputRate: one report a window (a second), of the frames composited
+// in it and of them the complete ones; the first frame opens the window.
+TEST(OutputRate, OneReportASecondOfFramesAndCompleteOnes) {
+  lf::OutputRate rate;
+  std::vector<lf::OutputRate::Report> reports;
+  // 25 frames a second for 3.0 s, every fifth incomplete.
+  for (int i = 0; i <= 75; ++i)
+    if (const auto r = rate.frame(5'000'000 + i * 40'000, i % 5 != 4)) reports.push_back(*r);
+  ASSERT_EQ(reports.size(), 3u);
+  for (const auto& r : reports) {
+    EXPECT_DOUBLE_EQ(r.seconds, 1.0);
+    EXPECT_EQ(r.frames, 25u);
+    EXPECT_EQ(r.complete, 20u);
+    EXPECT_DOUBLE_EQ(r.fps(), 25.0);
+  }
+  // A gap: the window closes at the next frame, over its true length.
+  const auto late = rate.frame(5'000'000 + 76 * 40'000 + 2'500'000, true);
+  ASSERT_TRUE(late.has_value());
+  EXPECT_NEAR(late->seconds, 2.54, 1e-9);
+  EXPECT_EQ(late->frames, 1u);  // the frame at 3.0 s that opened it
+  EXPECT_EQ(lf::OutputRate::Report{}.fps(), 0.0);
+}
+
 // lf::CameraAnswer: a camera's answer on the wire equals its fragment
 // rendered and serialized the long way (raw: the same pixels; JPEG: the
 // same bytes), and a quilt's eyes land in their tiles, apart, as the

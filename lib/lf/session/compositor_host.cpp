@@ -85,6 +85,20 @@ std::vector<ReceivedPiece> received_pieces(std::vector<AnswerPiece>&& parts,
   return pieces;
 }
 
+std::optional<OutputRate::Report> OutputRate::frame(int64_t now_us, bool complete) {
+  std::optional<Report> closed;
+  if (start_us_ >= 0 && now_us - start_us_ >= kWindowUs) {
+    window_.seconds = (now_us - start_us_) / 1e6;
+    closed = window_;
+    window_ = Report{};
+    start_us_ = now_us;
+  }
+  if (start_us_ < 0) start_us_ = now_us;
+  ++window_.frames;
+  window_.complete += complete;
+  return closed;
+}
+
 bool FrameBudget::admit(uint64_t sequence, double pixels, double rate, int64_t now_us) {
   if (rate <= 0) return true;
   const auto it = decided_.find(sequence);

@@ -14,6 +14,7 @@
 #include <map>
 #include <memory>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -128,6 +129,27 @@ class FrameBudget {
   TokenBucket bucket_;
   std::map<uint64_t, bool> decided_;  // sequence -> admitted
   uint64_t refused_ = 0;
+};
+
+// The rate a compositor host achieves (what a viewer gets when the hosts
+// cannot keep the rate it asks for): the frames composited, and how many of
+// them complete (every camera's fragment in by the deadline), over windows
+// of kWindowUs; one report a window.
+class OutputRate {
+ public:
+  static constexpr int64_t kWindowUs = 1'000'000;
+  struct Report {
+    double seconds = 0;                 // the window's length
+    uint64_t frames = 0, complete = 0;  // composited in it, of them complete
+    double fps() const { return seconds > 0 ? frames / seconds : 0; }
+  };
+  // A frame composited at `now_us`; the report of the window it closes, if
+  // it closes one (the first frame opens the first window).
+  std::optional<Report> frame(int64_t now_us, bool complete);
+
+ private:
+  int64_t start_us_ = -1;
+  Report window_;
 };
 
 class FragmentIntake {
