@@ -214,19 +214,21 @@ static bool build(LfCameraHost* self) {
             if (!playback.empty()) lf::camera_file_name(playback, 0, "playback");
             GstElement* tee = make("tee", "requests");
             g_object_set(tee, "allow-not-linked", TRUE, nullptr);
-            // Live: lfrequestqueue, the viewers in turn, and a viewer's request
-            // waiting behind one of its own request-max-age newer is stale: bounded
-            // in time per viewer, not in count (several viewers' requests arrive in
-            // one tick: a two-request queue dropped two of four viewers' requests),
-            // and in turns (one viewer's flood does not push another's out). Not
-            // live: a queue with its defaults (a short one can stall the viewers).
+            // Live: one lfrequestqueue before the tee sheds stale requests once for
+            // every camera (the viewers in turn; a viewer's request behind one of its
+            // own request-max-age newer is stale), and each camera's queue holds one
+            // and blocks: a camera shedding alone answered a request that others
+            // dropped (incomplete frames). Not live: queues with their defaults.
             const lfgst::Adopt adopt_here = [&](GstElement* e) {
               return adopt(GST_BIN(self), p, e);
             };
-            auto request_queue = [&](const std::string& name) {
+            auto request_queue = [&](const std::string& name, bool shared) {
               GstElement* q =
-                  adopt(GST_BIN(self), p, make(live ? "lfrequestqueue" : "queue", name));
-              if (live) g_object_set(q, "max-age", max_age, nullptr);
+                  adopt(GST_BIN(self), p, make(live && shared ? "lfrequestqueue" : "queue", name));
+              if (live && shared) g_object_set(q, "max-age", max_age, nullptr);
+              if (live && !shared)
+                g_object_set(q, "max-size-buffers", 1u, "max-size-bytes", 0u, "max-size-time",
+                             G_GUINT64_CONSTANT(0), nullptr);
               return q;
             };
             GstElement* out = composite_of(self) ? make("lfcompositor", "compositor")
@@ -265,7 +267,7 @@ static bool build(LfCameraHost* self) {
             for (int i : chosen) {
               const int cam_id = rig->cameras[i].id;
               const std::string id = std::to_string(cam_id);
-              GstElement* q = one_thread ? nullptr : request_queue("requests" + id);
+              GstElement* q = one_thread ? nullptr : request_queue("requests" + id, false);
               GstElement* frag = adopt(GST_BIN(self), p, make("lffragment", "fragment" + id));
               frags.push_back(frag);
               g_object_set(frag, "rig", rig_path.c_str(), "camera-id", cam_id, nullptr);
@@ -299,22 +301,19 @@ static bool build(LfCameraHost* self) {
                   !gst_element_link_pads(frag, "src", sum ? sum : out, "sink_%u"))
                 throw std::runtime_error("cannot link the graph of camera " + id);
             }
-            // One request thread for all cameras: live, a queue before
-            // the tee (stale requests dropped there, and the request
-            // source never waits for the cameras); not live, the
-            // request source's own thread.
+            // Live, that queue before the tee (the source never waits for the
+            // cameras); not live, the request source's own thread.
             GstElement* first = tee;
-            if (one_thread && live) {
-              first = request_queue("request-queue");
+            if (live) {
+              first = request_queue("request-queue", true);
               if (!gst_element_link(first, tee))
                 throw std::runtime_error("cannot link the request queue");
             }
             GstPad* tsink = gst_element_get_static_pad(first, "sink");
             if (!frags.empty()) {
-              // The requests' limits once for all cameras (lfrate.h), on
-              // the one thread that brings the requests: each camera
-              // deciding alone dropped a request in some cameras and
-              // answered it in others (a frame composited incomplete).
+              // The requests' limits once for all cameras (lfrate.h), on the
+              // thread that brings the requests (not each camera alone: the
+              // same request dropped by some and answered by others).
               double rate = 0, pixel_rate = 0;
               g_object_get(frags.front(), "max-rate", &rate, "max-pixel-rate", &pixel_rate,
                            nullptr);
@@ -425,7 +424,8 @@ static void install_properties(GObjectClass* oc) {
       oc, &Settings::request_max_age,
       g_param_spec_uint64(
           "request-max-age", "Request max age",
-          "Live (is-live): a view request still waiting for its camera behind a request of the "
+          "Live (is-live): a view request still waiting for the cameras (one queue for all of "
+          "them: a request is answered by every camera or dropped by all) behind a request of the "
           "same viewer this much newer (ns, by their PTS) is dropped as stale; the viewers' "
           "requests are served in turn, at most 64 wait (lfrequestqueue). lfarray uses at least "
           "its latency (a request its compositor still waits for is not stale). 0: only each "

@@ -661,24 +661,26 @@ namespace {
 // in turn); lfarray waits at least as long as its compositor does (a
 // shorter bound dropped requests that its compositor still waited for: a
 // recording played back on a busy machine then lost cameras from frames).
-// lfarray's whole-view mode (the default with raw fragments) has one request
-// queue for all cameras (request-queue, before the tee), with the same
-// bounds; otherwise one queue per camera.
+// Every live host has one request queue for all cameras (request-queue,
+// before the tee), so a request is answered by every camera or dropped by
+// all; where each camera has a request thread of its own (not lfarray's
+// whole-view mode), a queue per camera (requests<id>) holds one request and
+// blocks. (Before, each camera had its own lfrequestqueue and shed alone.)
 TEST_F(Runtime, LiveRequestQueuesAreBoundedByTheRequestMaxAge) {
   struct Case {
     std::string element;
     std::string props;
     guint64 expected_ns;
-    int queues;
+    int camera_queues;
   };
   const Case cases[] = {
       {"lfcamerahost", "", 200 * GST_MSECOND, 4},
       {"lfcamerahost", "request-max-age=50000000", 50 * GST_MSECOND, 4},
-      {"lfarray", "", 200 * GST_MSECOND, 1},
+      {"lfarray", "", 200 * GST_MSECOND, 0},
       {"lfarray", "whole-view=false", 200 * GST_MSECOND, 4},
       {"lfarray", "encoding=jpeg", 200 * GST_MSECOND, 4},
-      {"lfarray", "latency=3000000000", 3 * GST_SECOND, 1},
-      {"lfarray", "latency=10000000 request-max-age=400000000", 400 * GST_MSECOND, 1},
+      {"lfarray", "latency=3000000000", 3 * GST_SECOND, 0},
+      {"lfarray", "latency=10000000 request-max-age=400000000", 400 * GST_MSECOND, 0},
       {"lfarray", "whole-view=false latency=10000000 request-max-age=400000000", 400 * GST_MSECOND,
        4}};
   for (const Case& c : cases) {
@@ -686,26 +688,33 @@ TEST_F(Runtime, LiveRequestQueuesAreBoundedByTheRequestMaxAge) {
         (c.element + " name=h rig=" + rig_path_ + " is-live=true " + c.props).c_str(), nullptr);
     ASSERT_NE(e, nullptr);
     ASSERT_NE(gst_element_set_state(e, GST_STATE_READY), GST_STATE_CHANGE_FAILURE);
-    // One request queue per camera, named requests<camera id>, or one for
-    // all, request-queue (the tee is `requests`).
-    int queues = 0;
+    // One lfrequestqueue for all, request-queue; the cameras' queues are
+    // named requests<camera id> (the tee is `requests`).
+    int shared = 0, camera_queues = 0;
     GstIterator* it = gst_bin_iterate_elements(GST_BIN(e));
     GValue item = G_VALUE_INIT;
     while (gst_iterator_next(it, &item) == GST_ITERATOR_OK) {
       GstElement* q = GST_ELEMENT(g_value_get_object(&item));
       const std::string name = GST_OBJECT_NAME(q);
-      if (name.rfind("request", 0) == 0 && name != "requests") {
-        ++queues;
+      if (name == "request-queue") {
+        ++shared;
         EXPECT_STREQ(G_OBJECT_TYPE_NAME(q), "LfRequestQueue") << name;
         guint64 max_age = 0;
         g_object_get(q, "max-age", &max_age, nullptr);
         EXPECT_EQ(max_age, c.expected_ns) << c.element << " " << c.props << " " << name;
+      } else if (name.rfind("requests", 0) == 0 && name != "requests") {
+        ++camera_queues;
+        EXPECT_STREQ(G_OBJECT_TYPE_NAME(q), "GstQueue") << name;
+        guint buffers = 0;
+        g_object_get(q, "max-size-buffers", &buffers, nullptr);
+        EXPECT_EQ(buffers, 1u) << c.element << " " << c.props << " " << name;
       }
       g_value_reset(&item);
     }
     g_value_unset(&item);
     gst_iterator_free(it);
-    EXPECT_EQ(queues, c.queues) << c.element << " " << c.props;
+    EXPECT_EQ(shared, 1) << c.element << " " << c.props;
+    EXPECT_EQ(camera_queues, c.camera_queues) << c.element << " " << c.props;
     gst_element_set_state(e, GST_STATE_NULL);
     gst_object_unref(e);
   }
