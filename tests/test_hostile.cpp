@@ -178,6 +178,15 @@ class Hostile : public ::testing::Test {
     }
   };
 
+  // A live one (appsrc is-live) compositing viewer 0's views of w x h at 30/1.
+  struct LiveCompositor : Compositor {
+    LiveCompositor(const std::string& rig, const std::string& props, int w = 80, int h = 60)
+        : Compositor(rig, "viewer-id=0 " + props, "",
+                     "application/x-lf-fragment,encoding=raw,width=" + std::to_string(w) +
+                         ",height=" + std::to_string(h) + ",framerate=30/1",
+                     "is-live=true") {}
+  };
+
   // appsrc (requests) ! lffragment (frames from lfcamsrc) ! appsink.
   struct Camera {
     GstElement *pipe = nullptr, *src = nullptr, *sink = nullptr;
@@ -401,9 +410,7 @@ TEST_F(Hostile, OneViewersLargeViewsLeaveAnotherItsPixels) {
 // warning and counted; the frames that come out are whole requests.
 TEST_F(Hostile, TheCompositorKeepsItsPixelBudget) {
   const double budget = 10.0 * 80 * 60;  // ten 80x60 requests a second
-  Compositor c(rig1_path_, "viewer-id=0 max-pixel-rate=" + std::to_string(budget), "",
-               "application/x-lf-fragment,encoding=raw,width=80,height=60,framerate=30/1",
-               "is-live=true");
+  LiveCompositor c(rig1_path_, "max-pixel-rate=" + std::to_string(budget));
   const auto t0 = std::chrono::steady_clock::now();
   for (uint64_t seq = 1; seq <= 60; ++seq)
     push(c.src, lf::serialize_fragment(fragment(rig1_, request(rig1_, seq), 0), lf::Encoding::kRaw),
@@ -436,9 +443,7 @@ TEST_F(Hostile, TheCompositorKeepsItsPixelBudget) {
 // requests dropped over its budget. Fragments of a one-camera rig at about
 // 20 a second: every frame complete, about 20 a second.
 TEST_F(Hostile, TheCompositorReportsTheRateItAchieves) {
-  Compositor c(rig1_path_, "viewer-id=0", "",
-               "application/x-lf-fragment,encoding=raw,width=80,height=60,framerate=30/1",
-               "is-live=true");
+  LiveCompositor c(rig1_path_, "");
   GstBus* bus = gst_element_get_bus(c.pipe);
   const GstStructure* s = nullptr;
   GstMessage* m = nullptr;
@@ -481,9 +486,7 @@ TEST_F(Hostile, TheCompositorReportsTheRateItAchieves) {
 // after a flood. Measured: 58 MiB before, 312-344 with the frames, 154
 // MiB 2 s after the last one.
 TEST_F(Hostile, AQuietViewersCompositorGivesItsMemoryBack) {
-  Compositor c(rig1_path_, "viewer-id=0", "",
-               "application/x-lf-fragment,encoding=raw,width=3840,height=2160,framerate=30/1",
-               "is-live=true");
+  LiveCompositor c(rig1_path_, "", 3840, 2160);
   const double rss0 = held_mib();
   for (uint64_t seq = 1; seq <= 3; ++seq)
     push(c.src, lf::serialize_fragment(fragment(rig1_, request(rig1_, seq, 0, 3840, 2160), 0),
