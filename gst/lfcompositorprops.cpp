@@ -151,7 +151,7 @@ void install_compositor_properties(GObjectClass* oc, Properties<CompositorSettin
                  "max-pixel-rate", "Maximum output pixel rate",
                  "Live: output pixels (width x height, of one eye in stereo) of the requests "
                  "composited per second, the camera hosts' budget (lffragment max-pixel-rate) "
-                 "kept again here: a request over it is dropped whole, undecoded, with a warning, "
+                 "kept again here: a request over it is dropped whole, unparsed, with a warning, "
                  "so requests the camera hosts let through (their budget raised, or forged on "
                  "plain RTP) cost this host at most this much (bursts up to one second's worth). "
                  "Default: 1920x1080 at 60 requests a second (0: no limit; not live: none, every "

@@ -244,8 +244,8 @@ GstStructure* rate_structure(gint64 viewer, double requested_fps, const lf::Outp
   return gst_structure_new("lf-rate", "version", G_TYPE_UINT, kEventVersion, "viewer-id",
                            G_TYPE_INT64, viewer, "requested-fps", G_TYPE_DOUBLE, requested_fps,
                            "fps", G_TYPE_DOUBLE, r.fps(), "complete-fps", G_TYPE_DOUBLE,
-                           r.seconds > 0 ? r.complete / r.seconds : 0.0, "interval", G_TYPE_DOUBLE,
-                           r.seconds, "over-budget", G_TYPE_UINT64, over_budget, nullptr);
+                           r.complete_fps(), "interval", G_TYPE_DOUBLE, r.seconds, "over-budget",
+                           G_TYPE_UINT64, over_budget, nullptr);
 }
 
 void post_rate(GstElement* el, gint64 viewer, double requested_fps, const lf::OutputRate::Report& r,

@@ -82,10 +82,11 @@ static GstFlowReturn lf_fragment_aggregator_aggregate(GstAggregator* agg, gboole
   g_list_free_full(pads, gst_object_unref);
   if (ret != GST_FLOW_OK) return ret;
   ret = klass->emit_due(self, &d, all_eos);
-  const GstClockTime idle = idle_deadline(self);
-  if (klass->release_idle && requests && requests->earliest_running_time() == GST_CLOCK_TIME_NONE &&
-      (all_eos || (d.live && GST_CLOCK_TIME_IS_VALID(d.now) && GST_CLOCK_TIME_IS_VALID(idle) &&
-                   d.now >= idle)))
+  if (!klass->release_idle || !requests || requests->earliest_running_time() != GST_CLOCK_TIME_NONE)
+    return ret;
+  const GstClockTime idle = all_eos ? 0 : idle_deadline(self);  // (not on every frame's path)
+  if (all_eos ||
+      (d.live && GST_CLOCK_TIME_IS_VALID(d.now) && GST_CLOCK_TIME_IS_VALID(idle) && d.now >= idle))
     klass->release_idle(self, TRUE);
   return ret;
 }

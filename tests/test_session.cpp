@@ -750,6 +750,7 @@ TEST(OutputRate, OneReportASecondOfFramesAndCompleteOnes) {
     EXPECT_EQ(r.frames, 25u);
     EXPECT_EQ(r.complete, 20u);
     EXPECT_DOUBLE_EQ(r.fps(), 25.0);
+    EXPECT_DOUBLE_EQ(r.complete_fps(), 20.0);
   }
   // A gap: the window closes at the next frame, over its true length.
   const auto late = rate.frame(5'000'000 + 76 * 40'000 + 2'500'000, true);

@@ -142,6 +142,7 @@ class OutputRate {
     double seconds = 0;                 // the window's length
     uint64_t frames = 0, complete = 0;  // composited in it, of them complete
     double fps() const { return seconds > 0 ? frames / seconds : 0; }
+    double complete_fps() const { return seconds > 0 ? complete / seconds : 0; }
   };
   // A frame composited at `now_us`; the report of the window it closes, if
   // it closes one (the first frame opens the first window).
