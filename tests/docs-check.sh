@@ -63,7 +63,7 @@ run() {
     echo "FAIL (exit $rc after $((SECONDS - t0)) s): $1"; tail -8 "$log" | sed 's/^/    /'; return 1
   fi
   if [ -n "$want_quiet" ] && grep -q '^\(ERROR\|WARNING\)' "$log"; then
-    echo "FAIL (a warning or error): $1"; grep -m3 -A1 '^\(ERROR\|WARNING\)' "$log" | sed 's/^/    /'
+    echo "FAIL (a warning or error): $1"; grep -m3 -A3 '^\(ERROR\|WARNING\)' "$log" | sed 's/^/    /'
     return 1
   fi
   echo "ok ($((SECONDS - t0)) s): ${1:0:110}"

@@ -328,6 +328,45 @@ TEST(ProbeScoring, CompleteAtOnceIncompleteAtTheDeadlineAndSatOutProbes) {
               std::string::npos)
         << out[0].describe();
   }
+
+  // Surface probes that every camera answered, one with pixels and the
+  // others empty, whose estimate fails. Empty with no capture time (they
+  // sat it out: a live host starting): quiet the first time, a failure the
+  // second. Empty with their frame's time (they see none of the view): a
+  // failure at once.
+  for (const bool sat_out : {true, false}) {
+    lf::ProbeScoring starting(rig);
+    for (uint32_t id : {24u, 25u}) {
+      const auto steps = lf::surface_probe_requests(*rig, view, id, opt);
+      bool drawn = false;  // the first camera that sees step 0 answers it with pixels
+      for (size_t i = 0; i < rig->cameras.size(); ++i)
+        for (int k = 0; k < opt.planes; ++k) {
+          lf::Fragment f;
+          f.sequence = steps[k].sequence, f.viewer_id = 2, f.camera_id = rig->cameras[i].id;
+          if (!drawn && k == 0) {
+            const int c = static_cast<int>(i);
+            lf::render_fragment(lf::plan_fragment(lf::ViewGeometry(*rig, steps[k]), c),
+                                rig->cameras[i], scene.render(rig->cameras[i], t), f);
+            drawn = f.pixel_count() > 0;
+            if (!drawn) f = lf::Fragment{}, f.sequence = steps[k].sequence;
+          }
+          f.viewer_id = 2, f.camera_id = rig->cameras[i].id;
+          if (f.empty()) f.capture_time_ns = sat_out ? -1 : 5000;
+          f.out_width = size_of.probe_width(), f.out_height = size_of.probe_height();
+          const auto bytes = lf::serialize_fragment(f, lf::Encoding::kRaw);
+          starting.absorb(bytes.data(), bytes.size(), 320, 240, opt, 500);
+        }
+      out = starting.take();
+      ASSERT_EQ(out.size(), 1u) << "probe " << id << " complete at its last fragment";
+      const bool quiet = sat_out && id == 24;
+      EXPECT_EQ(out[0].result,
+                quiet ? lf::ProbeOutcome::Result::kIncomplete : lf::ProbeOutcome::Result::kFailed)
+          << out[0].describe();
+      EXPECT_EQ(out[0].fragments, rig->cameras.size() * opt.planes);
+      EXPECT_EQ(out[0].sat_out, sat_out ? rig->cameras.size() * opt.planes - 1 : 0u);
+      if (!sat_out) break;
+    }
+  }
 }
 
 // The point of the disc's plane that the moving disc covers from t0 to t1

@@ -9,6 +9,7 @@ bool ProbeFragments::keep(int step, int steps, Fragment f) {
   auto& answers = by_camera_[f.camera_id];
   for (const auto& a : answers)
     if (a.first == step) return false;
+  sat_out_ += f.empty() && f.capture_time_ns < 0;
   answers.emplace_back(step, std::move(f));
   ++count_;
   return true;

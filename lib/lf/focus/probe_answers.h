@@ -19,6 +19,11 @@ namespace lf {
 class ProbeFragments {
  public:
   size_t fragments() const { return count_; }
+  // Fragments of a camera that sat the probe out: empty, with no capture
+  // time (its instant was not among its frames; gst/lffragment.cpp). A
+  // camera that sees none of a step answers empty too, with its frame's
+  // time.
+  size_t sat_out() const { return sat_out_; }
   // Steps answered by the most complete camera, and the cameras with that
   // many (those scored).
   int steps() const;
@@ -44,6 +49,7 @@ class ProbeFragments {
  private:
   std::map<uint32_t, std::vector<std::pair<int, Fragment>>> by_camera_;
   size_t count_ = 0;
+  size_t sat_out_ = 0;
 };
 
 }  // namespace lf

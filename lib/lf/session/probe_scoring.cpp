@@ -19,6 +19,7 @@ ProbeOutcome outcome_of(ProbeOutcome::Kind kind, const Probe& probe) {
   o.kind = kind;
   o.viewer = probe.viewer, o.probe = probe.id;
   o.fragments = probe.answers.fragments();
+  o.sat_out = probe.answers.sat_out();
   o.cameras = probe.answers.complete_cameras();
   o.capture_time_ns = probe.answers.capture_time_ns();
   return o;
@@ -118,10 +119,13 @@ void ProbeScoring::finish_surface(SurfaceProbes::Iter it) {
     // frames: a live pipeline starting, or a host overloaded): nothing was
     // measured and the next probe measures. Only twice in a row is it worth
     // a warning (the viewer keeps its plane meanwhile).
-    // A probe scored before every camera answered every step (a busy host)
-    // is the same: the next probe measures again.
+    // A probe scored before every camera answered every step (a busy host),
+    // or that some cameras sat out (a live host starting: the cameras that
+    // see the view may be among them), is the same: the next probe
+    // measures again.
     const size_t expected = rig_ ? rig_->cameras.size() * SurfaceOptions{}.planes : 0;
-    const bool unmeasured = probe.answers.pixels() == 0 || probe.answers.fragments() < expected;
+    const bool unmeasured = probe.answers.pixels() == 0 || probe.answers.fragments() < expected ||
+                            probe.answers.sat_out() > 0;
     if (!threw && rig_ && unmeasured && unmeasured_in_a_row_++ == 0)
       o.result = probe.answers.pixels() == 0 ? ProbeOutcome::Result::kSatOut
                                              : ProbeOutcome::Result::kIncomplete;
@@ -161,14 +165,16 @@ std::string ProbeOutcome::describe() const {
                   probe, cameras);
   else if (result == Result::kIncomplete)
     std::snprintf(line, sizeof line,
-                  "surface probe %u: scored before every camera answered (%zu fragments from %d "
-                  "complete cameras); the next probe measures again",
-                  probe, fragments, cameras);
+                  "surface probe %u: scored before every camera answered, or with cameras that "
+                  "sat it out (%zu fragments, %zu sat out, from %d complete cameras); the next "
+                  "probe measures again",
+                  probe, fragments, sat_out, cameras);
   else if (result == Result::kFailed && focus)
     std::snprintf(line, sizeof line, "probe %u: %s (%zu fragments)", probe, why.c_str(), fragments);
   else if (result == Result::kFailed)
-    std::snprintf(line, sizeof line, "surface probe %u: %s (%zu fragments from %d cameras)", probe,
-                  why.c_str(), fragments, cameras);
+    std::snprintf(line, sizeof line,
+                  "surface probe %u: %s (%zu fragments, %zu sat out, from %d cameras)", probe,
+                  why.c_str(), fragments, sat_out, cameras);
   else if (focus)
     std::snprintf(line, sizeof line,
                   "focus probe %u: inverse depth %g from %d cameras (%zu fragments)", probe,

@@ -39,13 +39,15 @@ struct ProbeOutcome {
                   // their frames), the first in a row: worth a log line, not a warning
     kIncomplete,  // a surface probe scored before every camera answered every
                   // step (a newer probe needed its place, or its deadline passed:
-                  // a busy host), whose estimate failed, the first in a row:
+                  // a busy host), or that some cameras sat out (a live host
+                  // starting), whose estimate failed, the first in a row:
                   // worth a log line, not a warning
     kFailed,      // nothing could be measured: `why` says what was wrong
   } result = Result::kFailed;
   uint32_t viewer = 0, probe = 0;
   int64_t capture_time_ns = -1;  // newest capture time of the frames measured (-1: unknown)
   size_t fragments = 0;          // fragments collected
+  size_t sat_out = 0;            // of them, empty ones of cameras that sat the probe out
   int cameras = 0;               // cameras that answered every step
   std::string why;               // kFailed: the reason
   // kFocus, kAnswer: inverse depth under the clicked pixel (rig units^-1).
