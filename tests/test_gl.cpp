@@ -39,9 +39,11 @@ struct Diff {
   size_t mismatch_off_border = 0;  // of those, not on a coverage border
   size_t differ = 0;               // pixels covered by both that differ at all
   double sum_abs = 0;              // over channels of pixels covered by both
+  size_t over3 = 0;                // pixels covered by both that differ by more than 3
   int max_abs = 0;
   void add(const Diff& o) {
     both += o.both;
+    over3 += o.over3;
     mismatch += o.mismatch;
     mismatch_off_border += o.mismatch_off_border;
     differ += o.differ;
@@ -75,11 +77,14 @@ Diff compare(const cv::Mat& cpu, const cv::Mat& gl) {
       if (a[3] == 0) continue;
       ++d.both;
       d.differ += a != b;
+      int most = 0;
       for (int c = 0; c < 4; ++c) {
         const int e = std::abs(a[c] - b[c]);
         d.sum_abs += e;
-        d.max_abs = std::max(d.max_abs, e);
+        most = std::max(most, e);
       }
+      d.max_abs = std::max(d.max_abs, most);
+      d.over3 += most > 3;
     }
   return d;
 }
@@ -96,15 +101,32 @@ cv::Mat as_image(const lf::Fragment& f) {
   return m;
 }
 
+// At most 3 LSB apart. A hardware GPU's division is not IEEE's (GLSL ES
+// allows 2.5 ULP; the CPU's is correctly rounded): an aperture weight can
+// come out one step (1/16384) apart, which moves a premultiplied value by
+// one unit, and the resolve divides it by the pixel's summed weight, so
+// where that sum is small (a view's edge, one camera's tail) a pixel can
+// differ by more. On the NVIDIA H200 (docs/results.md) the whole views
+// differed by at most 8 at a few pixels, mean 0.003-0.005 LSB. So on
+// hardware: such pixels are the rare exception (1 in 1000), and rounding
+// flips at most 2 % of the pixels; a software rasteriser (IEEE) keeps the
+// strict bounds.
+void expect_max3(const Diff& d, const std::string& what) {
+  if (lf::gl_info().software)
+    EXPECT_LE(d.max_abs, 3) << what;
+  else
+    EXPECT_LE(d.over3, d.both / 1000 + 2) << what << " (max " << d.max_abs << ")";
+}
+
 void expect_close(const Diff& d, const std::string& what, size_t min_pixels) {
   EXPECT_GE(d.both, min_pixels) << what;
   EXPECT_LE(d.mean(), 1.0) << what;
-  EXPECT_LE(d.max_abs, 3) << what;
+  expect_max3(d, what);
   EXPECT_EQ(d.mismatch_off_border, 0u) << what;
   EXPECT_LE(d.mismatch, d.both / 500 + 2) << what;
   // The same arithmetic: differences are the exception (float rounding at
   // a tap's weight), not a bias over the image.
-  EXPECT_LE(d.differ, d.both / 100) << what;
+  EXPECT_LE(d.differ, d.both / (lf::gl_info().software ? 100 : 50)) << what;
 }
 
 std::vector<cv::Mat> images_of(const lf::Rig& rig, double period = 0.7) {
@@ -227,7 +249,7 @@ TEST(GlBackend, FragmentsMatchTheCpuKernel) {
             continue;
           }
           const Diff d = compare(as_image(cpu), as_image(out));
-          EXPECT_LE(d.max_abs, 3) << "camera " << i;
+          expect_max3(d, "camera " + std::to_string(i));
           EXPECT_EQ(d.mismatch_off_border, 0u) << "camera " << i;
           view.add(d);
         }
@@ -291,14 +313,14 @@ TEST(GlBackend, WholeViewsMatchTheCpuPipeline) {
       EXPECT_EQ(gs.fragment_pixels, cs.fragment_pixels);
       EXPECT_EQ(gs.contributing, cs.contributing);
       const Diff d = compare(cpu, out);
-      EXPECT_LE(d.max_abs, 3);
+      expect_max3(d, name);
       EXPECT_EQ(d.mismatch_off_border, 0u);
       all.add(d);
     }
     expect_close(all, distort ? "whole views, distorted" : "whole views", 50000);
     std::cout << (distort ? "distorted views: " : "views: ") << all.both << " pixels, "
               << all.differ << " differ, mean |GL - CPU| " << all.mean() << " LSB, max "
-              << all.max_abs << "\n";
+              << all.max_abs << " (" << all.over3 << " pixels over 3)\n";
   }
   // A larger output than any before reuses and grows the targets.
   const lf::Rig rig = grid4(false);

@@ -34,6 +34,7 @@
 #include <iostream>
 #include <map>
 #include <mutex>
+#include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <thread>
 
@@ -158,8 +159,28 @@ struct Mark {
   MachineTicks machine;
 };
 
-// Runs to EOS; returns a mark per output frame.
-std::vector<Mark> run(const std::string& desc, Probe* probe) {
+// An output frame's pixels (4 bytes a pixel: the compositor's RGBA or
+// BGRx), for the picture's agreement between rows: the frame of request
+// kCompareFrame, the same view in every non-live row (a surface row has
+// had its first estimate by then).
+constexpr size_t kCompareFrame = 10;
+cv::Mat frame_of(GstSample* s) {
+  gint w = 0, h = 0;
+  const GstStructure* st = gst_caps_get_structure(gst_sample_get_caps(s), 0);
+  GstMapInfo m;
+  GstBuffer* b = gst_sample_get_buffer(s);
+  if (!gst_structure_get_int(st, "width", &w) || !gst_structure_get_int(st, "height", &h) ||
+      !gst_buffer_map(b, &m, GST_MAP_READ))
+    return {};
+  cv::Mat out;
+  if (m.size >= static_cast<size_t>(w) * h * 4) cv::Mat(h, w, CV_8UC4, m.data).copyTo(out);
+  gst_buffer_unmap(b, &m);
+  return out;
+}
+
+// Runs to EOS; returns a mark per output frame (and in `first` the pixels
+// of frame kCompareFrame).
+std::vector<Mark> run(const std::string& desc, Probe* probe, cv::Mat* first = nullptr) {
   GError* err = nullptr;
   GstElement* p = gst_parse_launch(desc.c_str(), &err);
   if (!p || err) {  // a missing element is an error too, not a pipeline that never ends
@@ -192,6 +213,7 @@ std::vector<Mark> run(const std::string& desc, Probe* probe) {
         times.push_back({g_get_monotonic_time() / 1e6, process_cpu_s(), machine_ticks()});
       else
         times.push_back({g_get_monotonic_time() / 1e6, 0, {}});
+      if (first && times.size() == kCompareFrame + 1) *first = frame_of(s);
       gst_sample_unref(s);
     }
     GstMessage* m = gst_bus_pop_filtered(bus, static_cast<GstMessageType>(GST_MESSAGE_ERROR));
@@ -551,7 +573,7 @@ int main(int argc, char** argv) {
         "(%d cores / single-core time) | pipeline efficiency | CPU ms per frame (process) | "
         "kernel CPU ms per frame (one core) | CPU efficiency | cores used | steal %% | live fps "
         "(%d requests/s) | latency median ms | latency p95 ms (live) | peak RSS MiB | vs the "
-        "cpu plane row (throughput, live fps, CPU per frame) |\n"
+        "cpu plane row (throughput, live fps, CPU per frame, PSNR of frame 10) |\n"
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         frames, cores, rate);
     for (const auto& [W, H] : sizes) {
@@ -560,15 +582,17 @@ int main(int argc, char** argv) {
         // The plane row of this size and encoding (run before the surface
         // rows when --focal lists it first): fps, live fps, CPU ms per frame.
         double plane[3] = {0, 0, 0};
+        cv::Mat plane_frame;  // its frame kCompareFrame
         for (const Focus& focus : focals)
           for (const std::string& backend : backends) {
             if (backend.substr(0, backend.find('+')) != "cpu" && enc != "raw") continue;
             const int surface = focus.surface;
             const bool baseline = surface == 0 && focus.props.empty() && backend == "cpu";
             reset_peak_rss();
+            cv::Mat frame;
             const auto t = run(
                 pipeline(rig_path, W, H, enc, false, frames, 1000, surface, focus.props, backend),
-                nullptr);
+                nullptr, &frame);
             const int warm = std::min<int>(20, static_cast<int>(t.size()) / 4);
             const bool steady = t.size() > static_cast<size_t>(warm + 1);
             const Mark& a = steady ? t[warm] : Mark{};
@@ -604,11 +628,22 @@ int main(int argc, char** argv) {
             auto num = [&](double v, const char* f) {
               return has_bound ? cv::format(f, v) : std::string("-");
             };
-            if (baseline && plane[0] == 0) plane[0] = fps, plane[1] = live_fps, plane[2] = cpu_ms;
-            const std::string vs = !baseline && plane[0] > 0 && plane[1] > 0 && plane[2] > 0
-                                       ? cv::format("%.2f, %.2f, %.2fx", fps / plane[0],
-                                                    live_fps / plane[1], cpu_ms / plane[2])
-                                       : std::string("-");
+            if (baseline && plane[0] == 0)
+              plane[0] = fps, plane[1] = live_fps, plane[2] = cpu_ms, plane_frame = frame;
+            // PSNR over the colour channels (the 4th is padding or alpha).
+            std::string psnr = "-";
+            if (!plane_frame.empty() && frame.size() == plane_frame.size()) {
+              cv::Mat a, b;
+              cv::cvtColor(plane_frame, a, cv::COLOR_BGRA2BGR);
+              cv::cvtColor(frame, b, cv::COLOR_BGRA2BGR);
+              const double db = cv::PSNR(a, b);
+              psnr = cv::format(db >= 99 ? "identical" : "%.1f dB", db);
+            }
+            const std::string vs =
+                !baseline && plane[0] > 0 && plane[1] > 0 && plane[2] > 0
+                    ? cv::format("%.2f, %.2f, %.2fx, %s", fps / plane[0], live_fps / plane[1],
+                                 cpu_ms / plane[2], psnr.c_str())
+                    : std::string("-");
             std::printf(
                 "| %dx%d | %s | %s | %.1f | %s | %s | %.2f | %s | %s | %.2f | %.0f | %.1f | "
                 "%.1f | %.1f | %.0f | %s |\n",
