@@ -46,11 +46,15 @@ inline GList* ref_sink_pads(GstElement* e, size_t* count = nullptr) {
 // Emits the requests of `pending` (an lf::PendingRequests) that are due, in
 // order (complete ones; at its own deadline, `due(running_time)`, at the
 // end of stream or over the cap, an incomplete one): `emit(key, request,
-// complete)` for each, until one does not return GST_FLOW_OK. Then
-// GST_FLOW_EOS when every pad is at its end and nothing waits.
+// complete)` for each, until one does not return GST_FLOW_OK. With `shed`
+// (live), first drops the requests behind a newer complete one (the newest
+// request wins; lf::PendingRequests::shed_stale). Then GST_FLOW_EOS when
+// every pad is at its end and nothing waits.
 template <class Pending, class Due, class Emit>
-GstFlowReturn emit_due(Pending& pending, size_t expected, Due due, bool all_eos, Emit emit) {
+GstFlowReturn emit_due(Pending& pending, size_t expected, Due due, bool all_eos, bool shed,
+                       Emit emit) {
   GstFlowReturn ret = GST_FLOW_OK;
+  if (shed) pending.shed_stale(expected);
   bool complete = false;
   while (ret == GST_FLOW_OK && pending.front_ready(expected, due, all_eos, &complete)) {
     ret = emit(pending.front_key(), pending.front(), complete);

@@ -231,7 +231,7 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Request& g, bool com
   GST_OBJECT_UNLOCK(self);
   if (const auto r = st->rate.frame(t0, complete))  // once a second (gst/lfevents.h)
     lfgst::post_rate(GST_ELEMENT(self), st->intake->viewer.viewer(), st->format->fps().value(), *r,
-                     st->intake->budget.refused());
+                     st->intake->budget.refused(), st->pending.shed());
   GstAggregator* agg = GST_AGGREGATOR(self);
   if (GST_CLOCK_TIME_IS_VALID(g.pts)) {
     GstSegment* seg = &GST_AGGREGATOR_PAD(agg->srcpad)->segment;
@@ -422,9 +422,9 @@ static GstFlowReturn lf_compositor_emit_due(LfFragmentAggregator* agg, const LfD
   st->probes->expire(g_get_monotonic_time(), probe_deadline_us);
   send_probe_outcomes(self, st);
   const size_t expected = expected_fragments(self);
+  auto due = [d](GstClockTime rt) { return lf_deadline_passed(d, rt); };
   const GstFlowReturn ret = lfgst::emit_due(
-      st->pending, expected, [d](GstClockTime rt) { return lf_deadline_passed(d, rt); }, all_eos,
-      [&](uint64_t seq, Request& g, bool complete) {
+      st->pending, expected, due, all_eos, d->live, [&](uint64_t seq, Request& g, bool complete) {
         if (!complete)
           GST_DEBUG_OBJECT(self,
                            "request %" G_GUINT64_FORMAT

@@ -24,8 +24,11 @@
  *
  * Live, requests over `max-pixel-rate` (output pixels a second, the camera
  * hosts' budget) are dropped whole at their first fragment, counted in
- * `over-budget`. When no fragment came for 2 s (LF_IDLE_RELEASE) or the
- * stream ended, the frames, sums and output pool are freed and the heap
+ * `over-budget`. Live, when requests come faster than it composites, the
+ * newest request wins: the requests waiting behind a newer complete one
+ * are dropped (counted in `lf-rate`'s `stale`), so the latency stays
+ * within a few frame periods of the rate it achieves. When no fragment came for 2 s
+ * (LF_IDLE_RELEASE) or the stream ended, the frames, sums and output pool are freed and the heap
  * trimmed (a 3840x2160 view holds about 230 MB); the next frame allocates
  * them again.
  *
@@ -86,8 +89,8 @@ void describe_compositor(GstElementClass* ec) {
       "capture-time) and lf-surface (a focal surface: tile, cols, rows, planes, plane-of) "
       "answering the probes of lfviewrequest; navigation and lf-view events from the video sink go "
       "upstream tagged with its viewer-id. An lf-rate element message once a second while frames "
-      "go out: viewer-id, requested-fps, fps, complete-fps, interval, over-budget (the rate "
-      "achieved; docs/steering.md). Warning messages, rate-limited, name what was dropped: "
+      "go out: viewer-id, requested-fps, fps, complete-fps, interval, over-budget, stale (the "
+      "rate achieved; docs/steering.md). Warning messages, rate-limited, name what was dropped: "
       "a malformed fragment, a fragment of another size or outside the sequence window, a camera's "
       "second fragment for one request, a click that cannot be focused.");
 }

@@ -240,19 +240,19 @@ GstStructure* answer_structure(lf::ProbeOutcome&& o) {
 }
 
 GstStructure* rate_structure(gint64 viewer, double requested_fps, const lf::OutputRate::Report& r,
-                             guint64 over_budget) {
+                             guint64 over_budget, guint64 stale) {
   return gst_structure_new("lf-rate", "version", G_TYPE_UINT, kEventVersion, "viewer-id",
                            G_TYPE_INT64, viewer, "requested-fps", G_TYPE_DOUBLE, requested_fps,
                            "fps", G_TYPE_DOUBLE, r.fps(), "complete-fps", G_TYPE_DOUBLE,
                            r.complete_fps(), "interval", G_TYPE_DOUBLE, r.seconds, "over-budget",
-                           G_TYPE_UINT64, over_budget, nullptr);
+                           G_TYPE_UINT64, over_budget, "stale", G_TYPE_UINT64, stale, nullptr);
 }
 
 void post_rate(GstElement* el, gint64 viewer, double requested_fps, const lf::OutputRate::Report& r,
-               guint64 over_budget) {
+               guint64 over_budget, guint64 stale) {
   gst_element_post_message(
       el, gst_message_new_element(GST_OBJECT(el),
-                                  rate_structure(viewer, requested_fps, r, over_budget)));
+                                  rate_structure(viewer, requested_fps, r, over_budget, stale)));
 }
 
 }  // namespace lfgst

@@ -102,12 +102,14 @@ GstStructure* answer_structure(lf::ProbeOutcome&& o);
 // viewer's request rate), fps (double: frames composited a second over the
 // window), complete-fps (double: of them complete, every camera in by the
 // deadline), interval (double, s: the window), over-budget (uint64:
-// requests dropped over max-pixel-rate since the start).
+// requests dropped over max-pixel-rate since the start), stale (uint64:
+// requests dropped since the start because a newer one was complete first:
+// the compositor could not keep the rate, and the newest request wins).
 GstStructure* rate_structure(gint64 viewer, double requested_fps, const lf::OutputRate::Report& r,
-                             guint64 over_budget);
+                             guint64 over_budget, guint64 stale = 0);
 // Posts it on `el`'s bus as an element message.
 void post_rate(GstElement* el, gint64 viewer, double requested_fps, const lf::OutputRate::Report& r,
-               guint64 over_budget);
+               guint64 over_budget, guint64 stale = 0);
 
 // Whether a structure's version is one this codec reads (else `why`).
 bool version_ok(const GstStructure* s, std::string* why);

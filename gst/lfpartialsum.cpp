@@ -303,7 +303,7 @@ static GstFlowReturn lf_partial_sum_emit_due(LfFragmentAggregator* agg, const Lf
   GST_OBJECT_UNLOCK(self);
   return lfgst::emit_due(
       self->priv->state->pending, npads, [d](GstClockTime rt) { return lf_deadline_passed(d, rt); },
-      all_eos,
+      all_eos, false,
       [&](const auto& key, Request& g, bool complete) {
         if (!complete)
           GST_DEBUG_OBJECT(self, "request %" G_GUINT64_FORMAT ": %zu of %zu cameras", key.first,

@@ -8,11 +8,14 @@
 #include <gst/video/navigation.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <filesystem>
 #include <map>
 #include <mutex>
 #include <opencv2/imgproc.hpp>
+#include <thread>
 
 #include "gst_init.h"
 #include "helpers.h"
@@ -721,3 +724,105 @@ TEST_F(Runtime, LiveRequestQueuesAreBoundedByTheRequestMaxAge) {
 }
 
 }  // namespace
+
+namespace {
+
+// Request -> frame latency of a live pipeline: each request's time as it
+// leaves lfviewrequest (by sequence) against its frame's at the sink.
+struct Latency {
+  std::mutex m;
+  std::map<guint64, gint64> sent;
+  std::vector<double> ms;
+  static GstPadProbeReturn request(GstPad*, GstPadProbeInfo* info, gpointer data) {
+    auto* l = static_cast<Latency*>(data);
+    std::lock_guard<std::mutex> lock(l->m);
+    l->sent[GST_BUFFER_OFFSET(GST_PAD_PROBE_INFO_BUFFER(info))] = g_get_monotonic_time();
+    return GST_PAD_PROBE_OK;
+  }
+  static GstPadProbeReturn frame(GstPad*, GstPadProbeInfo* info, gpointer data) {
+    auto* l = static_cast<Latency*>(data);
+    const gint64 now = g_get_monotonic_time();
+    std::lock_guard<std::mutex> lock(l->m);
+    auto it = l->sent.find(GST_BUFFER_OFFSET(GST_PAD_PROBE_INFO_BUFFER(info)));
+    if (it != l->sent.end()) l->ms.push_back((now - it->second) / 1000.0);
+    return GST_PAD_PROBE_OK;
+  }
+};
+
+}  // namespace
+
+// Issue 38: when the host cannot keep the rate asked for, the newest
+// request wins: the compositor composites the newest complete request, not
+// each stale one in turn behind it, so a viewer's latency stays within a
+// few frame periods of the rate achieved. 4K requests at 120 a second, with
+// two busy threads beside the pipeline: more than this machine composites.
+// Measured on 2 cores: 7.6-8.2 fps, median 1.8-1.9 periods, p95 2.2-2.4;
+// with two more busy loops 4.5-5.3 fps, median 1.9-2.1, p95 2.2-2.8;
+// before (every request composited in turn) median 4.5 periods, p95 5.6,
+// growing with the run. The bounds (3 and 4 periods) leave a busy machine
+// room and still fail the queueing compositor.
+TEST_F(Runtime, ALiveCompositorBehindTheRequestsShedsStaleOnes) {
+  const std::string desc =
+      "lfviewrequest name=req rig=" + rig_path_ +
+      " width=3840 height=2160 framerate=120/1 is-live=true num-buffers=240 focal-surface=false"
+      " orbit=0.5 ! lfarray name=h rig=" +
+      rig_path_ +
+      " max-rate=0 max-pixel-rate=0 latency=100000000 ! appsink name=out sync=false max-buffers=4";
+  GError* err = nullptr;
+  GstElement* p = gst_parse_launch(desc.c_str(), &err);
+  ASSERT_NE(p, nullptr) << (err ? err->message : "");
+  Latency lat;
+  GstElement* req = gst_bin_get_by_name(GST_BIN(p), "req");
+  GstElement* out = gst_bin_get_by_name(GST_BIN(p), "out");
+  GstPad* rp = gst_element_get_static_pad(req, "src");
+  gst_pad_add_probe(rp, GST_PAD_PROBE_TYPE_BUFFER, Latency::request, &lat, nullptr);
+  GstPad* op = gst_element_get_static_pad(out, "sink");
+  gst_pad_add_probe(op, GST_PAD_PROBE_TYPE_BUFFER, Latency::frame, &lat, nullptr);
+  gst_object_unref(rp);
+  gst_object_unref(op);
+  std::atomic<bool> stop{false};
+  std::vector<std::thread> hogs;
+  for (int i = 0; i < 2; ++i)
+    hogs.emplace_back([&] {
+      volatile double x = 1;
+      while (!stop) x = x * 1.0000001 + 1e-9;
+    });
+  gst_element_set_state(p, GST_STATE_PLAYING);
+  std::vector<gint64> arrivals;
+  while (true) {
+    GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(out), 10 * GST_SECOND);
+    if (!s) break;
+    arrivals.push_back(g_get_monotonic_time());
+    gst_sample_unref(s);
+  }
+  stop = true;
+  for (auto& t : hogs) t.join();
+  guint64 stale = 0;
+  GstBus* bus = gst_element_get_bus(p);
+  while (GstMessage* m = gst_bus_pop_filtered(bus, GST_MESSAGE_ELEMENT)) {
+    const GstStructure* st = gst_message_get_structure(m);
+    if (gst_structure_has_name(st, "lf-rate")) gst_structure_get_uint64(st, "stale", &stale);
+    gst_message_unref(m);
+  }
+  gst_object_unref(bus);
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(req);
+  gst_object_unref(out);
+  gst_object_unref(p);
+  ASSERT_GT(arrivals.size(), 20u);
+  // The rate achieved after the first quarter, and the latencies then.
+  const size_t q = arrivals.size() / 4;
+  const double fps = (arrivals.size() - 1 - q) / ((arrivals.back() - arrivals[q]) / 1e6);
+  std::vector<double> ms(lat.ms.begin() + static_cast<long>(q), lat.ms.end());
+  std::sort(ms.begin(), ms.end());
+  const double median = ms[ms.size() / 2], p95 = ms[ms.size() * 95 / 100];
+  const double period = 1000.0 / fps;
+  std::printf(
+      "%zu frames of 240 requests, %.1f fps: latency median %.1f ms, p95 %.1f ms "
+      "(period %.1f ms); %" G_GUINT64_FORMAT " stale requests dropped\n",
+      arrivals.size(), fps, median, p95, period, stale);
+  EXPECT_LT(fps, 110) << "the machine kept the rate: nothing was shed, nothing is tested";
+  EXPECT_GT(stale, 0u);
+  EXPECT_LE(median, 3 * period);
+  EXPECT_LE(p95, 4 * period);
+}

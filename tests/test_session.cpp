@@ -212,6 +212,36 @@ TEST(PendingRequests, CompleteInOrderDeadlinesPerRequestAndTheCap) {
   EXPECT_EQ(token.use_count(), 1);  // every piece released
 }
 
+// Live shedding: the requests before the newest complete one go, whatever
+// their state; none goes while no request is complete, nor a conflicted
+// one's elders (it never completes).
+TEST(PendingRequests, ShedStaleKeepsTheNewestCompleteAndWhatFollowsIt) {
+  Pending p;
+  auto token = std::make_shared<int>(0);
+  p.add(1, 10, 2, one(token, 1));  // complete (2 of 2)
+  p.add(2, 10, 1, one(token, 2));  // incomplete
+  p.shed_stale(2);                 // 1 is the newest complete: nothing before it
+  EXPECT_EQ(p.size(), 2u);
+  EXPECT_EQ(p.shed(), 0u);
+  p.add(3, 10, 2, one(token, 3));  // complete
+  p.add(4, 10, 1, one(token, 4));  // incomplete, newer
+  p.shed_stale(2);
+  ASSERT_EQ(p.size(), 2u);
+  EXPECT_EQ(p.front_key(), 3u);
+  EXPECT_EQ(p.shed(), 2u);
+  EXPECT_EQ(token.use_count(), 3);  // the shed requests' pieces are released
+  p.pop_front();
+  p.add(5, 10, 1, one(token, 5));
+  p.add(5, 10, 1, one(token, 6));  // a second copy: conflicted, never complete
+  p.discard(5, 10);
+  p.shed_stale(1);  // 4 is complete at 1 camera; 5 is conflicted
+  EXPECT_EQ(p.front_key(), 4u);
+  EXPECT_EQ(p.shed(), 2u);
+  p.clear();
+  p.shed_stale(1);
+  EXPECT_EQ(p.shed(), 2u);
+}
+
 TEST(PendingRequests, ASecondCopyOfASourceDropsBothAndTheRequestNeverCompletes) {
   Pending p;
   auto token = std::make_shared<int>(0);

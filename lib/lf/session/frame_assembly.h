@@ -139,8 +139,9 @@ class RequestTimes {
 // sequence first), and the rule by which each leaves: complete (every
 // camera counted, no conflict) in order; at its own deadline (or the end of
 // stream) incomplete, with what came; the oldest when more than
-// `max_pending` wait. Each request has its own deadline: one that came late
-// does not take the next ones, still in time, with it.
+// `max_pending` wait; live, none behind a newer complete one (shed_stale).
+// Each request has its own deadline: one that came late does not take the
+// next ones, still in time, with it.
 template <class Key, class Piece>
 class PendingRequests : public RequestTimes {
  public:
@@ -200,6 +201,19 @@ class PendingRequests : public RequestTimes {
     auto it = requests_.find(key);
     return it == requests_.end() ? 0 : it->second.count;
   }
+  // Live, when requests come faster than they are composited (the newest
+  // request wins, as the camera hosts' lfrequestqueue does): the requests
+  // before the newest complete one are dropped, so that one is composited
+  // next instead of each older one in turn behind it. Counted in shed().
+  void shed_stale(size_t expected) {
+    auto newest = requests_.end();
+    for (auto it = requests_.begin(); it != requests_.end(); ++it)
+      if (it->second.count >= expected && !it->second.conflicted) newest = it;
+    if (newest == requests_.end()) return;
+    shed_ += static_cast<uint64_t>(std::distance(requests_.begin(), newest));
+    requests_.erase(requests_.begin(), newest);
+  }
+  uint64_t shed() const { return shed_; }  // requests shed_stale() dropped so far
   const Key& front_key() const { return requests_.begin()->first; }
   Request& front() { return requests_.begin()->second; }
   void pop_front() { requests_.erase(requests_.begin()); }
@@ -221,6 +235,7 @@ class PendingRequests : public RequestTimes {
  private:
   std::map<Key, Request> requests_;
   size_t max_pending_;
+  uint64_t shed_ = 0;
 };
 
 // Probes of one kind being collected (lib/lf/focus/focus_probe.h answers, or
