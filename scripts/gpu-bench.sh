@@ -2,14 +2,15 @@
 # The GL backend on a lent GPU machine (issue 38, item 5): such a machine
 # (this workplace's `device` tool) runs another Linux with no Debian
 # packages and no network, so this bundles what the run needs into .gpu/
-# (git-ignored through .git/info/exclude): the bench and test_gl, the
+# (git-ignored through .git/info/exclude): the benches and test_gl, the
 # plugin, the shared libraries they load (Debian 12's, glibc and libstdc++
 # aside), GStreamer's core elements and appsink, and the Chess 8x8 block
 # as JPEG q85 (the PNGs are too large to carry). The device run is then
 #   bash .gpu/run.sh            (with .gpu carried; output in $OUT)
 # which uses the NVIDIA driver's EGL (EGL device platform) and prints
-# test_gl (GL against the CPU kernels) and lf-gst-bench at 1080p and 4K
-# (cpu and gl rows, PSNR of the gl frame against the cpu one).
+# test_gl (GL against the CPU kernels), lf-gst-bench at 1080p and 4K
+# (cpu and gl rows, PSNR of the gl frame against the cpu one), lf-bench's
+# whole views with GL's time split, and traces of live 1080p runs.
 # `scripts/gpu-bench.sh --record DIR` writes DIR's machine.txt, test_gl.txt
 # and bench.txt into docs/results/gpu.md, which scripts/bench.sh quotes.
 set -euo pipefail
@@ -33,6 +34,12 @@ if [ "${1:-}" = --record ]; then
     echo "\`lf-gst-bench --input data/chess64.json --sizes 1920x1080,3840x2160 --encodings raw --backends cpu,gl --frames 100\` (64 cameras; the CPU rows use the machine's cores, the GL rows one thread and the GPU):"
     echo
     grep -v "^Kernel bound" "$d/bench.txt" | sed -n '/^| output/,$p'
+    if [ -f "$d/split.txt" ]; then
+      echo
+      echo "Whole views from the 64 cameras, GL against the CPU renderer on every core, and where GL's time goes (\`lf-bench --input data/chess64.json --sizes 1920x1080,3840x2160 --skip-quality --skip-bandwidth --skip-speed --backend cpu,gl\`; 8 views, median of 4 passes):"
+      echo
+      sed -n '/^CPU: /p; /^| size/,$p' "$d/split.txt"
+    fi
     if [ -f "$d/gl.trace" ]; then
       echo
       echo "Where a live 1080p frame's time goes (150 requests at 30 a second, \`LF_TRACE\` read by \`tools/lf-trace\`; ms, median and p95):"
@@ -56,7 +63,21 @@ g=.gpu; rm -rf "$g"; mkdir -p "$g/b/lib" "$g/b/bin" "$g/b/plugins" "$g/b/lf" "$g
 mkdir -p .git/info; grep -qs '^/.gpu/' .git/info/exclude || echo /.gpu/ >> .git/info/exclude
 plugins=/usr/lib/x86_64-linux-gnu/gstreamer-1.0
 scanner=/usr/lib/x86_64-linux-gnu/gstreamer1.0/gstreamer-1.0/gst-plugin-scanner
-bins=(build/tools/lf-gst-bench build/tests/test_gl)
+bins=(build/tools/lf-gst-bench build/tools/lf-bench build/tests/test_gl)
+# lf-bench links OpenCV's image codecs, which load GDAL, GDCM and OpenEXR
+# (and 150 MB of their dependencies): stubs that abort if called stand in
+# for those four (the run reads JPEG only); the codecs library is linked
+# BIND_NOW, so each stub defines every symbol it takes from the real one.
+codecs=$(ldd build/tools/lf-bench | awk '/libopencv_imgcodecs/ {print $3}')
+objdump -T "$codecs" | awk '/\*UND\*/ {print $NF}' | sort -u > "$g/und"
+for l in libgdal.so.32 libgdcmMSFF.so.3.0 libgdcmDSED.so.3.0 libOpenEXR-3_1.so.30; do
+  real=$(ldd "$codecs" | awk -v l="$l" '$1 == l {print $3}')
+  { echo '#include <stdlib.h>'
+    nm -D --defined-only "$real" | awk '{print $NF}' | sort -u | comm -12 - "$g/und" |
+      sed 's/.*/void &(void) { abort(); }/'; } > "$g/stub.c"
+  gcc -shared -fPIC -w -o "$g/b/lib/$l" -Wl,-soname,"$l" "$g/stub.c"
+done
+rm -f "$g/und" "$g/stub.c"
 for b in "${bins[@]}" build/gst/libgstlightfield.so "$plugins/libgstcoreelements.so" \
          "$plugins/libgstapp.so" "$scanner"; do
   LD_LIBRARY_PATH="$g/b/lib:build/lib" ldd "$b"
@@ -66,7 +87,7 @@ done | awk '/=>/ {print $3}' | sort -u |
 cp "${bins[@]}" "$scanner" /usr/bin/gst-launch-1.0 "$g/b/bin/"
 cp "$plugins/libgstcoreelements.so" "$plugins/libgstapp.so" "$g/b/plugins/"
 cp build/gst/libgstlightfield.so "$g/b/lf/"
-strip "$g/b/bin/lf-gst-bench" "$g/b/bin/test_gl" "$g/b/lf/libgstlightfield.so"
+strip "$g/b/bin/lf-gst-bench" "$g/b/bin/lf-bench" "$g/b/bin/test_gl" "$g/b/lf/libgstlightfield.so"
 (cd "$g/b" && tar cf - lib bin plugins lf | xz -T0 -6 > ../bundle.tar.xz)
 rm -rf "$g/b"
 # The Chess 8x8 block, as JPEG.
@@ -102,6 +123,9 @@ timeout "${GL_T:-150}" /tmp/b/bin/test_gl --gtest_filter='GlBackend.*' 2>&1 | te
 timeout "${BENCH_T:-330}" /tmp/b/bin/lf-gst-bench --input data/chess64.json \
   --sizes "${SIZES:-1920x1080,3840x2160}" --encodings raw --backends "${BACKENDS:-cpu,gl}" \
   --frames "${FRAMES:-100}" 2>&1 | tee "$OUT/bench.txt"
+# Whole views, GL against the CPU on all cores, GL's time split.
+timeout "${SPLIT_T:-120}" /tmp/b/bin/lf-bench --input data/chess64.json --sizes 1920x1080,3840x2160 \
+  --skip-quality --skip-bandwidth --skip-speed --backend cpu,gl 2>&1 | tee "$OUT/split.txt"
 # Where a live 1080p frame's time goes, per backend: LF_TRACE files for
 # tools/lf-trace (read back on the build machine).
 for b in cpu gl; do

@@ -165,8 +165,9 @@ void backend_table(const lf::Rig& rig, const std::vector<cv::Mat>& images,
                        .c_str()
                  : "");
   std::printf(
-      "| size | backend | ms per view | views per s | / cpu | max abs diff to cpu |\n"
-      "|---|---|---|---|---|---|\n");
+      "| size | backend | ms per view | views per s | / cpu | max abs diff to cpu | GL: plan, "
+      "context and clear, tables, draw calls, GPU, read back, the rest (ms) |\n"
+      "|---|---|---|---|---|---|---|\n");
   const auto keys = lf::orbit_path(rig, 0.5, 2.0 * rig.typical_spacing(), 24);
   for (const auto& [W, H] : sizes) {
     const auto views = lf::sample_path(rig, keys, 24, W, H, true);
@@ -180,14 +181,24 @@ void backend_table(const lf::Rig& rig, const std::vector<cv::Mat>& images,
     }
     std::vector<std::vector<double>> ms(backends.size());
     std::vector<double> max_diff(backends.size(), 0);
+    std::vector<double> split[7];  // GL: plan, setup, tables, draw calls, GPU, read back, rest
     for (int rep = 0; rep < 5; ++rep) {
       std::vector<cv::Mat> cpu_out(reqs.size());
       for (size_t b = 0; b < backends.size(); ++b) {
         const auto t0 = Clock::now();
         for (size_t v = 0; v < reqs.size(); ++v) {
-          const cv::Mat out = backends[b] == lf::Backend::kGl
-                                  ? gl->render_view(rig, reqs[v], nullptr, threads)
-                                  : lf::render_view(rig, images, reqs[v], nullptr, threads);
+          lf::RenderStats st;
+          const bool on_gl = backends[b] == lf::Backend::kGl;
+          const auto v0 = Clock::now();
+          const cv::Mat out = on_gl ? gl->render_view(rig, reqs[v], &st, threads)
+                                    : lf::render_view(rig, images, reqs[v], nullptr, threads);
+          if (on_gl && rep > 0) {
+            const double parts[6] = {st.plan_ms, st.setup_ms, st.tables_ms,
+                                     st.draw_ms, st.gpu_ms,   st.readback_ms};
+            double rest = ms_since(v0);
+            for (int k = 0; k < 6; ++k) split[k].push_back(parts[k]), rest -= parts[k];
+            split[6].push_back(rest);  // the context released, the rest
+          }
           if (rep > 0) continue;
           if (backends[b] == lf::Backend::kCpu && cpu_out[v].empty()) cpu_out[v] = out;
           if (!cpu_out[v].empty()) {
@@ -205,9 +216,16 @@ void backend_table(const lf::Rig& rig, const std::vector<cv::Mat>& images,
     const double cpu_ms = cpu_at == backends.end() ? 0 : median(ms[cpu_at - backends.begin()]);
     for (size_t b = 0; b < backends.size(); ++b) {
       const double m = median(ms[b]);
-      std::printf("| %dx%d | %s | %.1f | %.1f | %s | %s |\n", W, H, lf::backend_name(backends[b]),
-                  m, 1000.0 / m, cpu_ms > 0 ? cv::format("%.2f", m / cpu_ms).c_str() : "-",
-                  cpu_ms > 0 ? cv::format("%.0f", max_diff[b]).c_str() : "-");
+      const std::string gl_split =
+          backends[b] == lf::Backend::kGl && !split[0].empty()
+              ? cv::format("%.1f, %.1f, %.1f, %.1f, %.1f, %.1f, %.1f", median(split[0]),
+                           median(split[1]), median(split[2]), median(split[3]), median(split[4]),
+                           median(split[5]), median(split[6]))
+              : std::string("-");
+      std::printf("| %dx%d | %s | %.1f | %.1f | %s | %s | %s |\n", W, H,
+                  lf::backend_name(backends[b]), m, 1000.0 / m,
+                  cpu_ms > 0 ? cv::format("%.2f", m / cpu_ms).c_str() : "-",
+                  cpu_ms > 0 ? cv::format("%.0f", max_diff[b]).c_str() : "-", gl_split.c_str());
     }
   }
 }

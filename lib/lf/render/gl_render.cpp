@@ -299,7 +299,7 @@ struct GlRenderer::Impl {
   }
   // The final pass: the sums resolved into an 8-bit w x h target, read
   // back into `out` (CV_8UC4).
-  void resolve(int w, int h, cv::Mat& out) {
+  void resolve(int w, int h, cv::Mat& out, RenderStats* stats = nullptr) {
     glDisable(GL_BLEND);
     grow(fbo, target, target_w, target_h, w, h, GL_RGBA8);
     glBindFramebuffer(GL_FRAMEBUFFER, fbo);
@@ -311,7 +311,11 @@ struct GlRenderer::Impl {
     glDrawArrays(GL_TRIANGLES, 0, 3);
     out.create(h, w, CV_8UC4);
     if (!out.isContinuous()) throw std::logic_error("GlRenderer: output not continuous");
+    const double t0 = now_ms();
+    if (stats) glFinish();  // (the read back waits for it anyway)
+    const double t1 = now_ms();
     glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, out.data);
+    if (stats) stats->gpu_ms = t1 - t0, stats->readback_ms = now_ms() - t1;
   }
   // Uploads the run and row tables built with append_tables().
   void upload_tables() {
@@ -332,8 +336,9 @@ struct GlRenderer::Impl {
 
   // Draws `planned` into the accumulation target (begin_sum()) from their
   // images, with the run program (scale 1: the sums take whole numbers).
-  void draw_planned(const std::vector<PlannedFragment>& planned) {
+  void draw_planned(const std::vector<PlannedFragment>& planned, RenderStats* stats = nullptr) {
     if (planned.empty()) return;
+    const double t0 = now_ms();
     glUseProgram(run_program);
     glUniform4f(loc.frame, 0.0f, 0.0f, static_cast<float>(sum_w), static_cast<float>(sum_h));
     glUniform2i(loc.origin, 0, 0);
@@ -344,11 +349,14 @@ struct GlRenderer::Impl {
     for (const PlannedFragment& pf : planned)
       first_row.push_back(pf.plan->runs.empty() ? 0 : append_tables(*pf.plan, runs, rows));
     upload_tables();
+    const double t1 = now_ms();
+    if (stats) stats->tables_ms = t1 - t0;
     for (size_t k = 0; k < planned.size(); ++k) {
       if (planned[k].plan->runs.empty()) continue;
       set_camera(*planned[k].camera, slot(planned[k].slot), 1.0f);
       draw_plan(*planned[k].plan, first_row[k]);
     }
+    if (stats) stats->draw_ms = now_ms() - t1;
   }
 
   void init() {
@@ -612,9 +620,10 @@ cv::Mat GlRenderer::render_view(const Rig& rig, const ViewRequest& request, Rend
     s.fragment_pixels += plans[i].pixel_count();
     ++s.contributing;
   }
-  m.draw_planned(planned);
+  s.setup_ms = now_ms() - t1;
+  m.draw_planned(planned, &s);
   cv::Mat out;
-  m.resolve(w, h, out);
+  m.resolve(w, h, out, &s);
   check_gl("view rendering");
   s.render_ms = now_ms() - t1;
   if (stats) *stats = s;
