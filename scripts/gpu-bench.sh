@@ -38,7 +38,9 @@ if [ "${1:-}" = --record ]; then
       echo
       echo "Whole views from the 64 cameras, GL against the CPU renderer on every core, and where GL's time goes (\`lf-bench --input data/chess64.json --sizes 1920x1080,3840x2160 --skip-quality --skip-bandwidth --skip-speed --backend cpu,gl\`; 8 views, median of 4 passes):"
       echo
-      sed -n '/^CPU: /p; /^| size/,$p' "$d/split.txt"
+      sed -n '/^CPU: /p' "$d/split.txt"
+      echo
+      sed -n '/^| size/,$p' "$d/split.txt"
     fi
     if [ -f "$d/gl.trace" ]; then
       echo
