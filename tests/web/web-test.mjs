@@ -241,7 +241,7 @@ try {
   // 3. Focal plane: out of focus at the near end of the slider's range, then
   //    click to focus on the board under the view centre: sharper there.
   const [near] = await A.page.evaluate(() => lf.focalRange);
-  await A.page.evaluate((d) => lf.send({ type: 'set', 'focal-depth': d }), near);
+  await A.page.evaluate((d) => lf.send({ type: 'lf-view', 'focal-depth': d }), near);
   await waitFor(A, 'the near focal plane', (x) => Math.abs(x.stats.focal_depth - near) < 1e-6 * near, 20);
   await settle(A);
   await grab(A, 'near');
@@ -298,7 +298,7 @@ try {
   await A.page.evaluate(() => {
     const ch = (m) => lf.send(m);
     ch({ type: 'set', 'focal-depth': 1e308 });
-    ch({ type: 'set', 'eye-s': 'left' });
+    ch({ type: 'lf-view', 'eye-s': 'left' });
     ch({ type: 'set', 'eye-s': 0.01, colour: 'red' });
     ch({ type: 'pointer', action: 'press', button: 1, x: -5, y: 1e9 });
     ch({ type: 'focus', x: 10 });

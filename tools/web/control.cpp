@@ -48,10 +48,43 @@ void to_request(Control& c, GstEvent* ev) {
   gst_object_unref(pad);
 }
 
-// The view fields a browser may set, checked against lfviewrequest's own
-// property ranges.
+// The view fields a browser may set (of lfviewrequest's properties that may
+// change while playing; docs/web.md).
 constexpr const char* kViewFields[] = {"eye-s",       "eye-t", "eye-w",
                                        "focal-depth", "vfov",  "aperture"};
+
+// An lf-view message, the JSON form of the lf-view event (gst/lfevents.h):
+// {"type": "lf-view", FIELD: VALUE, ...}, each field one of kViewFields and
+// a number. The structure is checked by the codec's own reader against
+// this viewer's lfviewrequest (its property types and ranges, finite
+// numbers), exactly as the element checks it, and sent whole. Returns an
+// error text, empty when sent.
+std::string send_view_change(Control& c, const json& j) {
+  GstStructure* s = gst_structure_new("lf-view", "version", G_TYPE_UINT, lfgst::kEventVersion,
+                                      nullptr);
+  std::string err;
+  for (auto it = j.begin(); it != j.end() && err.empty(); ++it) {
+    if (it.key() == "type") continue;
+    if (std::none_of(std::begin(kViewFields), std::end(kViewFields),
+                     [&](const char* k) { return it.key() == k; }))
+      err = "unknown field '" + it.key().substr(0, 64) + "'";
+    else if (!it->is_number())
+      err = "'" + it.key() + "' must be a number";
+    else
+      gst_structure_set(s, it.key().c_str(), G_TYPE_DOUBLE, it->get<double>(), nullptr);
+  }
+  if (err.empty() && gst_structure_n_fields(s) == 1) err = "'lf-view' without a field";
+  std::vector<std::pair<GParamSpec*, GValue>> values;
+  if (err.empty() &&
+      lfgst::read_view_change(s, G_OBJECT(c.request), lfgst::kMaxCoordinate, &values, &err))
+    for (auto& kv : values) g_value_unset(&kv.second);
+  if (!err.empty()) {
+    gst_structure_free(s);
+    return err;
+  }
+  to_request(c, gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, s));
+  return "";
+}
 
 // One control message. Returns an error text, empty when applied.
 std::string apply_control(Control& c, const json& j) {
@@ -107,32 +140,9 @@ std::string apply_control(Control& c, const json& j) {
                                                      GST_NAVIGATION_MODIFIER_NONE));
     return "";
   }
-  if (type == "set") {  // view properties, applied at once and whole (lf-view)
-    std::vector<std::pair<std::string, double>> fields;
-    for (auto it = j.begin(); it != j.end(); ++it) {
-      if (it.key() == "type") continue;
-      const bool known = std::any_of(std::begin(kViewFields), std::end(kViewFields),
-                                     [&](const char* k) { return it.key() == k; });
-      double v = 0;
-      if (!known)
-        err = "unknown field '" + it.key().substr(0, 64) + "'";
-      else if (number_field(j, it.key().c_str(), &v, &err)) {
-        auto* ps = G_PARAM_SPEC_DOUBLE(
-            g_object_class_find_property(G_OBJECT_GET_CLASS(c.request), it.key().c_str()));
-        if (v < ps->minimum || v > ps->maximum)
-          err = "'" + it.key() + "' outside " + std::to_string(ps->minimum) + ".." +
-                std::to_string(ps->maximum);
-        else
-          fields.emplace_back(it.key(), v);
-      }
-      if (!err.empty()) return err;
-    }
-    if (fields.empty()) return "'set' without a field";
-    // The lf-view event's codec (gst/lfevents.h).
-    to_request(
-        c, gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, lfgst::view_change_structure(fields)));
-    return "";
-  }
+  // View properties, applied at once and whole ("set" is the page's older
+  // name for it).
+  if (type == "lf-view" || type == "set") return send_view_change(c, j);
   if (type == "stereo") {  // left | right side by side, one camera spacing apart
     if (!only_fields(j, {"type", "on"}, &err)) return err;
     if (!j.contains("on") || !j["on"].is_boolean()) return "'on' must be true or false";

@@ -36,6 +36,7 @@
 #include "lf/io/datasets.h"
 #include "lf/io/rig_file.h"
 #include "lfevents.h"
+#include "lfviewprops.h"
 #include "lfrate.h"
 
 namespace lfweb {

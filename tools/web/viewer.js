@@ -11,7 +11,9 @@
 //   {type: "focus", x, y}            focus on the scene under that pixel
 //   {type: "wheel", dy}              focal plane: +1 one notch nearer, -1 farther
 //   {type: "key", key}               Left, Right, Up, Down, Page_Up, Page_Down, r (reset)
-//   {type: "set", "focal-depth": d, "eye-s": s, "aperture": D, ...}  view properties (rig units)
+//   {type: "lf-view", "focal-depth": d, "eye-s": s, "aperture": D, ...}  view properties (rig
+//      units): the JSON form of the lf-view event (docs/steering.md), applied whole ("set" is
+//      the same message's older name)
 //   {type: "sampling", filter: "bilinear"|"bicubic"}
 //   {type: "surface", on: true|false}  a focal surface (the default) or the focal plane
 //   {type: "stereo", on: true|false}  {type: "ping", t}
@@ -189,7 +191,7 @@
   stage.addEventListener('keydown', (e) => {
     if (keys[e.key]) { e.preventDefault(); lf.send({ type: 'key', key: keys[e.key] }); }
   });
-  focal.addEventListener('input', () => lf.send({ type: 'set', 'focal-depth': sliderToDepth(Number(focal.value)) }));
+  focal.addEventListener('input', () => lf.send({ type: 'lf-view', 'focal-depth': sliderToDepth(Number(focal.value)) }));
   // The aperture slider is linear in diameter from the tent (0: the paper's)
   // to the server's widest.
   function sliderToAperture(v) {
@@ -200,7 +202,7 @@
     const [a, b] = lf.apertureRange;
     return d <= a ? 0 : Math.round(1000 * (d - a) / (b - a));
   }
-  aperture.addEventListener('input', () => lf.send({ type: 'set', aperture: sliderToAperture(Number(aperture.value)) }));
+  aperture.addEventListener('input', () => lf.send({ type: 'lf-view', aperture: sliderToAperture(Number(aperture.value)) }));
   surface.addEventListener('change', () => lf.send({ type: 'surface', on: surface.checked }));
   bicubic.addEventListener('change', () => lf.send({ type: 'sampling', filter: bicubic.checked ? 'bicubic' : 'bilinear' }));
   function setStereo(on) {
