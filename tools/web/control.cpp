@@ -60,8 +60,8 @@ constexpr const char* kViewFields[] = {"eye-s",       "eye-t", "eye-w",
 // numbers), exactly as the element checks it, and sent whole. Returns an
 // error text, empty when sent.
 std::string send_view_change(Control& c, const json& j) {
-  GstStructure* s = gst_structure_new("lf-view", "version", G_TYPE_UINT, lfgst::kEventVersion,
-                                      nullptr);
+  GstStructure* s =
+      gst_structure_new("lf-view", "version", G_TYPE_UINT, lfgst::kEventVersion, nullptr);
   std::string err;
   for (auto it = j.begin(); it != j.end() && err.empty(); ++it) {
     if (it.key() == "type") continue;

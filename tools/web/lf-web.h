@@ -36,8 +36,8 @@
 #include "lf/io/datasets.h"
 #include "lf/io/rig_file.h"
 #include "lfevents.h"
-#include "lfviewprops.h"
 #include "lfrate.h"
+#include "lfviewprops.h"
 
 namespace lfweb {
 
