@@ -10,7 +10,8 @@
 #  3. the GStreamer pipeline against the kernel bound, and its latency
 #     (lf-gst-bench);
 #  3b. quilts: N eyes in one request round against N viewers
-#     (scripts/quilt-bench.sh);
+#     (scripts/quilt-bench.sh); scaling against the output size and the
+#     camera count (scripts/scaling-bench.sh, full mode);
 #  4. the deployment across emulated hosts: bytes against camera count
 #     (paper Figure 6), the all-viewpoints baselines, round trip (Figure 5),
 #     overload, loss, partial sums, rejoin (tools/lf-netbench.sh; root, as
@@ -94,6 +95,10 @@ for r in $(seq 1 "$runs"); do
   bench "pipe$r" "$build/tools/lf-gst-bench" --input "$data/stanford-chess" --sizes "$sizes" \
     --encodings raw,jpeg90 --frames "$frames"
 done
+step "3b/8 scaling: output size and camera count"
+if [ "$quick" = 0 ]; then
+  "$root/scripts/scaling-bench.sh" > "$plots/scaling.md" || { echo "bench: scaling-bench failed" >&2; exit 1; }
+fi
 step "4/8 the pipeline's focus modes side by side (the default focal surface, the paper's plane)"
 bench focus "$build/tools/lf-gst-bench" --input "$data/stanford-chess" --sizes 640x480 \
   --encodings raw --frames "$frames" --focal plane,surface:60,surface:60+sampling=bicubic --skip-bound
@@ -256,6 +261,17 @@ live() {  # row of the focus table: its live fps
     [ "$runs" -gt 1 ] && { echo "Run $r of $runs."; echo; }
     section "pipe$r"
   done
+  echo "## Scaling"
+  echo
+  if [ -f "$plots/scaling.md" ]; then
+    echo "How the pipeline's speed follows the output size and the camera count on this machine"
+    echo "(\`scripts/scaling-bench.sh\`; a full run of this script runs it again; quick runs keep the last)."
+    echo
+    cat "$plots/scaling.md"
+  else
+    echo "Not measured yet (\`scripts/scaling-bench.sh\`, part of a full run)."
+  fi
+  echo
   echo "## GPU (a lent machine)"
   echo
   if [ -f "$root/docs/results/gpu.md" ]; then
