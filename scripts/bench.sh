@@ -282,8 +282,12 @@ live() {  # row of the focus table: its live fps
     echo "\`lf::render_view\` on 16 threads, and 77-86 % of its time is the GPU drawing (the"
     echo "planning, tables and read back are small). In the pipeline the CPU path draws fused into"
     echo "its compositing on all cores, and is faster: 243 fps at 1080p against GL's 89 (one"
-    echo "thread, 11 ms a frame, 7 of them on the GPU). The next step for GL is its fragment"
-    echo "shader (a search of the row's runs per pixel, over each camera's bounding box)."
+    echo "thread, 11 ms a frame, 7 of them on the GPU). The H200 is a compute GPU with little"
+    echo "raster hardware (8 ROPs reported for the H100, the same die, which trails integrated"
+    echo "GPUs in 3DMark: https://www.noticias3d.com/noticia/92162/nvidia-h100-juegos-mal-rendimiento.html),"
+    echo "so these figures say little of a graphics GPU; on Hopper a compute-shader path would use"
+    echo "its 132 SMs. Within GL, the next step is the fragment shader (a search of the row's runs"
+    echo "per pixel, over each camera's bounding box)."
     echo
     cat "$root/docs/results/gpu.md"
   else

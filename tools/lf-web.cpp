@@ -307,7 +307,8 @@ void on_ws_closed(SoupWebsocketConnection* ws, gpointer data) {
 }
 
 // Twice a second: each viewer's state as the server sees it, on its data
-// channel (the page's status line; the browser test reads it too).
+// channel (the page's status line; the browser test reads it too), with
+// its compositor's last lf-rate message (docs/steering.md) in JSON form.
 gboolean send_stats(gpointer data) {
   Server* s = static_cast<Server*>(data);
   for (auto& [serial, v] : s->viewers) {
@@ -333,13 +334,21 @@ gboolean send_stats(gpointer data) {
              sampling == static_cast<gint>(lf::Sampling::kBicubic) ? "bicubic" : "bilinear"},
             {"focal_surface", surface != FALSE},
             {"stereo", c.stereo.load()},
-            {"refused", c.refused.load()}});
+            {"refused", c.refused.load()},
+            {"rate", c.rate}});
   }
   return G_SOURCE_CONTINUE;
 }
 
 gboolean on_bus(GstBus*, GstMessage* m, gpointer data) {
   Server* s = static_cast<Server*>(data);
+  const GstStructure* st = gst_message_get_structure(m);
+  if (GST_MESSAGE_TYPE(m) == GST_MESSAGE_ELEMENT && st && gst_structure_has_name(st, "lf-rate")) {
+    // A viewer's achieved rate, for its stats (the codec's JSON form).
+    for (auto& [serial, v] : s->viewers)
+      if (gst_object_has_as_ancestor(m->src, GST_OBJECT(v->bin))) v->ctl->rate = structure_json(st);
+    return TRUE;
+  }
   if (GST_MESSAGE_TYPE(m) != GST_MESSAGE_ERROR && GST_MESSAGE_TYPE(m) != GST_MESSAGE_WARNING)
     return TRUE;
   GError* err = nullptr;

@@ -150,6 +150,9 @@ try {
   const A = await openViewer('A');
   viewers.push(A);
   let s = await waitFor(A, 'video', (x) => x.framesDecoded > 3 * FPS && x.channelOpen && x.stats, 90);
+  s = await waitFor(A, 'the rate report', (x) => x.stats.rate && x.stats.rate.type === 'lf-rate', 20);
+  check('stats carry the compositor\'s lf-rate in JSON form', s.stats.rate.fps > 0 && s.stats.rate['requested-fps'] > 0,
+    `rate: ${JSON.stringify(s.stats.rate)}`);
   check('video plays', s.frameWidth === 640 && s.frameHeight === 480,
     `${s.framesDecoded} frames decoded, ${s.frameWidth}x${s.frameHeight}, ${s.fps.toFixed(1)} fps, ` +
     `${s.stats.cameras_answered}/${s.stats.cameras} cameras in the last frame, control round trip ${s.rttMs?.toFixed(1)} ms`);

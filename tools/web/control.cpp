@@ -86,6 +86,40 @@ std::string send_view_change(Control& c, const json& j) {
   return "";
 }
 
+json structure_json(const GstStructure* s) {
+  json j = {{"type", gst_structure_get_name(s)}};
+  for (gint i = 0; i < gst_structure_n_fields(s); ++i) {
+    const gchar* name = gst_structure_nth_field_name(s, i);
+    const GValue* v = gst_structure_get_value(s, name);
+    switch (G_VALUE_TYPE(v)) {
+      case G_TYPE_INT:
+        j[name] = g_value_get_int(v);
+        break;
+      case G_TYPE_UINT:
+        j[name] = g_value_get_uint(v);
+        break;
+      case G_TYPE_INT64:
+        j[name] = g_value_get_int64(v);
+        break;
+      case G_TYPE_UINT64:
+        j[name] = g_value_get_uint64(v);
+        break;
+      case G_TYPE_BOOLEAN:
+        j[name] = g_value_get_boolean(v) != FALSE;
+        break;
+      case G_TYPE_STRING:
+        j[name] = g_value_get_string(v) ? g_value_get_string(v) : "";
+        break;
+      case G_TYPE_DOUBLE:
+        if (std::isfinite(g_value_get_double(v))) j[name] = g_value_get_double(v);
+        break;
+      default:
+        break;
+    }
+  }
+  return j;
+}
+
 // One control message. Returns an error text, empty when applied.
 std::string apply_control(Control& c, const json& j) {
   std::string err;

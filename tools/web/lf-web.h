@@ -103,7 +103,8 @@ struct Control {
   guint viewer_id = 0;               // lfviewrequest viewer-id (stereo: + 1 for the right eye)
   GstElement* request = nullptr;     // lfviewrequest (ref)
   GstElement* compositor = nullptr;  // lfcompositor (ref)
-  GstElement* webrtc = nullptr;      // webrtcbin (ref)
+  json rate;  // its last lf-rate message in JSON form (null before the first; main loop only)
+  GstElement* webrtc = nullptr;  // webrtcbin (ref)
   std::mutex channel_lock;
   GstWebRTCDataChannel* channel = nullptr;  // (ref) open data channel, or null
   RateLimit limit;
@@ -199,6 +200,10 @@ void on_ws_message(SoupWebsocketConnection*, gint type, GBytes* message, gpointe
 // tools/web/control.cpp: the view control protocol (docs/web.md), one
 // message at a time, and the data channel it comes on.
 std::string apply_control(Control& c, const json& j);
+// A structure of the codec (gst/lfevents.h) in its JSON form: {"type": its
+// name, field: value, ...}; numbers, booleans and strings (other fields
+// are left out).
+json structure_json(const GstStructure* s);
 // Every field of `j` one of `known`, else an error in *err.
 bool only_fields(const json& j, std::initializer_list<const char*> known, std::string* err);
 void on_channel_open(GstWebRTCDataChannel* ch, gpointer data);
