@@ -91,30 +91,17 @@ json structure_json(const GstStructure* s) {
   for (gint i = 0; i < gst_structure_n_fields(s); ++i) {
     const gchar* name = gst_structure_nth_field_name(s, i);
     const GValue* v = gst_structure_get_value(s, name);
-    switch (G_VALUE_TYPE(v)) {
-      case G_TYPE_INT:
-        j[name] = g_value_get_int(v);
-        break;
-      case G_TYPE_UINT:
-        j[name] = g_value_get_uint(v);
-        break;
-      case G_TYPE_INT64:
-        j[name] = g_value_get_int64(v);
-        break;
-      case G_TYPE_UINT64:
-        j[name] = g_value_get_uint64(v);
-        break;
-      case G_TYPE_BOOLEAN:
-        j[name] = g_value_get_boolean(v) != FALSE;
-        break;
-      case G_TYPE_STRING:
-        j[name] = g_value_get_string(v) ? g_value_get_string(v) : "";
-        break;
-      case G_TYPE_DOUBLE:
-        if (std::isfinite(g_value_get_double(v))) j[name] = g_value_get_double(v);
-        break;
-      default:
-        break;
+    GValue whole = G_VALUE_INIT;  // the integer types, as int64
+    if (G_VALUE_HOLDS_DOUBLE(v)) {
+      if (std::isfinite(g_value_get_double(v))) j[name] = g_value_get_double(v);
+    } else if (G_VALUE_HOLDS_BOOLEAN(v)) {
+      j[name] = g_value_get_boolean(v) != FALSE;
+    } else if (G_VALUE_HOLDS_STRING(v)) {
+      j[name] = g_value_get_string(v) ? g_value_get_string(v) : "";
+    } else if (g_value_type_transformable(G_VALUE_TYPE(v), G_TYPE_INT64)) {
+      g_value_init(&whole, G_TYPE_INT64);
+      if (g_value_transform(v, &whole)) j[name] = g_value_get_int64(&whole);
+      g_value_unset(&whole);
     }
   }
   return j;
