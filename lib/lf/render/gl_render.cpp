@@ -26,27 +26,6 @@
 
 namespace lf {
 
-const char* backend_name(Backend backend) {
-  switch (backend) {
-    case Backend::kAuto:
-      return "auto";
-    case Backend::kCpu:
-      return "cpu";
-    case Backend::kGl:
-      return "gl";
-  }
-  return "?";
-}
-
-bool parse_backend(const std::string& text, Backend* out) {
-  for (Backend b : {Backend::kAuto, Backend::kCpu, Backend::kGl})
-    if (text == backend_name(b)) {
-      *out = b;
-      return true;
-    }
-  return false;
-}
-
 namespace {
 bool maybe_hardware_gl();  // below: false when no EGL device can be a GPU
 }  // namespace

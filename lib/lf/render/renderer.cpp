@@ -8,6 +8,29 @@
 
 namespace lf {
 
+// The backend names (lf/render/gl_render.h), beside the one place that
+// chooses the backend.
+const char* backend_name(Backend backend) {
+  switch (backend) {
+    case Backend::kAuto:
+      return "auto";
+    case Backend::kCpu:
+      return "cpu";
+    case Backend::kGl:
+      return "gl";
+  }
+  return "?";
+}
+
+bool parse_backend(const std::string& text, Backend* out) {
+  for (Backend b : {Backend::kAuto, Backend::kCpu, Backend::kGl})
+    if (text == backend_name(b)) {
+      *out = b;
+      return true;
+    }
+  return false;
+}
+
 void Renderer::check_slot(int slot) {
   if (slot < 0 || slot >= kMaxSlots)
     throw std::invalid_argument("renderer: image slot " + std::to_string(slot) + " not in 0.." +
