@@ -27,10 +27,10 @@
  * `over-budget`. Live, when requests come faster than it composites, the
  * newest request wins: the requests waiting behind a newer complete one
  * are dropped (counted in `lf-rate`'s `stale`), so the latency stays
- * within a few frame periods of the rate it achieves. When no fragment came for 2 s
- * (LF_IDLE_RELEASE) or the stream ended, the frames, sums and output pool are freed and the heap
- * trimmed (a 3840x2160 view holds about 230 MB); the next frame allocates
- * them again.
+ * within a few frame periods of the rate it achieves. When no fragment
+ * came for 2 s (LF_IDLE_RELEASE) or the stream ended, the frames, sums and
+ * output pool are freed and the heap trimmed (a 3840x2160 view holds about
+ * 230 MB); the next frame allocates them again.
  *
  * The output rate is the fragment caps' `framerate` (the viewer's request
  * rate; the `framerate` property overrides it); the deadline is one frame

@@ -60,28 +60,25 @@ constexpr const char* kViewFields[] = {"eye-s",       "eye-t", "eye-w",
 // numbers), exactly as the element checks it, and sent whole. Returns an
 // error text, empty when sent.
 std::string send_view_change(Control& c, const json& j) {
-  GstStructure* s =
-      gst_structure_new("lf-view", "version", G_TYPE_UINT, lfgst::kEventVersion, nullptr);
+  std::vector<std::pair<std::string, double>> fields;
   std::string err;
-  for (auto it = j.begin(); it != j.end() && err.empty(); ++it) {
+  for (auto it = j.begin(); it != j.end(); ++it) {
     if (it.key() == "type") continue;
+    double v = 0;
     if (std::none_of(std::begin(kViewFields), std::end(kViewFields),
                      [&](const char* k) { return it.key() == k; }))
-      err = "unknown field '" + it.key().substr(0, 64) + "'";
-    else if (!it->is_number())
-      err = "'" + it.key() + "' must be a number";
-    else
-      gst_structure_set(s, it.key().c_str(), G_TYPE_DOUBLE, it->get<double>(), nullptr);
+      return "unknown field '" + it.key().substr(0, 64) + "'";
+    if (!number_field(j, it.key().c_str(), &v, &err)) return err;
+    fields.emplace_back(it.key(), v);
   }
-  if (err.empty() && gst_structure_n_fields(s) == 1) err = "'lf-view' without a field";
+  if (fields.empty()) return "'lf-view' without a field";
+  GstStructure* s = lfgst::view_change_structure(fields);  // the codec's writer and reader
   std::vector<std::pair<GParamSpec*, GValue>> values;
-  if (err.empty() &&
-      lfgst::read_view_change(s, G_OBJECT(c.request), lfgst::kMaxCoordinate, &values, &err))
-    for (auto& kv : values) g_value_unset(&kv.second);
-  if (!err.empty()) {
+  if (!lfgst::read_view_change(s, G_OBJECT(c.request), lfgst::kMaxCoordinate, &values, &err)) {
     gst_structure_free(s);
     return err;
   }
+  for (auto& kv : values) g_value_unset(&kv.second);
   to_request(c, gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, s));
   return "";
 }

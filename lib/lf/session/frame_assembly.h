@@ -193,7 +193,7 @@ class PendingRequests : public RequestTimes {
   bool front_ready(size_t expected, Due due, bool eos, bool* complete) const {
     if (requests_.empty()) return false;
     const Request& r = requests_.begin()->second;
-    *complete = r.count >= expected && !r.conflicted;
+    *complete = complete_at(r, expected);
     return *complete || eos || requests_.size() > max_pending_ || due(r.running_time);
   }
   // The cameras counted so far for request `key` (0: none waits).
@@ -208,12 +208,16 @@ class PendingRequests : public RequestTimes {
   void shed_stale(size_t expected) {
     auto newest = requests_.end();
     for (auto it = requests_.begin(); it != requests_.end(); ++it)
-      if (it->second.count >= expected && !it->second.conflicted) newest = it;
+      if (complete_at(it->second, expected)) newest = it;
     if (newest == requests_.end()) return;
     shed_ += static_cast<uint64_t>(std::distance(requests_.begin(), newest));
     requests_.erase(requests_.begin(), newest);
   }
   uint64_t shed() const { return shed_; }  // requests shed_stale() dropped so far
+  // Every camera counted, and no conflict.
+  static bool complete_at(const Request& r, size_t expected) {
+    return r.count >= expected && !r.conflicted;
+  }
   const Key& front_key() const { return requests_.begin()->first; }
   Request& front() { return requests_.begin()->second; }
   void pop_front() { requests_.erase(requests_.begin()); }
