@@ -185,6 +185,25 @@ GstStructure* view_change_structure(const std::vector<std::pair<std::string, dou
   return s;
 }
 
+GstEvent* view_event(const GstStructure* fields, GObject* target, double max_coord,
+                     std::string* why) {
+  GstStructure* in = gst_structure_copy(fields);
+  gst_structure_set_name(in, "lf-view");
+  std::vector<std::pair<GParamSpec*, GValue>> values;
+  const bool ok = read_view_change(in, target, max_coord, &values, why);
+  const std::optional<guint> viewer = addressed_viewer(in);
+  const bool addressed_ok = viewer || !gst_structure_has_field(in, "viewer-id");
+  gst_structure_free(in);
+  if (ok && !addressed_ok) {
+    for (auto& kv : values) g_value_unset(&kv.second);
+    return fail(why, "field 'viewer-id' is not a viewer id (uint)"), nullptr;
+  }
+  if (!ok) return nullptr;
+  GstStructure* out = view_change_structure({}, viewer ? gint64{*viewer} : -1);
+  for (auto& [ps, v] : values) gst_structure_take_value(out, ps->name, &v);
+  return gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, out);
+}
+
 std::optional<guint> addressed_viewer(const GstStructure* s) {
   guint id = 0;
   gint sid = 0;

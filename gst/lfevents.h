@@ -1,6 +1,7 @@
 // The collection's custom events, one codec each (a typed struct <->
-// GstStructure), used by the elements, lf-web, the tests and described for
-// the C and Python examples (docs/steering.md). Every structure carries
+// GstStructure), used by the elements, lf-web, the tests and the C and
+// Python examples (through lfviewrequest's view-event action;
+// docs/steering.md). Every structure carries
 // `version` (uint, kEventVersion); a reader takes a structure without one
 // (written before the field) as version 1 and refuses a newer one, naming
 // it. Readers check every field a peer or an application may get wrong
@@ -79,6 +80,15 @@ bool read_view_change(const GstStructure* s, GObject* target, double max_coord,
 // `viewer` (< 0: every viewer that gets it).
 GstStructure* view_change_structure(const std::vector<std::pair<std::string, double>>& fields,
                                     gint64 viewer = -1);
+// The lf-view event (upstream custom, transfer full) for `fields`, a
+// structure of any name whose fields are `target`'s view properties (any
+// type that converts to the property's, points as 3-number arrays) and
+// optionally viewer-id: checked by read_view_change, then written by this
+// codec (version, the values in the properties' types). Null, with `why`,
+// when a field is bad. lfviewrequest's `view-event` action signal, which
+// the C and Python examples use.
+GstEvent* view_event(const GstStructure* fields, GObject* target, double max_coord,
+                     std::string* why);
 
 // The viewer an event addresses: its viewer-id field (uint, or an int >= 0,
 // as gst-launch and JSON write it), or none (every viewer).

@@ -18,7 +18,9 @@
  * Steering while playing (docs/steering.md): the view properties are
  * changeable in PLAYING and apply from the next request on; some are
  * controllable (interpolated camera moves). An upstream `lf-view` event
- * (gst/lfevents.h) sets several at once, checked whole; navigation events
+ * (gst/lfevents.h) sets several at once, checked whole; the `view-event`
+ * action signal writes one from a structure of fields, checked against
+ * these properties (for applications: docs/examples/steer.c); navigation events
  * from the video sink drag the eye, move the focal plane with the wheel, and
  * focus where the user right-clicks (a focus probe, answered by
  * `lfcompositor` with an `lf-focus` event).
@@ -45,6 +47,7 @@
 
 #include "lf/focus/focal_surface.h"
 #include "lf/render/quilt.h"
+#include "lfevents.h"
 
 #define MAX_COORD kMaxCoordinate
 
@@ -79,8 +82,28 @@ void describe_view_request(GstElementClass* ec) {
       "Upstream custom events it takes: lf-view (any view property as a field of the same name and "
       "type, and viewer-id, uint: applied whole, or refused with a warning message naming the bad "
       "field), lf-focus and lf-surface (lfcompositor's answers to its probes), and navigation "
-      "events (drag, wheel, keys, click to focus). An error message at READY for each bad property "
+      "events (drag, wheel, keys, click to focus). The view-event action signal (fields, a "
+      "GstStructure of view properties -> the lf-view GstEvent, or NULL when a field is bad) "
+      "writes one for an application to send at its sink. An error message at READY for each bad "
+      "property "
       "value; a warning when the focal plane lies behind the cameras.");
+}
+
+// `view-event`: the lf-view event for a structure of fields (any name),
+// or null with a warning in the log naming the bad field.
+static GstEvent* view_event_action(GstElement* self, const GstStructure* fields) {
+  if (!fields) return nullptr;
+  std::string why;
+  GstEvent* e = view_event(fields, G_OBJECT(self), kMaxCoordinate, &why);
+  if (!e) GST_WARNING_OBJECT(self, "view-event: %s", why.c_str());
+  return e;
+}
+
+void install_view_request_actions(GObjectClass* oc) {
+  g_signal_new_class_handler("view-event", G_TYPE_FROM_CLASS(oc),
+                             static_cast<GSignalFlags>(G_SIGNAL_RUN_LAST | G_SIGNAL_ACTION),
+                             G_CALLBACK(view_event_action), nullptr, nullptr, nullptr,
+                             GST_TYPE_EVENT, 1, GST_TYPE_STRUCTURE);
 }
 
 ViewRequestSpecs install_view_request_properties(GObjectClass* oc,

@@ -40,4 +40,15 @@ void describe_view_request(GstElementClass* ec);
 ViewRequestSpecs install_view_request_properties(GObjectClass* oc,
                                                  Properties<ViewRequestSettings>* props);
 
+// Installs lfviewrequest's action signal `view-event`:
+//   GstEvent* view-event (GstElement* lfviewrequest, GstStructure* fields)
+// the lf-view upstream event (transfer full) for `fields`, a structure of
+// any name whose fields are view properties (names, types and ranges as
+// the properties; points as 3-number arrays, rig units) and optionally
+// viewer-id (uint), written by the events' codec (gst/lfevents.h
+// view_event) with its version; null when a field is bad (the log says
+// which). The event may be sent at any element downstream of the
+// lfviewrequest it is for, e.g. the video sink.
+void install_view_request_actions(GObjectClass* oc);
+
 }  // namespace lfgst

@@ -2,8 +2,7 @@
 // The element's documentation, properties and metadata (what
 // gst-inspect-1.0 and docs/elements.md show) are in gst/lfviewprops.cpp;
 // the viewer itself is lf::ViewerSession (lib/lf/session/viewer_session.h).
-// This file is the glue: the base source's vfuncs, the upstream events, the
-// clock, the buffers.
+// This file is the glue: base-source vfuncs, upstream events, clock, buffers.
 #include <gst/base/gstbasesrc.h>
 
 #include <algorithm>
@@ -486,6 +485,7 @@ static void lf_view_request_class_init(LfViewRequestClass* klass) {
   oc->get_property = lf_view_request_get_property;
   oc->finalize = lf_view_request_finalize;
   specs = lfgst::install_view_request_properties(oc, &props);
+  lfgst::install_view_request_actions(oc);
   gst_element_class_add_static_pad_template(ec, &src_template);
   lfgst::describe_view_request(ec);
   bc->start = lf_view_request_start;

@@ -44,10 +44,11 @@ cc "$root/docs/examples/steer.c" $(pkg-config --cflags --libs gstreamer-1.0 gstr
 check_steer() {  # check_steer NAME OUTPUT
   local name="$1" out="$2"
   if grep -qx "eye-s 0.01" <<< "$out" && grep -qx "focal-depth 2.5" <<< "$out" &&
+    grep -qx "refused focal-dept" <<< "$out" &&
     grep -qx "frames 60" <<< "$out" &&
     awk '$1=="eye-t"{n++; if ($3 < prev - 1e-12 || $3 < 0 || $3 > 0.02 + 1e-12) bad=1; prev=$3; last=$3}
          END{exit !(n >= 25 && !bad && last > 0.015)}' <<< "$out"; then
-    echo "ok: $name example steered the view while playing (property, lf-view event, GstController move)"
+    echo "ok: $name example steered the view while playing (property, lf-view event by view-event and a bad one refused, GstController move)"
   else
     echo "FAIL: $name example"; echo "$out" | head -20; fail=1
   fi

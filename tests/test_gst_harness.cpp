@@ -981,5 +981,40 @@ TEST_F(Harness, EventCodecRoundTripsAndRefusesWhatIsWrong) {
     EXPECT_FALSE(why.empty());
     gst_structure_free(bad);
   }
+  // The view-event action (what the C and Python examples call): fields of
+  // any structure name, in the string form, written as a versioned lf-view
+  // event in the properties' types; a bad field gives no event.
+  GstStructure* fields = gst_structure_new_from_string(
+      "fields, position=<1, 2.5, 0>, focal-depth=3, eye-s=0.25, viewer-id=7");
+  GstEvent* event = nullptr;
+  g_signal_emit_by_name(req, "view-event", fields, &event);
+  ASSERT_NE(event, nullptr);
+  EXPECT_EQ(GST_EVENT_TYPE(event), GST_EVENT_CUSTOM_UPSTREAM);
+  const GstStructure* es = gst_event_get_structure(event);
+  EXPECT_TRUE(gst_structure_has_name(es, "lf-view"));
+  guint version = 0;
+  EXPECT_TRUE(gst_structure_get_uint(es, "version", &version) && version == lfgst::kEventVersion);
+  EXPECT_TRUE(gst_structure_get_uint(es, "viewer-id", &viewer) && viewer == 7);
+  double depth = 0;  // written as the property's type: an int given, a double written
+  EXPECT_TRUE(gst_structure_get_double(es, "focal-depth", &depth) && depth == 3.0);
+  const GValue* pos = gst_structure_get_value(es, "position");
+  ASSERT_TRUE(pos && GST_VALUE_HOLDS_ARRAY(pos) && gst_value_array_get_size(pos) == 3);
+  EXPECT_DOUBLE_EQ(g_value_get_double(gst_value_array_get_value(pos, 1)), 2.5);
+  ASSERT_TRUE(lfgst::read_view_change(es, G_OBJECT(req), 1e12, &values, &why)) << why;
+  EXPECT_EQ(values.size(), 3u);
+  for (auto& kv : values) g_value_unset(&kv.second);
+  values.clear();
+  gst_event_unref(event);
+  gst_structure_free(fields);
+  for (const char* bad : {"fields, focal-dept=2.0", "fields, focal-depth=-1.0",
+                          "fields, position=<1, 2>", "fields, eye-s=0.1, viewer-id=left"}) {
+    fields = gst_structure_new_from_string(bad);
+    ASSERT_NE(fields, nullptr) << bad;
+    event = nullptr;
+    g_signal_emit_by_name(req, "view-event", fields, &event);
+    EXPECT_EQ(event, nullptr) << bad;
+    if (event) gst_event_unref(event);
+    gst_structure_free(fields);
+  }
   gst_object_unref(req);
 }

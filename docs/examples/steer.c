@@ -5,11 +5,13 @@
  *   2. a property change while PLAYING (eye-s, rig units on the camera plane);
  *   3. the lf-view upstream event, sent at the sink: several view fields at
  *      once (position, focal-depth), applied together to the next request;
+ *      written by lfviewrequest's view-event action, which refuses a bad
+ *      field (a misspelt one here: "refused focal-dept");
  *   4. a GstController camera move: eye-t interpolated linearly over 1 s.
  *
  * It prints what it set and what lfviewrequest reports back, one line per
- * step ("eye-s 0.01", "focal-depth 2.5", "eye-t T V"), and exits 0 once
- * FRAMES frames (default 60) were received.
+ * step ("eye-s 0.01", "focal-depth 2.5", "refused focal-dept", "eye-t T V"),
+ * and exits 0 once FRAMES frames (default 60) were received.
  *
  * usage: steer RIG.json [MODE] [FRAMES]   (MODE: lfcamsrc mode, default dataset)
  * build: cc steer.c $(pkg-config --cflags --libs gstreamer-1.0 gstreamer-app-1.0 \
@@ -22,18 +24,20 @@
 #include <stdio.h>
 #include <stdlib.h>
 
-static void send_view_event(GstElement* sink, double x, double y, double z, double depth) {
-  GValue position = G_VALUE_INIT, c = G_VALUE_INIT;
-  gst_value_array_init(&position, 3);
-  for (int i = 0; i < 3; ++i) {
-    g_value_init(&c, G_TYPE_DOUBLE);
-    g_value_set_double(&c, i == 0 ? x : i == 1 ? y : z);
-    gst_value_array_append_and_take_value(&position, &c);
-  }
-  GstStructure* s = gst_structure_new("lf-view", "focal-depth", G_TYPE_DOUBLE, depth, NULL);
-  gst_structure_take_value(s, "position", &position);
+/* A whole view at once: the fields in GStreamer's structure string form,
+ * made into an lf-view event by lfviewrequest's view-event action (the
+ * collection's event codec: each field checked against the property of the
+ * same name, the event versioned), then sent upstream from the sink.
+ * Returns 0 when the fields were refused (the log says which was bad). */
+static int send_view_event(GstElement* view, GstElement* sink, const char* fields) {
+  GstStructure* s = gst_structure_new_from_string(fields);
+  GstEvent* event = NULL;
+  if (s) g_signal_emit_by_name(view, "view-event", s, &event);
+  if (s) gst_structure_free(s);
+  if (!event) return 0;
   /* Upstream from the sink, through lfarray, to lfviewrequest. */
-  gst_element_send_event(sink, gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, s));
+  gst_element_send_event(sink, event);
+  return 1;
 }
 
 int main(int argc, char** argv) {
@@ -78,10 +82,14 @@ int main(int argc, char** argv) {
       g_object_get(view, "eye-s", &s, NULL);
       printf("eye-s %g\n", s);
     } else if (got == 20) { /* a whole view at once, from the sink */
-      send_view_event(sink, 0.0, 0.0, 0.0, 2.5);
+      if (!send_view_event(view, sink, "lf-view, position=<0.0, 0.0, 0.0>, focal-depth=2.5")) {
+        fprintf(stderr, "steer: the view was refused\n");
+        return 1;
+      }
       double d;
       g_object_get(view, "focal-depth", &d, NULL);
       printf("focal-depth %g\n", d);
+      if (!send_view_event(view, sink, "lf-view, focal-dept=2.0")) printf("refused focal-dept\n");
     } else if (got == 30) { /* a camera move: eye-t from 0 to 0.02 over 1 s */
       move = gst_interpolation_control_source_new();
       g_object_set(move, "mode", GST_INTERPOLATION_MODE_LINEAR, NULL);

@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """steer.py: embeds the lightfield plugin from Python (PyGObject, Debian's
 python3-gst-1.0) and steers the virtual camera while the pipeline plays, as
-steer.c does: a property change, the lf-view upstream event, a GstController
+steer.c does: a property change, the lf-view upstream event (written by
+lfviewrequest's view-event action, which refuses a bad field), a GstController
 camera move. Prints one line per step and exits 0 after FRAMES frames.
 
 usage: steer.py RIG.json [MODE] [FRAMES]   (MODE: lfcamsrc mode, default dataset)
@@ -41,11 +42,18 @@ def main():
             view.set_property("eye-s", 0.01)
             print("eye-s", view.get_property("eye-s"))
         elif got == 20:  # a whole view at once, sent at the sink
-            s = Gst.Structure.new_empty("lf-view")
-            s.set_value("position", Gst.ValueArray([0.0, 0.0, 0.0]))
-            s.set_value("focal-depth", 2.5)
-            sink.send_event(Gst.Event.new_custom(Gst.EventType.CUSTOM_UPSTREAM, s))
+            # The fields, made into a checked, versioned lf-view event by
+            # lfviewrequest's view-event action (the collection's codec).
+            event = view.emit("view-event", Gst.Structure.new_from_string(
+                "lf-view, position=<0.0, 0.0, 0.0>, focal-depth=2.5"))
+            if event is None:
+                print("steer.py: the view was refused", file=sys.stderr)
+                return 1
+            sink.send_event(event)
             print("focal-depth", view.get_property("focal-depth"))
+            # A bad field (misspelt) is refused: no event.
+            if view.emit("view-event", Gst.Structure.new_from_string("lf-view, focal-dept=2.0")) is None:
+                print("refused focal-dept")
         elif got == 30:  # a camera move: eye-t from 0 to 0.02 over 1 s
             move = GstController.InterpolationControlSource.new()
             move.set_property("mode", GstController.InterpolationMode.LINEAR)
