@@ -3,9 +3,11 @@
 #include <gst/gst.h>
 #include <gst/video/navigation.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
+#include <string>
 
 #include "gst_init.h"
 #include "lf/focus/focus.h"
@@ -34,9 +36,14 @@ class Harness : public ::testing::Test {
   static void SetUpTestSuite() {
     testing_lf::init_gstreamer_with_plugin();
     rig_ = lf::synthetic_grid_rig(2, 2, 0.05, 64, 48, 40);
-    rig_path_ = (std::filesystem::temp_directory_path() / "lf-harness-rig.json").string();
+    // One file a process: gst_harness_nogl runs this binary beside gst_harness
+    // (a shared name was rewritten while the other read it: a failed start).
+    rig_path_ = (std::filesystem::temp_directory_path() /
+                 ("lf-harness-rig-" + std::to_string(getpid()) + ".json"))
+                    .string();
     lf::save_rig(rig_, rig_path_);
   }
+  static void TearDownTestSuite() { std::filesystem::remove(rig_path_); }
   static lf::Rig rig_;
   static std::string rig_path_;
 
