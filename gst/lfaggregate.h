@@ -19,6 +19,15 @@ inline GstClockTime running_now(GstElement* e) {
   return now > base ? now - base : 0;
 }
 
+// How long after its request's time (its PTS as running time on `pad`)
+// buffer `buf` is taken now, ns; -1 without a time or a clock.
+inline gint64 arrival_age(GstElement* e, GstAggregatorPad* pad, GstBuffer* buf) {
+  const GstClockTime rt =
+      gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, GST_BUFFER_PTS(buf));
+  const GstClockTime now = running_now(e);
+  return GST_CLOCK_TIME_IS_VALID(rt) && GST_CLOCK_TIME_IS_VALID(now) ? GST_CLOCK_DIFF(rt, now) : -1;
+}
+
 // Whether any sink pad of the aggregator holds a queued buffer (takes the
 // object lock; safe from get_next_time, unlike gst_aggregator_get_latency).
 inline bool any_pad_queued(GstElement* e) {

@@ -60,7 +60,7 @@ namespace {
 // 9 lfarray's whole-view, then the children's properties it forwards.
 constexpr guint PROP_FIRST_FORWARD = 10;
 #define DEFAULT_RECORD_QUALITY 0
-#define DEFAULT_REQUEST_MAX_AGE (200 * GST_MSECOND)
+#define DEFAULT_REQUEST_MAX_AGE 0
 #define DEFAULT_SUM_LATENCY (20 * GST_MSECOND)
 #define DEFAULT_WHOLE_VIEW TRUE
 

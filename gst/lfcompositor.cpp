@@ -7,7 +7,6 @@
 #include <libdeflate.h>
 
 #include <algorithm>
-#include <atomic>
 #include <memory>
 #include <optional>
 
@@ -17,6 +16,7 @@
 #include "lfarrival.h"
 #include "lfbackend.h"
 #include "lfcompositorprops.h"
+#include "lfdeadline.h"
 #include "lfevents.h"
 #include "lffragmentaggregator.h"
 #include "lfguard.h"
@@ -74,9 +74,7 @@ struct State {
 struct Priv {
   Settings settings;  // properties (object lock)
   std::unique_ptr<State> state;
-  // One frame period of the output rate (ns; 0 until the caps give a rate):
-  // read by the `latency` notify handler on any thread, so not in State.
-  std::atomic<GstClockTime> period{0};
+  lfgst::CompositorDeadline deadline;  // the aggregator's latency (gst/lfdeadline.h)
   // JPEG fragments decoded as they arrive, on the pads' streaming threads,
   // as far as the aggregate thread accepts them (publish_acceptance()).
   lfgst::ArrivalDecoder arrival;
@@ -121,6 +119,7 @@ static gboolean lf_compositor_start(GstAggregator* agg) {
   std::unique_ptr<lf::Renderer> renderer;
   if (!lfgst::open_renderer(GST_ELEMENT(self), st->s.backend, renderer)) return FALSE;
   st->frames.emplace(std::move(renderer));
+  self->priv->deadline.reset();
   self->priv->state = std::move(st);
   return TRUE;
 }
@@ -138,17 +137,6 @@ static void publish_acceptance(Priv* p, const State* st) {
                      st->intake->viewer.viewer(), st->s.stereo, st->intake->window.last_emitted());
 }
 
-// The deadline: one frame period of the request rate, unless the `latency`
-// property is set (then it alone).
-static void update_latency(LfCompositor* self) {
-  const GstClockTime period = self->priv->period.load();
-  if (period == 0) return;
-  GstClockTime user = 0;
-  g_object_get(self, "latency", &user, nullptr);
-  const GstClockTime own = user > 0 ? 0 : period;
-  gst_aggregator_set_latency(GST_AGGREGATOR(self), own, own);
-}
-
 static gboolean lf_compositor_sink_event(GstAggregator* agg, GstAggregatorPad* pad,
                                          GstEvent* event) {
   LfCompositor* self = LF_COMPOSITOR(agg);
@@ -158,8 +146,7 @@ static gboolean lf_compositor_sink_event(GstAggregator* agg, GstAggregatorPad* p
     gst_event_parse_caps(event, &caps);
     if (st->format->take_caps(GST_ELEMENT(self), caps, lfgst::kMaxOutputSide)) {
       const lfgst::Fraction fps = st->format->fps();
-      self->priv->period = gst_util_uint64_scale_int(GST_SECOND, fps.d, fps.n);
-      update_latency(self);
+      self->priv->deadline.set_period(agg, gst_util_uint64_scale_int(GST_SECOND, fps.d, fps.n));
     }
   }
   return GST_AGGREGATOR_CLASS(lf_compositor_parent_class)->sink_event(agg, pad, event);
@@ -312,6 +299,8 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
   lf::Intake in = st->intake->take(mapped->data(), mapped->size(), !lfgst::has_sealed_meta(buf), w,
                                    h, st->s.stereo, t0);
   const lf::FragmentHeader& head = in.head;
+  if (in.verdict == V::kAccept || in.late)  // how late fragments come: the adaptive deadline
+    self->priv->deadline.arrived(GST_AGGREGATOR(self), pad, buf);
   if (in.verdict == V::kProbe)
     return absorb_probe_answer(self, st, mapped->data(), mapped->size(), w, h);
   if (in.verdict == V::kForeign) return note_foreign(self, st, head.viewer_id);
@@ -420,6 +409,9 @@ static GstFlowReturn lf_compositor_emit_due(LfFragmentAggregator* agg, const LfD
               : kProbeDeadlineUs;
   st->intake->max_pixel_rate = d->live ? st->s.max_pixel_rate : 0;  // not live: every request
   st->probes->expire(g_get_monotonic_time(), probe_deadline_us);
+  if (d->live && st->s.adaptive_deadline)
+    if (const GstClockTime v = self->priv->deadline.adapt(GST_AGGREGATOR(agg)))
+      GST_INFO_OBJECT(self, "deadline %.1f ms (the fragments' arrival times)", v / 1e6);
   send_probe_outcomes(self, st);
   const size_t expected = expected_fragments(self);
   auto due = [d](GstClockTime rt) { return lf_deadline_passed(d, rt); };
@@ -464,7 +456,7 @@ static GstEvent* lf_compositor_tag_upstream(LfFragmentAggregator* agg, GstEvent*
 }
 
 static void on_latency_changed(GObject* obj, GParamSpec*, gpointer) {
-  update_latency(LF_COMPOSITOR(obj));
+  LF_COMPOSITOR(obj)->priv->deadline.apply(GST_AGGREGATOR(obj));
 }
 
 static void lf_compositor_init(LfCompositor* self) {

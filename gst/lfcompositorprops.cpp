@@ -33,9 +33,13 @@
  * 230 MB); the next frame allocates them again.
  *
  * The output rate is the fragment caps' `framerate` (the viewer's request
- * rate; the `framerate` property overrides it); the deadline is one frame
- * period after a request's running time (gst_aggregator_set_latency),
- * unless the `latency` property is set, which then replaces it.
+ * rate; the `framerate` property overrides it). Live, the deadline after a
+ * request's running time (gst_aggregator_set_latency) is one frame period
+ * or, with `adaptive-deadline` (the default), longer when the fragments
+ * take longer to arrive: the 99th percentile of their arrival times plus a
+ * fifth, at most 500 ms (lf::ArrivalDeadline, lib/lf/session/compositor_host.h;
+ * each change posts a latency message). The `latency` property, when set,
+ * replaces both. The paper's deadline (one period) is `adaptive-deadline=false`.
  *
  * Probes are scored here, never composited (lib/lf/session/probe_scoring.h):
  * a focus probe gives the depth under a clicked pixel (an upstream
@@ -141,6 +145,15 @@ void install_compositor_properties(GObjectClass* oc, Properties<CompositorSettin
           "cameras agree (lib/lf/render/composite.h LayerCompositor, on the CPU); more bytes where "
           "the scene has depth edges, none elsewhere",
           FALSE, kReadWritePlaying));
+  props->add(oc, &CompositorSettings::adaptive_deadline,
+             g_param_spec_boolean(
+                 "adaptive-deadline", "Adaptive deadline",
+                 "Live: composite a request that is not complete once its fragments are overdue "
+                 "by how long they take to arrive (the 99th percentile of the last 2048, plus a "
+                 "fifth, at most 500 ms; never under one request period), so that cameras slower "
+                 "than a request period still give complete frames. false: at one request period "
+                 "(the paper's deadline). The latency property, when set, replaces either",
+                 TRUE, kReadWriteReady));
   props->add(
       oc, &CompositorSettings::backend,
       g_param_spec_enum("backend", "Backend",

@@ -25,6 +25,7 @@ struct CompositorSettings {
   bool second_planes = false;  // surface probes: second planes at depth edges and thin structures
   lf::Backend backend = lf::Backend::kAuto;
   gdouble max_pixel_rate = kDefaultMaxPixelRate;  // live: output pixels a second composited
+  bool adaptive_deadline = true;  // live: the deadline from the fragments' arrival times
   // Read-only statistics, written by the aggregate thread under the lock.
   guint64 frames = 0;       // frames composited since start
   guint last_cameras = 0;   // cameras (per eye) whose fragment was in the last frame

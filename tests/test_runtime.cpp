@@ -677,11 +677,11 @@ TEST_F(Runtime, LiveRequestQueuesAreBoundedByTheRequestMaxAge) {
     int camera_queues;
   };
   const Case cases[] = {
-      {"lfcamerahost", "", 200 * GST_MSECOND, 4},
+      {"lfcamerahost", "", 0, 4},  // the default: the newest request wins
       {"lfcamerahost", "request-max-age=50000000", 50 * GST_MSECOND, 4},
-      {"lfarray", "", 200 * GST_MSECOND, 0},
-      {"lfarray", "whole-view=false", 200 * GST_MSECOND, 4},
-      {"lfarray", "encoding=jpeg", 200 * GST_MSECOND, 4},
+      {"lfarray", "", 0, 0},
+      {"lfarray", "whole-view=false", 0, 4},
+      {"lfarray", "encoding=jpeg request-max-age=200000000", 200 * GST_MSECOND, 4},
       {"lfarray", "latency=3000000000", 3 * GST_SECOND, 0},
       {"lfarray", "latency=10000000 request-max-age=400000000", 400 * GST_MSECOND, 0},
       {"lfarray", "whole-view=false latency=10000000 request-max-age=400000000", 400 * GST_MSECOND,

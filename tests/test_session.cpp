@@ -790,6 +790,48 @@ TEST(OutputRate, OneReportASecondOfFramesAndCompleteOnes) {
   EXPECT_EQ(lf::OutputRate::Report{}.fps(), 0.0);
 }
 
+// lf::ArrivalDeadline: the 99th percentile of the fragments' arrival ages
+// plus a fifth, in 5 ms steps, between the request period and the cap;
+// rising at once, falling only under three quarters, at most once a second.
+TEST(ArrivalDeadline, FollowsTheArrivalTimesWithinThePeriodAndTheCap) {
+  constexpr int64_t ms = 1'000'000, s = 1000 * ms, period = 33 * ms, cap = 500 * ms;
+  lf::ArrivalDeadline d;
+  int64_t now = 10 * s;
+  for (int i = 0; i < 63; ++i) d.arrived(5 * ms);
+  EXPECT_FALSE(d.update(now, period, cap)) << "fewer than kMinSamples ages";
+  d.arrived(-1);  // unknown: ignored
+  EXPECT_FALSE(d.update(now, period, cap));
+  d.arrived(5 * ms);
+  // Fast cameras: never under one period (the paper's deadline).
+  EXPECT_EQ(d.update(now, period, cap).value_or(-1), period);
+  EXPECT_EQ(d.deadline(), period);
+  // Slow cameras (1080p JPEG on 2 cores): ages 100..199 ms; p99 198 ms,
+  // +1/5 = 237.6 ms, up to 240 ms. Not before a second has passed.
+  for (int i = 0; i < 2048; ++i) d.arrived((100 + i % 100) * ms);
+  EXPECT_FALSE(d.update(now + s / 2, period, cap));
+  now += s;
+  EXPECT_EQ(d.update(now, period, cap).value_or(-1), 240 * ms);
+  // A few stragglers (under 1 %) do not move it; the same value is no change.
+  for (int i = 0; i < 15; ++i) d.arrived(5 * s);
+  now += s;
+  EXPECT_FALSE(d.update(now, period, cap));
+  // Slower than the cap: the cap.
+  for (int i = 0; i < 2048; ++i) d.arrived(2 * s);
+  now += s;
+  EXPECT_EQ(d.update(now, period, cap).value_or(-1), cap);
+  // Falling: not to 420 ms (over three quarters of 500), but to 180 ms.
+  for (int i = 0; i < 2048; ++i) d.arrived(350 * ms);
+  now += s;
+  EXPECT_FALSE(d.update(now, period, cap));
+  for (int i = 0; i < 2048; ++i) d.arrived(150 * ms);
+  now += s;
+  EXPECT_EQ(d.update(now, period, cap).value_or(-1), 180 * ms);
+  // A cap under the period: the period.
+  for (int i = 0; i < 2048; ++i) d.arrived(1 * ms);
+  now += s;
+  EXPECT_EQ(d.update(now, 100 * ms, 50 * ms).value_or(-1), 100 * ms);
+}
+
 // lf::CameraAnswer: a camera's answer on the wire equals its fragment
 // rendered and serialized the long way (raw: the same pixels; JPEG: the
 // same bytes), and a quilt's eyes land in their tiles, apart, as the

@@ -1,5 +1,6 @@
 #include "lf/session/compositor_host.h"
 
+#include <algorithm>
 #include <opencv2/core.hpp>
 #include <stdexcept>
 #include <string>
@@ -99,6 +100,31 @@ std::optional<OutputRate::Report> OutputRate::frame(int64_t now_us, bool complet
   return closed;
 }
 
+void ArrivalDeadline::arrived(int64_t age_ns) {
+  if (age_ns < 0) return;
+  if (ages_.size() < kSamples)
+    ages_.push_back(age_ns);
+  else
+    ages_[next_] = age_ns;
+  next_ = (next_ + 1) % kSamples;
+}
+
+std::optional<int64_t> ArrivalDeadline::update(int64_t now_ns, int64_t period_ns, int64_t max_ns) {
+  if (ages_.size() < kMinSamples || (updated_ns_ != INT64_MIN && now_ns - updated_ns_ < kUpdateNs))
+    return std::nullopt;
+  std::vector<int64_t> a = ages_;
+  const auto q = a.begin() + static_cast<std::ptrdiff_t>((a.size() - 1) * 99 / 100);
+  std::nth_element(a.begin(), q, a.end());
+  int64_t want = *q + *q / 5;
+  want = (want + kStepNs - 1) / kStepNs * kStepNs;
+  want = std::clamp(want, period_ns, std::max(period_ns, max_ns));
+  if (want == deadline_ || (deadline_ > 0 && want < deadline_ && want * 4 >= deadline_ * 3))
+    return std::nullopt;
+  deadline_ = want;
+  updated_ns_ = now_ns;
+  return want;
+}
+
 bool FrameBudget::admit(uint64_t sequence, double pixels, double rate, int64_t now_us) {
   if (rate <= 0) return true;
   const auto it = decided_.find(sequence);
@@ -137,7 +163,7 @@ Intake FragmentIntake::take(const uint8_t* data, size_t size, bool check_crc, in
         std::to_string(head.camera_id) + ")";
   if (in.verdict != V::kMalformed) return in;
   in.candidate = window.candidate();
-  switch (window.offer(head.sequence)) {
+  switch (const RequestWindow::Verdict offered = window.offer(head.sequence)) {
     case RequestWindow::Verdict::kAccept:
       break;
     case RequestWindow::Verdict::kFollow:
@@ -145,6 +171,7 @@ Intake FragmentIntake::take(const uint8_t* data, size_t size, bool check_crc, in
       break;
     default:
       in.verdict = V::kOutsideWindow;
+      in.late = offered == RequestWindow::Verdict::kLate;
       return in;
   }
   const double pixels = static_cast<double>(w) * h;  // one eye: the camera hosts count per viewer

@@ -98,6 +98,7 @@ struct Intake {
   // the sequence the window held on probation.
   bool followed = false;
   int64_t candidate = -1;
+  bool late = false;  // kOutsideWindow: behind the window (a request already emitted)
   // A warning's title for a dropped fragment (`why` its detail); null for
   // kAccept, kProbe, kForeign and kOutsideWindow (not warned about).
   const char* summary() const;
@@ -151,6 +152,35 @@ class OutputRate {
  private:
   int64_t start_us_ = -1;
   Report window_;
+};
+
+// The compositor host's deadline from what it sees: how long after a
+// request's time (its running time) the fragments of its requests arrive,
+// so that a host whose cameras take longer than a request period (1080p
+// JPEG on 2 cores: 60-250 ms through 64 cameras) composites complete frames
+// instead of frames short of the slow cameras (what a fixed deadline of one
+// period, Yang et al. 2002 4.3, gives). Ages of the fragments used or late
+// (not probes, not the ones refused) go in; the deadline is their 99th
+// percentile over the last kSamples, plus a fifth, rounded up to kStepNs,
+// never under the request period nor over the cap. It rises as soon as the
+// ages need it and falls only under three quarters of itself, at most once
+// a kUpdateNs (each change re-configures the pipeline's latency).
+class ArrivalDeadline {
+ public:
+  static constexpr size_t kSamples = 2048, kMinSamples = 64;
+  static constexpr int64_t kStepNs = 5'000'000, kUpdateNs = 1'000'000'000;
+  // A fragment that arrived `age_ns` after its request's time (negative:
+  // unknown, ignored).
+  void arrived(int64_t age_ns);
+  // The deadline at `now_ns` for requests every `period_ns`, at most
+  // `max_ns` (>= period_ns): the new value when it changes, else none.
+  std::optional<int64_t> update(int64_t now_ns, int64_t period_ns, int64_t max_ns);
+  int64_t deadline() const { return deadline_; }  // 0 before the first update
+
+ private:
+  std::vector<int64_t> ages_;  // a ring of kSamples
+  size_t next_ = 0;
+  int64_t deadline_ = 0, updated_ns_ = INT64_MIN;
 };
 
 class FragmentIntake {
