@@ -44,9 +44,10 @@ namespace {
 using Settings = lfgst::FragmentSettings;
 using Encoding = lfgst::FragmentEncoding;
 using FrameSelect = lfgst::FrameSelect;
-// Frames kept for frame-select=capture-time (a request may be up to this many
-// frames behind the camera).
-constexpr size_t kFrameRing = 8;
+// Frames kept: frame-select=capture-time (a request up to this many frames
+// behind the camera); else enough for a probe reaching a busy camera late
+// (1080p JPEG, 2 cores: with two, half the cameras sat surface probes out).
+constexpr size_t kFrameRing = 8, kProbeRing = 4;
 
 // From READY->PAUSED to PAUSED->READY.
 struct State {
@@ -74,9 +75,8 @@ struct State {
 struct Priv {
   Settings settings;  // properties (object lock)
   std::unique_ptr<State> state;
-  // The camera's last frames (kFrameRing for frame-select=capture-time,
-  // else two) and the waits between its thread and the request thread
-  // (lib/lf/session/camera_frames.h).
+  // The camera's last frames (kFrameRing or kProbeRing) and the waits
+  // between its thread and the request thread (lib/lf/session/camera_frames.h).
   lf::CameraFrames<lfgst::BufferRef> frames;
   GMutex lock;  // the camera's format
   GstVideoInfo vinfo;
@@ -440,9 +440,9 @@ static gboolean lf_fragment_start(LfFragment* self) {
   st->index = lfgst::camera_index(GST_ELEMENT(self), *st->rig, st->s);
   if (st->index < 0) return FALSE;
   if (!lfgst::open_renderer(GST_ELEMENT(self), st->s.backend, st->renderer)) return FALSE;
-  // The ring: kFrameRing frames for frame-select=capture-time, else the
-  // last two (probes pick by capture time whatever the mode).
-  self->priv->frames.set_keep(st->s.frame_select == FrameSelect::kCaptureTime ? kFrameRing : 2);
+  // Probes pick by capture time whatever the mode.
+  const bool by_time = st->s.frame_select == FrameSelect::kCaptureTime;
+  self->priv->frames.set_keep(by_time ? kFrameRing : kProbeRing);
   self->priv->state = std::move(st);
   self->priv->frames.set_flushing(false);
   return TRUE;
