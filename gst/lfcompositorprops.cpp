@@ -75,18 +75,13 @@ void describe_compositor(GstElementClass* ec) {
   gst_element_class_set_static_metadata(
       ec, "Light field compositor", "Filter/Editor/Video/Compositor",
       "Adds the image fragments of each view request into the output frame, renormalised; "
-      "composites incomplete requests at the deadline (one request period, or the 'latency' "
-      "property, ns) in live pipelines (Yang et al. 2002, 4.3)",
+      "composites incomplete requests at the deadline in live pipelines (one request period, "
+      "longer when the fragments take longer to arrive (adaptive-deadline), or the 'latency' "
+      "property, ns; Yang et al. 2002, 4.3)",
       "lightfield-gst");
   gst_element_class_add_static_metadata(
       ec, "Example",
-      "gst-launch-1.0 lfviewrequest rig=../shared/data/stanford-chess num-buffers=60 "
-      "focal-surface=false ! tee name=t "
-      "t. ! queue ! a.request t. ! queue ! b.request lfcamsrc rig=../shared/data/stanford-chess "
-      "row=4 col=4 ! lffragment name=a rig=../shared/data/stanford-chess row=4 col=4 ! c. "
-      "lfcamsrc rig=../shared/data/stanford-chess row=4 col=5 ! lffragment name=b "
-      "rig=../shared/data/stanford-chess row=4 col=5 ! c. lfcompositor name=c ! videoconvert ! "
-      "autovideosink");
+      LF_TWO_CAMERA_EXAMPLE("c") "lfcompositor name=c ! videoconvert ! autovideosink");
   gst_element_class_add_static_metadata(
       ec, "Events",
       "Upstream custom events it sends: lf-focus (viewer-id, probe-id, inverse-depth, "

@@ -163,6 +163,18 @@ inline GParamSpec* counter_spec(const char* name, const char* nick, const char* 
 }
 
 // Flags of the elements' properties.
+// The adding elements' example (gst-launch-1.0): two Chess cameras (row 4,
+// columns 4 and 5), each through its lffragment into element `into`, which
+// the example then declares.
+#define LF_TWO_CAMERA_EXAMPLE(into)                                                           \
+  "gst-launch-1.0 lfviewrequest rig=../shared/data/stanford-chess num-buffers=60 "            \
+  "focal-surface=false ! tee name=t "                                                         \
+  "t. ! queue ! a.request t. ! queue ! b.request lfcamsrc rig=../shared/data/stanford-chess " \
+  "row=4 col=4 ! lffragment name=a rig=../shared/data/stanford-chess row=4 col=4 ! " into     \
+  ". "                                                                                        \
+  "lfcamsrc rig=../shared/data/stanford-chess row=4 col=5 ! lffragment name=b "               \
+  "rig=../shared/data/stanford-chess row=4 col=5 ! " into ". "
+
 constexpr GParamFlags kReadWriteReady =
     static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY);
 constexpr GParamFlags kReadWritePlaying = static_cast<GParamFlags>(
