@@ -7,9 +7,8 @@
 #include <gst/video/video.h>
 
 #include <chrono>
-#include <deque>
 #include <memory>
-#include <mutex>
+#include <new>
 #include <string>
 
 #include "lf/focus/focus_probe.h"
@@ -25,6 +24,7 @@
 #include "lfcaps.h"
 #include "lffragmentprops.h"
 #include "lfguard.h"
+#include "lfmemory.h"
 #include "lfmeta.h"
 #include "lfprops.h"
 #include "lfrate.h"
@@ -365,7 +365,7 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
           // format (no copy of the pixels).
           const std::vector<lf::Fragment> heads = answer.headers(f, cam.id);
           const size_t size = lf::CameraAnswer::raw_size(heads);
-          out = gst_buffer_new_allocate(nullptr, size, nullptr);
+          if (!(out = lfgst::new_buffer(size))) throw std::bad_alloc();
           lfgst::add_sealed_meta(out);  // while it is writable (sealed by write_raw)
           lfgst::MappedBuffer map(out, GST_MAP_WRITE);
           answer.write_raw(heads, cam, *st->renderer, 0, map.data(), size);

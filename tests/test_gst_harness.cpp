@@ -5,7 +5,9 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <string>
 
@@ -26,6 +28,7 @@
 #include "lf/wire/probe_bundle.h"
 #include "lf/wire/wire.h"
 #include "lfevents.h"
+#include "lfmemory.h"
 #include "lfrate.h"
 #include "lfrig.h"
 
@@ -842,6 +845,54 @@ TEST(RequestLimit, ViewerIdAndBucketsPerViewer) {
 
 // The elements' rig cache (gst/lfrig.h): one entry per file whatever the
 // name used, and an edited file is loaded again.
+// This process's resident memory, KiB (VmRSS).
+static long rss_kib() {
+  FILE* f = std::fopen("/proc/self/status", "r");
+  long kib = -1;
+  char line[256];
+  while (f && std::fgets(line, sizeof line, f))
+    if (std::sscanf(line, "VmRSS: %ld kB", &kib) == 1) break;
+  if (f) std::fclose(f);
+  return kib;
+}
+
+// lfgst::new_buffer: a large buffer has a mapping of its own, taken again
+// by the next buffer of its size, and its pages leave the RSS when the
+// mappings are released (a burst of 4K fragments from glibc's arenas once
+// stayed in it); a small one is an ordinary buffer.
+TEST(LargeBuffers, OwnMappingsReusedThenReturned) {
+  gst_init(nullptr, nullptr);
+  lfgst::release_buffers();
+  const gsize big = 64u << 20;  // 64 MiB
+  const long before = rss_kib();
+  GstBuffer* b = lfgst::new_buffer(big + 5);
+  ASSERT_NE(b, nullptr);
+  EXPECT_EQ(gst_buffer_get_size(b), big + 5);
+  GstMapInfo m;
+  ASSERT_TRUE(gst_buffer_map(b, &m, GST_MAP_WRITE));
+  std::memset(m.data, 7, m.size);  // every page resident
+  const guint8* first = m.data;
+  gst_buffer_unmap(b, &m);
+  EXPECT_GT(rss_kib() - before, 60 * 1024);
+  gst_buffer_unref(b);
+  // Kept for the next buffer of its size: the same pages.
+  b = lfgst::new_buffer(big + 100);
+  ASSERT_TRUE(gst_buffer_map(b, &m, GST_MAP_READ));
+  EXPECT_EQ(m.data, first);
+  EXPECT_EQ(m.data[12345], 7);
+  gst_buffer_unmap(b, &m);
+  gst_buffer_unref(b);
+  // Released: the pages leave the RSS.
+  lfgst::release_buffers();
+  EXPECT_LT(rss_kib() - before, 8 * 1024);
+  // Small: an ordinary buffer, writable.
+  b = lfgst::new_buffer(1000);
+  ASSERT_NE(b, nullptr);
+  EXPECT_EQ(gst_buffer_get_size(b), 1000u);
+  EXPECT_TRUE(gst_buffer_is_writable(b));
+  gst_buffer_unref(b);
+}
+
 TEST(RigCache, CanonicalPathAndEditsReload) {
   namespace fs = std::filesystem;
   const fs::path dir = fs::temp_directory_path() / "lf-rig-cache-test";
