@@ -424,12 +424,12 @@ static void install_properties(GObjectClass* oc) {
       oc, &Settings::request_max_age,
       g_param_spec_uint64(
           "request-max-age", "Request max age",
-          "Live (is-live): a view request still waiting for the cameras (one queue for all of "
-          "them: a request is answered by every camera or dropped by all) behind a request of the "
-          "same viewer this much newer (ns, by their PTS) is dropped as stale; the viewers' "
-          "requests are served in turn, at most 64 wait (lfrequestqueue). lfarray uses at least "
-          "its latency (a request its compositor still waits for is not stale). 0: only each "
-          "viewer's newest request waits (the newest request wins)",
+          "Live: a request waiting for the cameras (one queue for all: answered by every camera "
+          "or dropped by all) behind one of its viewer this much newer (ns, PTS) is dropped; the "
+          "viewers' turns are weighted by output pixels, at most 64 wait (lfrequestqueue). 0: "
+          "the newest request wins; 70 ms also keeps a small-view viewer's requests that come "
+          "while another's large view holds the cameras (+70 ms latency when overloaded). lfarray "
+          "uses at least its latency (a request its compositor still waits for is not stale)",
           0, G_MAXUINT64, DEFAULT_REQUEST_MAX_AGE, rw));
   props.add(
       oc, &Settings::partial_sums,

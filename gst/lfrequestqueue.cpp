@@ -6,11 +6,13 @@
  * of queueing it (lib/lf/session/request_queue.h): for each viewer (its frame
  * requests, and apart from them its focus and surface probes) it keeps only
  * the requests within `max-age` of that viewer's newest (0: the newest
- * alone), at most 64 in all, and serves the viewers in turn, each one's
- * oldest kept request first, on a thread of its own (like `queue`). A
- * camera host that cannot keep the requested rate then answers each
- * viewer's newest work instead of working through a backlog, and a viewer
- * that floods requests takes only its own turns.
+ * alone), at most 64 in all, and serves the viewers in turns weighted by
+ * their requests' output pixels (the caps' width x height: fair queueing,
+ * the viewer served least goes next), each one's oldest kept request
+ * first, on a thread of its own (like `queue`). A camera host that cannot
+ * keep the requested rate then answers each viewer's newest work instead
+ * of working through a backlog, and a viewer that floods requests for
+ * large views takes only its own share, never a viewer of small ones'.
  *
  * lfarray and lfcamerahost put one before their cameras when live. Requests
  * dropped are counted in `dropped`; caps (the view size and rate of the
@@ -64,6 +66,17 @@ guint64 request_key(GstBuffer* buf) {
   for (int i = 12; i < 20 && got >= 20; ++i) seq = seq << 8 | head[i];
   const bool probe = got >= 20 && (lf::is_focus_probe(seq) || lf::is_surface_probe(seq));
   return static_cast<guint64>(viewer) << 1 | (probe ? 1 : 0);
+}
+
+// A request's cost in the viewers' turns (lib/lf/session/request_queue.h):
+// its view's output pixels, from the caps it came with (1 without them).
+double request_cost(GstCaps* caps) {
+  gint w = 0, h = 0;
+  if (caps && gst_caps_get_size(caps) > 0) {
+    const GstStructure* s = gst_caps_get_structure(caps, 0);
+    if (!gst_structure_get_int(s, "width", &w) || !gst_structure_get_int(s, "height", &h)) w = 0;
+  }
+  return w > 0 && h > 0 ? static_cast<double>(w) * h : 1;
 }
 
 // A queued request and the caps it came with (its viewer's view size and
@@ -151,8 +164,8 @@ static GstFlowReturn lf_request_queue_chain(GstPad*, GstObject* parent, GstBuffe
     return ret;
   }
   const GstFlowReturn ret = self->last_ret;
-  const std::vector<Queued> dropped =
-      self->queue->push(key, time, {buf, gst_pad_get_current_caps(self->sinkpad)});
+  GstCaps* caps = gst_pad_get_current_caps(self->sinkpad);
+  const std::vector<Queued> dropped = self->queue->push(key, time, {buf, caps}, request_cost(caps));
   g_cond_signal(&self->cond);
   g_mutex_unlock(&self->lock);
   if (!dropped.empty()) {
@@ -279,7 +292,7 @@ static void lf_request_queue_class_init(LfRequestQueueClass* klass) {
   gst_element_class_set_static_metadata(
       ec, "Light field view request queue", "Generic",
       "Queues view requests on a thread of its own, keeping each viewer's newest (load shed, "
-      "not queued) and serving the viewers in turn",
+      "not queued) and serving the viewers in turns weighted by their views' pixels",
       "lightfield-gst");
   gst_element_class_add_static_metadata(
       ec, "Example",

@@ -76,6 +76,32 @@ TEST(RequestQueue, AgeKeepsRecentRequestsInOrderAndTurnsAlternate) {
   EXPECT_TRUE(q.empty());
 }
 
+// Turns weighted by cost: a viewer of large views (cost 40, 3840x2160
+// against 640x480 is about 27) waiting beside one of small views (cost 1)
+// is served once for every 40 of the other's; an idle key saves no credit.
+TEST(RequestQueue, TurnsWeightedByCost) {
+  lf::RequestQueue<int> q(64, 1000000);
+  std::vector<int> order;
+  for (int round = 0; round < 60; ++round) {
+    q.push(1, static_cast<uint64_t>(round), 100 + round, 40);  // large, always waiting
+    q.push(2, static_cast<uint64_t>(round), 200 + round, 1);
+    order.push_back(q.pop());
+  }
+  int large = 0;
+  for (int v : order) large += v < 200;
+  EXPECT_EQ(large, 2);  // the first turn, then once 40 small ones were served
+  EXPECT_EQ(order.front(), 100);
+  // Key 2 left; key 3 arrives fresh: no credit, no debt: it goes before key 1
+  // (whose tag is ahead), and after one request each they alternate by tag.
+  q.clear();
+  q.push(1, 0, 1, 40);
+  q.push(3, 0, 3, 40);
+  EXPECT_EQ(q.pop(), 1);  // equal tags: key order
+  q.push(1, 1, 11, 40);
+  EXPECT_EQ(q.pop(), 3);
+  EXPECT_EQ(q.pop(), 11);
+}
+
 TEST(RequestQueue, CapacityDropsFromTheLongestQueue) {
   lf::RequestQueue<int> q(4, 1000000);
   q.push(1, 0, 10);

@@ -1,11 +1,16 @@
 // Live load shedding for view requests: a bounded queue that keeps, for
 // each key (a viewer's frame requests, or its probes), only the requests
 // within `max_age` of that key's newest (0: the newest alone: "the newest
-// request wins"), and serves the keys in turn (round robin, in key order),
-// each key's oldest kept request first. So a host that cannot keep up
-// answers each viewer's newest work instead of working through stale
-// requests (latency bounded by the age, not by the backlog), and one
-// viewer's flood takes its own turn only, never another viewer's.
+// request wins"), and serves the keys in turns weighted by what their
+// requests cost (a request's cost: its output pixels), each key's oldest
+// kept request first: the key served least, in cost, goes next (start-time
+// fair queueing: a key's tag is the cost served to it, never below the
+// virtual time, the tag of the last request served, so a key that was idle
+// has no credit saved up); keys of equal tags take turns in key order. So
+// a host that cannot keep up answers each viewer's newest work instead of
+// working through stale requests (latency bounded by the age, not by the
+// backlog), and one viewer's flood of large views takes its own share,
+// never another viewer's: a viewer of small views goes first.
 //
 // Plain C++, no GStreamer: the lfrequestqueue element is its glue. Times
 // are the requests' own (their PTS, ns; the caller gives arrival time when
@@ -33,10 +38,11 @@ class RequestQueue {
   // Queues `value` under `key` at `time_ns`; returns what it displaced
   // (stale requests of the same key, then the oldest request of the
   // longest queue while over capacity), for the caller to release.
-  std::vector<T> push(uint64_t key, uint64_t time_ns, T value) {
+  // `cost` (> 0) is what serving it takes, e.g. its output pixels.
+  std::vector<T> push(uint64_t key, uint64_t time_ns, T value, double cost = 1) {
     std::vector<T> dropped;
     std::deque<Item>& q = keys_[key];
-    q.push_back({time_ns, std::move(value)});
+    q.push_back({time_ns, cost > 0 ? cost : 1, std::move(value)});
     ++size_;
     // Stale: behind a newer request of the same key by more than the age.
     while (q.size() > 1 && (max_age_ == 0 || q.front().time + max_age_ < time_ns)) {
@@ -59,11 +65,31 @@ class RequestQueue {
   bool empty() const { return size_ == 0; }
   size_t size() const { return size_; }
 
-  // The next request in turn (the caller checks !empty()): the first key
-  // after the one served last, wrapping, and its oldest request.
+  // The next request in turn (the caller checks !empty()): the oldest
+  // request of the key of the lowest tag, among equal ones the first key
+  // after the one served last, wrapping.
   T pop() {
-    auto it = served_any_ ? keys_.upper_bound(last_) : keys_.begin();
-    if (it == keys_.end()) it = keys_.begin();
+    auto first = served_any_ ? keys_.upper_bound(last_) : keys_.begin();
+    if (first == keys_.end()) first = keys_.begin();
+    auto it = first;
+    double lowest = tag(it->first);
+    for (auto k = std::next(first);; ++k) {
+      if (k == keys_.end()) k = keys_.begin();
+      if (k == first) break;
+      if (const double t = tag(k->first); t < lowest) lowest = t, it = k;
+    }
+    vtime_ = lowest;
+    tags_[it->first] = lowest + it->second.front().cost;
+    // Tags at or below the virtual time say nothing (a key starts there):
+    // dropped, and at most kTags kept (the lowest go first).
+    for (auto t = tags_.begin(); t != tags_.end();)
+      t = t->second <= vtime_ ? tags_.erase(t) : std::next(t);
+    while (tags_.size() > kTags) {
+      auto low = tags_.begin();
+      for (auto t = tags_.begin(); t != tags_.end(); ++t)
+        if (t->second < low->second) low = t;
+      tags_.erase(low);
+    }
     last_ = it->first;
     served_any_ = true;
     T value = std::move(it->second.front().value);
@@ -79,19 +105,29 @@ class RequestQueue {
     for (auto& [key, q] : keys_)
       for (Item& i : q) all.push_back(std::move(i.value));
     keys_.clear();
+    tags_.clear();
     size_ = 0;
+    vtime_ = 0;
     served_any_ = false;
     return all;
   }
 
  private:
+  static constexpr size_t kTags = 256;  // keys whose served cost is remembered
   struct Item {
     uint64_t time;
+    double cost;
     T value;
   };
+  double tag(uint64_t key) const {
+    const auto t = tags_.find(key);
+    return t != tags_.end() && t->second > vtime_ ? t->second : vtime_;
+  }
   size_t capacity_;
   uint64_t max_age_;
   std::map<uint64_t, std::deque<Item>> keys_;
+  std::map<uint64_t, double> tags_;  // cost served, beyond vtime_
+  double vtime_ = 0;
   size_t size_ = 0;
   uint64_t last_ = 0;
   bool served_any_ = false;
