@@ -48,17 +48,35 @@ lf::ViewRequest view_request(uint32_t viewer, uint64_t seq, cv::Vec3d eye,
 // turn, and the capacity takes the oldest of the longest queue.
 TEST(RequestQueue, NewestWinsPerKeyAndKeysTakeTurns) {
   lf::RequestQueue<int> q(64, 0);
-  // Key 1 floods 10 requests, key 2 sends 2: only each key's newest waits.
+  // Keys are viewer << 1 | probe: 2 and 4 are two viewers. Viewer 2 floods
+  // 10 requests alone: only its newest waits. Viewer 4 sends 3 while viewer
+  // 2's waits: not over its share, it keeps them (kHeld).
   std::vector<int> dropped;
   for (int i = 0; i < 10; ++i)
-    for (int d : q.push(1, 1000 + i, 100 + i)) dropped.push_back(d);
-  for (int i = 0; i < 2; ++i)
-    for (int d : q.push(2, 1000 + i, 200 + i)) dropped.push_back(d);
-  EXPECT_EQ(q.size(), 2u);
-  EXPECT_EQ(dropped.size(), 10u);
-  EXPECT_EQ(q.pop(), 109);
+    for (int d : q.push(2, 1000 + i, 100 + i)) dropped.push_back(d);
+  for (int i = 0; i < 4; ++i)
+    for (int d : q.push(4, 1000 + i, 200 + i)) dropped.push_back(d);
+  EXPECT_EQ(q.size(), 4u);
+  EXPECT_EQ(dropped.size(), 10u);  // 100..108, and 200 (over kHeld)
+  EXPECT_EQ(q.pop(), 109);  // equal tags: key order
   EXPECT_EQ(q.pop(), 201);
+  EXPECT_EQ(q.pop(), 202);
+  EXPECT_EQ(q.pop(), 203);
   EXPECT_TRUE(q.empty());
+  // Over its share (viewer 4 was just served three times), the newest wins
+  // again for it while viewer 2 waits; a viewer's own probe key (5) is not
+  // another viewer.
+  q.push(2, 2000, 110);
+  q.push(4, 2000, 210);
+  q.push(4, 2001, 211);
+  EXPECT_EQ(q.size(), 2u);
+  EXPECT_EQ(q.pop(), 110);
+  EXPECT_EQ(q.pop(), 211);
+  q.push(5, 3000, 500);
+  q.push(4, 3000, 220);
+  q.push(4, 3001, 221);
+  EXPECT_EQ(q.size(), 2u);
+  q.clear();
 }
 
 TEST(RequestQueue, AgeKeepsRecentRequestsInOrderAndTurnsAlternate) {

@@ -1,7 +1,8 @@
 // Live load shedding for view requests: a bounded queue that keeps, for
 // each key (a viewer's frame requests, or its probes), only the requests
 // within `max_age` of that key's newest (0: the newest alone: "the newest
-// request wins"), and serves the keys in turns weighted by what their
+// request wins", unless another viewer's requests held it: see push()),
+// and serves the keys in turns weighted by what their
 // requests cost (a request's cost: its output pixels), each key's oldest
 // kept request first: the key served least, in cost, goes next (start-time
 // fair queueing: a key's tag is the cost served to it, never below the
@@ -45,7 +46,14 @@ class RequestQueue {
     q.push_back({time_ns, cost > 0 ? cost : 1, std::move(value)});
     ++size_;
     // Stale: behind a newer request of the same key by more than the age.
-    while (q.size() > 1 && (max_age_ == 0 || q.front().time + max_age_ < time_ns)) {
+    // With age 0, a key not over its share (its tag at the virtual time)
+    // while another viewer's requests wait keeps up to kHeld: what held them
+    // was that viewer's work, not its own backlog (a 640x480 viewer's
+    // requests that came while a 3840x2160 one held the cameras).
+    size_t keep = SIZE_MAX;  // with an age, the age alone
+    if (max_age_ == 0) keep = tag(key) <= vtime_ && other_viewer_waiting(key) ? kHeld : 1;
+    while (q.size() > keep ||
+           (q.size() > 1 && max_age_ > 0 && q.front().time + max_age_ < time_ns)) {
       dropped.push_back(std::move(q.front().value));
       q.pop_front();
       --size_;
@@ -114,6 +122,14 @@ class RequestQueue {
 
  private:
   static constexpr size_t kTags = 256;  // keys whose served cost is remembered
+  static constexpr size_t kHeld = 3;    // requests a key under its share keeps (age 0)
+  // Whether a key of another viewer (keys: viewer << 1 | probe) has
+  // requests waiting.
+  bool other_viewer_waiting(uint64_t key) const {
+    for (const auto& [k, q] : keys_)
+      if ((k >> 1) != (key >> 1) && !q.empty()) return true;
+    return false;
+  }
   struct Item {
     uint64_t time;
     double cost;
