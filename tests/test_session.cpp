@@ -58,7 +58,7 @@ TEST(RequestQueue, NewestWinsPerKeyAndKeysTakeTurns) {
     for (int d : q.push(4, 1000 + i, 200 + i)) dropped.push_back(d);
   EXPECT_EQ(q.size(), 4u);
   EXPECT_EQ(dropped.size(), 10u);  // 100..108, and 200 (over kHeld)
-  EXPECT_EQ(q.pop(), 109);  // equal tags: key order
+  EXPECT_EQ(q.pop(), 109);         // equal tags: key order
   EXPECT_EQ(q.pop(), 201);
   EXPECT_EQ(q.pop(), 202);
   EXPECT_EQ(q.pop(), 203);
