@@ -299,7 +299,7 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
   lf::Intake in = st->intake->take(mapped->data(), mapped->size(), !lfgst::has_sealed_meta(buf), w,
                                    h, st->s.stereo, t0);
   const lf::FragmentHeader& head = in.head;
-  if (in.verdict == V::kAccept || in.late)  // how late fragments come: the adaptive deadline
+  if (st->s.adaptive_deadline && (in.verdict == V::kAccept || in.late))  // how late they come
     self->priv->deadline.arrived(GST_AGGREGATOR(self), pad, buf);
   if (in.verdict == V::kProbe)
     return absorb_probe_answer(self, st, mapped->data(), mapped->size(), w, h);

@@ -61,17 +61,13 @@ void give_back(gpointer m) {
 }  // namespace
 
 GstBuffer* new_buffer(gsize size) {
-  const gint64 now = g_get_monotonic_time();
-  if (cached_bytes.load() > 0) {
-    std::lock_guard<std::mutex> hold(cache_lock);
-    expire(now - kIdleUs);
-  }
-  if (size < kOwnMappingBytes) return gst_buffer_new_allocate(nullptr, size, nullptr);
+  const bool own = size >= kOwnMappingBytes;
   const gsize mapped = (size + kOwnMappingBytes - 1) / kOwnMappingBytes * kOwnMappingBytes;
   void* data = nullptr;
-  {
+  if (own || cached_bytes.load() > 0) {  // expiry, then a mapping of this size if kept
     std::lock_guard<std::mutex> hold(cache_lock);
-    for (auto it = cache.rbegin(); it != cache.rend(); ++it)
+    expire(g_get_monotonic_time() - kIdleUs);
+    for (auto it = cache.rbegin(); own && it != cache.rend(); ++it)
       if (it->size == mapped) {
         data = it->data;
         cached_bytes -= mapped;
@@ -79,6 +75,7 @@ GstBuffer* new_buffer(gsize size) {
         break;
       }
   }
+  if (!own) return gst_buffer_new_allocate(nullptr, size, nullptr);
   if (!data)
     data = mmap(nullptr, mapped, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
   if (data == MAP_FAILED) return nullptr;

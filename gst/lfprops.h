@@ -163,6 +163,13 @@ inline GParamSpec* counter_spec(const char* name, const char* nick, const char* 
 }
 
 // Flags of the elements' properties.
+constexpr GParamFlags kReadWriteReady =
+    static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY);
+constexpr GParamFlags kReadWritePlaying = static_cast<GParamFlags>(
+    G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
+
+}  // namespace lfgst
+
 // The adding elements' example (gst-launch-1.0): two Chess cameras (row 4,
 // columns 4 and 5), each through its lffragment into element `into`, which
 // the example then declares.
@@ -174,13 +181,6 @@ inline GParamSpec* counter_spec(const char* name, const char* nick, const char* 
   ". "                                                                                        \
   "lfcamsrc rig=../shared/data/stanford-chess row=4 col=5 ! lffragment name=b "               \
   "rig=../shared/data/stanford-chess row=4 col=5 ! " into ". "
-
-constexpr GParamFlags kReadWriteReady =
-    static_cast<GParamFlags>(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY);
-constexpr GParamFlags kReadWritePlaying = static_cast<GParamFlags>(
-    G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
-
-}  // namespace lfgst
 
 // The GObject glue every element shares: set_property / get_property through
 // the element's `props` table on `self->priv->settings`, and finalize

@@ -2,16 +2,16 @@
 // each key (a viewer's frame requests, or its probes), only the requests
 // within `max_age` of that key's newest (0: the newest alone: "the newest
 // request wins", unless another viewer's requests held it: see push()),
-// and serves the keys in turns weighted by what their
-// requests cost (a request's cost: its output pixels), each key's oldest
-// kept request first: the key served least, in cost, goes next (start-time
-// fair queueing: a key's tag is the cost served to it, never below the
-// virtual time, the tag of the last request served, so a key that was idle
-// has no credit saved up); keys of equal tags take turns in key order. So
-// a host that cannot keep up answers each viewer's newest work instead of
-// working through stale requests (latency bounded by the age, not by the
-// backlog), and one viewer's flood of large views takes its own share,
-// never another viewer's: a viewer of small views goes first.
+// and serves the keys in turns weighted by what their requests cost (a
+// request's cost: its output pixels), each key's oldest kept request
+// first: the key served least, in cost, goes next (start-time fair
+// queueing: a key's tag is the cost served to it, never below the virtual
+// time, the tag of the last request served, so a key that was idle has no
+// credit saved up); keys of equal tags take turns in key order. So a host
+// that cannot keep up answers each viewer's newest work instead of working
+// through stale requests (latency bounded by the age, not by the backlog),
+// and one viewer's flood of large views takes its own share, never another
+// viewer's: a viewer of small views goes first.
 //
 // Plain C++, no GStreamer: the lfrequestqueue element is its glue. Times
 // are the requests' own (their PTS, ns; the caller gives arrival time when
@@ -89,10 +89,10 @@ class RequestQueue {
     vtime_ = lowest;
     tags_[it->first] = lowest + it->second.front().cost;
     // Tags at or below the virtual time say nothing (a key starts there):
-    // dropped, and at most kTags kept (the lowest go first).
+    // dropped, and at most kTags kept (the lowest goes: one tag is added a pop).
     for (auto t = tags_.begin(); t != tags_.end();)
       t = t->second <= vtime_ ? tags_.erase(t) : std::next(t);
-    while (tags_.size() > kTags) {
+    if (tags_.size() > kTags) {
       auto low = tags_.begin();
       for (auto t = tags_.begin(); t != tags_.end(); ++t)
         if (t->second < low->second) low = t;
