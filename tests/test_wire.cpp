@@ -18,6 +18,7 @@
 #include "lf/render/render.h"
 #include "lf/render/render_view.h"
 #include "lf/wire/probe_bundle.h"
+#include "lf/wire/rtp_guard.h"
 #include "lf/wire/wire.h"
 
 namespace {
@@ -1017,4 +1018,149 @@ TEST(Wire, FrameAnswersAreOneFragmentALayerPairOrQuiltEyes) {
   EXPECT_THROW(parse(concat({pair, tile_fragment(0, 0, 8, 8, 1)}), frame), lf::WireError);
   // A truncated buffer.
   EXPECT_THROW(parse(std::vector<uint8_t>(quilt.begin(), quilt.end() - 1), frame), lf::WireError);
+}
+
+// RTP sequence and timestamp checks of plain RTP (lf/wire/rtp_guard.h): a
+// stream of 90 kHz packets (bursts of 4 every 10 ms, the sender's clock
+// starting at a random offset), with packets forged under its SSRC.
+namespace {
+struct RtpStream {
+  uint16_t seq = 61000;  // wraps within the test
+  uint32_t ts0 = 0xfffe0000u;
+  int64_t t_us = 1000000;
+  int n = 0;
+  // The next packet, 10 ms after the last burst began every 4th packet.
+  std::pair<uint16_t, uint32_t> next() {
+    if (n % 4 == 0 && n) t_us += 10000;
+    ++n;
+    return {seq++, ts0 + static_cast<uint32_t>(t_us * 9 / 100)};
+  }
+};
+}  // namespace
+
+TEST(RtpGuard, ForgedPacketsWithTheSsrcNeitherPassNorMoveTheWindow) {
+  using V = lf::RtpSequenceGuard::Verdict;
+  lf::RtpSequenceGuard guard(90000);
+  RtpStream s;
+  std::mt19937 rng(7);
+  int real_dropped = 0, forged_passed = 0, forged = 0;
+  // Jumps as the issue lists them: +4000, +3 and +1..+10 ahead of the
+  // stream, with an unknown (random) timestamp, and with the stream's own
+  // (an attacker who saw one packet) for the jump, in runs of two in
+  // sequence as a packetiser sends them.
+  const int jumps[] = {4000, 3, 1, 2, 4, 5, 6, 7, 8, 9, 10};
+  for (int i = 0; i < 4000; ++i) {
+    const auto [seq, ts] = s.next();
+    const V v = guard.check(seq, ts, s.t_us);
+    if (i == 0) {
+      EXPECT_EQ(v, V::probation);  // RFC 3550 A.1: a new source's first packet
+    } else if (v != V::accept) {
+      ++real_dropped;
+    }
+    if (i >= 20 && i % 5 == 2) {  // once the window is established
+      const int jump = jumps[(i / 5) % 11];
+      const bool known_ts = jump == 4000;
+      for (int k = 0; k < 2; ++k) {
+        const uint16_t fseq = static_cast<uint16_t>(seq + jump + k);
+        const uint32_t fts = known_ts ? ts : static_cast<uint32_t>(rng());
+        ++forged;
+        if (guard.check(fseq, fts, s.t_us) == V::accept) ++forged_passed;
+      }
+    }
+  }
+  EXPECT_EQ(real_dropped, 0);
+  // A random timestamp lands in the plausible range (2 s and the 10 ms
+  // since the last packet, at 90 kHz) about once in 23,600: 0.06 expected
+  // of the 1,450 in the window, 2 or more with probability 0.002.
+  EXPECT_LE(forged_passed, 1) << "of " << forged;
+  EXPECT_EQ(guard.restarts(), 0);
+}
+
+TEST(RtpGuard, LossReorderingAndARestartedSenderAreTheStreams) {
+  using V = lf::RtpSequenceGuard::Verdict;
+  lf::RtpSequenceGuard guard(90000);
+  RtpStream s;
+  std::mt19937 rng(3);
+  int dropped = 0, sent = 0;
+  uint16_t held_seq = 0;
+  uint32_t held_ts = 0;
+  bool holding = false;
+  for (int i = 0; i < 3000; ++i) {
+    const auto [seq, ts] = s.next();
+    if (i > 1 && rng() % 20 == 0) continue;      // 5 % lost
+    if (i > 1 && !holding && rng() % 25 == 0) {  // arrives after the next one
+      held_seq = seq, held_ts = ts, holding = true;
+      continue;
+    }
+    ++sent;
+    if (guard.check(seq, ts, s.t_us) != V::accept && i > 0) ++dropped;
+    if (holding && (++sent, guard.check(held_seq, held_ts, s.t_us) != V::accept)) ++dropped;
+    holding = false;
+  }
+  EXPECT_EQ(dropped, 0) << "of " << sent;
+  // The sender restarts: a new random sequence number and clock offset,
+  // 300 ms after its last packet. Its packets are a jump until they
+  // outnumber the old sequence's (counts decaying over 1 s): here after
+  // about 0.45 s; from then on each is the stream's.
+  RtpStream r;
+  r.seq = 30000;
+  r.ts0 = 123456789u;
+  r.t_us = s.t_us + 300000;
+  const int64_t restart_us = r.t_us;
+  int64_t taken_us = -1;
+  int after = 0, accepted_after = 0;
+  for (int i = 0; i < 1200; ++i) {
+    const auto [seq, ts] = r.next();
+    const V v = guard.check(seq, ts, r.t_us);
+    if (taken_us < 0 && v == V::accept) taken_us = r.t_us;
+    if (taken_us >= 0) ++after, accepted_after += v == V::accept;
+  }
+  EXPECT_EQ(guard.restarts(), 1);
+  EXPECT_GT(taken_us - restart_us, 200000);
+  EXPECT_LT(taken_us - restart_us, 1000000);
+  EXPECT_EQ(accepted_after, after);
+}
+
+TEST(RtpGuard, AWindowTakenByForgedPacketsFirstIsTakenBack) {
+  using V = lf::RtpSequenceGuard::Verdict;
+  lf::RtpSequenceGuard guard(90000);
+  // Two forged packets in sequence before the stream's first: the window is
+  // theirs until the stream's packets outnumber them (its third).
+  EXPECT_EQ(guard.check(30000, 5, 0), V::probation);
+  EXPECT_EQ(guard.check(30001, 5, 10), V::accept);
+  RtpStream s;
+  s.t_us = 20;
+  int accepted = 0;
+  for (int i = 0; i < 50; ++i) {
+    const auto [seq, ts] = s.next();
+    if (guard.check(seq, ts, s.t_us) == V::accept) ++accepted;
+  }
+  EXPECT_GE(accepted, 47);  // from the one after which the stream outnumbers them
+  EXPECT_EQ(guard.restarts(), 1);
+  // And the forged run cannot come back while the stream flows.
+  EXPECT_EQ(guard.check(30002, 5, s.t_us), V::jump);
+  EXPECT_EQ(guard.check(30003, 5, s.t_us), V::jump);
+}
+
+TEST(RtpGuard, AStreamInsideAForgedWindowIsStillFollowed) {
+  using V = lf::RtpSequenceGuard::Verdict;
+  lf::RtpSequenceGuard guard(90000);
+  // A forged pair takes the window before the stream starts, with sequence
+  // numbers just below the stream's: the stream's packets fall in that
+  // window, but not its timestamps. They are followed all the same, and
+  // the stream's second packet outnumbers the pair (whose count decayed).
+  RtpStream s;
+  EXPECT_EQ(guard.check(s.seq - 10, 5, 0), V::probation);
+  EXPECT_EQ(guard.check(s.seq - 9, 5, 10), V::accept);
+  s.t_us = 20;
+  int accepted = 0;
+  for (int i = 0; i < 50; ++i) {
+    const auto [seq, ts] = s.next();
+    const V v = guard.check(seq, ts, s.t_us);
+    if (i == 0) {
+      EXPECT_EQ(v, V::timestamp);
+    }
+    accepted += v == V::accept;
+  }
+  EXPECT_EQ(accepted, 49);
 }

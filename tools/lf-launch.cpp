@@ -41,6 +41,9 @@
 //    beside RTX=1 left 7 of 67 frames a fragment or two short once in 11
 //    runs). A sender that forges the allowed address is still let in: on
 //    an untrusted network, authenticate (SRTP_KEY, without RTX).
+// Every plain RTP receiver (udpsrc with RTP caps naming an SSRC) drops
+// packets whose sequence number or timestamp is not its stream's
+// (launch_guard.h).
 // Every srtpdec is watched: a stream that stops authenticating while its
 // packets keep coming (a sender restarted within the session) has its
 // SRTP state reset, so the sender is heard again (see guard_srtp).
@@ -55,6 +58,8 @@
 #include <cstring>
 #include <string>
 #include <vector>
+
+#include "launch_guard.h"
 
 namespace {
 
@@ -545,6 +550,7 @@ int main(int argc, char** argv) {
     if (pt_clock.rate > 0) answer_pt_maps(p, &pt_clock);
     guard_rtp(p, rtx_budget, rtcp_from);
     guard_srtp(p);
+    guard_plain_rtp(p);
     // A failure here is posted on the bus and reported below.
     gst_element_set_state(p, GST_STATE_PAUSED);
     return p;
