@@ -326,6 +326,41 @@ TEST(Wire, JpegTablesAreLeftOutAndPutBack) {
   }
 }
 
+// A JPEG whose header TurboJPEG refuses (a forged fragment with one byte
+// changed and its CRC made right again, as lf-hostile sends) must not
+// leave this thread's decompressor unable to read the next, good one: it
+// did ("Bogus marker length" for every later fragment decoded on that
+// thread, which in the emulated deployment was one camera host's port).
+TEST(Wire, ABadJpegDoesNotSpoilTheNextOnes) {
+  const lf::Fragment f = sample_fragment();
+  const auto good = lf::serialize_fragment(f, lf::Encoding::kJpeg, 90);
+  const size_t at = lf::kFragmentHeaderSize + 4 * f.rect.height;
+  const uint32_t csize = (uint32_t{good[at + 1]} << 24) | (uint32_t{good[at + 2]} << 16) |
+                         (uint32_t{good[at + 3]} << 8) | good[at + 4];
+  for (const char* stream : {"colour", "weight"}) {
+    // The stream's start of scan (its tables are left out: SOI, APP0, SOF,
+    // SOS), its length 8 (+ 2 per component) made 0x2xx.
+    const size_t begin = std::string(stream) == "colour" ? at + 5 : at + 5 + csize;
+    size_t sos = 0;
+    for (size_t i = begin; i + 1 < good.size() && !sos; ++i)
+      if (good[i] == 0xFF && good[i + 1] == 0xDA) sos = i;
+    ASSERT_GT(sos, begin);
+    auto bad = good;
+    bad[sos + 2] ^= 0x02;
+    resign_fragment(bad);
+    for (int round = 0; round < 3; ++round) {
+      try {
+        lf::parse_fragment(bad.data(), bad.size());
+        FAIL() << "accepted";
+      } catch (const lf::WireError& e) {
+        EXPECT_NE(std::string(e.what()).find(stream), std::string::npos) << e.what();
+      }
+      const lf::Fragment g = lf::parse_fragment(good.data(), good.size());
+      EXPECT_EQ(g.pixels.size(), f.pixels.size()) << stream << " " << round;
+    }
+  }
+}
+
 TEST(Wire, FragmentHeaderCanBePeeked) {
   const lf::Fragment f = sample_fragment();
   const auto b = lf::serialize_fragment(f, lf::Encoding::kJpeg);

@@ -39,10 +39,19 @@ tjhandle compressor() {
   if (!h) throw std::runtime_error("TurboJPEG: cannot create a compressor");
   return h.get();
 }
-tjhandle decompressor() {
-  thread_local TjHandle h(tjInitDecompress());
+// This thread's decompressor. After TurboJPEG refuses a stream (an error
+// in its header or data), the handle is made anew: libjpeg's marker reader
+// keeps the refused stream's state, and every later stream read with that
+// handle failed ("Bogus marker length"), so one bad fragment from a peer
+// stopped every good one decoded on that thread after it.
+TjHandle& decompressor_handle() {
+  thread_local TjHandle h;
+  if (!h) h.reset(tjInitDecompress());
   if (!h) throw std::runtime_error("TurboJPEG: cannot create a decompressor");
-  return h.get();
+  return h;
+}
+tjhandle decompressor() {
+  return decompressor_handle().get();
 }
 
 [[noreturn]] void bad_fragment(const std::string& what) {
@@ -198,9 +207,16 @@ void pad_outside_spans(uint8_t* rgba, int w, int h,
 void decompress(const uint8_t* j, size_t n, int w, int h, JpegKind kind, uint8_t* out,
                 const char* what) {
   int jw = 0, jh = 0, sub = 0, cs = 0;
+  // The error's text, then a fresh handle for the next stream.
+  auto refuse = [&](const char* part) {
+    const std::string why =
+        std::string(what) + " JPEG " + part + ": " + tjGetErrorStr2(decompressor());
+    decompressor_handle().reset();
+    bad_fragment(why);
+  };
   if (tjDecompressHeader3(decompressor(), j, static_cast<unsigned long>(n), &jw, &jh, &sub, &cs) !=
       0)
-    bad_fragment(std::string(what) + " JPEG header: " + tjGetErrorStr2(decompressor()));
+    refuse("header");
   if (jw != w || jh != h)
     bad_fragment(std::string(what) + " JPEG is " + std::to_string(jw) + "x" + std::to_string(jh) +
                  ", expected " + std::to_string(w) + "x" + std::to_string(h));
@@ -210,7 +226,7 @@ void decompress(const uint8_t* j, size_t n, int w, int h, JpegKind kind, uint8_t
   if (tjDecompress2(decompressor(), j, static_cast<unsigned long>(n), out, w, w * (colour ? 4 : 1),
                     h, colour ? TJPF_RGBX : TJPF_GRAY,
                     TJFLAG_STOPONWARNING | TJFLAG_LIMITSCANS) != 0)
-    bad_fragment(std::string(what) + " JPEG data: " + tjGetErrorStr2(decompressor()));
+    refuse("data");
 }
 
 }  // namespace
