@@ -23,6 +23,10 @@
 // stream's real one (net-host.sh's fixed SSRCs: requests 4096, camera host
 // K's fragments 8192 + K, video 12288), as an attacker who has seen one
 // packet of the stream would send them; without it, rtpgstpay's random SSRC.
+// With --follow GROUP:PORT it reads the view requests in their multicast
+// group, as anyone on the camera network can, and aims three in four forged
+// sequences just ahead of the newest (+1..+10, +3, +4000): the request
+// window's and the RTP sequence check's cases (docs/reliability.md).
 // Counts per kind are printed at the end ("sent KIND N").
 #include <gio/gio.h>
 #include <gst/app/gstappsrc.h>
@@ -158,10 +162,17 @@ class Attacker {
                                     1.0};
     return values[pick(8)];
   }
+  // With a request sequence seen (--follow), three in four are just ahead
+  // of it (+1..+10, +3 or +4000), as a forger would aim.
   uint64_t hostile_sequence() {
     static const uint64_t values[] = {0, 1, (1ull << 63) - 1, ~0ull, 1ull << 32};
+    static const uint64_t jumps[] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 3, 4000};
+    if (seen_ && pick(4) != 0) return seen_ + jumps[pick(12)];
     return pick(3) == 0 ? rng_() : values[pick(5)];
   }
+  // The newest request sequence seen (0: none).
+  void saw(uint64_t sequence) { seen_ = std::max(seen_, sequence); }
+  uint64_t seen() const { return seen_; }
   uint32_t camera_id() {
     return pick(4) == 0 ? static_cast<uint32_t>(rng_()) : cameras_[pick(cameras_.size())];
   }
@@ -248,6 +259,58 @@ class Attacker {
  private:
   std::mt19937_64 rng_;
   std::vector<int> cameras_;
+  uint64_t seen_ = 0;
+};
+
+// --follow: the view requests' multicast group, read without blocking; each
+// datagram holding an lf view request ("LFVR", wire.h) gives its sequence
+// (bytes 12..19, big-endian). Not parsed further: the attacker only aims.
+struct Follower {
+  GSocket* sock = nullptr;
+  guint64 requests = 0;
+  bool open(const std::string& group, int port) {
+    GError* err = nullptr;
+    GInetAddress* g = g_inet_address_new_from_string(group.c_str());
+    if (!g || !g_inet_address_get_is_multicast(g)) {
+      std::fprintf(stderr, "lf-hostile: error: --follow %s is not a multicast group\n",
+                   group.c_str());
+      if (g) g_object_unref(g);
+      return false;
+    }
+    sock = g_socket_new(G_SOCKET_FAMILY_IPV4, G_SOCKET_TYPE_DATAGRAM, G_SOCKET_PROTOCOL_UDP, &err);
+    GInetAddress* any = g_inet_address_new_any(G_SOCKET_FAMILY_IPV4);
+    GSocketAddress* at = g_inet_socket_address_new(any, static_cast<guint16>(port));
+    const bool ok = sock && g_socket_bind(sock, at, TRUE, &err) &&
+                    g_socket_join_multicast_group(sock, g, FALSE, nullptr, &err);
+    g_object_unref(at);
+    g_object_unref(any);
+    g_object_unref(g);
+    if (!ok) {
+      std::fprintf(stderr, "lf-hostile: error: --follow: %s\n", err ? err->message : "socket");
+      g_clear_error(&err);
+      return false;
+    }
+    g_socket_set_blocking(sock, FALSE);
+    return true;
+  }
+  void read(Attacker& a) {
+    if (!sock) return;
+    gchar buf[2048];
+    for (;;) {
+      const gssize n = g_socket_receive(sock, buf, sizeof buf, nullptr, nullptr);
+      if (n <= 0) return;
+      const std::string d(buf, static_cast<size_t>(n));
+      const size_t at = d.find("LFVR");
+      if (at == std::string::npos || at + 20 > d.size()) continue;
+      uint64_t seq = 0;
+      for (int i = 0; i < 8; ++i) seq = seq << 8 | static_cast<uint8_t>(d[at + 12 + i]);
+      a.saw(seq);
+      ++requests;
+    }
+  }
+  ~Follower() {
+    if (sock) g_object_unref(sock);
+  }
 };
 
 GstCaps* hostile_caps(Attacker& a, bool requests) {
@@ -266,6 +329,7 @@ int main(int argc, char** argv) {
   gchar** fragment_opts = nullptr;
   gchar** nack_opts = nullptr;
   gchar* cameras_opt = nullptr;
+  gchar* follow_opt = nullptr;
   gdouble rate = 1000, duration = 10;
   gint seed = 1;
   const GOptionEntry entries[] = {
@@ -285,6 +349,10 @@ int main(int argc, char** argv) {
        "HZ"},
       {"duration", 0, 0, G_OPTION_ARG_DOUBLE, &duration, "Seconds to run (default 10)", "S"},
       {"seed", 0, 0, G_OPTION_ARG_INT, &seed, "Random seed (default 1)", "N"},
+      {"follow", 0, 0, G_OPTION_ARG_STRING, &follow_opt,
+       "The view requests' multicast group: their sequences are read, and three in four forged "
+       "requests and fragments aim just ahead (+1..+10, +3, +4000)",
+       "GROUP:PORT"},
       {"camera-ids", 0, 0, G_OPTION_ARG_STRING, &cameras_opt,
        "Real camera ids to forge (comma-separated; default 0..63)", "IDS"},
       {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
@@ -371,7 +439,8 @@ int main(int argc, char** argv) {
     g_object_set(pay, "config-interval", 1, nullptr);
     if (t.ssrc >= 0) g_object_set(pay, "ssrc", static_cast<guint>(t.ssrc), nullptr);
     g_object_set(sink, "host", t.host.c_str(), "port", t.port, "sync", FALSE, "async", FALSE,
-                 "auto-multicast", TRUE, "ttl-mc", 1, nullptr);
+                 "auto-multicast", TRUE, "ttl-mc", 1, "loop", FALSE,
+                 nullptr);  // not heard by --follow
     gst_bin_add_many(GST_BIN(pipe), src, pay, sink, nullptr);
     gst_element_link_many(src, pay, sink, nullptr);
     branches.push_back({src, req});
@@ -388,6 +457,7 @@ int main(int argc, char** argv) {
   }
   g_socket_set_blocking(sock, FALSE);
   g_socket_set_multicast_ttl(sock, 1);
+  g_socket_set_multicast_loopback(sock, FALSE);
   std::vector<GSocketAddress*> addrs;
   for (const auto& tr : targets)
     addrs.push_back(g_inet_socket_address_new_from_string(tr.first.host.c_str(), tr.first.port));
@@ -407,6 +477,15 @@ int main(int argc, char** argv) {
     }
 
   Attacker a(static_cast<uint32_t>(seed), ids);
+  Follower follower;
+  if (follow_opt) {
+    Target f;
+    const bool ok = parse_target(follow_opt, &f) && follower.open(f.host, f.port);
+    if (!ok) std::fprintf(stderr, "lf-hostile: error: --follow %s: not followed\n", follow_opt);
+    g_free(follow_opt);
+    if (!ok) return 2;
+  }
+  const bool following = follow_opt != nullptr;
   std::map<std::string, guint64> sent;
   const gint64 start = g_get_monotonic_time();
   const double period_us = 1e6 / rate;
@@ -416,6 +495,7 @@ int main(int argc, char** argv) {
     const gint64 now = g_get_monotonic_time();
     if (now - start > static_cast<gint64>(duration * 1e6)) break;
     if (due > now) g_usleep(static_cast<gulong>(due - now));
+    follower.read(a);
     if (!nack_targets.empty() && n % 2 == 1) {
       const size_t t = a.pick(nack_targets.size());
       const Bytes b = a.nack(nack_targets[t].second, 100);
@@ -480,6 +560,10 @@ int main(int argc, char** argv) {
   for (GSocketAddress* s : nack_addrs) g_object_unref(s);
   g_object_unref(sock);
   for (const auto& [k, v] : sent) std::printf("sent %s %" G_GUINT64_FORMAT "\n", k.c_str(), v);
+  if (following)
+    std::printf("followed %" G_GUINT64_FORMAT " requests, the last sequence %" G_GUINT64_FORMAT
+                "\n",
+                follower.requests, a.seen());
   std::printf("sent total %" G_GUINT64_FORMAT " in %.1f s (%.0f per second)\n", n, secs,
               static_cast<double>(n) / secs);
   return 0;

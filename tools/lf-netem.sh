@@ -15,7 +15,9 @@
 #             HOSTILE_RATE packets/s, default 1000, to the request group, every
 #             camera host, the compositor's fragment ports and the viewer;
 #             with RTX=1 half of them forged NACKs to the camera hosts;
-#             HOSTILE_SSRC=real: with the streams' real SSRCs)
+#             HOSTILE_SSRC=real: with the streams' real SSRCs, and
+#             request sequences just ahead of the viewer's, read from the
+#             request group)
 # Every scenario samples each host's resident memory every 5 s (OUTDIR/rss:
 # seconds, host, VmRSS kB) and writes its peak (OUTDIR/rss-peak: host,
 # VmHWM kB), and each host's UDP counters at the end (OUTDIR/udp: datagrams
@@ -170,6 +172,9 @@ if [ "$scenario" = hostile ]; then
       targets+=(--nacks "${group:-${ip[cam$k]}}:$((${NACK_PORT:-5400} + k)):$((8192 + k))")
     fi
   done
+  # With the real SSRCs the attacker also reads the request group and aims
+  # its sequences just ahead of the viewer's (lf-hostile --follow).
+  if [ "$real" = 1 ] && [ -n "$group" ]; then targets+=(--follow "$group:${REQUEST_PORT:-5000}"); fi
   # The attacker forges the rig's real camera ids too.
   ids=$("$build/tools/lf-rig" --input "$RIG" --ids | tr -s ' \n' ',' | sed 's/,$//')
   ip netns exec "$tag"evil "$build/tools/lf-hostile" "${targets[@]}" --camera-ids "$ids" \
