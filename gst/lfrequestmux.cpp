@@ -9,9 +9,13 @@
  *
  * Not live: one request of every viewer each round (a GstAggregator without
  * latency waits for every pad), so no viewer runs ahead of another.
- * Live: at each round every viewer's newest request (older ones queued
- * behind it are dropped and counted in `dropped`: the newest request wins),
- * the viewers in turn, so one viewer's flood takes no other's turn.
+ * Live: at each round every viewer's newest three requests (older ones
+ * queued behind them are dropped and counted in `dropped`), the viewers in
+ * turn, so one viewer's flood takes no other's turn; the camera host's
+ * request queue (`lfcamerahost`) then serves the viewers fairly by the
+ * pixels they ask for and sheds what it cannot serve. (Only the newest
+ * went on before: a 640x480 viewer beside a 3840x2160 flood lost one
+ * request in five here while the flood held the cameras.)
  *
  * Known limit, not live: where the viewers' fragments come back through one
  * stream (`lffragmentdemux` into one compositor per viewer), a compositor
@@ -46,6 +50,7 @@
 #include <gst/gst.h>
 
 #include <atomic>
+#include <deque>
 #include <new>
 
 #include "lfcaps.h"
@@ -64,6 +69,10 @@ struct Settings {  // read-only counts
   std::atomic<guint64> forwarded{0}, dropped{0};
 };
 lfgst::Properties<Settings> props;
+// Live: requests of a viewer forwarded each round, its newest (the camera
+// host's lfrequestqueue keeps up to 3 of a viewer whose requests another
+// viewer's work held back, lib/lf/session/request_queue.h).
+constexpr size_t kKept = 3;
 }  // namespace
 
 struct _LfRequestMux {
@@ -109,14 +118,23 @@ static GstFlowReturn lf_request_mux_aggregate(GstAggregator* agg, gboolean) {
   // The viewers in turn, starting one further each round.
   for (guint k = 0; k < n && ret == GST_FLOW_OK; ++k) {
     auto* pad = GST_AGGREGATOR_PAD(g_list_nth_data(pads, (self->next + k) % n));
-    GstBuffer* buf = gst_aggregator_pad_pop_buffer(pad);
-    if (live)  // the newest request wins: older ones queued behind it go
-      while (GstBuffer* newer = gst_aggregator_pad_pop_buffer(pad)) {
-        gst_buffer_unref(buf);
-        buf = newer;
+    // Live: the viewer's newest kKept requests go on, older ones are
+    // dropped; the camera host's lfrequestqueue sheds what it cannot serve,
+    // fairly between viewers. Not live: one request a round.
+    std::deque<GstBuffer*> bufs;
+    while (GstBuffer* b = (live || bufs.empty()) ? gst_aggregator_pad_pop_buffer(pad) : nullptr) {
+      bufs.push_back(b);
+      if (bufs.size() > kKept) {
+        gst_buffer_unref(bufs.front());
+        bufs.pop_front();
         self->settings->dropped++;
       }
-    if (buf) ret = forward(self, pad, buf);
+    }
+    for (GstBuffer* b : bufs)
+      if (ret == GST_FLOW_OK)
+        ret = forward(self, pad, b);
+      else
+        gst_buffer_unref(b);
     if (!gst_aggregator_pad_is_eos(pad)) all_eos = false;
   }
   self->next = n ? (self->next + 1) % n : 0;
@@ -152,8 +170,8 @@ static void lf_request_mux_class_init(LfRequestMuxClass* klass) {
             lfgst::counter_spec("forwarded", "Forwarded", "View requests sent downstream so far"));
   props.add(oc, &Settings::dropped,
             lfgst::counter_spec("dropped", "Dropped",
-                                "Live: view requests dropped because a newer one of the same "
-                                "viewer was queued behind them (the newest request wins)"));
+                                "Live: view requests dropped because three newer ones of the "
+                                "same viewer were queued behind them"));
   gst_element_class_add_static_pad_template_with_gtype(ec, &sink_template, GST_TYPE_AGGREGATOR_PAD);
   gst_element_class_add_static_pad_template_with_gtype(ec, &src_template, GST_TYPE_AGGREGATOR_PAD);
   gst_element_class_set_static_metadata(

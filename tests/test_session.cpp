@@ -120,6 +120,39 @@ TEST(RequestQueue, TurnsWeightedByCost) {
   EXPECT_EQ(q.pop(), 11);
 }
 
+TEST(RequestQueue, ACheapViewerKeepsItsRequestsWhileACostlyOneHoldsTheCameras) {
+  lf::RequestQueue<int> q(64, 0);
+  // Viewer 2 asks for 3840x2160 (27 times the pixels), viewer 4 for
+  // 640x480. Viewer 2's request is served (it holds the cameras), then
+  // viewer 4's; while the cameras are held, viewer 4 sends three more, one
+  // a frame period (33 ms) apart. It has been served less than viewer 2
+  // and viewer 2 was served within the last second, so it keeps all three
+  // (before, only the newest: just served itself, it was past the virtual
+  // time, and a 640x480 viewer beside a 4K flood lost 1 request in 10).
+  q.push(2, 0, 100, 27);
+  q.push(4, 0, 200, 1);
+  EXPECT_EQ(q.pop(), 100);  // equal tags: key order
+  EXPECT_EQ(q.pop(), 200);
+  std::vector<int> dropped;
+  for (uint64_t i = 1; i <= 3; ++i)
+    for (int d : q.push(4, i * 33000000, 200 + static_cast<int>(i), 1)) dropped.push_back(d);
+  EXPECT_TRUE(dropped.empty());
+  EXPECT_EQ(q.size(), 3u);
+  // Viewer 2, served more, keeps only its newest.
+  q.push(2, 40000000, 110, 27);
+  q.push(2, 41000000, 111, 27);
+  EXPECT_EQ(q.size(), 4u);
+  EXPECT_EQ(q.pop(), 201);
+  EXPECT_EQ(q.pop(), 202);
+  EXPECT_EQ(q.pop(), 203);
+  EXPECT_EQ(q.pop(), 111);
+  // Over a second after viewer 2's last turn, viewer 4 is alone: its newest wins.
+  q.push(4, 2500000000, 210, 1);
+  q.push(4, 2500000001, 211, 1);
+  EXPECT_EQ(q.size(), 1u);
+  EXPECT_EQ(q.pop(), 211);
+}
+
 TEST(RequestQueue, CapacityDropsFromTheLongestQueue) {
   lf::RequestQueue<int> q(4, 1000000);
   q.push(1, 0, 10);

@@ -46,12 +46,17 @@ class RequestQueue {
     q.push_back({time_ns, cost > 0 ? cost : 1, std::move(value)});
     ++size_;
     // Stale: behind a newer request of the same key by more than the age.
-    // With age 0, a key not over its share (its tag at the virtual time)
-    // while another viewer's requests wait keeps up to kHeld: what held them
-    // was that viewer's work, not its own backlog (a 640x480 viewer's
-    // requests that came while a 3840x2160 one held the cameras).
+    // With age 0, a key not over its share (its tag at most the other
+    // viewers': served no more than they were, by cost) while another viewer's requests wait, or
+    // while another viewer was served within the last second (its work may hold the cameras now),
+    // keeps up to kHeld: what held them was that viewer's work, not its own
+    // backlog (a 640x480 viewer's requests that came while a 3840x2160 one
+    // held the cameras). A viewer alone keeps only its newest.
     size_t keep = SIZE_MAX;  // with an age, the age alone
-    if (max_age_ == 0) keep = tag(key) <= vtime_ && other_viewer_waiting(key) ? kHeld : 1;
+    if (max_age_ == 0)
+      keep = under_share(key) && (other_viewer_waiting(key) || other_viewer_served(key, time_ns))
+                 ? kHeld
+                 : 1;
     while (q.size() > keep ||
            (q.size() > 1 && max_age_ > 0 && q.front().time + max_age_ < time_ns)) {
       dropped.push_back(std::move(q.front().value));
@@ -100,6 +105,14 @@ class RequestQueue {
     }
     last_ = it->first;
     served_any_ = true;
+    // When each viewer was last served (at most kTags viewers: the oldest goes).
+    served_at_[it->first >> 1] = it->second.front().time;
+    if (served_at_.size() > kTags) {
+      auto old = served_at_.begin();
+      for (auto v = served_at_.begin(); v != served_at_.end(); ++v)
+        if (v->second < old->second) old = v;
+      served_at_.erase(old);
+    }
     T value = std::move(it->second.front().value);
     it->second.pop_front();
     --size_;
@@ -117,17 +130,35 @@ class RequestQueue {
     size_ = 0;
     vtime_ = 0;
     served_any_ = false;
+    served_at_.clear();
     return all;
   }
 
  private:
-  static constexpr size_t kTags = 256;  // keys whose served cost is remembered
-  static constexpr size_t kHeld = 3;    // requests a key under its share keeps (age 0)
+  static constexpr size_t kTags = 256;               // keys whose served cost is remembered
+  static constexpr size_t kHeld = 3;                 // requests a key under its share keeps (age 0)
+  static constexpr uint64_t kRecentNs = 1000000000;  // "served within the last second"
   // Whether a key of another viewer (keys: viewer << 1 | probe) has
   // requests waiting.
   bool other_viewer_waiting(uint64_t key) const {
     for (const auto& [k, q] : keys_)
       if ((k >> 1) != (key >> 1) && !q.empty()) return true;
+    return false;
+  }
+  // Whether `key` has been served no more than the other viewers (its tag
+  // at most the lowest of theirs; a viewer with none at the virtual time).
+  bool under_share(uint64_t key) const {
+    double others = vtime_;
+    bool any = false;
+    for (const auto& [k, t] : tags_)
+      if ((k >> 1) != (key >> 1)) others = any ? std::min(others, t) : t, any = true;
+    return tag(key) <= (any ? std::max(others, vtime_) : vtime_);
+  }
+  // Whether another viewer's request (by its time) was served within
+  // kRecentNs of `time_ns`.
+  bool other_viewer_served(uint64_t key, uint64_t time_ns) const {
+    for (const auto& [viewer, t] : served_at_)
+      if (viewer != (key >> 1) && t + kRecentNs >= time_ns) return true;
     return false;
   }
   struct Item {
@@ -142,7 +173,8 @@ class RequestQueue {
   size_t capacity_;
   uint64_t max_age_;
   std::map<uint64_t, std::deque<Item>> keys_;
-  std::map<uint64_t, double> tags_;  // cost served, beyond vtime_
+  std::map<uint64_t, double> tags_;         // cost served, beyond vtime_
+  std::map<uint64_t, uint64_t> served_at_;  // viewer -> time of its last request served
   double vtime_ = 0;
   size_t size_ = 0;
   uint64_t last_ = 0;
