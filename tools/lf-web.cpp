@@ -569,15 +569,14 @@ int main(int argc, char** argv) {
   }
   GSocketAddress* sa = g_inet_socket_address_new(ia, static_cast<guint16>(o.port));
   g_object_unref(ia);
-  if (!soup_server_listen(s.soup, sa, static_cast<SoupServerListenOptions>(0), &err)) {
+  int bound_port = 0;  // --port 0: the port the system chose
+  if (!lfweb::listen_on(&s, sa, &bound_port, &err)) {
     std::fprintf(stderr, "lf-web: error: cannot listen on %s port %d: %s\n", o.address.c_str(),
                  o.port, err->message);
     return 1;
   }
   g_object_unref(sa);
-  GSList* uris = soup_server_get_uris(s.soup);  // --port 0: the port the system chose
-  if (uris) o.port = g_uri_get_port(static_cast<GUri*>(uris->data));
-  g_slist_free_full(uris, reinterpret_cast<GDestroyNotify>(g_uri_unref));
+  o.port = bound_port;
   say(&s, "%zu cameras, views %dx%d at %d fps; open http://%s:%d/ (Ctrl+C stops)", o.cameras,
       o.width, o.height, o.fps, o.address == "0.0.0.0" ? g_get_host_name() : o.address.c_str(),
       o.port);
@@ -589,6 +588,7 @@ int main(int argc, char** argv) {
   g_main_loop_run(s.loop);
 
   while (!s.viewers.empty()) remove_viewer(&s, s.viewers.begin()->first, "the server stopped");
+  lfweb::stop_listening(&s);
   soup_server_disconnect(s.soup);
   g_object_unref(s.soup);
   gst_element_set_state(s.pipeline, GST_STATE_NULL);

@@ -1,5 +1,8 @@
 // lf-web: the HTTP side: who may connect (token, Origin, per-address cap),
 // the signalling WebSocket's upgrade and the page.
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+
 #include "lf-web-resources.h"  // the page (glib-compile-resources)
 #include "web/lf-web.h"
 
@@ -120,6 +123,45 @@ void on_http(SoupServer*, SoupServerMessage* msg, const char* path, GHashTable*,
   soup_server_message_set_response(msg, it->second.second, SOUP_MEMORY_COPY,
                                    static_cast<const char*>(d), n);
   g_bytes_unref(body);
+}
+
+// A connection accepted by our GSocketService, handed to libsoup as a
+// stream (libsoup's own listener in 3.2, Debian 12's, never unrefs the
+// GSocket it accepts: 344 bytes a connection, fixed in libsoup 3.4).
+gboolean on_incoming(GSocketService*, GSocketConnection* c, GObject*, gpointer data) {
+  auto* s = static_cast<Server*>(data);
+  GSocketAddress* local = g_socket_connection_get_local_address(c, nullptr);
+  GSocketAddress* remote = g_socket_connection_get_remote_address(c, nullptr);
+  if (local && remote) {
+    g_socket_set_option(g_socket_connection_get_socket(c), IPPROTO_TCP, TCP_NODELAY, TRUE,
+                        nullptr);
+    soup_server_accept_iostream(s->soup, G_IO_STREAM(c), local, remote, nullptr);
+  }  // else: the peer is gone already; the connection is closed when unreffed
+  if (local) g_object_unref(local);
+  if (remote) g_object_unref(remote);
+  return TRUE;
+}
+
+bool listen_on(Server* s, GSocketAddress* address, int* port, GError** err) {
+  s->service = g_socket_service_new();
+  g_socket_listener_set_backlog(G_SOCKET_LISTENER(s->service), 128);
+  GSocketAddress* bound = nullptr;
+  if (!g_socket_listener_add_address(G_SOCKET_LISTENER(s->service), address, G_SOCKET_TYPE_STREAM,
+                                     G_SOCKET_PROTOCOL_TCP, nullptr, &bound, err))
+    return false;
+  *port = g_inet_socket_address_get_port(G_INET_SOCKET_ADDRESS(bound));
+  g_object_unref(bound);
+  g_signal_connect(s->service, "incoming", G_CALLBACK(on_incoming), s);
+  g_socket_service_start(s->service);
+  return true;
+}
+
+void stop_listening(Server* s) {
+  if (!s->service) return;
+  g_socket_service_stop(s->service);
+  g_socket_listener_close(G_SOCKET_LISTENER(s->service));
+  g_object_unref(s->service);
+  s->service = nullptr;
 }
 
 }  // namespace lfweb

@@ -147,6 +147,7 @@ struct Server {
   GstElement* funnel = nullptr;
   GstElement* demux = nullptr;
   SoupServer* soup = nullptr;
+  GSocketService* service = nullptr;  // accepts for soup (tools/web/http.cpp listen_on)
   std::map<guint64, std::unique_ptr<Viewer>> viewers;  // by serial (main thread only)
   guint64 next_serial = 1;
   int exit_code = 0;
@@ -220,6 +221,10 @@ void on_ws_gate(SoupServer*, SoupServerMessage* msg, const char*, GHashTable* qu
 void on_websocket(SoupServer*, SoupServerMessage* msg, const char*, SoupWebsocketConnection* ws,
                   gpointer data);
 void on_http(SoupServer*, SoupServerMessage* msg, const char* path, GHashTable*, gpointer);
+// Listens on `address` (port 0: one the system picks, returned in *port),
+// accepting connections for s->soup; stop_listening closes it.
+bool listen_on(Server* s, GSocketAddress* address, int* port, GError** err);
+void stop_listening(Server* s);
 
 // tools/web/whep.cpp: WHEP (RFC 9725).
 void on_remote_channel(GstElement*, GstWebRTCDataChannel* ch, gpointer data);
