@@ -13,7 +13,10 @@
 #
 # SRTP=1 (default): every RTP stream authenticated with a fresh key
 # (pipelines/net-host.sh SRTP_KEY), the deployment for untrusted networks;
-# SRTP=0: plain RTP, as on a trusted network.
+# SRTP=0: plain RTP, as on a trusted network. HOSTILE_SSRC=real (default):
+# the attacker forges the streams' real SSRCs and aims its request
+# sequences just ahead of the viewer's (lf-hostile --follow); random: SSRCs
+# of its own.
 #
 # usage: scripts/soak.sh SECONDS OUTDIR [BASELINE_SECONDS]   (root; default baseline 300)
 set -euo pipefail
@@ -32,6 +35,7 @@ if [ "${SRTP:-1}" = 1 ]; then
 else
   export INSECURE=1  # net-host.sh: plain RTP only when asked
 fi
+export HOSTILE_SSRC="${HOSTILE_SSRC:-real}"
 fail=0
 for run in baseline hostile; do
   s=$seconds; scenario=hostile
