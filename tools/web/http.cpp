@@ -133,8 +133,7 @@ gboolean on_incoming(GSocketService*, GSocketConnection* c, GObject*, gpointer d
   GSocketAddress* local = g_socket_connection_get_local_address(c, nullptr);
   GSocketAddress* remote = g_socket_connection_get_remote_address(c, nullptr);
   if (local && remote) {
-    g_socket_set_option(g_socket_connection_get_socket(c), IPPROTO_TCP, TCP_NODELAY, TRUE,
-                        nullptr);
+    g_socket_set_option(g_socket_connection_get_socket(c), IPPROTO_TCP, TCP_NODELAY, TRUE, nullptr);
     soup_server_accept_iostream(s->soup, G_IO_STREAM(c), local, remote, nullptr);
   }  // else: the peer is gone already; the connection is closed when unreffed
   if (local) g_object_unref(local);
