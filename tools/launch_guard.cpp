@@ -98,26 +98,13 @@ GstPadProbeReturn guard_packets(GstPad* pad, GstPadProbeInfo* info, gpointer dat
 
 }  // namespace
 
-void guard_plain_rtp(GstElement* pipeline) {
-  GstIterator* it = gst_bin_iterate_recurse(GST_BIN(pipeline));
-  GValue v = G_VALUE_INIT;
-  while (gst_iterator_next(it, &v) == GST_ITERATOR_OK) {
-    GstElement* e = GST_ELEMENT(g_value_get_object(&v));
-    GstElementFactory* f = gst_element_get_factory(e);
-    if (f && g_str_equal(GST_OBJECT_NAME(f), "udpsrc"))
-      if (GstPad* src = gst_element_get_static_pad(e, "src")) {
-        gst_pad_add_probe(src,
-                          static_cast<GstPadProbeType>(GST_PAD_PROBE_TYPE_BUFFER |
-                                                       GST_PAD_PROBE_TYPE_BUFFER_LIST),
-                          guard_packets, new PlainReceiver, [](gpointer d) {
-                            auto* r = static_cast<PlainReceiver*>(d);
-                            if (r->caps) gst_caps_unref(r->caps);
-                            delete r;
-                          });
-        gst_object_unref(src);
-      }
-    g_value_reset(&v);
-  }
-  g_value_unset(&v);
-  gst_iterator_free(it);
+void guard_plain_rtp(GstPad* udpsrc_src) {
+  gst_pad_add_probe(
+      udpsrc_src,
+      static_cast<GstPadProbeType>(GST_PAD_PROBE_TYPE_BUFFER | GST_PAD_PROBE_TYPE_BUFFER_LIST),
+      guard_packets, new PlainReceiver, [](gpointer d) {
+        auto* r = static_cast<PlainReceiver*>(d);
+        if (r->caps) gst_caps_unref(r->caps);
+        delete r;
+      });
 }

@@ -263,8 +263,9 @@ class Attacker {
 };
 
 // --follow: the view requests' multicast group, read without blocking; each
-// datagram holding an lf view request ("LFVR", wire.h) gives its sequence
-// (bytes 12..19, big-endian). Not parsed further: the attacker only aims.
+// datagram holding the start of a view request ("LFVR", wire.h) gives its
+// sequence (bytes 12..19, big-endian). Only the header is read: a request
+// with a focal surface spans several packets, and the attacker only aims.
 struct Follower {
   GSocket* sock = nullptr;
   guint64 requests = 0;
@@ -478,14 +479,15 @@ int main(int argc, char** argv) {
 
   Attacker a(static_cast<uint32_t>(seed), ids);
   Follower follower;
-  if (follow_opt) {
-    Target f;
-    const bool ok = parse_target(follow_opt, &f) && follower.open(f.host, f.port);
-    if (!ok) std::fprintf(stderr, "lf-hostile: error: --follow %s: not followed\n", follow_opt);
-    g_free(follow_opt);
-    if (!ok) return 2;
-  }
   const bool following = follow_opt != nullptr;
+  if (following) {
+    Target f;
+    const bool parsed = parse_target(follow_opt, &f);
+    if (!parsed)
+      std::fprintf(stderr, "lf-hostile: error: --follow %s is not GROUP:PORT\n", follow_opt);
+    g_free(follow_opt);
+    if (!parsed || !follower.open(f.host, f.port)) return 2;
+  }
   std::map<std::string, guint64> sent;
   const gint64 start = g_get_monotonic_time();
   const double period_us = 1e6 / rate;

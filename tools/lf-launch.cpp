@@ -255,8 +255,9 @@ GstPadProbeReturn only_own_ssrc(GstPad* pad, GstPadProbeInfo* info, gpointer) {
 }
 
 // The probes above: before every rtpjitterbuffer, depayloader and
-// rtpsession's RTP input (only_own_ssrc), on every rtprtxreceive (add_ssrc)
-// and on every sending rtpsession (its budget).
+// rtpsession's RTP input (only_own_ssrc), on every rtprtxreceive (add_ssrc),
+// on every sending rtpsession (its budget) and on every udpsrc (plain RTP's
+// sequence check, launch_guard.h).
 void guard_rtp(GstElement* pipeline, double budget_percent,
                const std::vector<std::string>& rtcp_from) {
   for_each_element(pipeline, [budget_percent, &rtcp_from](GstElement* e, const char* kind) {
@@ -270,6 +271,11 @@ void guard_rtp(GstElement* pipeline, double budget_percent,
       gst_pad_add_probe(in, kBufferProbes, only_own_ssrc, nullptr, nullptr);
       gst_object_unref(in);
     }
+    if (g_str_equal(kind, "udpsrc"))  // plain RTP's sequence check (launch_guard.h)
+      if (GstPad* src = gst_element_get_static_pad(e, "src")) {
+        guard_plain_rtp(src);
+        gst_object_unref(src);
+      }
     if (g_str_equal(kind, "rtprtxreceive")) {
       GstPad* src = gst_element_get_static_pad(e, "src");
       gst_pad_add_probe(src, GST_PAD_PROBE_TYPE_EVENT_UPSTREAM, add_ssrc, nullptr, nullptr);
@@ -550,7 +556,6 @@ int main(int argc, char** argv) {
     if (pt_clock.rate > 0) answer_pt_maps(p, &pt_clock);
     guard_rtp(p, rtx_budget, rtcp_from);
     guard_srtp(p);
-    guard_plain_rtp(p);
     // A failure here is posted on the bus and reported below.
     gst_element_set_state(p, GST_STATE_PAUSED);
     return p;

@@ -128,7 +128,7 @@ void on_http(SoupServer*, SoupServerMessage* msg, const char* path, GHashTable*,
 // A connection accepted by our GSocketService, handed to libsoup as a
 // stream (libsoup's own listener in 3.2, Debian 12's, never unrefs the
 // GSocket it accepts: 344 bytes a connection, fixed in libsoup 3.4).
-gboolean on_incoming(GSocketService*, GSocketConnection* c, GObject*, gpointer data) {
+static gboolean on_incoming(GSocketService*, GSocketConnection* c, GObject*, gpointer data) {
   auto* s = static_cast<Server*>(data);
   GSocketAddress* local = g_socket_connection_get_local_address(c, nullptr);
   GSocketAddress* remote = g_socket_connection_get_remote_address(c, nullptr);

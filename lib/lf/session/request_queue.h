@@ -18,10 +18,13 @@
 // they have none). Not thread-safe: the caller locks.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <deque>
 #include <iterator>
+#include <limits>
 #include <map>
 #include <utility>
 #include <vector>
@@ -47,11 +50,12 @@ class RequestQueue {
     ++size_;
     // Stale: behind a newer request of the same key by more than the age.
     // With age 0, a key not over its share (its tag at most the other
-    // viewers': served no more than they were, by cost) while another viewer's requests wait, or
-    // while another viewer was served within the last second (its work may hold the cameras now),
-    // keeps up to kHeld: what held them was that viewer's work, not its own
-    // backlog (a 640x480 viewer's requests that came while a 3840x2160 one
-    // held the cameras). A viewer alone keeps only its newest.
+    // viewers': served no more than they were, by cost) while another
+    // viewer's requests wait, or while another viewer was served within the
+    // last second (its work may hold the cameras now), keeps up to kHeld:
+    // what held them was that viewer's work, not its own backlog (a 640x480
+    // viewer's requests that came while a 3840x2160 one held the cameras).
+    // A viewer alone keeps only its newest.
     size_t keep = SIZE_MAX;  // with an age, the age alone
     if (max_age_ == 0)
       keep = under_share(key) && (other_viewer_waiting(key) || other_viewer_served(key, time_ns))
@@ -97,22 +101,12 @@ class RequestQueue {
     // dropped, and at most kTags kept (the lowest goes: one tag is added a pop).
     for (auto t = tags_.begin(); t != tags_.end();)
       t = t->second <= vtime_ ? tags_.erase(t) : std::next(t);
-    if (tags_.size() > kTags) {
-      auto low = tags_.begin();
-      for (auto t = tags_.begin(); t != tags_.end(); ++t)
-        if (t->second < low->second) low = t;
-      tags_.erase(low);
-    }
+    erase_lowest_over(tags_, kTags);
     last_ = it->first;
     served_any_ = true;
     // When each viewer was last served (at most kTags viewers: the oldest goes).
     served_at_[it->first >> 1] = it->second.front().time;
-    if (served_at_.size() > kTags) {
-      auto old = served_at_.begin();
-      for (auto v = served_at_.begin(); v != served_at_.end(); ++v)
-        if (v->second < old->second) old = v;
-      served_at_.erase(old);
-    }
+    erase_lowest_over(served_at_, kTags);
     T value = std::move(it->second.front().value);
     it->second.pop_front();
     --size_;
@@ -145,14 +139,21 @@ class RequestQueue {
       if ((k >> 1) != (key >> 1) && !q.empty()) return true;
     return false;
   }
-  // Whether `key` has been served no more than the other viewers (its tag
-  // at most the lowest of theirs; a viewer with none at the virtual time).
+  // Whether `key` has been served no more than the other viewers: its tag
+  // at most the lowest other viewer's tag kept (those are above the virtual
+  // time), or at the virtual time when no other viewer has one.
   bool under_share(uint64_t key) const {
-    double others = vtime_;
-    bool any = false;
+    double others = std::numeric_limits<double>::infinity();
     for (const auto& [k, t] : tags_)
-      if ((k >> 1) != (key >> 1)) others = any ? std::min(others, t) : t, any = true;
-    return tag(key) <= (any ? std::max(others, vtime_) : vtime_);
+      if ((k >> 1) != (key >> 1)) others = std::min(others, t);
+    return tag(key) <= (std::isinf(others) ? vtime_ : others);
+  }
+  // Erases the entry of the lowest value while `m` has more than `n`.
+  template <typename M>
+  static void erase_lowest_over(M& m, size_t n) {
+    while (m.size() > n)
+      m.erase(std::min_element(m.begin(), m.end(),
+                               [](const auto& a, const auto& b) { return a.second < b.second; }));
   }
   // Whether another viewer's request (by its time) was served within
   // kRecentNs of `time_ns`.

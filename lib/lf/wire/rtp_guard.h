@@ -77,8 +77,7 @@ class RtpSequenceGuard {
       in_window = udelta < lim_.max_dropout || udelta >= 65536 - lim_.max_misorder;
       if (in_window && plausible(ts, win_, now_us)) {
         const bool ahead = udelta != 0 && udelta < lim_.max_dropout;
-        win_.add(ahead ? seq : win_.seq, ahead ? ts : win_.ts, now_us, lim_.rate_window_us,
-                 lim_.slot_us);
+        add(win_, ahead ? seq : win_.seq, ahead ? ts : win_.ts, now_us);
         return Verdict::accept;
       }
     }
@@ -91,22 +90,17 @@ class RtpSequenceGuard {
     if (c) {
       c->run = static_cast<uint16_t>(seq - c->seq) == 1 ? c->run + 1 : 1;
     } else {
-      c = cand_[0].count_at(now_us, lim_.rate_window_us) <=
-                  cand_[1].count_at(now_us, lim_.rate_window_us)
-              ? &cand_[0]
-              : &cand_[1];
+      c = count(cand_[0], now_us) <= count(cand_[1], now_us) ? &cand_[0] : &cand_[1];
       *c = Sequence();
       c->run = 1;
     }
-    c->add(seq, ts, now_us, lim_.rate_window_us, lim_.slot_us);
+    add(*c, seq, ts, now_us);
     if (c->run >= lim_.min_sequential) c->confirmed = true;
     const Verdict refused = !started_   ? Verdict::probation
                             : in_window ? Verdict::timestamp
                                         : Verdict::jump;
     if (!c->confirmed) return refused;
-    if (started_ &&
-        c->count_at(now_us, lim_.rate_window_us) <= win_.count_at(now_us, lim_.rate_window_us))
-      return refused;
+    if (started_ && count(*c, now_us) <= count(win_, now_us)) return refused;
     if (started_) ++restarts_;
     started_ = true;
     win_ = *c;
@@ -128,19 +122,22 @@ class RtpSequenceGuard {
     int64_t slot_start_us = -1;
     int run = 0;             // packets in sequence (each the previous + 1) so far
     bool confirmed = false;  // `run` has reached min_sequential (RFC 3550 A.1)
-    double count_at(int64_t now_us, int64_t tau_us) const {
-      if (count <= 0) return 0;
-      return count * std::exp(-static_cast<double>(now_us - us) / static_cast<double>(tau_us));
-    }
-    void add(uint16_t s, uint32_t t, int64_t now_us, int64_t tau_us, int64_t slot_us) {
-      const bool new_slot = slot_start_us < 0 || now_us - slot_start_us >= slot_us;
-      count = count_at(now_us, tau_us) + (new_slot ? 1 : 0);
-      if (new_slot) slot_start_us = now_us;
-      seq = s;
-      ts = t;
-      us = now_us;
-    }
   };
+  // `k`'s count decayed to `now_us`.
+  double count(const Sequence& k, int64_t now_us) const {
+    if (k.count <= 0) return 0;
+    return k.count *
+           std::exp(-static_cast<double>(now_us - k.us) / static_cast<double>(lim_.rate_window_us));
+  }
+  // A packet of `k`: its newest (`s`, `t`), and one more slot heard.
+  void add(Sequence& k, uint16_t s, uint32_t t, int64_t now_us) const {
+    const bool new_slot = k.slot_start_us < 0 || now_us - k.slot_start_us >= lim_.slot_us;
+    k.count = count(k, now_us) + (new_slot ? 1 : 0);
+    if (new_slot) k.slot_start_us = now_us;
+    k.seq = s;
+    k.ts = t;
+    k.us = now_us;
+  }
   // Whether `ts` may follow the last packet of `k`, `now_us`.
   bool plausible(uint32_t ts, const Sequence& k, int64_t now_us) const {
     const int64_t d = static_cast<int32_t>(ts - k.ts);
