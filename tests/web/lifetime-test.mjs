@@ -195,6 +195,7 @@ try {
 } finally {
   await stopServer(server);
 }
+if (failures) console.log(`lf-web's output, its last 40 lines:\n${server.out.split('\n').slice(-40).join('\n')}`);
 
 // --token: without it, or with a wrong one, 401; with it, 101.
 const guarded = startServer(['--token', 's3cret']);

@@ -111,6 +111,7 @@ struct Control {
   std::atomic<guint64> messages{0}, refused{0};
   std::atomic<bool> stereo{false};
   std::atomic<bool> connected{false};  // ICE connected (the handshake deadline's test)
+  std::atomic<gint64> offered_us{0};   // when our offer went out (monotonic µs; 0: not yet)
   ~Control() {
     if (channel) g_object_unref(channel);
     if (request) gst_object_unref(request);
@@ -133,6 +134,7 @@ struct Viewer {
   std::string address;                      // the browser's IP address
   guint deadline = 0;                       // the handshake deadline's GSource id (0: gone)
   bool answered = false;
+  gint64 built_us = 0;  // when the branch was built (monotonic µs)
   int candidates = 0;
   // WHEP (no WebSocket): the POST waiting for its SDP answer (ref; null
   // once answered), and the timer that answers with what ICE has gathered.
@@ -151,6 +153,8 @@ struct Server {
   std::map<guint64, std::unique_ptr<Viewer>> viewers;  // by serial (main thread only)
   guint64 next_serial = 1;
   int exit_code = 0;
+  guint trim_timer = 0;  // the deferred heap trims after a viewer left (lf-web.cpp remove_viewer)
+  int trims_left = 0;
 };
 
 using ControlRef = std::shared_ptr<Control>;

@@ -27,6 +27,7 @@ void on_offer(GstPromise* promise, gpointer data) {
     return;
   }
   g_signal_emit_by_name(ctl->webrtc, "set-local-description", offer, nullptr);
+  ctl->offered_us = g_get_monotonic_time();
   gchar* sdp = gst_sdp_message_as_text(offer->sdp);
   post(*ctl, json{{"type", "offer"}, {"sdp", sdp}}.dump());
   g_free(sdp);
