@@ -317,24 +317,7 @@ void remove_viewer(Server* s, guint64 serial, const char* why) {
   // The branch's memory back to the system: glibc keeps freed memory in its
   // per-thread arenas, and a viewer's threads leave arenas of their own
   // (without this the RSS rose by about half after a few hundred viewers).
-  // Now, and once a second for 4 s more: on a loaded machine part of a
-  // branch (its ICE agent's threads and sockets) is freed seconds later,
-  // and without the later trims the RSS stayed 150 MiB above the idle
-  // level after 1,000 viewers (tests/web/lifetime-test.mjs beside a
-  // sanitizer suite).
   malloc_trim(0);
-  s->trims_left = 4;
-  if (!s->trim_timer)
-    s->trim_timer = g_timeout_add_seconds(
-        1,
-        [](gpointer d) -> gboolean {
-          auto* srv = static_cast<Server*>(d);
-          malloc_trim(0);
-          if (--srv->trims_left > 0) return G_SOURCE_CONTINUE;
-          srv->trim_timer = 0;
-          return G_SOURCE_REMOVE;
-        },
-        s);
   say(s, "viewer %u left: %s (%zu viewer%s; %llu control messages, %llu refused)",
       v->ctl->viewer_id, why, s->viewers.size(), s->viewers.size() == 1 ? "" : "s",
       static_cast<unsigned long long>(v->ctl->messages.load()),
@@ -628,7 +611,6 @@ int main(int argc, char** argv) {
   g_main_loop_run(s.loop);
 
   while (!s.viewers.empty()) remove_viewer(&s, s.viewers.begin()->first, "the server stopped");
-  if (s.trim_timer) g_source_remove(s.trim_timer);
   lfweb::stop_listening(&s);
   soup_server_disconnect(s.soup);
   g_object_unref(s.soup);

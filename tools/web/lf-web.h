@@ -153,8 +153,6 @@ struct Server {
   std::map<guint64, std::unique_ptr<Viewer>> viewers;  // by serial (main thread only)
   guint64 next_serial = 1;
   int exit_code = 0;
-  guint trim_timer = 0;  // the deferred heap trims after a viewer left (lf-web.cpp remove_viewer)
-  int trims_left = 0;
 };
 
 using ControlRef = std::shared_ptr<Control>;
