@@ -46,7 +46,9 @@
 #                every RTP stream is authenticated and encrypted (srtpenc /
 #                srtpdec, RFC 3711, AES-128-ICM + HMAC-SHA1-80), so packets
 #                from anyone without the key are dropped before they reach
-#                a depayloader; `head -c 30 /dev/urandom | od -An -tx1 |
+#                a depayloader; each start of a host encrypts under a key
+#                of its own, derived from this one (tools/launch_srtp.h);
+#                `head -c 30 /dev/urandom | od -An -tx1 |
 #                tr -d ' \n'` makes one. Each stream has a fixed SSRC
 #                (requests 4096, camera host K's fragments 8192 + K, video
 #                12288). Unset: the compositor host makes a fresh key and

@@ -44,9 +44,12 @@
 // Every plain RTP receiver (udpsrc with RTP caps naming an SSRC) drops
 // packets whose sequence number or timestamp is not its stream's
 // (launch_guard.h).
-// Every srtpdec is watched: a stream that stops authenticating while its
-// packets keep coming (a sender restarted within the session) has its
-// SRTP state reset, so the sender is heard again (see guard_srtp).
+// Every srtpenc encrypts under a key of this start (derived from its key
+// and a random MKI, so a restarted sender never reuses keystream), and
+// every srtpdec is watched: it is given the keys of the MKIs its stream
+// carries, and a stream that stops authenticating while its packets keep
+// coming (a sender restarted within the session) has its SRTP state reset,
+// so the sender is heard again (launch_srtp.h).
 #include <gst/gst.h>
 #include <gst/net/gstnet.h>
 #include <gst/rtp/gstrtcpbuffer.h>
@@ -60,6 +63,7 @@
 #include <vector>
 
 #include "launch_guard.h"
+#include "launch_srtp.h"
 
 namespace {
 
@@ -298,122 +302,12 @@ void guard_rtp(GstElement* pipeline, double budget_percent,
   });
 }
 
-// A camera host (or any sender) restarted within an SRTP session starts
-// its stream again at rollover counter 0 and a random sequence number,
-// while its receiver's srtpdec keeps the old stream's state: each packet
-// is then "too old" for the replay window, or authenticated against the
-// wrong rollover counter, and dropped, so the host never rejoined (measured:
-// lf-netem.sh kill with SRTP, rejoin never). When a stream's packets keep
-// arriving (8 or more) and none has passed srtpdec for kRejoinUs, the
-// stream's state is removed ("remove-key"); srtpdec asks for the key again
-// at the next packet ("request-key"), gets the caps' key, with rollover
-// counter 0 (a restart) and, at the next removal, the counter it had (a
-// stream paused while someone else's packets came), and follows whichever
-// authenticates. Only packets that carry the key pass, so no one without
-// it gets anything through; a removal only forgets which packets were
-// already seen, and a replayed old packet carries a request sequence that
-// the compositor and the camera hosts have left behind. Another SSRC is
-// refused its key (no state made for made-up SSRCs).
-constexpr gint64 kRejoinUs = 250000;
-struct SrtpWatch {
-  GstElement* dec = nullptr;  // not owned (lives as long as the pipeline)
-  GstPad* sink = nullptr;     // its rtp_sink (owned): srtpdec asks for a key
-                              // holding its own lock, so no element lookup then
-  std::atomic<gint64> last_out_us{0};
-  std::atomic<int> failing{0};  // packets in since the last one out
-  std::atomic<gint64> last_reset_us{0};
-  std::atomic<unsigned> resets{0};
-  std::atomic<guint> last_roc{0};
-};
-guint stream_roc(GstElement* dec, guint ssrc) {
-  GstStructure* stats = nullptr;
-  g_object_get(dec, "stats", &stats, nullptr);
-  guint roc = 0;
-  if (stats) {
-    const GValue* streams = gst_structure_get_value(stats, "streams");
-    if (streams && GST_VALUE_HOLDS_ARRAY(streams))
-      for (guint i = 0; i < gst_value_array_get_size(streams); ++i) {
-        const GValue* v = gst_value_array_get_value(streams, i);
-        guint s = 0, r = 0;
-        if (GST_VALUE_HOLDS_STRUCTURE(v) &&
-            gst_structure_get_uint(gst_value_get_structure(v), "ssrc", &s) && s == ssrc &&
-            gst_structure_get_uint(gst_value_get_structure(v), "roc", &r))
-          roc = r;
-      }
-    gst_structure_free(stats);
-  }
-  return roc;
-}
-GstPadProbeReturn srtp_in(GstPad* pad, GstPadProbeInfo* info, gpointer data) {
-  auto* w = static_cast<SrtpWatch*>(data);
-  guint ssrc = 0;
-  if (!caps_uint(pad, "ssrc", &ssrc)) return GST_PAD_PROBE_OK;
-  // Only the stream's own packets count (others never get a key).
-  GstBuffer* buf = (GST_PAD_PROBE_INFO_TYPE(info) & GST_PAD_PROBE_TYPE_BUFFER)
-                       ? GST_PAD_PROBE_INFO_BUFFER(info)
-                       : nullptr;
-  guint8 head[12];
-  if (!buf || gst_buffer_extract(buf, 0, head, sizeof head) != sizeof head || (head[0] >> 6) != 2 ||
-      (static_cast<guint>(head[8]) << 24 | static_cast<guint>(head[9]) << 16 |
-       static_cast<guint>(head[10]) << 8 | head[11]) != ssrc)
-    return GST_PAD_PROBE_OK;
-  const gint64 now = g_get_monotonic_time();
-  if (w->failing.fetch_add(1) + 1 < 8 || now - w->last_out_us.load() < kRejoinUs ||
-      now - w->last_reset_us.load() < kRejoinUs)
-    return GST_PAD_PROBE_OK;
-  w->last_reset_us = now;
-  w->failing = 0;
-  const unsigned n = w->resets.fetch_add(1) + 1;
-  if (n % 2 == 1) w->last_roc = stream_roc(w->dec, ssrc);
-  if (n == 1 || n % 20 == 0)
-    g_printerr(
-        "lf-launch: %s: no packet of SSRC %u authenticated for %.0f ms while some came: its "
-        "SRTP state is reset (a restarted sender, or forged packets while it is silent; %u so "
-        "far)\n",
-        GST_OBJECT_NAME(w->dec), ssrc, static_cast<double>(kRejoinUs) / 1000.0, n);
-  g_signal_emit_by_name(w->dec, "remove-key", ssrc);
-  return GST_PAD_PROBE_OK;
-}
-GstPadProbeReturn srtp_out(GstPad*, GstPadProbeInfo*, gpointer data) {
-  auto* w = static_cast<SrtpWatch*>(data);
-  w->last_out_us = g_get_monotonic_time();
-  w->failing = 0;
-  return GST_PAD_PROBE_OK;
-}
-GstCaps* srtp_key(GstElement*, guint ssrc, gpointer data) {
-  auto* w = static_cast<SrtpWatch*>(data);
-  GstCaps* caps = gst_pad_get_current_caps(w->sink);
-  guint own = 0;
-  if (!caps || gst_caps_get_size(caps) == 0 ||
-      !gst_structure_get_uint(gst_caps_get_structure(caps, 0), "ssrc", &own) || own != ssrc) {
-    if (caps) gst_caps_unref(caps);
-    return nullptr;
-  }
-  caps = gst_caps_make_writable(caps);
-  const guint roc = w->resets.load() % 2 == 1 ? 0 : w->last_roc.load();
-  gst_caps_set_simple(caps, "roc", G_TYPE_UINT, roc, nullptr);
-  return caps;
-}
+// Every srtpenc encrypts under a key of this start, and every srtpdec
+// follows its senders' keys and restarts (launch_srtp.h).
 void guard_srtp(GstElement* pipeline) {
   for_each_element(pipeline, [](GstElement* e, const char* kind) {
-    if (!g_str_equal(kind, "srtpdec")) return;
-    GstPad* in = gst_element_get_static_pad(e, "rtp_sink");
-    GstPad* out = gst_element_get_static_pad(e, "rtp_src");
-    if (in && out) {
-      auto* w = new SrtpWatch;
-      w->dec = e;
-      w->sink = GST_PAD(gst_object_ref(in));
-      w->last_out_us = g_get_monotonic_time();
-      gst_pad_add_probe(in, GST_PAD_PROBE_TYPE_BUFFER, srtp_in, w, [](gpointer d) {
-        auto* w = static_cast<SrtpWatch*>(d);
-        gst_object_unref(w->sink);
-        delete w;
-      });
-      gst_pad_add_probe(out, kBufferProbes, srtp_out, w, nullptr);
-      g_signal_connect(e, "request-key", G_CALLBACK(srtp_key), w);
-    }
-    if (in) gst_object_unref(in);
-    if (out) gst_object_unref(out);
+    if (g_str_equal(kind, "srtpdec")) guard_srtp_dec(e);
+    if (g_str_equal(kind, "srtpenc")) key_srtp_enc(e);
   });
 }
 
