@@ -203,13 +203,14 @@ for mode in FEC=25 RTX=1 SRTP PLAIN; do
 done
 # Plain RTP with the real SSRCs and sequences aimed just ahead of the
 # viewer's (lf-hostile --follow): lf-launch's RTP sequence and timestamp
-# check drops the forged packets. Complete frames of the requests issued,
-# measured: 0.89, 0.89, 0.89 alone and 0.73 (46 of 63) in a clean clone's
-# full test run, the suites in parallel (the first second's requests are
-# lost to the forged ones taken before the viewer started); without the
+# check drops the forged packets, and when the real stream takes the window
+# from forged packets that came first, its own packets refused before (its
+# in-band caps) go on. Complete frames of the requests issued, measured:
+# 60/61, 65/65, 65/65 alone; 0.89 before the held packets went on (the
+# first second's requests lost), 0.73 once in a full test run; without the
 # check 0.40-0.41 (25-26 of 63; docs/reliability.md).
 check "$work/hostile-PLAIN.txt" "plain RTP: forged packets with the real SSRCs mostly dropped" \
-  'v["complete"] >= 0.6 * v["issued"]'
+  'v["complete"] >= 0.8 * v["issued"]'
 # With the key, a forged packet is dropped whatever SSRC it carries (63 of
 # 63 frames complete, measured); without it, see PLAIN above.
 check "$work/hostile-SRTP.txt" "with SRTP (the default) forged packets with the real SSRCs change nothing" \

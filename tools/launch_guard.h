@@ -7,7 +7,11 @@
 // stream's clock (lf::RtpSequenceGuard, lib/lf/wire/rtp_guard.h). A forged
 // packet that carries the documented SSRC but not the live sequence number
 // and timestamp is dropped before the jitter buffer and the depayloader,
-// where it would have cost the packets around it. Drops are counted on
+// where it would have cost the packets around it. When a sequence takes
+// the window (a stream's start, or a restarted sender taking it from forged
+// packets that came first), its packets refused before it did go on first
+// (the last 128 refused are kept: a sender's first packet carries its
+// in-band caps). Drops are counted on
 // stderr (a line a second at most). Authenticated streams (SRTP) need none
 // of this.
 #pragma once
