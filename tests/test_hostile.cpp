@@ -5,6 +5,7 @@
 #include <gst/app/gstappsink.h>
 #include <gst/app/gstappsrc.h>
 #include <gst/gst.h>
+#include <gst/rtp/gstrtpbuffer.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -19,6 +20,8 @@
 #include <set>
 #include <thread>
 
+#include "../tools/launch_guard.h"
+#include "../tools/launch_srtp.h"
 #include "calib/bundle.h"
 #include "gst_init.h"
 #include "lf/focus/focus.h"
@@ -954,4 +957,103 @@ TEST_F(Hostile, ASurfaceProbeThatEveryCameraSatOutWarnsOnlyTheSecondTimeInARow) 
   wait_for(2, 0.5);  // and only one
   EXPECT_EQ(surface_warnings, 1);
   EXPECT_FALSE(c.error());
+}
+
+// lf-launch's plain RTP check (tools/launch_guard.h) on an appsrc: forged
+// packets with the stream's SSRC come first and take the window (a pair in
+// sequence); the real stream then starts, 15 ms a packet. Its packets are
+// refused until it has been heard in more 10-ms slots than the forged
+// window; then those refused go on first, so its first packet (a sender's
+// in-band caps) is not lost. Every real packet comes out, once, in order,
+// and nothing forged after the first pair.
+TEST(LaunchGuard, ARealStreamAfterForgedPacketsKeepsItsFirstPackets) {
+  testing_lf::init_gstreamer_with_plugin();
+  GstElement* pipe = gst_parse_launch(
+      "appsrc name=src format=time caps=\"application/x-rtp,media=application,clock-rate=90000,"
+      "encoding-name=X-GST,payload=96,ssrc=(uint)4096\" ! appsink name=sink sync=false",
+      nullptr);
+  ASSERT_NE(pipe, nullptr);
+  GstElement* src = gst_bin_get_by_name(GST_BIN(pipe), "src");
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(pipe), "sink");
+  GstPad* pad = gst_element_get_static_pad(src, "src");
+  guard_plain_rtp(pad);
+  gst_element_set_state(pipe, GST_STATE_PLAYING);
+  auto packet = [](guint16 seq, guint32 ts, guint8 mark) {
+    GstBuffer* b = gst_rtp_buffer_new_allocate(4, 0, 0);
+    GstRTPBuffer rtp = GST_RTP_BUFFER_INIT;
+    gst_rtp_buffer_map(b, GST_MAP_WRITE, &rtp);
+    gst_rtp_buffer_set_ssrc(&rtp, 4096);
+    gst_rtp_buffer_set_payload_type(&rtp, 96);
+    gst_rtp_buffer_set_seq(&rtp, seq);
+    gst_rtp_buffer_set_timestamp(&rtp, ts);
+    std::memset(gst_rtp_buffer_get_payload(&rtp), mark, 4);
+    gst_rtp_buffer_unmap(&rtp);
+    return b;
+  };
+  // The forged pair, then the real stream: 30 packets from 100, 1350 ticks
+  // (15 ms) apart in time and timestamp.
+  gst_app_src_push_buffer(GST_APP_SRC(src), packet(40000, 123456789, 0xee));
+  gst_app_src_push_buffer(GST_APP_SRC(src), packet(40001, 123456789, 0xee));
+  for (guint16 k = 0; k < 30; ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(15));
+    gst_app_src_push_buffer(GST_APP_SRC(src), packet(100 + k, 5000 + 1350u * k, 0x11));
+  }
+  gst_app_src_end_of_stream(GST_APP_SRC(src));
+  std::vector<int> real;
+  int forged = 0;
+  while (GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 5 * GST_SECOND)) {
+    GstRTPBuffer rtp = GST_RTP_BUFFER_INIT;
+    if (gst_rtp_buffer_map(gst_sample_get_buffer(s), GST_MAP_READ, &rtp)) {
+      const auto* p = static_cast<const guint8*>(gst_rtp_buffer_get_payload(&rtp));
+      if (p[0] == 0x11)
+        real.push_back(gst_rtp_buffer_get_seq(&rtp));
+      else
+        ++forged;
+      gst_rtp_buffer_unmap(&rtp);
+    }
+    gst_sample_unref(s);
+  }
+  std::vector<int> want(30);
+  for (int k = 0; k < 30; ++k) want[k] = 100 + k;
+  EXPECT_EQ(real, want) << "every real packet, once, in order (the first ones after the takeover)";
+  EXPECT_LE(forged, 2) << "only the forged pair, while it held the window";
+  gst_element_set_state(pipe, GST_STATE_NULL);
+  gst_object_unref(pad);
+  gst_object_unref(src);
+  gst_object_unref(sink);
+  gst_object_unref(pipe);
+}
+
+// lf-launch's SRTP master key identifiers (tools/launch_srtp.h): a new MKI
+// is the session's and no other session's; any changed byte makes it
+// made-up; each MKI gives its own start key, the same one every time, as
+// long as the master key (30 bytes: AES-128 + salt; 46: AES-256 + salt).
+TEST(LaunchSrtp, MkisAreTaggedAndEachStartHasItsOwnKey) {
+  std::vector<uint8_t> master(30), other(30);
+  for (size_t i = 0; i < master.size(); ++i) master[i] = static_cast<uint8_t>(i * 7 + 1);
+  other = master;
+  other[29] ^= 1;
+  uint8_t a[kSrtpMkiBytes], b[kSrtpMkiBytes];
+  ASSERT_TRUE(srtp_new_mki(master.data(), master.size(), a));
+  ASSERT_TRUE(srtp_new_mki(master.data(), master.size(), b));
+  EXPECT_NE(std::memcmp(a, b, kSrtpMkiBytes), 0) << "random nonces";
+  EXPECT_TRUE(srtp_mki_is_sessions(master.data(), master.size(), a));
+  EXPECT_FALSE(srtp_mki_is_sessions(other.data(), other.size(), a)) << "another session's key";
+  for (size_t i = 0; i < kSrtpMkiBytes; ++i) {
+    uint8_t c[kSrtpMkiBytes];
+    std::memcpy(c, a, kSrtpMkiBytes);
+    c[i] ^= 0x40;
+    EXPECT_FALSE(srtp_mki_is_sessions(master.data(), master.size(), c)) << "byte " << i;
+  }
+  for (size_t len : {30u, 46u}) {
+    std::vector<uint8_t> m(len, 0x5a), ka(len), ka2(len), kb(len);
+    ASSERT_TRUE(srtp_start_key(m.data(), m.size(), a, ka.data(), len));
+    ASSERT_TRUE(srtp_start_key(m.data(), m.size(), a, ka2.data(), len));
+    ASSERT_TRUE(srtp_start_key(m.data(), m.size(), b, kb.data(), len));
+    EXPECT_EQ(ka, ka2) << len;
+    EXPECT_NE(ka, kb) << len;
+    EXPECT_NE(ka, m) << len;
+  }
+  uint8_t big[65];
+  EXPECT_FALSE(srtp_start_key(master.data(), master.size(), a, big, sizeof big));
 }
