@@ -11,8 +11,6 @@
 
 namespace {
 
-// One receiver's guards, one per SSRC its caps name (the stream's and its
-// retransmission stream's), and what they dropped.
 // A packet the guard refused, kept in case its sequence takes the window.
 struct Held {
   guint16 seq = 0;
@@ -25,6 +23,8 @@ struct Held {
 // must outlast several bursts. At most 128 x MTU bytes an SSRC.
 constexpr size_t kHeld = 128;
 
+// One receiver's guards, one per SSRC its caps name (the stream's and its
+// retransmission stream's), what they dropped and the packets they hold.
 struct PlainReceiver {
   GstCaps* caps = nullptr;  // the caps the guards were made for (owned)
   guint ssrc = 0, rtx_ssrc = 0;
@@ -83,25 +83,20 @@ bool follow_caps(GstPad* pad, PlainReceiver* r) {
 void release_held(GstPad* pad, PlainReceiver* r, guint ssrc, guint16 seq, guint32 ts) {
   std::deque<Held> q;
   q.swap(r->held[ssrc]);
-  std::map<guint16, GstBuffer*> out;  // by distance behind, farthest first
-  std::set<guint16> twice;
+  std::map<guint16, GstBuffer*> out;  // by distance behind, farthest first (null: held twice)
   for (Held& h : q) {
     const auto behind = static_cast<guint16>(seq - h.seq);
     const auto ts_behind = static_cast<guint32>(ts - h.ts);
     if (behind >= 1 && behind <= kHeld && ts_behind <= static_cast<guint32>(r->clock_rate)) {
-      const auto key = static_cast<guint16>(kHeld - behind);
-      if (out.count(key)) twice.insert(key);
-      out.emplace(key, gst_buffer_ref(h.buf));
+      auto [at, first] = out.emplace(static_cast<guint16>(kHeld - behind), h.buf);
+      if (first) continue;  // its reference moves to `out`
+      if (at->second) gst_buffer_unref(at->second), at->second = nullptr;
     }
     gst_buffer_unref(h.buf);
   }
   r->releasing = true;
-  for (auto& [key, buf] : out) {
-    if (twice.count(key))
-      gst_buffer_unref(buf);
-    else
-      gst_pad_push(pad, buf);
-  }
+  for (auto& [key, buf] : out)
+    if (buf) gst_pad_push(pad, buf);
   r->releasing = false;
 }
 

@@ -11,9 +11,8 @@
 // the window (a stream's start, or a restarted sender taking it from forged
 // packets that came first), its packets refused before it did go on first
 // (the last 128 refused are kept: a sender's first packet carries its
-// in-band caps). Drops are counted on
-// stderr (a line a second at most). Authenticated streams (SRTP) need none
-// of this.
+// in-band caps). Drops are counted on stderr (a line a second at most).
+// Authenticated streams (SRTP) need none of this.
 #pragma once
 
 #include <gst/gst.h>

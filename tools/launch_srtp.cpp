@@ -158,28 +158,36 @@ guint stream_roc(GstElement* dec, guint ssrc) {
 // is inside the encrypted part). False if the caps lack one.
 struct StreamCaps {
   guint ssrc = 0;
-  std::vector<uint8_t> master;
+  std::array<uint8_t, 64> master{};
+  size_t master_len = 0;
   size_t tag = 0;
 };
-bool stream_caps(GstPad* pad, StreamCaps* c) {
-  GstCaps* caps = gst_pad_get_current_caps(pad);
-  bool ok = false;
-  if (caps && gst_caps_get_size(caps) > 0) {
-    const GstStructure* s = gst_caps_get_structure(caps, 0);
-    const GValue* kv = gst_structure_get_value(s, "srtp-key");
-    GstBuffer* key = kv && G_VALUE_HOLDS(kv, GST_TYPE_BUFFER) ? gst_value_get_buffer(kv) : nullptr;
-    const char* auth = gst_structure_get_string(s, "srtp-auth");
-    c->tag = !auth                               ? 0
-             : g_str_equal(auth, "hmac-sha1-80") ? 10
-             : g_str_equal(auth, "hmac-sha1-32") ? 4
-                                                 : 0;
-    if (gst_structure_get_uint(s, "ssrc", &c->ssrc) && key && gst_buffer_get_size(key) <= 64) {
-      c->master.resize(gst_buffer_get_size(key));
-      ok = gst_buffer_extract(key, 0, c->master.data(), c->master.size()) == c->master.size();
-    }
+bool stream_caps(const GstCaps* caps, StreamCaps* c) {
+  if (!caps || gst_caps_get_size(caps) == 0) return false;
+  const GstStructure* s = gst_caps_get_structure(caps, 0);
+  const GValue* kv = gst_structure_get_value(s, "srtp-key");
+  GstBuffer* key = kv && G_VALUE_HOLDS(kv, GST_TYPE_BUFFER) ? gst_value_get_buffer(kv) : nullptr;
+  const char* auth = gst_structure_get_string(s, "srtp-auth");
+  c->tag = !auth                               ? 0
+           : g_str_equal(auth, "hmac-sha1-80") ? 10
+           : g_str_equal(auth, "hmac-sha1-32") ? 4
+                                               : 0;
+  if (!gst_structure_get_uint(s, "ssrc", &c->ssrc) || !key ||
+      gst_buffer_get_size(key) > c->master.size())
+    return false;
+  c->master_len = gst_buffer_extract(key, 0, c->master.data(), c->master.size());
+  return c->master_len == gst_buffer_get_size(key);
+}
+
+// Whether `id` is a session MKI: one heard before, or one whose tag is
+// right (an HMAC only for MKIs not heard yet).
+bool sessions_mki(SrtpWatch* w, const StreamCaps& c, const SrtpWatch::Id& id) {
+  {
+    std::lock_guard<std::mutex> l(w->lock);
+    for (const auto& h : w->heard)
+      if (h.first == id) return true;
   }
-  if (caps) gst_caps_unref(caps);
-  return ok;
+  return srtp_mki_is_sessions(c.master.data(), c.master_len, id.data());
 }
 
 // Notes a session MKI as heard; true if srtpdec was not given its key.
@@ -201,7 +209,10 @@ bool hear_mki(SrtpWatch* w, const SrtpWatch::Id& id, gint64 now) {
 GstPadProbeReturn srtp_in(GstPad* pad, GstPadProbeInfo* info, gpointer data) {
   auto* w = static_cast<SrtpWatch*>(data);
   StreamCaps c;
-  if (!stream_caps(pad, &c)) return GST_PAD_PROBE_OK;
+  GstCaps* caps = gst_pad_get_current_caps(pad);
+  const bool known = stream_caps(caps, &c);
+  if (caps) gst_caps_unref(caps);
+  if (!known) return GST_PAD_PROBE_OK;
   // Only the stream's own packets count (others never get a key).
   GstBuffer* buf = (GST_PAD_PROBE_INFO_TYPE(info) & GST_PAD_PROBE_TYPE_BUFFER)
                        ? GST_PAD_PROBE_INFO_BUFFER(info)
@@ -217,7 +228,7 @@ GstPadProbeReturn srtp_in(GstPad* pad, GstPadProbeInfo* info, gpointer data) {
   SrtpWatch::Id mki;
   if (size < sizeof head + kSrtpMkiBytes + c.tag ||
       gst_buffer_extract(buf, size - c.tag - kSrtpMkiBytes, mki.data(), mki.size()) != mki.size() ||
-      !srtp_mki_is_sessions(c.master.data(), c.master.size(), mki.data()))
+      !sessions_mki(w, c, mki))
     return GST_PAD_PROBE_OK;
   const gint64 now = g_get_monotonic_time();
   const bool unknown = hear_mki(w, mki, now);
@@ -253,7 +264,7 @@ GstCaps* srtp_key(GstElement*, guint ssrc, gpointer data) {
   auto* w = static_cast<SrtpWatch*>(data);
   StreamCaps c;
   GstCaps* caps = gst_pad_get_current_caps(w->sink);
-  if (!caps || !stream_caps(w->sink, &c) || c.ssrc != ssrc) {
+  if (!stream_caps(caps, &c) || c.ssrc != ssrc) {
     if (caps) gst_caps_unref(caps);
     return nullptr;
   }
@@ -266,8 +277,8 @@ GstCaps* srtp_key(GstElement*, guint ssrc, gpointer data) {
               [](const auto& a, const auto& b) { return a.second > b.second; });
     w->given.clear();
     for (size_t i = 0; i < latest.size(); ++i) {
-      std::vector<uint8_t> key(c.master.size());
-      if (!srtp_start_key(c.master.data(), c.master.size(), latest[i].first.data(), key.data(),
+      std::vector<uint8_t> key(c.master_len);
+      if (!srtp_start_key(c.master.data(), c.master_len, latest[i].first.data(), key.data(),
                           key.size()))
         continue;
       const std::string suffix = w->given.empty() ? "" : std::to_string(w->given.size() + 1);

@@ -114,12 +114,20 @@ GstPad* ghost(GstElement* bin, const char* child, const char* pad, const char* n
 // connected (ICE) within --handshake-timeout seconds of the offer loses its
 // slot, so connections that never answer cannot hold the viewers for ever.
 // The time is the browser's: it counts from our offer, not from the
-// connection (on a loaded machine webrtcbin took over 3 s to make its
-// offer, its DTLS key included, and the test's 3-s deadline dropped
-// browsers that were waiting for it). Our own part is bounded too: no
-// offer within 30 s of the connection drops the viewer.
+// connection (webrtcbin makes its offer, a DTLS key included, in a fraction
+// of a second, but on a loaded machine it can take seconds: the likeliest
+// reason a CI run's lifetime test, with a 3-s deadline, saw a connection
+// closed before its offer). Our own part is bounded too: no offer within
+// kOfferBoundS of the connection drops the viewer.
 
-constexpr gint64 kOfferBoundUs = 30 * G_USEC_PER_SEC;
+constexpr gint64 kOfferBoundS = 30;
+
+// The viewer's deadline timer, `ms` from now.
+guint arm_deadline(Server* s, guint64 serial, gint64 ms) {
+  return g_timeout_add_full(G_PRIORITY_DEFAULT, static_cast<guint>(ms), on_deadline,
+                            new Deadline{s, serial},
+                            [](gpointer d) { delete static_cast<Deadline*>(d); });
+}
 
 gboolean on_deadline(gpointer data) {
   const auto* d = static_cast<const Deadline*>(data);
@@ -130,22 +138,20 @@ gboolean on_deadline(gpointer data) {
   const gint64 now = g_get_monotonic_time(), offered = v.ctl->offered_us;
   const gint64 handshake_us = d->server->opt.handshake_s * G_USEC_PER_SEC;
   gint64 until = 0;  // the page (we offer): our offer still coming, or the browser's time not over
-  if (v.ws && offered == 0 && now < v.built_us + kOfferBoundUs)
+  if (v.ws && offered == 0 && now < v.built_us + kOfferBoundS * G_USEC_PER_SEC)
     until = now + G_USEC_PER_SEC / 2;
   else if (v.ws && offered && now < offered + handshake_us)
     until = offered + handshake_us;
   if (until) {
-    v.deadline = g_timeout_add_full(G_PRIORITY_DEFAULT, (until - now + 999) / 1000, on_deadline,
-                                    new Deadline{d->server, d->serial},
-                                    [](gpointer p) { delete static_cast<Deadline*>(p); });
+    v.deadline = arm_deadline(d->server, d->serial, (until - now + 999) / 1000);
     return G_SOURCE_REMOVE;
   }
   if (!v.answered || !v.ctl->connected) {
-    const std::string why = v.ws && offered == 0
-                                ? std::string("webrtcbin made no offer within 30 s")
-                                : std::string(v.answered ? "no ICE connection" : "no SDP answer") +
-                                      " within " + std::to_string(d->server->opt.handshake_s) +
-                                      " s (--handshake-timeout)";
+    const std::string why =
+        v.ws && offered == 0
+            ? "webrtcbin made no offer within " + std::to_string(kOfferBoundS) + " s"
+            : std::string(v.answered ? "no ICE connection" : "no SDP answer") + " within " +
+                  std::to_string(d->server->opt.handshake_s) + " s (--handshake-timeout)";
     remove_viewer(d->server, d->serial, why.c_str());
   }
   return G_SOURCE_REMOVE;
@@ -233,9 +239,7 @@ std::unique_ptr<Viewer> build_viewer(Server* s, const std::string& address, bool
   v->ctl = ctl;
   v->address = address;
   v->built_us = g_get_monotonic_time();
-  v->deadline = g_timeout_add_seconds_full(G_PRIORITY_DEFAULT, s->opt.handshake_s, on_deadline,
-                                           new Deadline{s, ctl->serial},
-                                           [](gpointer d) { delete static_cast<Deadline*>(d); });
+  v->deadline = arm_deadline(s, ctl->serial, 1000 * static_cast<gint64>(s->opt.handshake_s));
   return v;
 }
 
