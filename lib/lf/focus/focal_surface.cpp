@@ -26,8 +26,9 @@ void validate(const SurfaceOptions& opt) {
   if (!(opt.max_parallax_px > 0) || !(opt.truncate > 0)) bad("parallax and truncation must be > 0");
   if (!(opt.thin_ratio > 0 && opt.thin_ratio <= 1) || !(opt.thin_margin >= 0) ||
       !(opt.thin_fraction >= 0 && opt.thin_fraction <= 1) || opt.thin_neighbours < 0 ||
-      opt.thin_neighbours > 8)
-    bad("thin structure votes: ratio 0..1, margin >= 0, fraction 0..1, neighbours 0..8");
+      opt.thin_neighbours > 8 || opt.thin_grow_votes < 1)
+    bad("thin structure votes: ratio 0..1, margin >= 0, fraction 0..1, neighbours 0..8, grow "
+        "votes >= 1");
   if (!(opt.change_penalty >= 0)) bad("change penalty must be >= 0");
 }
 
@@ -277,17 +278,27 @@ SurfaceEstimate FocalSurfaceEstimator::estimate(const ViewRequest& req, SurfaceC
     return 0.5 * aw * (aw * H / W) / tiles;
   };
 
-  // Pass 1: the whole range of depths, coarsely; with second planes, also
-  // per cell of about 2 x 2 analysis pixels (a whole fraction of a tile).
-  const int cell = opt_.second_planes ? thin_cell(T, std::min(coarse_.width, W), W) : 0;
-  if (c.coarse.cell != cell) {
+  // Pass 1: the whole range of depths, coarsely. With second planes, the
+  // same planes also per cell of about 2 x 2 analysis pixels (a whole
+  // fraction of a tile) at pass 2's resolution, where a thin structure is
+  // wider in analysis pixels (at pass 1's, a repeated texture aliases less:
+  // its labels stay there).
+  if (c.coarse.cell != 0) {
     SweepCosts fresh;
     fresh.qs = c.coarse.qs;
-    fresh.cell = cell;
     c.coarse = std::move(fresh);
   }
   sweep(coarse_, req, W, H, T, opt_.truncate, opt_.stride, c.phase, c.coarse,
         &out.planes_evaluated);
+  const int cell = opt_.second_planes ? thin_cell(T, std::min(fine_.width, W), W) : 0;
+  if (c.cells.cell != cell || c.cells.qs != c.coarse.qs) {
+    SweepCosts fresh;
+    fresh.qs = c.coarse.qs;
+    fresh.cell = cell;
+    c.cells = std::move(fresh);
+  }
+  if (cell)
+    sweep(fine_, req, W, H, T, opt_.truncate, opt_.stride, c.phase, c.cells, &out.planes_evaluated);
   double gpos = best_single(c.coarse, tiles, cap);
   out.single_q = q_at(c.coarse.qs, gpos);
   std::vector<bool> textured;
@@ -316,7 +327,7 @@ SurfaceEstimate FocalSurfaceEstimator::estimate(const ViewRequest& req, SurfaceC
   if (fpos > 0 && fpos < opt_.fine_planes - 1) out.single_q = q_at(fine_qs, fpos);
   const int evaluated = out.planes_evaluated;
   out = surface_from_costs(*rig_, c.fine, cols, rows, out.single_q, min_count(fine_), opt_,
-                           opt_.second_planes ? &c.coarse : nullptr, carry ? &c.prior : nullptr);
+                           cell ? &c.cells : nullptr, carry ? &c.prior : nullptr);
   out.planes_evaluated = evaluated;
   if (carry) c.prior = prior_of(out, cols, rows);
   return out;
@@ -441,6 +452,8 @@ SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols
       // Each tile's cells vote; best_of[t] is the plane with the most votes
       // (with its two neighbours), votes_of[t] their number.
       std::vector<int> votes(K), plane_of_cell_label(K, -1), best_of(tiles, -1), votes_of(tiles, 0);
+      // Every tile's votes per plane, for the growth below.
+      std::vector<int> voted(static_cast<size_t>(tiles) * K, 0);
       std::vector<double> cost(K);
       for (int r = 0; r < rows; ++r)
         for (int q = 0; q < cols; ++q) {
@@ -468,6 +481,7 @@ SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols
                   cost[own] - cost[b] >= opt.thin_margin * scale)
                 ++votes[b];
             }
+          std::copy(votes.begin(), votes.end(), voted.begin() + static_cast<size_t>(t) * K);
           for (int k = 0; k < K; ++k) {
             const int v = votes[k] + (k > 0 ? votes[k - 1] : 0) + (k + 1 < K ? votes[k + 1] : 0);
             if (votes[k] > 0 &&
@@ -475,6 +489,7 @@ SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols
               best_of[t] = k, votes_of[t] = v;
           }
         }
+      std::vector<int> thin_k(tiles, -1);  // the thin structure's plane per tile (of cc.qs)
       for (int r = 0; r < rows; ++r)
         for (int q = 0; q < cols; ++q) {
           const int t = r * cols + q, best = best_of[t];
@@ -488,13 +503,40 @@ SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols
                 ++nb;
             }
           if (nb < opt.thin_neighbours) continue;
-          if (plane_of_cell_label[best] < 0) {
-            plane_of_cell_label[best] = static_cast<int>(fs.planes.size());
-            fs.planes.push_back(plane_at_inverse_depth(rig, cc.qs[best]));
-          }
-          fs.second_of[t] = static_cast<uint8_t>(plane_of_cell_label[best]);
-          ++out.thin_tiles;
+          thin_k[t] = best;
         }
+      // A structure runs on: from the tiles found, it grows into every
+      // neighbouring tile (8-connected, on and on) with thin_grow_votes
+      // cells that voted within a plane of it.
+      std::vector<int> grow;
+      for (int t = 0; t < tiles; ++t)
+        if (thin_k[t] >= 0) grow.push_back(t);
+      while (!grow.empty()) {
+        const int t = grow.back(), k = thin_k[t];
+        grow.pop_back();
+        for (int dr = -1; dr <= 1; ++dr)
+          for (int dq = -1; dq <= 1; ++dq) {
+            const int rr = t / cols + dr, qq = t % cols + dq, u = rr * cols + qq;
+            if (rr < 0 || qq < 0 || rr >= rows || qq >= cols || thin_k[u] >= 0 || label[u] < 0 ||
+                fs.second_of[u] != FocalSurface::kNone)
+              continue;
+            const int* v = &voted[static_cast<size_t>(u) * K];
+            int best = -1;
+            for (int j = std::max(0, k - 1); j <= std::min(K - 1, k + 1); ++j)
+              if (v[j] >= opt.thin_grow_votes && (best < 0 || v[j] > v[best])) best = j;
+            if (best >= 0) thin_k[u] = best, grow.push_back(u);
+          }
+      }
+      for (int t = 0; t < tiles; ++t) {
+        const int k = thin_k[t];
+        if (k < 0) continue;
+        if (plane_of_cell_label[k] < 0) {
+          plane_of_cell_label[k] = static_cast<int>(fs.planes.size());
+          fs.planes.push_back(plane_at_inverse_depth(rig, cc.qs[k]));
+        }
+        fs.second_of[t] = static_cast<uint8_t>(plane_of_cell_label[k]);
+        ++out.thin_tiles;
+      }
     }
     out.two_plane_tiles = fs.two_plane_tiles();
     if (out.two_plane_tiles == 0) fs.second_of.clear();

@@ -22,10 +22,11 @@
 // keep the single plane; when every tile agrees on one plane the surface is
 // empty and that plane is the single plane.
 //
-// Second planes (SurfaceOptions::second_planes, beyond the paper): a tile at
-// a depth edge takes its far neighbour's plane; a tile with a thin structure
-// inside (no neighbour at its depth) takes the plane its cells vote for
-// (pass 1's costs per cell of about 2 x 2 analysis pixels).
+// Second planes (SurfaceOptions::second_planes, on by default, beyond the
+// paper): a tile at a depth edge takes its far neighbour's plane; a tile
+// with a thin structure inside (no neighbour at its depth) takes the plane
+// its cells vote for (pass 1's planes, costs per cell of about 2 x 2
+// analysis pixels at fine_width), and the structure grows from tile to tile.
 //
 // Units: costs are variances of 8-bit grey levels (levels^2).
 #pragma once
@@ -63,27 +64,31 @@ struct SurfaceOptions {
   // the furthest such neighbour's plane as its second
   // (FocalSurface::second_of; each camera then sends those tiles twice and
   // the compositor chooses per pixel, lf/render/composite.h LayerCompositor).
-  bool second_planes = false;
+  bool second_planes = true;
   double second_gap = 4.0;
   // ... and any other tile that holds a thin structure (bars, wires: no
-  // neighbour labelled at its depth) gets the structure's plane: pass 1
-  // (the whole range of depths) also sums its costs per cell of about 2 x 2
-  // analysis pixels (thin_cell). A cell votes for its best plane when that
-  // plane is second_gap planes of the first pass or more from the tile's,
-  // costs at most thin_ratio of the tile's plane there, and is lower by at
-  // least thin_margin percent of the scene's contrast (as the penalties).
-  // The plane with the most votes (a plane and its two neighbours counted
-  // together) is the tile's candidate when at least thin_fraction of its
-  // cells, and at least 2, voted for it; it becomes the second plane when
-  // at least thin_neighbours of the 8 neighbouring tiles have a candidate
-  // within a plane of it (a structure runs on through its neighbours; a
-  // lone candidate is noise: on Chess at 640x480 every one was, and cost
-  // up to 1 dB). A textured plane or a slope has cells whose best plane is
-  // the tile's or near it: no votes.
+  // neighbour labelled at its depth) gets the structure's plane: pass 1's
+  // planes (the whole range of depths) are also swept at fine_width, their
+  // costs summed per cell of about 2 x 2 analysis pixels (thin_cell). A cell votes for its best
+  // plane when that plane is second_gap planes of the first pass or more from the tile's, costs at
+  // most thin_ratio of the tile's plane there, and is lower by at least thin_margin percent of the
+  // scene's contrast (as the penalties). The plane with the most votes (a plane and its two
+  // neighbours counted together) is the tile's candidate when at least thin_fraction of its cells,
+  // and at least 2, voted for it; it becomes the second plane when at least thin_neighbours of the
+  // 8 neighbouring tiles have a candidate within a plane of it (a structure runs on through its
+  // neighbours; a lone candidate is noise: on Chess at 640x480 every one was, and cost up to 1 dB).
+  // From the tiles so found the structure grows into every neighbouring tile (8-connected, on and
+  // on) where at least thin_grow_votes cells voted within a plane of it: a grating's narrow bars
+  // leave many tiles a few votes short (tests/test_surface.cpp ThinStructures...: see
+  // docs/rendering.md for what it gains; one vote was enough for the bars, but found false
+  // structures on the Blender shop). A textured plane or a slope has cells whose best plane is the
+  // tile's or near it: no votes. The cells' costs are measured at
+  // fine_width, where a thin structure is wider in analysis pixels.
   double thin_ratio = 0.5;     // 0 < thin_ratio <= 1
   double thin_margin = 10.0;   // percent of the contrast, >= 0
   double thin_fraction = 0.2;  // of the tile's cells, 0..1
   int thin_neighbours = 2;     // of 8 neighbouring tiles, 0..8
+  int thin_grow_votes = 2;     // >= 1
   // Hysteresis between estimates of one view (a SurfacePrior: a live
   // stream re-estimates the surface every few frames): a tile keeps the
   // inverse depth it had unless its new plane is cheaper by more than
@@ -119,6 +124,7 @@ struct SweepCosts {
 struct SurfaceCosts {
   int cols = 0, rows = 0, width = 0, height = 0;
   SweepCosts coarse, fine;
+  SweepCosts cells;  // with second planes: pass 1's planes per cell, at fine_width
   int phase = 0;
   SurfacePrior prior;  // the last estimate (hysteresis)
 };
@@ -138,7 +144,8 @@ struct SurfaceEstimate {
   int planes_used = 1;         // distinct planes over the tiles (first and second)
   int two_plane_tiles = 0;     // tiles with a second plane (SurfaceOptions::second_planes)
   int thin_tiles = 0;          // of those, given one for a thin structure inside the tile
-  int planes_evaluated = 0;    // candidate planes swept by this call
+  int planes_evaluated = 0;    // candidate planes swept by this call (pass 1's twice
+                               // with second planes: per tile, and per cell at fine_width)
   int kept_tiles = 0;          // labelled tiles that kept the prior's depth (hysteresis)
 };
 
