@@ -48,10 +48,10 @@
  * the one place where every camera's contribution arrives separately, so it
  * works unchanged across machines: no camera image leaves its host.
  *
- * With `second-planes`, tiles next to a depth edge or with a thin structure
- * inside get a second plane (lib/lf/focus/focal_surface.h); a camera then
- * answers with its layer 0 and layer 1 in one buffer, and the frame takes per
- * pixel the layer whose cameras agree (lf::LayerCompositor, on the CPU
+ * With `second-planes` (the default; false gives one plane per tile), tiles
+ * next to a depth edge or with a thin structure inside get a second plane
+ * (lib/lf/focus/focal_surface.h); a camera then answers with its layer 0 and layer 1 in one buffer,
+ * and the frame takes per pixel the layer whose cameras agree (lf::LayerCompositor, on the CPU
  * whatever the backend). A buffer whose second fragment is not the same
  * camera's layer 1 of the same request is dropped with a warning.
  *
@@ -138,8 +138,9 @@ void install_compositor_properties(GObjectClass* oc, Properties<CompositorSettin
           "wires) its depth; the cameras then send those tiles twice "
           "(layer 1: the nearer plane) and this element takes per pixel the layer whose "
           "cameras agree (lib/lf/render/composite.h LayerCompositor, on the CPU); more bytes where "
-          "the scene has depth edges, none elsewhere",
-          FALSE, kReadWritePlaying));
+          "the scene has depth edges or thin structures, none elsewhere; false: one plane per "
+          "tile",
+          d.second_planes, kReadWritePlaying));
   props->add(oc, &CompositorSettings::adaptive_deadline,
              g_param_spec_boolean(
                  "adaptive-deadline", "Adaptive deadline",

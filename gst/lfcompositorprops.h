@@ -22,7 +22,7 @@ struct CompositorSettings {
   gint width = 0, height = 0;  // 0: from the fragment caps
   Fraction framerate{0, 1};    // 0/1: from the fragment caps
   bool stereo = false;
-  bool second_planes = false;  // surface probes: second planes at depth edges and thin structures
+  bool second_planes = true;  // surface probes: second planes at depth edges and thin structures
   lf::Backend backend = lf::Backend::kAuto;
   gdouble max_pixel_rate = kDefaultMaxPixelRate;  // live: output pixels a second composited
   bool adaptive_deadline = true;  // live: the deadline from the fragments' arrival times

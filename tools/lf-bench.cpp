@@ -47,7 +47,8 @@ usage: lf-bench [options]
                       image: an oracle), surface (a focal plane per 16-pixel tile
                       estimated from the images, lf/focus/focal_surface.h), surface2 (the
                       same with a second plane in tiles next to a depth edge or
-                      with a thin structure inside, chosen per pixel by the compositor), infinity,
+                      with a thin structure inside, chosen per pixel by the compositor:
+                      lf-render's and lfcompositor's default), infinity,
                       depth:Z, param:A (default auto,best,surface)
   --apertures LIST    aperture scales to add to each focal choice (lib/lf/geometry/view.h
                       Aperture: 1 is the paper's tent, 2 twice as wide, ...;

@@ -53,9 +53,11 @@ rendering
                         (rig units from the camera plane), param:A (light-slab
                         focal parameter: Stanford's pixels of shift per position
                         unit), plane:nx,ny,nz,d
-  --second-planes       with --focal surface: tiles next to a depth edge or with
-                        a thin structure inside get a second plane, chosen per pixel (lib/lf/render/composite.h
-                        LayerCompositor; CPU backend)
+  --one-plane-per-tile  with --focal surface: no second planes. By default tiles
+                        next to a depth edge or with a thin structure inside get a
+                        second plane, chosen per pixel (lib/lf/render/composite.h
+                        LayerCompositor; CPU backend); --second-planes is accepted
+                        and changes nothing
   --refocus-every N     on a path: re-run auto-focus every N frames (default 15),
                         or estimate the focal surface every N frames (default 1)
   --aperture D          synthetic aperture diameter on the camera plane, rig units
@@ -92,7 +94,7 @@ int main(int argc, char** argv) {
          "--look-at",  "--vfov",    "--path",          "--orbit",    "--dolly",    "--frames",
          "--size",     "--focal",   "--refocus-every", "--aperture", "--f-number", "--ulr",
          "--sampling", "--threads", "--backend",       "--out",      "--fps"},
-        {"--quiet", "--second-planes"});
+        {"--quiet", "--second-planes", "--one-plane-per-tile"});
     if (!args.has("--input")) throw std::invalid_argument("--input is required (see --help)");
     if (!args.has("--out")) throw std::invalid_argument("--out is required (see --help)");
     const bool quiet = args.has("--quiet");
@@ -155,11 +157,13 @@ int main(int argc, char** argv) {
       af = std::make_unique<lf::AutofocusContext>(rig, images);
     if (focal.kind == cli::FocalSpec::kSurface) {
       lf::SurfaceOptions opt;
-      opt.second_planes = args.has("--second-planes");
+      opt.second_planes = !args.has("--one-plane-per-tile");
       surface = std::make_unique<lf::FocalSurfaceEstimator>(rig, images, opt);
-    } else if (args.has("--second-planes")) {
-      throw std::invalid_argument("--second-planes needs --focal surface");
+    } else if (args.has("--second-planes") || args.has("--one-plane-per-tile")) {
+      throw std::invalid_argument("--second-planes and --one-plane-per-tile need --focal surface");
     }
+    if (args.has("--second-planes") && args.has("--one-plane-per-tile"))
+      throw std::invalid_argument("--second-planes and --one-plane-per-tile contradict each other");
     const int refocus = std::max(1, args.integer("--refocus-every", surface ? 1 : 15));
 
     const std::string out = args.get("--out");
