@@ -46,7 +46,7 @@ t_start=$SECONDS
 
 if [ "$quick" = 1 ]; then
   loo=6; between=8; runs=1; frames=150; sizes=640x480; seconds=4
-  methods=(--focal auto,surface --samplings bilinear,bicubic --apertures 1,ulr4)
+  methods=(--focal auto,surface2 --samplings bilinear,bicubic --apertures 1,ulr4)
 else
   loo=12; between=24; runs=3; frames=300; sizes=640x480,1920x1080; seconds=8
   methods=(--focal auto,best,surface,surface2 --samplings bilinear,bicubic --apertures 1,2,ulr4)
@@ -83,15 +83,18 @@ step "2/8 quality per method: Chess, then cotton, then in-between views of three
 bench chess "$build/tools/lf-bench" --input "$data/stanford-chess" --sizes 640x480 \
   --encodings none,jpeg90 "${methods[@]}" --loo "$loo" --skip-speed --plot "$plots/speed-error-chess.png"
 bench cotton "$build/tools/lf-bench" --input "$data/hci-cotton" --sizes 512x512 --encodings none \
-  --focal auto,best,surface --samplings bilinear,bicubic --loo "$loo" --skip-speed --skip-bandwidth \
+  --focal auto,best,surface2 --samplings bilinear,bicubic --loo "$loo" --skip-speed --skip-bandwidth \
   --plot "$plots/speed-error-cotton.png"
 for scene in stanford-chess blender-shop-9x9 hci-cotton; do
   bench "between-$scene" "$build/tools/lf-bench" --input "$data/$scene" --block 0,0,9,9 \
     --hold-out subgrid --sizes 640x480 --encodings none --focal auto,surface,surface2 \
-    --samplings bilinear,bicubic --loo "$between" --skip-speed --skip-bandwidth --plot "$tmp/unused.png"
+    --samplings bilinear,bicubic --loo "$between" --skip-speed --skip-bandwidth \
+    --plot "$plots/speed-error-between-$scene.png"
 done
 "$build/tests/test_surface" --gtest_filter='*ThinStructures*' > "$tmp/thin.md" ||
   { echo "bench: the thin-structure comparison failed" >&2; exit 1; }
+"$build/tests/test_surface" --gtest_filter='*SteadyInTime*' > "$tmp/flicker.md" ||
+  { echo "bench: the flicker measurement failed" >&2; exit 1; }
 step "3/8 the GStreamer pipeline, $runs run(s)"
 for r in $(seq 1 "$runs"); do
   bench "pipe$r" "$build/tools/lf-gst-bench" --input "$data/stanford-chess" --sizes "$sizes" \
@@ -161,10 +164,10 @@ eff=$(for r in $(seq 1 "$runs"); do
              h && c && $2 ~ /640x480/ && $3 ~ /raw/ {gsub(/ /, "", $c); print $c; exit}' "$tmp/pipe$r.md"
 done | paste -sd, | sed 's/,/, /g')
 auto_db=$(col "$tmp/chess.md" "| 640x480 | none | auto |" 4)
-surf_db=$(col "$tmp/chess.md" "| 640x480 | none | surface |" 4)
-surfc_db=$(col "$tmp/chess.md" "| 640x480 | none | surface, bicubic |" 4)
+surf_db=$(col "$tmp/chess.md" "| 640x480 | none | surface2 |" 4)
+surfc_db=$(col "$tmp/chess.md" "| 640x480 | none | surface2, bicubic |" 4)
 cot_auto=$(col "$tmp/cotton.md" "| none | auto |" 4)
-cot_surf=$(col "$tmp/cotton.md" "| none | surface |" 4)
+cot_surf=$(col "$tmp/cotton.md" "| none | surface2 |" 4)
 cot_best=$(col "$tmp/cotton.md" "| none | best |" 4)
 between() {  # scene, row: PSNR of that row of the in-between views' table
   col "$tmp/between-$1.md" "| 640x480 | none | $2 |" 4
@@ -199,12 +202,13 @@ live() {  # row of the focus table: its live fps
   echo "| our fragment kernels / OpenCV \`warpPerspective\`, same pixel count, one core (lower is faster) | $ratios | [Kernels](#kernels) |"
   echo "| naive full-frame warping of every camera / ours | $naive | [Kernels](#kernels) |"
   echo "| pipeline throughput / kernel bound, 640x480 raw (pipeline efficiency) | $eff | [Pipeline](#pipeline) |"
-  echo "| Chess, leave-one-out PSNR: focal surface (bilinear; bicubic) against the paper's auto-focused plane | ${surf_db:-?} dB; ${surfc_db:-?} dB against ${auto_db:-?} dB | [Quality](#quality-per-method) |"
-  echo "| HCI cotton, leave-one-out PSNR: focal surface against auto-focus and the best single plane of an exhaustive sweep | ${cot_surf:-?} dB against ${cot_auto:-?} and ${cot_best:-?} dB | [Quality](#quality-per-method) |"
+  echo "| Chess, leave-one-out PSNR: the default focal surface (bilinear; bicubic) against the paper's auto-focused plane | ${surf_db:-?} dB; ${surfc_db:-?} dB against ${auto_db:-?} dB | [Quality](#quality-per-method) |"
+  echo "| HCI cotton, leave-one-out PSNR: the default focal surface against auto-focus and the best single plane of an exhaustive sweep | ${cot_surf:-?} dB against ${cot_auto:-?} and ${cot_best:-?} dB | [Quality](#quality-per-method) |"
   for scene in stanford-chess blender-shop-9x9 hci-cotton; do
     echo "| $scene, in-between views (5 x 5 sub-grid renders the others): the default focal surface (second planes), bilinear (bicubic; one plane per tile) against the paper's auto-focused plane | $(between "$scene" surface2) dB ($(between "$scene" "surface2, bicubic") dB; $(between "$scene" surface) dB) against $(between "$scene" auto) dB | [Held-out in-between views](#held-out-in-between-views) |"
   done
   echo "| thin structures (bars before a background), 10 in-between views: the default focal surface against a per-pixel 64-plane sweep and one plane per tile | $(sed -n 's/^mean of [0-9]* views: default \([0-9.]*\) dB, one plane per tile \([0-9.]*\) dB, per-pixel sweep \([0-9.]*\) dB.*/\1 dB against \3 dB and \2 dB/p' "$tmp/thin.md") | [Thin structures](#thin-structures-against-a-per-pixel-sweep) |"
+  echo "| flicker of a static scene over 100 frames, still eye: the default focal surface against the paper's auto-focused plane (levels) | $(sed -n 's/^flicker over 100 frames, still eye: plane \([0-9.]*\), surface \([0-9.]*\) .*/\2 against \1/p' "$tmp/flicker.md") | [Flicker](#flicker-a-static-scene-re-estimated-every-frame) |"
   echo "| live 640x480 pipeline, 64 cameras, 30 requests/s: fps with the default focal surface against the paper's plane | $(live "| surface, a probe every 60 |") against $(live "| plane |") | [Focus modes in the pipeline](#focus-modes-in-the-pipeline) |"
   echo "| CPU per round: 8 eyes as one quilt request / as 8 viewers (5 rounds/s); 48 eyes (1 round/s) | $(quilt_ratio quilt8); $(quilt_ratio quilt48) | [Quilts](#quilts-many-views-in-one-request-round) |"
   if [ "$net" = 1 ]; then
@@ -233,7 +237,24 @@ live() {  # row of the focus table: its live fps
   echo "sub-grid of every other row and column and compared with their images: views no method"
   echo "was tuned on (the defaults: docs/rendering.md)."
   echo
-  for scene in stanford-chess blender-shop-9x9 hci-cotton; do section "between-$scene"; done
+  for scene in stanford-chess blender-shop-9x9 hci-cotton; do
+    echo "![PSNR against time per frame, in-between views of $scene]($rel/speed-error-between-$scene.png)"
+    echo
+    section "between-$scene"
+  done
+  echo "## Flicker: a static scene, re-estimated every frame"
+  echo
+  echo "The mean absolute difference between consecutive rendered frames (8-bit levels) over 100"
+  echo "frames of a static synthetic scene whose cameras have new sensor noise (sigma 2 levels) each"
+  echo "frame, each frame's focus estimated again from that frame's images, as a live stream does:"
+  echo "the paper's auto-focused plane against the default focal surface (with and without its"
+  echo "hysteresis), from a still eye and a slowly moving one. Command:"
+  echo "\`build/tests/test_surface --gtest_filter='*SteadyInTime*'\` (its assertions bound these)."
+  echo
+  echo '```'
+  grep '^flicker' "$tmp/flicker.md"
+  echo '```'
+  echo
   echo "## Thin structures against a per-pixel sweep"
   echo
   echo "Synthetic bars (3.5-9 pixels wide, every 16-36) before a textured background, seen from"

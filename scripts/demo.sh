@@ -24,8 +24,8 @@ fi
 ./pipelines/chess64.sh out/chess64.avi 120
 "$build/tools/lf-render" --input ../shared/data/stanford-chess --block 0,0,8,8 \
   --at -3320,-812 --size 640x480 --focal plane --out out/chess-still.png --quiet
-# The same view through a focal surface (one plane per 16-pixel tile, the
-# default): the near pieces and the board's edge sharp as well as the middle.
+# The same view through a focal surface (a plane per 16-pixel tile, a second
+# at depth edges, the default): the near pieces and the board's edge sharp too.
 "$build/tools/lf-render" --input ../shared/data/stanford-chess --block 0,0,8,8 \
   --at -3320,-812 --size 640x480 --out out/chess-still-surface.png --quiet
 echo "demo: wrote out/chess64.avi (GStreamer pipeline), out/chess-still.png (lf-render, one" \

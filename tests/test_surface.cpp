@@ -948,12 +948,8 @@ TEST(Surface, ThinStructuresComeWithinHalfADecibelOfAPerPixelSweep) {
       const lf::SurfaceEstimate e = est.estimate(v.req);
       ms_estimate +=
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-      lf::ViewRequest two = v.req, one = v.req;
-      lf::apply(e, two);
-      lf::apply(e, one);
-      one.surface.second_of.clear();
-      lf::RenderStats s1, s2;
-      const double p2 = v.psnr(two, &s2), p1 = v.psnr(one, &s1);
+      const ThinResult r = render_both(v, e);
+      const double p1 = r.p1, p2 = r.p2;
       t0 = std::chrono::steady_clock::now();
       const lf::SweepResult sweep = lf::per_pixel_sweep(v.rig, v.images, v.req, 64, 9);
       ms_sweep +=
@@ -965,7 +961,7 @@ TEST(Surface, ThinStructuresComeWithinHalfADecibelOfAPerPixelSweep) {
           bar, pitch, eye[0], eye[1], eye[2], p2, e.thin_tiles, p1, ps);
       EXPECT_GT(p2, p1 - 0.1) << "second planes never cost";
       sum_default += p2, sum_one += p1, sum_sweep += ps, ++n;
-      px_default += s2.fragment_pixels, px_one += s1.fragment_pixels;
+      px_default += r.px2, px_one += r.px1;
     }
   std::printf(
       "mean of %d views: default %.2f dB, one plane per tile %.2f dB, per-pixel sweep %.2f dB; "
