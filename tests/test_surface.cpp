@@ -545,6 +545,28 @@ TEST(Surface, ASteadyViewAmortisesTheSweep) {
   EXPECT_EQ(est.estimate(small, &carry).planes_evaluated, swept(opt));
 }
 
+TEST(Surface, AFullSurfaceTakesNoMoreThinPlanes) {
+  // Hysteresis may fill a surface with kept depths (a tile keeps the last
+  // estimate's depth unless clearly worse: here always); thin structures
+  // found then add no plane beyond FocalSurface::kMaxPlanes, so the
+  // request stays valid.
+  const OffPlaneView v(6, 20);
+  lf::SurfaceOptions opt;
+  opt.change_penalty = 1e9;
+  const lf::FocalSurfaceEstimator est(v.rig, v.images, opt);
+  lf::SurfaceCosts carry;
+  const lf::SurfaceEstimate first = est.estimate(v.req, &carry);
+  ASSERT_GT(first.thin_tiles, 10);
+  for (size_t t = 0; t < carry.prior.tile_q.size(); ++t)
+    carry.prior.tile_q[t] = first.tile_q[t] * (1 + 1e-3 * static_cast<double>(t % 97));
+  const lf::SurfaceEstimate full = est.estimate(v.req, &carry);
+  EXPECT_EQ(full.surface.planes.size(), static_cast<size_t>(lf::FocalSurface::kMaxPlanes));
+  lf::ViewRequest r = v.req;
+  lf::apply(full, r);
+  EXPECT_NO_THROW(lf::validate(r));
+  EXPECT_GT(v.psnr(r), 20.0);
+}
+
 TEST(Surface, BadOptionsAreRefused) {
   const lf::Rig rig = small_rig();
   const auto images = plane_images(rig, 3.0);

@@ -531,6 +531,8 @@ SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols
         const int k = thin_k[t];
         if (k < 0) continue;
         if (plane_of_cell_label[k] < 0) {
+          // A surface holds at most kMaxPlanes (hysteresis may have filled it).
+          if (fs.planes.size() >= static_cast<size_t>(FocalSurface::kMaxPlanes)) continue;
           plane_of_cell_label[k] = static_cast<int>(fs.planes.size());
           fs.planes.push_back(plane_at_inverse_depth(rig, cc.qs[k]));
         }
