@@ -528,7 +528,10 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
   for (size_t i : layer_of[0]) zero.push_back(fragments[i]);
   comp_[0].composite(width, height, zero, out);
   if (layer_of[1].empty()) return refused;
-  for (int l = 0; l < 2; ++l) sq_[l] = cv::Mat::zeros(height, width, CV_32FC1);
+  for (int l = 0; l < 2; ++l) {
+    sq_[l].create(height, width, CV_32FC1);  // the last frame's memory when the size is the same
+    sq_[l].setTo(0);
+  }
   // Layer 1 first: where it has weight is where the choice is made.
   Blocks blocks;
   blocks.cols = (width + kBlock - 1) / kBlock;
@@ -545,7 +548,11 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
   // Per pixel where layer 1 has weight: both layers' variances; then their
   // window means over those pixels, block by block.
   const int R = kChoiceWindow / 2;
-  cv::Mat v[2] = {cv::Mat::zeros(height, width, CV_32FC1), cv::Mat::zeros(height, width, CV_32FC1)};
+  cv::Mat* v = var_;
+  for (int l = 0; l < 2; ++l) {
+    v[l].create(height, width, CV_32FC1);
+    v[l].setTo(0);
+  }
   // Rows of blocks on every core: each pixel's result is its own.
   auto each_block_pixel = [&](auto fn) {
     cv::parallel_for_(cv::Range(0, (height + kBlock - 1) / kBlock), [&](const cv::Range& rows) {

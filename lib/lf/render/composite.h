@@ -166,13 +166,14 @@ class LayerCompositor {
   cv::Mat variance(int layer) const;
   // Frees the sums; the next composite() allocates them again.
   void release() {
-    for (int l = 0; l < 2; ++l) comp_[l].release(), sq_[l].release();
+    for (int l = 0; l < 2; ++l) comp_[l].release(), sq_[l].release(), var_[l].release();
   }
 
  private:
   float variance_at(int layer, int x, int y) const;
   Compositor comp_[2];
-  cv::Mat sq_[2];  // CV_32FC1: sum over cameras of w * |c|^2, where layer 1 has weight
+  cv::Mat sq_[2];   // CV_32FC1: sum over cameras of w * |c|^2, where layer 1 has weight
+  cv::Mat var_[2];  // CV_32FC1: the layers' variances there (kept from frame to frame)
 };
 
 }  // namespace lf

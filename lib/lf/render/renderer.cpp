@@ -47,11 +47,15 @@ std::vector<std::pair<size_t, std::string>> Renderer::composite(
   if (!layered) return add(eye, width, height, fragments, drawings, into);
   // Two planes per tile, chosen per pixel from every camera's pixels: the
   // drawings drawn first, into fragments of their own.
-  std::vector<Fragment> drawn(drawings.size());
+  std::vector<Fragment>& drawn = drawn_[eye];
+  drawn.resize(drawings.size());
   std::vector<FragmentPixels> all = fragments;
   for (size_t i = 0; i < drawings.size(); ++i) {
     const SlotDrawing& d = drawings[i];
     if (!d.plan || !d.camera) throw std::invalid_argument("renderer: a drawing without its plan");
+    std::vector<uint8_t> memory = std::move(drawn[i].pixels);  // the last frame's, reused
+    drawn[i] = Fragment{};
+    drawn[i].pixels = std::move(memory);
     describe_fragment(*d.plan, drawn[i]);
     drawn[i].camera_id = static_cast<uint32_t>(d.camera->id);
     drawn[i].pixels.resize(4 * d.plan->pixel_count());

@@ -78,6 +78,7 @@ class Renderer {
   // composite() allocates it again. The images in the slots stay.
   virtual void release() {
     for (LayerCompositor& l : layers_) l.release();
+    for (std::vector<Fragment>& d : drawn_) std::vector<Fragment>().swap(d);
   }
   // As interleave_quilt() (lf/render/lenticular.h).
   virtual void interleave(const DisplayCalibration& cal, const Quilt& layout, const cv::Mat& quilt,
@@ -92,6 +93,9 @@ class Renderer {
 
  private:
   LayerCompositor layers_[2];
+  // Per eye: the drawings of a frame with layer-1 fragments, drawn into
+  // fragments of their own (their memory kept from frame to frame).
+  std::vector<Fragment> drawn_[2];
 };
 
 // The renderer for `backend` (lf/render/gl_render.h resolve_backend: auto is GL on
