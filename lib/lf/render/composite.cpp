@@ -548,11 +548,10 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
   // Per pixel where layer 1 has weight: both layers' variances; then their
   // window means over those pixels, block by block.
   const int R = kChoiceWindow / 2;
+  // Written below at every pixel where layer 1 has weight before any is
+  // read, and read nowhere else: no zeroing needed.
   cv::Mat* v = var_;
-  for (int l = 0; l < 2; ++l) {
-    v[l].create(height, width, CV_32FC1);
-    v[l].setTo(0);
-  }
+  for (int l = 0; l < 2; ++l) v[l].create(height, width, CV_32FC1);
   // Rows of blocks on every core: each pixel's result is its own.
   auto each_block_pixel = [&](auto fn) {
     cv::parallel_for_(cv::Range(0, (height + kBlock - 1) / kBlock), [&](const cv::Range& rows) {
