@@ -88,7 +88,11 @@ GstPadProbeReturn on_frame(GstPad*, GstPadProbeInfo* info, gpointer data) {
 // properties) and for the kernel bound (lf::ViewSettings) alike.
 constexpr double kOrbit = 0.5;
 constexpr int kPathFrames = 120;
-constexpr const char* kFocalPlane = "param:-0.2";
+// The focal plane: Chess's light-slab parameter -0.2 where the rig has one;
+// else (a synthetic rig from lf-rig --synthetic --images) a plane 40 camera
+// spacings deep, between the synthetic scene's disc and background. Set in
+// main() once the rig is loaded.
+std::string g_focal_plane = "param:-0.2";
 
 // `surface` > 0: lfviewrequest focal-surface=true with that surface-interval
 // (a focal surface from the fragments, lib/lf/focus/surface_probe.h) instead of
@@ -141,7 +145,7 @@ std::string pipeline(const std::string& rig, int W, int H, const std::string& en
   const std::string fr = encoding_properties(enc);
   std::ostringstream d;
   d << "lfviewrequest name=req rig=" << rig << " width=" << W << " height=" << H
-    << " orbit=" << kOrbit << " path-frames=" << kPathFrames << " focal-plane=" << kFocalPlane
+    << " orbit=" << kOrbit << " path-frames=" << kPathFrames << " focal-plane=" << g_focal_plane
     << (surface > 0 ? " focal-surface=true surface-interval=" + std::to_string(surface)
                     : " focal-surface=false")
     << (props.empty() ? "" : " " + props) << " framerate=" << rate << "/1"
@@ -271,7 +275,7 @@ KernelTime kernel_ms(const lf::Rig& rig, const std::vector<cv::Mat>& images, int
   vs.path_frames = kPathFrames;
   const lf::ViewSequence seq = lf::build_views(rig, vs);
   lf::ViewRequest req;
-  req.focal_plane = lf::parse_focal_plane(kFocalPlane, rig);
+  req.focal_plane = lf::parse_focal_plane(g_focal_plane, rig);
   std::vector<lf::Fragment> frags(rig.cameras.size());
   std::vector<lf::FragmentPixels> pixels(frags.size());
   std::vector<lf::FragmentPlan> plans(frags.size());
@@ -425,6 +429,7 @@ int main(int argc, char** argv) {
   try {
     const lf::Rig rig =
         cli::select_cameras(lf::load_rig_or_dataset(input_path), block_spec, 0, 1.0, true);
+    if (!rig.has_focal_param) g_focal_plane = "depth:" + std::to_string(40 * rig.typical_spacing());
     const std::string rig_path =
         (std::filesystem::temp_directory_path() / "lf-gst-bench-rig.json").string();
     lf::save_rig(rig, rig_path);

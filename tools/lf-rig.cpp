@@ -1,7 +1,10 @@
 // lf-rig: writes a rig file (JSON) from a dataset folder or rig file, with an
 // optional grid block and image scale; lists camera ids for scripts.
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "cli.h"
 #include "lf/geometry/rig_ops.h"
@@ -18,6 +21,9 @@ usage: lf-rig (--input PATH | --synthetic RxC) [options] [--out RIG.json] [--ids
   --spacing S      synthetic: camera spacing, rig units (default 0.05)
   --size WxH       synthetic: image size (default 320x240)
   --vfov DEG       synthetic: vertical field of view (default 40)
+  --images         synthetic, with --out: also render each camera's view of the synthetic
+                   scene (lf::SyntheticScene at t = 0) to a PNG beside the rig file, so
+                   the rig works as a dataset (e.g. 16x16 = 256 cameras for lf-gst-bench)
   --block ...      keep only this block of the grid
   --spread K       then keep a K x K sub-grid spread evenly over it (first, last included)
   --input-scale S  cameras' images resized by S (intrinsics scaled)
@@ -31,7 +37,7 @@ usage: lf-rig (--input PATH | --synthetic RxC) [options] [--out RIG.json] [--ids
     cli::Args args(argc, argv,
                    {"--input", "--synthetic", "--spacing", "--size", "--vfov", "--block",
                     "--spread", "--input-scale", "--out", "--hosts"},
-                   {"--ids"});
+                   {"--ids", "--images"});
     lf::Rig rig;
     if (args.has("--synthetic")) {
       int rows, cols, w = 320, h = 240;
@@ -45,6 +51,21 @@ usage: lf-rig (--input PATH | --synthetic RxC) [options] [--out RIG.json] [--ids
       throw std::invalid_argument("--input or --synthetic is required (see --help)");
     }
     rig = cli::select_cameras(rig, args);
+    if (args.has("--images")) {
+      if (!args.has("--synthetic") || !args.has("--out"))
+        throw std::invalid_argument("--images needs --synthetic and --out");
+      const std::filesystem::path dir = std::filesystem::absolute(args.get("--out")).parent_path();
+      const lf::SyntheticScene scene = lf::SyntheticScene::for_rig(rig);
+      for (auto& c : rig.cameras) {
+        cv::Mat bgr;
+        cv::cvtColor(scene.render(c, 0.0, /*rgba=*/false), bgr, cv::COLOR_BGRA2BGR);
+        const std::string file = (dir / (c.name + ".png")).string();
+        if (!cv::imwrite(file, bgr)) throw std::runtime_error("cannot write " + file);
+        c.image = file;
+      }
+      std::fprintf(stderr, "lf-rig: %zu images written to %s\n", rig.cameras.size(),
+                   dir.string().c_str());
+    }
     if (args.has("--out")) lf::save_rig(rig, args.get("--out"));
     if (args.has("--ids"))
       for (const auto& c : rig.cameras) std::printf("%d\n", c.id);
