@@ -3,8 +3,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include "cli.h"
 #include "lf/geometry/rig_ops.h"
@@ -54,17 +52,9 @@ usage: lf-rig (--input PATH | --synthetic RxC) [options] [--out RIG.json] [--ids
     if (args.has("--images")) {
       if (!args.has("--synthetic") || !args.has("--out"))
         throw std::invalid_argument("--images needs --synthetic and --out");
-      const std::filesystem::path dir = std::filesystem::absolute(args.get("--out")).parent_path();
-      const lf::SyntheticScene scene = lf::SyntheticScene::for_rig(rig);
-      for (auto& c : rig.cameras) {
-        cv::Mat bgr;
-        cv::cvtColor(scene.render(c, 0.0, /*rgba=*/false), bgr, cv::COLOR_BGRA2BGR);
-        const std::string file = (dir / (c.name + ".png")).string();
-        if (!cv::imwrite(file, bgr)) throw std::runtime_error("cannot write " + file);
-        c.image = file;
-      }
-      std::fprintf(stderr, "lf-rig: %zu images written to %s\n", rig.cameras.size(),
-                   dir.string().c_str());
+      const std::string dir = std::filesystem::absolute(args.get("--out")).parent_path().string();
+      rig = lf::write_synthetic_images(std::move(rig), dir);
+      std::fprintf(stderr, "lf-rig: %zu images written to %s\n", rig.cameras.size(), dir.c_str());
     }
     if (args.has("--out")) lf::save_rig(rig, args.get("--out"));
     if (args.has("--ids"))

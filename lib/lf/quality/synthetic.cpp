@@ -1,9 +1,13 @@
 #include "lf/quality/synthetic.h"
 
 #include <cmath>
+#include <filesystem>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/utility.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <random>
+#include <stdexcept>
 
 namespace lf {
 
@@ -127,6 +131,19 @@ cv::Mat SyntheticScene::render(const Camera& cam, double t, bool rgba) const {
       }
   });
   return img;
+}
+
+Rig write_synthetic_images(Rig rig, const std::string& dir, double t) {
+  const SyntheticScene scene = SyntheticScene::for_rig(rig);
+  const std::filesystem::path base = std::filesystem::absolute(dir);
+  for (auto& c : rig.cameras) {
+    cv::Mat bgr;
+    cv::cvtColor(scene.render(c, t, /*rgba=*/false), bgr, cv::COLOR_BGRA2BGR);
+    const std::string file = (base / (c.name + ".png")).string();
+    if (!cv::imwrite(file, bgr)) throw std::runtime_error("cannot write " + file);
+    c.image = file;
+  }
+  return rig;
 }
 
 cv::Mat with_sensor_noise(const cv::Mat& rgba, double sigma, int camera_id, uint64_t frame) {

@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <opencv2/core.hpp>
+#include <string>
 
 #include "lf/geometry/rig.h"
 
@@ -49,6 +50,14 @@ struct SyntheticScene {
   // Centre of the disc at time t.
   cv::Vec3d disc_centre(double t) const;
 };
+
+// Makes `rig` a dataset: writes each camera's view of SyntheticScene::for_rig(rig)
+// at time t (seconds) as `dir`/<camera name>.png (8-bit BGR, lossless) and returns
+// the rig with each camera's image set to that file (absolute path). `dir`
+// must exist. Throws std::runtime_error when a file cannot be written.
+// Used by lf-rig --synthetic --images (e.g. a 16 x 16 rig for the scaling
+// benchmark; Chess has 81 cameras).
+Rig write_synthetic_images(Rig rig, const std::string& dir, double t = 0.0);
 
 // Sensor noise (lfcamsrc `noise`): zero-mean Gaussian noise of standard
 // deviation `sigma` (8-bit levels) added to each colour channel of each
