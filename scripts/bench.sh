@@ -91,6 +91,10 @@ for scene in stanford-chess blender-shop-9x9 hci-cotton; do
     --samplings bilinear,bicubic --loo "$between" --skip-speed --skip-bandwidth \
     --plot "$plots/speed-error-between-$scene.png"
 done
+for scene in stanford-chess blender-shop-9x9; do
+  bench "four-$scene" "$build/tools/lf-bench" --input "$data/$scene" --block 0,0,9,9 --sizes 640x480 \
+    --four-camera --skip-quality --skip-bandwidth --skip-speed
+done
 "$build/tests/test_surface" --gtest_filter='*ThinStructures*' > "$tmp/thin.md" ||
   { echo "bench: the thin-structure comparison failed" >&2; exit 1; }
 "$build/tests/test_surface" --gtest_filter='*SteadyInTime*' > "$tmp/flicker.md" ||
@@ -241,6 +245,17 @@ live() {  # row of the focus table: its live fps
     echo "![PSNR against time per frame, in-between views of $scene]($rel/speed-error-between-$scene.png)"
     echo
     section "between-$scene"
+  done
+  echo "## Four-camera weights (measured, not yet built)"
+  echo
+  echo "The same in-between views rendered with the tent over the rig's cell diagonal, over the"
+  echo "other diagonal, and with the mean of the two, which for an eye on the camera plane is"
+  echo "bilinear weights over the cell's four cameras (tools/bench/four_camera.h). A view at a"
+  echo "cell's centre blends two cameras with the tent and four with the mean; on a cell edge"
+  echo "both blend the same two. The renderer does not have them yet (docs/rendering.md)."
+  echo
+  for scene in stanford-chess blender-shop-9x9; do
+    section "four-$scene"
   done
   echo "## Flicker: a static scene, re-estimated every frame"
   echo

@@ -21,6 +21,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "bench/four_camera.h"
 #include "bench/speed.h"
 #include "cli.h"
 #include "lf/focus/focal_surface.h"
@@ -64,6 +65,8 @@ usage: lf-bench [options]
   --sweep-steps N     planes in the exhaustive sweep (default 96)
   --plot FILE         write a PNG plot (default lf-bench.png)
   --skip-quality, --skip-bandwidth, --skip-speed   leave out a section
+  --four-camera       also: in-between views through one cell diagonal, the other and
+                      both averaged (four-camera weights; tools/bench/four_camera.h)
   --backend LIST      renderers to time side by side on whole views from all the
                       cameras, at each size of --sizes: cpu, gl (EGL/GLES 3,
                       lib/lf/render/gl_render.h), auto; e.g. cpu,gl adds that table
@@ -264,7 +267,7 @@ int main(int argc, char** argv) {
         argc, argv,
         {"--input", "--block", "--input-scale", "--sizes", "--encodings", "--focal", "--loo",
          "--sweep-steps", "--plot", "--backend", "--apertures", "--samplings", "--hold-out"},
-        {"--skip-quality", "--skip-bandwidth", "--skip-speed"});
+        {"--skip-quality", "--skip-bandwidth", "--skip-speed", "--four-camera"});
     cv::setNumThreads(1);
     const lf::Rig rig = cli::select_cameras(
         lf::load_rig_or_dataset(args.get("--input", "../shared/data/stanford-chess")), args, true);
@@ -666,6 +669,7 @@ int main(int argc, char** argv) {
     }
 
     // ----------------------------------------------------------------- speed
+    if (args.has("--four-camera")) lfbench::four_camera_table(rig, images, W0, H0);
     if (!args.has("--skip-speed")) lfbench::speed_table(rig, images, path, W0, H0);
     // -------------------------------------------------------------- backends
     std::vector<lf::Backend> backends;
