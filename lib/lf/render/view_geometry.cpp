@@ -34,12 +34,27 @@ cv::Vec2d into_triangulation(const Rig& rig, const cv::Vec2d& e) {
   const auto& pos = rig.plane_positions();
   double best = INFINITY;
   cv::Vec2d snapped = e;
+  std::vector<int> uses(rig.facets().size(), 0);  // 1: a facet on the hull's border
+  for (const Simplex& sx : rig.simplices())
+    for (int k = 0; k < sx.size; ++k)
+      if (sx.facet[k] >= 0) ++uses[sx.facet[k]];
   for (const Simplex& sx : rig.simplices()) {
     if (sx.size != 3) continue;
-    bool inside = true;
-    for (int k = 0; k < 3; ++k) inside = inside && rig.facets()[sx.facet[k]](e) * sx.sign[k] >= 0;
-    if (inside) return e;
+    bool inside = true, on_border = false;
+    for (int k = 0; k < 3; ++k) {
+      const double v = rig.facets()[sx.facet[k]](e) * sx.sign[k];
+      inside = inside && v >= 0;
+      on_border = on_border || (v == 0 && uses[sx.facet[k]] == 1);
+    }
     const cv::Vec2d a = pos[sx.cams[0]], b = pos[sx.cams[1]], c = pos[sx.cams[2]];
+    if (inside && !on_border) return e;  // the tie rule gives it to one triangle
+    if (inside) {
+      // Exactly on the hull's border, where the tie rule may perturb it
+      // outwards, to no triangle: into this one.
+      const cv::Vec2d centre = (a + b + c) * (1.0 / 3.0);
+      const double to_centre = cv::norm(centre - e);
+      return to_centre > 0 ? e + (centre - e) * (1e-6 * rig.typical_spacing() / to_centre) : e;
+    }
     for (const cv::Vec2d& q :
          {nearest_on_segment(e, a, b), nearest_on_segment(e, b, c), nearest_on_segment(e, c, a)}) {
       const double d = cv::norm(q - e);
