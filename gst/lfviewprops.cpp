@@ -34,7 +34,8 @@
  * probes stop with one warning and `focal-plane` holds.
  *
  * `aperture` / `f-number` widen the paper's tent aperture, `ulr-cameras`
- * uses Unstructured Lumigraph weights, `sampling=bicubic` Keys' cubic in
+ * uses Unstructured Lumigraph weights, `four-camera` bilinear weights over
+ * a grid cell, `sampling=bicubic` Keys' cubic in
  * place of bilinear (lib/lf/geometry/view.h; figures in docs/rendering.md).
  *
  * ## Example launch line
@@ -246,6 +247,15 @@ ViewRequestSpecs install_view_request_properties(GObjectClass* oc,
           "k cameras nearest each ray in angle, for rigs without a grid and so that a lost "
           "camera leaves no hole; 0: the tent (aperture, f-number apply), else k (1 counts as 2)",
           0, lf::kMaxUlrCameras, 0, ctrl));
+  props->add(
+      oc, &ViewRequestSettings::four_camera,
+      g_param_spec_boolean(
+          "four-camera", "Four-camera weights",
+          "Bilinear weights over the grid cell around each ray (lib/lf/geometry/view.h "
+          "kFourCamera): a view at a cell's centre blends its four cameras where the paper's "
+          "tent blends two; about 1.3x the fragment pixels; on grid rigs, when ulr-cameras, "
+          "aperture and f-number are 0 (docs/rendering.md)",
+          FALSE, ctrl));
   props->add(oc, &ViewRequestSettings::sampling,
              g_param_spec_enum("sampling", "Sampling",
                                "How the cameras resample their images into fragments (the "

@@ -88,12 +88,8 @@ bench cotton "$build/tools/lf-bench" --input "$data/hci-cotton" --sizes 512x512 
 for scene in stanford-chess blender-shop-9x9 hci-cotton; do
   bench "between-$scene" "$build/tools/lf-bench" --input "$data/$scene" --block 0,0,9,9 \
     --hold-out subgrid --sizes 640x480 --encodings none --focal auto,surface,surface2 \
-    --samplings bilinear,bicubic --loo "$between" --skip-speed --skip-bandwidth \
+    --samplings bilinear,bicubic --apertures 1,four --loo "$between" --skip-speed --skip-bandwidth \
     --plot "$plots/speed-error-between-$scene.png"
-done
-for scene in stanford-chess blender-shop-9x9; do
-  bench "four-$scene" "$build/tools/lf-bench" --input "$data/$scene" --block 0,0,9,9 --sizes 640x480 \
-    --four-camera --skip-quality --skip-bandwidth --skip-speed
 done
 "$build/tests/test_surface" --gtest_filter='*ThinStructures*' > "$tmp/thin.md" ||
   { echo "bench: the thin-structure comparison failed" >&2; exit 1; }
@@ -211,6 +207,7 @@ live() {  # row of the focus table: its live fps
   for scene in stanford-chess blender-shop-9x9 hci-cotton; do
     echo "| $scene, in-between views (5 x 5 sub-grid renders the others): the default focal surface (second planes), bilinear (bicubic; one plane per tile) against the paper's auto-focused plane | $(between "$scene" surface2) dB ($(between "$scene" "surface2, bicubic") dB; $(between "$scene" surface) dB) against $(between "$scene" auto) dB | [Held-out in-between views](#held-out-in-between-views) |"
   done
+  echo "| in-between views, four-camera weights against the default tent (both with the default surface): Chess; Blender shop; HCI cotton | $(for sc in stanford-chess blender-shop-9x9 hci-cotton; do printf '%s against %s dB; ' "$(between "$sc" "surface2, four-camera")" "$(between "$sc" surface2)"; done | sed 's/; $//') | [Held-out in-between views](#held-out-in-between-views) |"
   echo "| thin structures (bars before a background), 10 in-between views: the default focal surface against a per-pixel 64-plane sweep and one plane per tile | $(sed -n 's/^mean of [0-9]* views: default \([0-9.]*\) dB, one plane per tile \([0-9.]*\) dB, per-pixel sweep \([0-9.]*\) dB.*/\1 dB against \3 dB and \2 dB/p' "$tmp/thin.md") | [Thin structures](#thin-structures-against-a-per-pixel-sweep) |"
   echo "| flicker of a static scene over 100 frames, still eye: the default focal surface against the paper's auto-focused plane (levels) | $(sed -n 's/^flicker over 100 frames, still eye: plane \([0-9.]*\), surface \([0-9.]*\) .*/\2 against \1/p' "$tmp/flicker.md") | [Flicker](#flicker-a-static-scene-re-estimated-every-frame) |"
   echo "| live 640x480 pipeline, 64 cameras, 30 requests/s: fps with the default focal surface against the paper's plane | $(live "| surface, a probe every 60 |") against $(live "| plane |") | [Focus modes in the pipeline](#focus-modes-in-the-pipeline) |"
@@ -245,17 +242,6 @@ live() {  # row of the focus table: its live fps
     echo "![PSNR against time per frame, in-between views of $scene]($rel/speed-error-between-$scene.png)"
     echo
     section "between-$scene"
-  done
-  echo "## Four-camera weights (measured, not yet built)"
-  echo
-  echo "The same in-between views rendered with the tent over the rig's cell diagonal, over the"
-  echo "other diagonal, and with the mean of the two, which for an eye on the camera plane is"
-  echo "bilinear weights over the cell's four cameras (tools/bench/four_camera.h). A view at a"
-  echo "cell's centre blends two cameras with the tent and four with the mean; on a cell edge"
-  echo "both blend the same two. The renderer does not have them yet (docs/rendering.md)."
-  echo
-  for scene in stanford-chess blender-shop-9x9; do
-    section "four-$scene"
   done
   echo "## Flicker: a static scene, re-estimated every frame"
   echo

@@ -3,12 +3,15 @@
 // rectangles exactly the pixels with nonzero weight.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <map>
 #include <random>
 
 #include "helpers.h"
+#include "lf/quality/quality.h"
 #include "lf/quality/synthetic.h"
 #include "lf/render/plan.h"
+#include "lf/render/render_view.h"
 
 namespace {
 
@@ -553,4 +556,123 @@ TEST(Plan, UlrWeightsSumToOneAndCoverALostCamera) {
   for (int i = 0; i < static_cast<int>(rig.cameras.size()); ++i)
     blended += g.ulr_weight(i, 1, 1) > 0;
   EXPECT_EQ(blended, 5) << "the camera under the eye and its four neighbours";
+}
+
+namespace {
+// Planned weights of every camera, summed per pixel; `count` cameras per pixel.
+std::vector<double> weight_sums(const lf::Rig& rig, const lf::ViewGeometry& g,
+                                std::vector<int>* count = nullptr) {
+  const int W = g.width(), H = g.height();
+  std::vector<double> sum(static_cast<size_t>(W) * H, 0.0);
+  if (count) count->assign(sum.size(), 0);
+  for (int i = 0; i < static_cast<int>(rig.cameras.size()); ++i) {
+    const lf::FragmentPlan plan = lf::plan_fragment(g, i);
+    for (const lf::Run& r : plan.runs)
+      for (int x = r.x0; x < r.x1; ++x) {
+        const lf::FragmentPiece& pc = plan.pieces[r.piece];
+        const double w = pc.weight_num(x, r.y) / pc.weight_den(x, r.y);
+        EXPECT_GT(w, -1e-12) << "camera " << i;
+        EXPECT_LE(w, 1 + 1e-12);
+        sum[static_cast<size_t>(r.y) * W + x] += w;
+        if (count) ++(*count)[static_cast<size_t>(r.y) * W + x];
+      }
+  }
+  return sum;
+}
+
+// The rig with every grid cell split along its other diagonal.
+lf::Rig other_diagonals(const lf::Rig& rig) {
+  lf::Rig out = rig;
+  out.triangles.clear();
+  for (int r = 0; r + 1 < rig.grid.rows; ++r)
+    for (int c = 0; c + 1 < rig.grid.cols; ++c) {
+      auto id = [&](int rr, int cc) { return rig.cameras[rig.grid.at(rr, cc)].id; };
+      // Both diagonals of the cell, each with the triangles the rig does not have.
+      const std::array<std::array<int, 3>, 2> a = {
+          {{id(r, c), id(r, c + 1), id(r + 1, c + 1)}, {id(r, c), id(r + 1, c + 1), id(r + 1, c)}}};
+      const std::array<std::array<int, 3>, 2> b = {
+          {{id(r, c), id(r, c + 1), id(r + 1, c)}, {id(r, c + 1), id(r + 1, c + 1), id(r + 1, c)}}};
+      auto has = [&](const std::array<int, 3>& t) {
+        for (auto u : rig.triangles) {
+          std::sort(u.begin(), u.end());
+          auto v = t;
+          std::sort(v.begin(), v.end());
+          if (u == v) return true;
+        }
+        return false;
+      };
+      for (const auto& t : has(a[0]) ? b : a) out.triangles.push_back(t);
+    }
+  out.finalize();
+  return out;
+}
+}  // namespace
+
+// Four-camera weights (lf/geometry/view.h Aperture::kFourCamera): planned
+// weights sum to 1 at every pixel on and off the camera plane; an eye at a
+// cell's centre blends its four cameras at 0.25 each (the tent: two at
+// 0.5); for an eye on the camera plane the view is the mean of the views
+// through either diagonal's tent, pixel for pixel; on a cell edge it is
+// the tent's.
+TEST(Plan, FourCameraWeightsAreBilinearOverTheCell) {
+  const lf::Rig rig = lf::synthetic_grid_rig(5, 5, 1.0, 160, 120, 60);
+  const int W = 129, H = 97;
+  std::vector<cv::Mat> images;
+  for (const auto& c : rig.cameras) images.push_back(lf::render_textured_plane(c, 10.0, 0.7));
+  const lf::Rig flipped = other_diagonals(rig);
+  for (const cv::Vec3d& eye :
+       {cv::Vec3d(0.5, 0.5, 0), cv::Vec3d(-0.5, 0.5, 0), cv::Vec3d(0.0, 0.5, 0),
+        cv::Vec3d(0.3, -0.6, -1.5), cv::Vec3d(0.2, 0.7, 0.8)}) {
+    SCOPED_TRACE(testing::Message() << "eye " << eye);
+    lf::ViewRequest req;
+    req.view = lf::VirtualView::look_at(eye, {0.4, 0.4, 10}, {0, 1, 0}, 30, W, H);
+    req.focal_plane = lf::FocalPlane::through({0, 0, 10}, {0, 0, 1});
+    req.aperture = lf::Aperture::kFourCamera;
+    const lf::ViewGeometry g(rig, req);
+    std::vector<int> count;
+    const std::vector<double> sum = weight_sums(rig, g, &count);
+    double worst = 0;
+    for (const double v : sum) worst = std::max(worst, std::abs(v - 1));
+    EXPECT_LT(worst, 1e-9);
+    if (eye[2] != 0) continue;
+    if (eye[0] != 0) {  // a cell's centre
+      int four = 0;
+      for (int i = 0; i < static_cast<int>(rig.cameras.size()); ++i)
+        if (g.ulr_weight(i, 1, 1) > 0) {
+          ++four;
+          EXPECT_NEAR(g.ulr_weight(i, 1, 1), 0.25, 1e-12);
+        }
+      EXPECT_EQ(four, 4);
+      EXPECT_EQ(*std::min_element(count.begin(), count.end()), 4);
+    }
+    lf::ViewRequest tent = req;
+    tent.aperture = lf::Aperture::kTent;
+    cv::Mat mean;
+    cv::addWeighted(lf::render_view(rig, images, tent), 0.5, lf::render_view(flipped, images, tent),
+                    0.5, 0, mean);
+    const cv::Mat four = lf::render_view(rig, images, req);
+    // Fragments are 8-bit, premultiplied by the weight (lf/render/fragment.h):
+    // four cameras at 0.25 round their colour to 4 levels, two at 0.5 to 2.
+    EXPECT_LE(cv::norm(four, mean, cv::NORM_INF), 4) << "the mean of the two diagonals' tents";
+    EXPECT_GT(lf::psnr(four, mean), 45);
+    if (eye[0] == 0)  // on a cell edge: the same two cameras as the tent
+      EXPECT_EQ(cv::norm(four, lf::render_view(rig, images, tent), cv::NORM_INF), 0);
+  }
+  // No scale; a rig without a grid keeps the tent's weights.
+  lf::ViewRequest bad;
+  bad.view = lf::VirtualView::look_at({0, 0, 0}, {0, 0, 10}, {0, 1, 0}, 30, W, H);
+  bad.aperture = lf::Aperture::kFourCamera;
+  bad.aperture_scale = 2;
+  EXPECT_THROW(lf::validate(bad), std::invalid_argument);
+  lf::Rig loose = rig;
+  loose.grid = {};
+  loose.triangles.clear();
+  loose.finalize();
+  bad.aperture_scale = 1;
+  bad.view = lf::VirtualView::look_at({0.5, 0.5, 0}, {0.5, 0.5, 10}, {0, 1, 0}, 30, W, H);
+  const lf::ViewGeometry g(loose, bad);
+  int cams = 0;
+  for (int i = 0; i < static_cast<int>(loose.cameras.size()); ++i)
+    cams += g.ulr_weight(i, 1, 1) > 0;
+  EXPECT_LE(cams, 3) << "no cells without a grid: the tent";
 }

@@ -431,6 +431,26 @@ TEST(Wire, RequestRoundTrip) {
   const lf::ViewRequest pu = lf::parse_request(ub4.data(), ub4.size());
   EXPECT_EQ(pu.aperture, lf::Aperture::kUlr);
   EXPECT_EQ(pu.ulr_cameras, 5);
+  // Four-camera weights: byte 136 = 2, bytes 138..139 zero; with a scale
+  // there, or an aperture 3, the request is refused.
+  lf::ViewRequest f4 = r;
+  f4.aperture = lf::Aperture::kFourCamera;
+  auto fb4 = lf::serialize_request(f4);
+  EXPECT_EQ(fb4[136], 2);
+  EXPECT_EQ(fb4[138] | fb4[139], 0);
+  EXPECT_EQ(lf::parse_request(fb4.data(), fb4.size()).aperture, lf::Aperture::kFourCamera);
+  auto resign = [](std::vector<uint8_t>& v) {
+    const uLong c = crc32(crc32(0L, Z_NULL, 0), v.data(), 148);
+    for (int i = 0; i < 4; ++i) v[148 + i] = static_cast<uint8_t>(c >> (24 - 8 * i));
+  };
+  ASSERT_EQ(fb4.size(), 152u);
+  auto scaled = fb4;
+  scaled[139] = 0x80;
+  resign(scaled);
+  EXPECT_THROW(lf::parse_request(scaled.data(), scaled.size()), lf::WireError);
+  fb4[136] = 3;
+  resign(fb4);
+  EXPECT_THROW(lf::parse_request(fb4.data(), fb4.size()), lf::WireError);
   // The sampling filter: byte 137.
   lf::ViewRequest c = r;
   c.sampling = lf::Sampling::kBicubic;
@@ -975,7 +995,7 @@ TEST(Wire, InvalidRequestsAreRejected) {
         },
         "aperture scale");
   expect_edit_refused([](auto& v) { v[137] = 2; }, "sampling");
-  expect_edit_refused([](auto& v) { v[136] = 2; }, "unknown aperture");
+  expect_edit_refused([](auto& v) { v[136] = 3; }, "unknown aperture");
   expect_edit_refused([](auto& v) { v[136] = 1, v[138] = 0, v[139] = 1; }, "ULR aperture");
   expect_edit_refused([](auto& v) { v[136] = 1, v[138] = 0, v[139] = 17; }, "ULR aperture");
   // Serializing an invalid request refuses.

@@ -21,7 +21,6 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "bench/four_camera.h"
 #include "bench/speed.h"
 #include "cli.h"
 #include "lf/focus/focal_surface.h"
@@ -54,6 +53,7 @@ usage: lf-bench [options]
   --apertures LIST    aperture scales to add to each focal choice (lib/lf/geometry/view.h
                       Aperture: 1 is the paper's tent, 2 twice as wide, ...;
                       ulrK: Unstructured Lumigraph weights over K cameras;
+                      four: four-camera weights over a grid cell;
                       default 1): PSNR, time and fragment bytes of each
   --samplings LIST    sampling filters to add to each focal choice: bilinear
                       (default), bicubic (lib/lf/geometry/view.h Sampling)
@@ -65,8 +65,6 @@ usage: lf-bench [options]
   --sweep-steps N     planes in the exhaustive sweep (default 96)
   --plot FILE         write a PNG plot (default lf-bench.png)
   --skip-quality, --skip-bandwidth, --skip-speed   leave out a section
-  --four-camera       also: in-between views through one cell diagonal, the other and
-                      both averaged (four-camera weights; tools/bench/four_camera.h)
   --backend LIST      renderers to time side by side on whole views from all the
                       cameras, at each size of --sizes: cpu, gl (EGL/GLES 3,
                       lib/lf/render/gl_render.h), auto; e.g. cpu,gl adds that table
@@ -267,7 +265,7 @@ int main(int argc, char** argv) {
         argc, argv,
         {"--input", "--block", "--input-scale", "--sizes", "--encodings", "--focal", "--loo",
          "--sweep-steps", "--plot", "--backend", "--apertures", "--samplings", "--hold-out"},
-        {"--skip-quality", "--skip-bandwidth", "--skip-speed", "--four-camera"});
+        {"--skip-quality", "--skip-bandwidth", "--skip-speed"});
     cv::setNumThreads(1);
     const lf::Rig rig = cli::select_cameras(
         lf::load_rig_or_dataset(args.get("--input", "../shared/data/stanford-chess")), args, true);
@@ -304,6 +302,10 @@ int main(int argc, char** argv) {
       std::stringstream ss(args.get("--apertures", "1"));
       std::string tok;
       while (std::getline(ss, tok, ',')) {
+        if (tok == "four") {  // four-camera weights: 0
+          apertures.push_back(0);
+          continue;
+        }
         if (tok.rfind("ulr", 0) == 0) {
           const int k = tok.size() > 3 ? std::atoi(tok.c_str() + 3) : 4;
           if (k < lf::kMinUlrCameras || k > lf::kMaxUlrCameras)
@@ -463,12 +465,16 @@ int main(int argc, char** argv) {
               for (const double ap : apertures)
                 for (const Encoding& e : encodings) {
                   req.aperture_scale = ap > 0 ? ap : 1;
-                  req.aperture = ap > 0 ? lf::Aperture::kTent : lf::Aperture::kUlr;
+                  req.aperture = ap > 0    ? lf::Aperture::kTent
+                                 : ap == 0 ? lf::Aperture::kFourCamera
+                                           : lf::Aperture::kUlr;
                   req.ulr_cameras = ap > 0 ? 4 : static_cast<int>(-ap);
                   req.sampling = sampling;
                   const bool cubic = sampling == lf::Sampling::kBicubic;
                   char ap_label[48] = "";
-                  if (ap < 0)
+                  if (ap == 0)
+                    std::snprintf(ap_label, sizeof ap_label, ", four-camera");
+                  else if (ap < 0)
                     std::snprintf(ap_label, sizeof ap_label, ", ULR k = %d", static_cast<int>(-ap));
                   else if (ap != 1)
                     std::snprintf(ap_label, sizeof ap_label, ", aperture %gx", ap);
@@ -669,7 +675,6 @@ int main(int argc, char** argv) {
     }
 
     // ----------------------------------------------------------------- speed
-    if (args.has("--four-camera")) lfbench::four_camera_table(rig, images, W0, H0);
     if (!args.has("--skip-speed")) lfbench::speed_table(rig, images, path, W0, H0);
     // -------------------------------------------------------------- backends
     std::vector<lf::Backend> backends;

@@ -84,7 +84,11 @@ void validate(const ViewRequest& req) {
     if (!std::isfinite(p.n[i])) bad("focal plane normal is not finite");
   if (!std::isfinite(p.d)) bad("focal plane offset is not finite");
   if (p.at_infinity() && p.d == 0.0) bad("focal plane (0, 0, 0, 0) is not a plane");
-  if (req.aperture != Aperture::kTent && req.aperture != Aperture::kUlr) bad("unknown aperture");
+  if (req.aperture != Aperture::kTent && req.aperture != Aperture::kUlr &&
+      req.aperture != Aperture::kFourCamera)
+    bad("unknown aperture");
+  if (req.aperture == Aperture::kFourCamera && req.aperture_scale != 1.0)
+    bad("four-camera weights have no scale");
   if (req.aperture == Aperture::kUlr &&
       (req.ulr_cameras < kMinUlrCameras || req.ulr_cameras > kMaxUlrCameras))
     bad("ULR aperture with " + std::to_string(req.ulr_cameras) + " cameras (" +

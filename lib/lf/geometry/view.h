@@ -96,7 +96,21 @@ struct FocalSurface {
 // ties, sum to 1 at every pixel some camera sees, and every pixel seen by
 // two cameras or more is blended from two or more, so a lost camera leaves
 // no hole.
-enum class Aperture : uint8_t { kTent = 0, kUlr = 1 };
+//
+// kFourCamera: bilinear weights over the grid cell around the line's
+// camera-plane point X: the mean of the tents of the rig's triangulation and
+// of the same cells split along their other diagonals (each pair of
+// triangles sharing its longest edge, a cell's diagonal, flipped). The mean
+// is linear on the four triangles both diagonals cut a cell into, and equals
+// bilinear weights over the cell's four cameras at its corners, edge
+// midpoints and centre: a view at a cell's centre blends all four cameras
+// where the tent blends the two of one diagonal. Triangles with no partner
+// (a rig without a grid, the hull's border) keep the tent. Weights are
+// evaluated at the vertices of the kUlrGrid-pixel grid and interpolated
+// over its cells as kUlr's (exact for an eye on the camera plane, where
+// they are constant); no scale, no ulr_cameras. Measured on in-between
+// views (docs/rendering.md, "Four-camera weights").
+enum class Aperture : uint8_t { kTent = 0, kUlr = 1, kFourCamera = 2 };
 constexpr int kUlrGrid = 64;  // output pixels per blending-field cell
 constexpr double kUlrResolutionWeight = 0.2;
 constexpr int kMinUlrCameras = 2, kMaxUlrCameras = 16;
@@ -159,7 +173,7 @@ struct ViewRequest {
   FocalPlane focal_plane;  // the single plane; with a surface, where it has none
   FocalSurface surface;    // optional per-tile focal planes (empty: focal_plane)
   Aperture aperture = Aperture::kTent;
-  double aperture_scale = 1.0;  // 1..kMaxApertureScale (see Aperture); 1 with kUlr
+  double aperture_scale = 1.0;  // 1..kMaxApertureScale (see Aperture); 1 with kUlr, kFourCamera
   int ulr_cameras = 4;          // k of kUlr, kMinUlrCameras..kMaxUlrCameras
   Sampling sampling = Sampling::kBilinear;
   // The instant the request is for (ns of running time on the pipeline

@@ -70,7 +70,7 @@ struct ApertureSample {
   std::array<double, 3> weight{0, 0, 0};  // in [0, 1], summing to 1
 };
 
-// A request's ULR blending field (lf/geometry/view.h Aperture kUlr): the weight of
+// A request's blending field (lf/geometry/view.h Aperture kUlr, kFourCamera): the weight of
 // every camera at every vertex of its kUlrGrid-pixel grid. It depends on
 // the whole rig, not on one camera, so cameras in one process can share it
 // (ViewGeometry's `ulr` argument, gst/lffragment.cpp).
@@ -149,14 +149,14 @@ class ViewGeometry {
   // The simplex containing the pixel's line and its weights.
   ApertureSample locate(double x, double y) const;
 
-  // kUlr (lf/geometry/view.h Aperture): the blending field. Its cells are kUlrGrid
+  // kUlr and kFourCamera (lf/geometry/view.h Aperture): the blending field. Its cells are kUlrGrid
   // output pixels square, ulr_cols() x ulr_rows() of them; cell (cx, cy)
   // holds pixels [cx G, cx G + G) x [cy G, cy G + G), split by its diagonal
   // into half 0 (u >= v, with u, v the pixel's offsets in the cell) and half
   // 1 (u < v), each holding its pixels exactly once. ulr_weight(): camera
   // `index`'s weight at vertex (vx, vy), pixel (vx G, vy G); ulr_form():
   // its weight over a half, linear in the pixel (interpolated from the
-  // half's three vertices). Empty (0 cells) for other apertures.
+  // half's three vertices). Empty (0 cells) for the tent.
   int ulr_cols() const { return ulr_ ? ulr_->cols : 0; }
   int ulr_rows() const { return ulr_ ? ulr_->rows : 0; }
   double ulr_weight(int index, int vx, int vy) const {

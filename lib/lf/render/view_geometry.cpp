@@ -68,6 +68,106 @@ cv::Vec2d into_triangulation(const Rig& rig, const cv::Vec2d& e) {
   }
   return snapped;
 }
+
+// Four-camera weights (lf/geometry/view.h Aperture::kFourCamera) at
+// camera-plane point X: the mean of the rig's tent and the tent of its cells
+// split along their other diagonals. `partner[s]`: the triangle sharing
+// simplex s's longest edge (its cell's diagonal) when that edge is also the
+// partner's longest, else -1. Writes the weights of the cameras that have
+// one into w (indexed by camera); false where X is outside the triangulation.
+std::vector<int> cell_partners(const Rig& rig) {
+  const auto& sx = rig.simplices();
+  const auto& pos = rig.plane_positions();
+  std::map<std::pair<int, int>, std::vector<int>> by_edge;
+  for (size_t s = 0; s < sx.size(); ++s) {
+    if (sx[s].size != 3) continue;
+    int best = 0;
+    double longest = -1;
+    for (int k = 0; k < 3; ++k) {
+      const double len = cv::norm(pos[sx[s].cams[k]] - pos[sx[s].cams[(k + 1) % 3]]);
+      if (len > longest) longest = len, best = k;
+    }
+    const int a = sx[s].cams[best], b = sx[s].cams[(best + 1) % 3];
+    by_edge[{std::min(a, b), std::max(a, b)}].push_back(static_cast<int>(s));
+  }
+  std::vector<int> partner(sx.size(), -1);
+  if (rig.grid.empty()) return partner;   // cells only where the rig is a grid
+  auto side = [&](int a, int b, int c) {  // sign of c relative to line ab
+    const cv::Vec2d u = pos[b] - pos[a], v = pos[c] - pos[a];
+    return u[0] * v[1] - u[1] * v[0];
+  };
+  for (const auto& [edge, tris] : by_edge) {
+    if (tris.size() != 2) continue;
+    int third[2] = {-1, -1};
+    for (int k = 0; k < 2; ++k)
+      for (int c : sx[tris[k]].cams)
+        if (c != edge.first && c != edge.second) third[k] = c;
+    // A convex cell: each diagonal separates the other's ends.
+    if (side(edge.first, edge.second, third[0]) * side(edge.first, edge.second, third[1]) < 0 &&
+        side(third[0], third[1], edge.first) * side(third[0], third[1], edge.second) < 0)
+      partner[tris[0]] = tris[1], partner[tris[1]] = tris[0];
+  }
+  return partner;
+}
+
+// Barycentric coordinates of p in triangle (a, b, c); false if degenerate.
+bool barycentric(const cv::Vec2d& p, const cv::Vec2d& a, const cv::Vec2d& b, const cv::Vec2d& c,
+                 std::array<double, 3>& l) {
+  const double det = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1]);
+  if (!(std::abs(det) > 0)) return false;
+  l[1] = ((p[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (p[1] - a[1])) / det;
+  l[2] = ((b[0] - a[0]) * (p[1] - a[1]) - (p[0] - a[0]) * (b[1] - a[1])) / det;
+  l[0] = 1.0 - l[1] - l[2];
+  return true;
+}
+
+bool four_camera_weights(const Rig& rig, const std::vector<int>& partner, const cv::Vec2d& X,
+                         double* w) {
+  const auto& sxs = rig.simplices();
+  const auto& pos = rig.plane_positions();
+  for (size_t s = 0; s < sxs.size(); ++s) {
+    const Simplex& sx = sxs[s];
+    if (sx.size != 3) continue;
+    std::array<double, 3> e;
+    double sum = 0;
+    bool inside = true;
+    for (int k = 0; k < 3; ++k) {
+      e[k] = rig.facets()[sx.facet[k]](X) * sx.sign[k];
+      inside = inside && e[k] >= 0;
+      sum += e[k];
+    }
+    if (!inside || !(sum > 0)) continue;
+    const int p = partner[s];
+    const double half = p < 0 ? 1.0 : 0.5;
+    for (int k = 0; k < 3; ++k) w[sx.cams[k]] += half * e[k] / sum;
+    if (p < 0) return true;
+    // The other diagonal joins the two triangles' third vertices R and S;
+    // X lies in (R, S, P) or (R, S, Q), P and Q the shared diagonal's ends.
+    int R = -1, S = -1;
+    for (int c : sx.cams)
+      if (std::find(sxs[p].cams.begin(), sxs[p].cams.end(), c) == sxs[p].cams.end()) R = c;
+    for (int c : sxs[p].cams)
+      if (std::find(sx.cams.begin(), sx.cams.end(), c) == sx.cams.end()) S = c;
+    std::array<double, 3> best{0, 0, 0};
+    int best_end = -1;
+    double best_min = -INFINITY;
+    for (int c : sx.cams) {
+      if (c == R) continue;
+      std::array<double, 3> l;
+      if (!barycentric(X, pos[R], pos[S], pos[c], l)) continue;
+      const double m = std::min({l[0], l[1], l[2]});
+      if (m > best_min) best_min = m, best = l, best_end = c;
+    }
+    if (best_end < 0) {  // a degenerate cell: the tent alone
+      for (int k = 0; k < 3; ++k) w[sx.cams[k]] += half * e[k] / sum;
+      return true;
+    }
+    const int cams[3] = {R, S, best_end};
+    for (int k = 0; k < 3; ++k) w[cams[k]] += half * std::clamp(best[k], 0.0, 1.0);
+    return true;
+  }
+  return false;
+}
 }  // namespace
 
 ViewGeometry::ViewGeometry(const Rig& rig, const ViewRequest& request, int only_camera,
@@ -120,7 +220,7 @@ ViewGeometry::ViewGeometry(const Rig& rig, const ViewRequest& request, int only_
       H_[only_ >= 0 ? p : p * ncam_ + i] = c.intrinsics.K() * A * M_;
     }
   }
-  if (req_.aperture == Aperture::kUlr) {
+  if (req_.aperture == Aperture::kUlr || req_.aperture == Aperture::kFourCamera) {
     const int G = kUlrGrid;
     if (ulr && ulr->cols == (v.width + G - 1) / G && ulr->rows == (v.height + G - 1) / G &&
         ulr->cameras == ncam_ &&
@@ -171,6 +271,29 @@ std::shared_ptr<const UlrField> ViewGeometry::compute_ulr() const {
   field->cameras = ncam_;
   field->w.assign(static_cast<size_t>(field->cols + 1) * (field->rows + 1) * ncam_, 0.0);
   const cv::Vec3d E = req_.view.position;
+  if (req_.aperture == Aperture::kFourCamera) {
+    const std::vector<int> partner = cell_partners(rig);
+    const CameraPlane& P = rig.plane();
+    for (int vy = 0; vy <= field->rows; ++vy)
+      for (int vx = 0; vx <= field->cols; ++vx) {
+        double* w = &field->w[(static_cast<size_t>(vy) * (field->cols + 1) + vx) * ncam_];
+        // The line's camera-plane point (plan.h: X = E_2d - dist D_2d / D_n).
+        cv::Vec2d X = eye2d_;
+        if (eye_dist_ != 0.0) {
+          const cv::Vec3d D = ray(vx * G, vy * G);
+          const double dn = D.dot(P.normal);
+          if (dn == 0) continue;  // parallel to the plane: not seen
+          X = eye2d_ - cv::Vec2d(D.dot(P.u), D.dot(P.v)) * (eye_dist_ / dn);
+        }
+        if (rig.dimension() == 2) {
+          four_camera_weights(rig, partner, X, w);
+        } else {  // a 1-D or one-camera rig has no cells: its tent
+          const ApertureSample a = locate(vx * G, vy * G);
+          for (int k = 0; k < a.count; ++k) w[a.cams[k]] += a.weight[k];
+        }
+      }
+    return field;
+  }
   const int k = req_.ulr_cameras;
   const double far = 1e4 * std::max(rig.typical_spacing(), cv::norm(E - rig.plane().origin));
   std::vector<std::pair<double, int>> ranked;

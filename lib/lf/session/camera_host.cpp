@@ -69,7 +69,7 @@ class SharedPerRequest {
 std::shared_ptr<const ViewGeometry> shared_geometry(const std::shared_ptr<const Rig>& rig,
                                                     const ViewRequest& req, int index,
                                                     const std::string& key) {
-  const bool ulr = req.aperture == Aperture::kUlr;
+  const bool ulr = req.aperture == Aperture::kUlr || req.aperture == Aperture::kFourCamera;
   if (key.empty() || key.size() > kMaxSharedKeyBytes || (!ulr && !req.surface.empty()))
     return std::make_shared<const ViewGeometry>(*rig, req, index);
   if (ulr) {

@@ -168,6 +168,8 @@ ViewerTick ViewerSession::tick(uint64_t k, const ViewerSettings& now, int64_t pe
   if (s.ulr_cameras > 0) {
     req.aperture = Aperture::kUlr;
     req.ulr_cameras = std::max<int>(kMinUlrCameras, static_cast<int>(s.ulr_cameras));
+  } else if (s.four_camera && s.aperture <= 0 && s.f_number <= 0) {
+    req.aperture = Aperture::kFourCamera;
   } else {
     double diameter = s.aperture;
     if (s.f_number > 0) {

@@ -36,6 +36,7 @@ struct ViewerSettings {
   double focal_depth = 0;                  // > 0: wins over focal_plane
   double aperture = 0, f_number = 0;       // rig units; full-frame-equivalent
   unsigned ulr_cameras = 0;                // 0: the tent (aperture, f-number); else ULR's k
+  bool four_camera = false;  // Aperture::kFourCamera where no ULR, aperture or f-number is set
   Sampling sampling = Sampling::kBilinear;
   std::string path;  // keyframed camera path (JSON)
   double orbit = 0, dolly = 0;

@@ -53,8 +53,9 @@ std::vector<uint8_t> serialize_request(const ViewRequest& req) {
   w.f64(req.focal_plane.d);
   w.u8(static_cast<uint8_t>(req.aperture));
   w.u8(static_cast<uint8_t>(req.sampling));
-  w.u16(req.aperture == Aperture::kUlr ? static_cast<uint16_t>(req.ulr_cameras)
-                                       : aperture_scale_q8(req.aperture_scale));
+  w.u16(req.aperture == Aperture::kUlr          ? static_cast<uint16_t>(req.ulr_cameras)
+        : req.aperture == Aperture::kFourCamera ? 0
+                                                : aperture_scale_q8(req.aperture_scale));
   w.u64(static_cast<uint64_t>(req.time_ns < 0 ? -1 : req.time_ns));
   if (!sf.empty()) {
     w.u32(static_cast<uint32_t>(block));
@@ -182,8 +183,11 @@ ViewRequest parse_request(const uint8_t* data, size_t size) {
   if (sampling > 1) bad("unknown sampling filter " + std::to_string(sampling));
   req.sampling = static_cast<Sampling>(sampling);
   if (req.time_ns < -1) bad("time " + std::to_string(req.time_ns) + " ns is negative");
-  if (ap > 1) bad("unknown aperture " + std::to_string(ap));
-  if (ap == 1) {
+  if (ap > 2) bad("unknown aperture " + std::to_string(ap));
+  if (ap == 2) {
+    if (scale_q8 != 0) bad("four-camera weights have no scale");
+    req.aperture = Aperture::kFourCamera;
+  } else if (ap == 1) {
     req.aperture = Aperture::kUlr;
     req.ulr_cameras = scale_q8;  // checked by validate() below
   } else {

@@ -56,9 +56,9 @@
 //  20 position f64 x 3, 44 orientation quaternion (w, x, y, z) f64 x 4 (world -> view,
 //     unit within 1e-6), 76 vfov_deg f64, 84 width u16, 86 height u16,
 //  88 shift_x f64, 96 shift_y f64, 104 focal plane n f64 x 3, 128 d f64,
-// 136 aperture u8 (0: tent, 1: ULR), 137 sampling u8 (view.h Sampling: 0
-// bilinear, 1 bicubic), 138 aperture parameter u16: with ULR its k
-// (2..16), with the tent its scale
+// 136 aperture u8 (0: tent, 1: ULR, 2: four-camera), 137 sampling u8 (view.h
+// Sampling: 0 bilinear, 1 bicubic), 138 aperture parameter u16: with ULR its k
+// (2..16), four-camera 0, with the tent its scale
 // in 1/256 (view.h Aperture: 0 for the paper's tent, scale 1, else
 // 257..4096, scales (1, 16]; serialize_request rounds to the nearest 1/256),
 // 140 time_ns i64 (>= -1), 148 crc32 u32 (bytes 0..147). Version 1 (144
