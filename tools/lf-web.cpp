@@ -201,6 +201,17 @@ std::unique_ptr<Viewer> build_viewer(Server* s, const std::string& address, bool
   v->bin = bin;
   v->funnel_pad = gst_element_request_pad_simple(s->funnel, "sink_%u");
   gst_pad_link(src, v->funnel_pad);
+  // The server offers (the page; WHEP's player offers): its handlers are
+  // connected before READY, when webrtcbin's own thread starts and may emit
+  // on-negotiation-needed for the data channel, once; connected after, a
+  // viewer could miss it and never get an offer (a lifetime test once
+  // waited 20 s for one; GStreamer's own webrtc examples connect first).
+  if (own_channel) {
+    g_signal_connect_data(ctl->webrtc, "on-negotiation-needed", G_CALLBACK(on_negotiation_needed),
+                          new_ref(ctl), delete_ref_closure, GConnectFlags(0));
+    g_signal_connect_data(ctl->webrtc, "on-ice-candidate", G_CALLBACK(on_ice_candidate),
+                          new_ref(ctl), delete_ref_closure, GConnectFlags(0));
+  }
   // The data channel: after READY, before PLAYING (webrtcbin).
   gst_element_set_state(bin, GST_STATE_READY);
   GstWebRTCDataChannel* ch = nullptr;
@@ -218,12 +229,6 @@ std::unique_ptr<Viewer> build_viewer(Server* s, const std::string& address, bool
   } else if (ch) {
     connect_channel(ch, ctl);
     v->channel = ch;  // our reference: remove_viewer disconnects these handlers
-  }
-  if (own_channel) {  // the server offers (the page); WHEP's player offers
-    g_signal_connect_data(ctl->webrtc, "on-negotiation-needed", G_CALLBACK(on_negotiation_needed),
-                          new_ref(ctl), delete_ref_closure, GConnectFlags(0));
-    g_signal_connect_data(ctl->webrtc, "on-ice-candidate", G_CALLBACK(on_ice_candidate),
-                          new_ref(ctl), delete_ref_closure, GConnectFlags(0));
   }
   g_signal_connect_data(ctl->webrtc, "notify::ice-connection-state", G_CALLBACK(on_ice_state),
                         new_ref(ctl), delete_ref_closure, GConnectFlags(0));
