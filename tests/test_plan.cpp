@@ -456,6 +456,31 @@ TEST(Plan, AWiderApertureIsTheTentScaledAboutEachCamera) {
   }
 }
 
+namespace {
+// Planned weights of every camera, summed per pixel; `count` cameras per pixel.
+// Every weight is in (0, 1] (`positive`) or [0, 1].
+std::vector<double> weight_sums(const lf::Rig& rig, const lf::ViewGeometry& g,
+                                std::vector<int>* count = nullptr, bool positive = false) {
+  const int W = g.width(), H = g.height();
+  std::vector<double> sum(static_cast<size_t>(W) * H, 0.0);
+  if (count) count->assign(sum.size(), 0);
+  for (int i = 0; i < static_cast<int>(rig.cameras.size()); ++i) {
+    const lf::FragmentPlan plan = lf::plan_fragment(g, i);
+    for (const lf::Run& r : plan.runs)
+      for (int x = r.x0; x < r.x1; ++x) {
+        const lf::FragmentPiece& pc = plan.pieces[r.piece];
+        const double w = pc.weight_num(x, r.y) / pc.weight_den(x, r.y);
+        EXPECT_GT(w, positive ? 0 : -1e-12) << "camera " << i;
+        EXPECT_LE(w, 1 + 1e-12);
+        sum[static_cast<size_t>(r.y) * W + x] += w;
+        if (count) ++(*count)[static_cast<size_t>(r.y) * W + x];
+      }
+  }
+  return sum;
+}
+
+}  // namespace
+
 // ULR weights (lf/geometry/view.h Aperture::kUlr): planned weights sum to 1 at every
 // pixel, two cameras or more blend everywhere (so a lost camera leaves no
 // hole; k where no penalties tie), where the k nearest tie (the centre of
@@ -487,22 +512,10 @@ TEST(Plan, UlrWeightsSumToOneAndCoverALostCamera) {
     const lf::ViewGeometry own(rig, req, 7, odd);
     EXPECT_NE(own.ulr_field(), odd);
     EXPECT_EQ(own.ulr_field()->w, g.ulr_field()->w);
-    std::vector<double> sum(static_cast<size_t>(W) * H, 0.0);
-    std::vector<int> count(sum.size(), 0);
+    std::vector<int> count;
+    const std::vector<double> sum = weight_sums(rig, g, &count, true);
     size_t pixels = 0;
-    for (int i = 0; i < static_cast<int>(rig.cameras.size()); ++i) {
-      const lf::FragmentPlan plan = lf::plan_fragment(g, i);
-      for (const lf::Run& r : plan.runs)
-        for (int x = r.x0; x < r.x1; ++x) {
-          const lf::FragmentPiece& pc = plan.pieces[r.piece];
-          const double w = pc.weight_num(x, r.y) / pc.weight_den(x, r.y);
-          EXPECT_GT(w, 0) << "camera " << i;
-          EXPECT_LE(w, 1 + 1e-12);
-          sum[static_cast<size_t>(r.y) * W + x] += w;
-          ++count[static_cast<size_t>(r.y) * W + x];
-          ++pixels;
-        }
-    }
+    for (const int n : count) pixels += n;
     double worst = 0;
     int fewest = 1 << 20;
     for (size_t p = 0; p < sum.size(); ++p) {
@@ -532,15 +545,7 @@ TEST(Plan, UlrWeightsSumToOneAndCoverALostCamera) {
     req = with_random_surface(req, rng, 3);
     req.aperture = lf::Aperture::kUlr;
     const lf::ViewGeometry g(rig, req);
-    std::vector<double> sum(static_cast<size_t>(W) * H, 0.0);
-    for (int i = 0; i < static_cast<int>(rig.cameras.size()); ++i) {
-      const lf::FragmentPlan plan = lf::plan_fragment(g, i);
-      for (const lf::Run& r : plan.runs)
-        for (int x = r.x0; x < r.x1; ++x) {
-          const lf::FragmentPiece& pc = plan.pieces[r.piece];
-          sum[static_cast<size_t>(r.y) * W + x] += pc.weight_num(x, r.y) / pc.weight_den(x, r.y);
-        }
-    }
+    const std::vector<double> sum = weight_sums(rig, g);
     double worst = 0;
     for (const double v : sum) worst = std::max(worst, std::abs(v - 1));
     EXPECT_LT(worst, 1e-9) << "through a focal surface";
@@ -559,27 +564,6 @@ TEST(Plan, UlrWeightsSumToOneAndCoverALostCamera) {
 }
 
 namespace {
-// Planned weights of every camera, summed per pixel; `count` cameras per pixel.
-std::vector<double> weight_sums(const lf::Rig& rig, const lf::ViewGeometry& g,
-                                std::vector<int>* count = nullptr) {
-  const int W = g.width(), H = g.height();
-  std::vector<double> sum(static_cast<size_t>(W) * H, 0.0);
-  if (count) count->assign(sum.size(), 0);
-  for (int i = 0; i < static_cast<int>(rig.cameras.size()); ++i) {
-    const lf::FragmentPlan plan = lf::plan_fragment(g, i);
-    for (const lf::Run& r : plan.runs)
-      for (int x = r.x0; x < r.x1; ++x) {
-        const lf::FragmentPiece& pc = plan.pieces[r.piece];
-        const double w = pc.weight_num(x, r.y) / pc.weight_den(x, r.y);
-        EXPECT_GT(w, -1e-12) << "camera " << i;
-        EXPECT_LE(w, 1 + 1e-12);
-        sum[static_cast<size_t>(r.y) * W + x] += w;
-        if (count) ++(*count)[static_cast<size_t>(r.y) * W + x];
-      }
-  }
-  return sum;
-}
-
 // The rig with every grid cell split along its other diagonal.
 lf::Rig other_diagonals(const lf::Rig& rig) {
   lf::Rig out = rig;
