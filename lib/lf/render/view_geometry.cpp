@@ -69,15 +69,15 @@ cv::Vec2d into_triangulation(const Rig& rig, const cv::Vec2d& e) {
   return snapped;
 }
 
-// Four-camera weights (lf/geometry/view.h Aperture::kFourCamera) at
-// camera-plane point X: the mean of the rig's tent and the tent of its cells
-// split along their other diagonals. `partner[s]`: the triangle sharing
-// simplex s's longest edge (its cell's diagonal) when that edge is also the
-// partner's longest, else -1. Writes the weights of the cameras that have
-// one into w (indexed by camera); false where X is outside the triangulation.
+// Grid cells for four-camera weights (lf/geometry/view.h
+// Aperture::kFourCamera): per simplex, the triangle sharing its longest edge
+// (its cell's diagonal) when that edge is also the partner's longest and the
+// two make a convex cell, else -1 (always -1 on a rig without a grid).
 std::vector<int> cell_partners(const Rig& rig) {
   const auto& sx = rig.simplices();
   const auto& pos = rig.plane_positions();
+  std::vector<int> partner(sx.size(), -1);
+  if (rig.grid.empty()) return partner;  // cells only where the rig is a grid
   std::map<std::pair<int, int>, std::vector<int>> by_edge;
   for (size_t s = 0; s < sx.size(); ++s) {
     if (sx[s].size != 3) continue;
@@ -90,8 +90,6 @@ std::vector<int> cell_partners(const Rig& rig) {
     const int a = sx[s].cams[best], b = sx[s].cams[(best + 1) % 3];
     by_edge[{std::min(a, b), std::max(a, b)}].push_back(static_cast<int>(s));
   }
-  std::vector<int> partner(sx.size(), -1);
-  if (rig.grid.empty()) return partner;   // cells only where the rig is a grid
   auto side = [&](int a, int b, int c) {  // sign of c relative to line ab
     const cv::Vec2d u = pos[b] - pos[a], v = pos[c] - pos[a];
     return u[0] * v[1] - u[1] * v[0];
@@ -121,7 +119,11 @@ bool barycentric(const cv::Vec2d& p, const cv::Vec2d& a, const cv::Vec2d& b, con
   return true;
 }
 
-bool four_camera_weights(const Rig& rig, const std::vector<int>& partner, const cv::Vec2d& X,
+// Four-camera weights at camera-plane point X: the mean of the rig's tent
+// and the tent of its cells split along their other diagonals (a triangle
+// without a partner: its tent). Adds each camera's weight into w (indexed by
+// camera); nothing where X is outside the triangulation.
+void four_camera_weights(const Rig& rig, const std::vector<int>& partner, const cv::Vec2d& X,
                          double* w) {
   const auto& sxs = rig.simplices();
   const auto& pos = rig.plane_positions();
@@ -140,7 +142,7 @@ bool four_camera_weights(const Rig& rig, const std::vector<int>& partner, const 
     const int p = partner[s];
     const double half = p < 0 ? 1.0 : 0.5;
     for (int k = 0; k < 3; ++k) w[sx.cams[k]] += half * e[k] / sum;
-    if (p < 0) return true;
+    if (p < 0) return;
     // The other diagonal joins the two triangles' third vertices R and S;
     // X lies in (R, S, P) or (R, S, Q), P and Q the shared diagonal's ends.
     int R = -1, S = -1;
@@ -160,13 +162,12 @@ bool four_camera_weights(const Rig& rig, const std::vector<int>& partner, const 
     }
     if (best_end < 0) {  // a degenerate cell: the tent alone
       for (int k = 0; k < 3; ++k) w[sx.cams[k]] += half * e[k] / sum;
-      return true;
+      return;
     }
     const int cams[3] = {R, S, best_end};
     for (int k = 0; k < 3; ++k) w[cams[k]] += half * std::clamp(best[k], 0.0, 1.0);
-    return true;
+    return;
   }
-  return false;
 }
 }  // namespace
 
