@@ -11,7 +11,9 @@
 #     (lf-gst-bench);
 #  3b. quilts: N eyes in one request round against N viewers
 #     (scripts/quilt-bench.sh); scaling against the output size and the
-#     camera count (scripts/scaling-bench.sh, full mode);
+#     camera count (scripts/scaling-bench.sh, full mode); where the
+#     pipeline's CPU goes, perf samples grouped (scripts/profile-bench.sh,
+#     full mode, where perf is installed);
 #  4. the deployment across emulated hosts: bytes against camera count
 #     (paper Figure 6), the all-viewpoints baselines, round trip (Figure 5),
 #     overload, loss, partial sums, rejoin (tools/lf-netbench.sh; root, as
@@ -103,6 +105,13 @@ done
 step "3b/8 scaling: output size and camera count"
 if [ "$quick" = 0 ]; then
   "$root/scripts/scaling-bench.sh" > "$plots/scaling.md" || { echo "bench: scaling-bench failed" >&2; exit 1; }
+  step "3c/8 profile: where the pipeline's CPU goes (perf)"
+  if command -v perf > /dev/null; then
+    "$root/scripts/profile-bench.sh" > "$tmp/profile.md" && mv "$tmp/profile.md" "$plots/profile.md" ||
+      echo "bench: profile-bench failed (perf not allowed here?); the last profile is kept" >&2
+  else
+    echo "bench: no perf (apt-get install linux-perf): the last profile is kept" >&2
+  fi
 fi
 step "4/8 the pipeline's focus modes side by side (the default focal surface, the paper's plane)"
 bench focus "$build/tools/lf-gst-bench" --input "$data/stanford-chess" --sizes 640x480 \
@@ -309,6 +318,19 @@ live() {  # row of the focus table: its live fps
     cat "$plots/scaling.md"
   else
     echo "Not measured yet (\`scripts/scaling-bench.sh\`, part of a full run)."
+  fi
+  echo
+  echo "## Where the pipeline's CPU goes"
+  echo
+  if [ -f "$plots/profile.md" ]; then
+    echo "perf samples of the in-process pipeline, grouped (\`scripts/profile-bench.sh\`; a full run"
+    echo "of this script runs it again where perf is installed; quick runs keep the last). The warp"
+    echo "kernels and the adding are the work the kernel bound counts; the rest is what keeps the"
+    echo "pipeline efficiency above under 1."
+    echo
+    cat "$plots/profile.md"
+  else
+    echo "Not measured yet (\`scripts/profile-bench.sh\`, part of a full run; needs perf)."
   fi
   echo
   echo "## GPU (a lent machine)"
