@@ -325,8 +325,8 @@ live() {  # row of the focus table: its live fps
   if [ -f "$plots/profile.md" ]; then
     echo "perf samples of the in-process pipeline, grouped (\`scripts/profile-bench.sh\`; a full run"
     echo "of this script runs it again where perf is installed; quick runs keep the last). The warp"
-    echo "kernels and the adding are the work the kernel bound counts; the rest is what keeps the"
-    echo "pipeline efficiency above under 1."
+    echo "kernels and the adding are the work the kernel bound counts; the rest is why the pipeline"
+    echo "efficiency (the tables above) stays under 1."
     echo
     cat "$plots/profile.md"
   else
