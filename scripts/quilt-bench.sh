@@ -64,8 +64,13 @@ quilt_line() {
     quilt-columns="$cols" quilt-rows="$rows" quilt-baseline="$extent" $focal num-buffers="$frames" \
     focal-surface=false is-live=true framerate=$fps ! lfcamerahost rig="$rig" is-live=true ! tee name=t \
     t. ! queue ! filesink async=false location="$tmp/fragments.bin" \
-    t. ! queue ! lfcompositor rig="$rig" ! fakesink
+    t. ! queue ! lfcompositor rig="$rig" ! fakesink async=false
 }
+# The sinks do not preroll (async=false), as no live sink needs to: with
+# 48 live viewers, each compositor's fakesink prerolling, the pipeline
+# stalled in 4 runs of 4 on a 2-core AMD EPYC (about 34 of the 48 sinks
+# waiting in preroll while the pipeline is PLAYING; not understood yet,
+# docs/displays.md), and ran to its end in 4 of 4 with async=false.
 viewers_line() {
   local line="funnel name=reqs ! lfcamerahost rig=$rig is-live=true ! tee name=t"
   line+=" t. ! queue ! filesink async=false location=$tmp/fragments.bin t. ! queue ! lffragmentdemux name=d"
@@ -74,7 +79,7 @@ viewers_line() {
     local s; s=$(python3 -c "print($extent * ($i / ($views - 1) - 0.5))")
     line+=" lfviewrequest viewer-id=$i rig=$rig width=$tw height=$th eye-s=$s $focal"
     line+=" num-buffers=$frames focal-surface=false is-live=true framerate=$fps ! reqs."
-    line+=" d.src_$i ! queue ! lfcompositor viewer-id=$i rig=$rig ! fakesink"
+    line+=" d.src_$i ! queue ! lfcompositor viewer-id=$i rig=$rig ! fakesink async=false"
   done
   echo "$line"
 }
