@@ -760,8 +760,8 @@ struct Latency {
 // fixed latency=100 ms, as this test once set, the compositor's live pads
 // (GstAggregator queues up to its latency) keep 100 ms of requests, 1.5
 // periods at 15 fps, and p95 reached 3.8-4.1 periods. Measured on a 2-core AMD EPYC (15 fps alone):
-// median 0.9-1.7 periods, p95 1.8-2.5 in 8 runs; beside one or two more busy loops (11-14 fps)
-// median 1.9-2.0, p95 2.7-2.9 in 7 runs. Sanitizer build (720p): median 1.9, p95 2.1-2.8 alone and
+// median 0.9-1.9 periods, p95 1.5-2.8 in 14 runs; beside one or two more busy loops (11-14 fps)
+// median 1.9-2.0, p95 2.6-2.9 in 10 runs. Sanitizer build (720p): median 1.9, p95 2.1-2.8 alone and
 // beside three busy loops. Before (every request composited in turn) median 4.5 periods, p95 5.6,
 // growing with the run. The bounds (3 and 4 periods) leave a busy machine a period of room and
 // still fail the queueing compositor. 480 requests: with 240, at 15 fps the run ended within
