@@ -182,11 +182,19 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Request& g, bool com
   const guint left_id = static_cast<guint>(std::max<int64_t>(0, st->intake->viewer.viewer()));
   // Each eye's fragments and the drawings lffragment left to us (defer:
   // whole-view mode), composited at once (lib/lf/session/compositor_host.h).
+  // One eye goes straight into the output buffer where its video allows
+  // (gst/lfvideoout.h); a stereo pair is put side by side first.
+  cv::Mat into, last;
+  const bool direct = !st->s.stereo && st->output.begin_frame(&into, &last);
   lf::FrameCompositor::Result r;
   GError* err = nullptr;
   if (!lfgst::guard(
-          [&] { r = st->frames->composite(g.pieces, w, H, st->s.stereo, left_id, complete); },
+          [&] {
+            r = direct ? st->frames->composite_into(g.pieces, w, H, complete, into, last)
+                       : st->frames->composite(g.pieces, w, H, st->s.stereo, left_id, complete);
+          },
           &err)) {
+    if (direct) gst_buffer_unref(st->output.end_frame());
     GST_ELEMENT_ERROR(self, STREAM, FAILED, ("Cannot composite the frame"), ("%s", err->message));
     g_error_free(err);
     return GST_FLOW_ERROR;
@@ -198,7 +206,6 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Request& g, bool com
     GST_DEBUG_OBJECT(self, "request %" G_GUINT64_FORMAT ": %zu pixels from the last frame", seq,
                      filled);
   const cv::Mat& rgba = *r.frame;
-  GstBuffer* out = st->output.frame(rgba);
   if (lfgst::trace_enabled()) {
     const uint32_t sum = libdeflate_crc32(0, rgba.data, rgba.total() * rgba.elemSize());
     lfgst::trace(GST_ELEMENT(self), "composited", left_id, seq, -1, static_cast<gint64>(g.count),
@@ -206,6 +213,7 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Request& g, bool com
     if (filled)
       lfgst::trace(GST_ELEMENT(self), "filled", left_id, seq, -1, static_cast<gint64>(filled));
   }
+  GstBuffer* out = direct ? st->output.end_frame() : st->output.frame(rgba);
   GST_BUFFER_PTS(out) = g.pts;
   GST_BUFFER_DURATION(out) = g.duration;
   GST_BUFFER_OFFSET(out) = seq;

@@ -11,7 +11,12 @@ RawVideoOutput::~RawVideoOutput() {
   drop_pool();
 }
 
+void RawVideoOutput::drop_last() {
+  if (last_) gst_buffer_unref(last_), last_ = nullptr;
+}
+
 void RawVideoOutput::drop_pool() {
+  drop_last();
   if (!pool_) return;
   gst_buffer_pool_set_active(pool_, FALSE);
   gst_object_unref(pool_);
@@ -94,10 +99,47 @@ bool RawVideoOutput::negotiate(GstAggregator* agg, int width, int height, Fracti
   return true;
 }
 
-GstBuffer* RawVideoOutput::frame(const cv::Mat& rgba) {
+GstBuffer* RawVideoOutput::acquire() {
   GstBuffer* out = nullptr;
   if (!pool_ || gst_buffer_pool_acquire_buffer(pool_, &out, nullptr) != GST_FLOW_OK)
     out = gst_buffer_new_allocate(nullptr, GST_VIDEO_INFO_SIZE(&out_), nullptr);
+  return out;
+}
+
+bool RawVideoOutput::begin_frame(cv::Mat* into, cv::Mat* last) {
+  if (convert_ || !negotiated_) return false;
+  const auto as_mat = [this](GstVideoFrame& vf) {
+    return cv::Mat(height_, width_, CV_8UC4, GST_VIDEO_FRAME_PLANE_DATA(&vf, 0),
+                   GST_VIDEO_FRAME_PLANE_STRIDE(&vf, 0));
+  };
+  GstBuffer* out = acquire();
+  if (!gst_video_frame_map(&into_map_, &out_, out, GST_MAP_WRITE)) {
+    gst_buffer_unref(out);
+    return false;
+  }
+  *into = as_mat(into_map_);
+  last_mapped_ = last_ && gst_video_frame_map(&last_map_, &out_, last_, GST_MAP_READ);
+  *last = last_mapped_ ? as_mat(last_map_) : cv::Mat();
+  if (into->isContinuous() && (last->empty() || last->isContinuous())) return true;
+  // A padded stride: frame() copies row by row.
+  gst_video_frame_unmap(&into_map_);
+  if (last_mapped_) gst_video_frame_unmap(&last_map_), last_mapped_ = false;
+  gst_buffer_unref(out);
+  return false;
+}
+
+GstBuffer* RawVideoOutput::end_frame() {
+  GstBuffer* out = into_map_.buffer;
+  gst_video_frame_unmap(&into_map_);
+  if (last_mapped_) gst_video_frame_unmap(&last_map_), last_mapped_ = false;
+  drop_last();
+  last_ = gst_buffer_ref(out);
+  return out;
+}
+
+GstBuffer* RawVideoOutput::frame(const cv::Mat& rgba) {
+  drop_last();  // frames from here on are copies: the next begin_frame() has no last
+  GstBuffer* out = acquire();
   GstVideoFrame vf;
   gst_video_frame_map(&vf, &out_, out, GST_MAP_WRITE);
   if (convert_) {

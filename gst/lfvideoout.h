@@ -55,12 +55,28 @@ class RawVideoOutput {
   void renegotiate() { negotiated_ = false; }
   // A buffer of the negotiated video holding `rgba` (the negotiated frame size).
   GstBuffer* frame(const cv::Mat& rgba);
-  // Frees the pool's buffers (the stream ended); frames after it are
-  // allocated one by one until the next negotiation.
+  // Where the negotiated video is RGBA or RGBx of the composited size, a
+  // frame is resolved straight into its buffer (a copy of 8 MB a frame
+  // less at 1080p): begin_frame() maps one as `into` (continuous
+  // CV_8UC4) and the last frame sent as `last` (empty if none), and
+  // end_frame() unmaps them and gives the buffer to send. The last frame
+  // stays referenced, read-only, so that an incomplete request's missing
+  // pixels can come from it (an element downstream that writes into
+  // frames copies it, as it would behind a tee). False, nothing mapped,
+  // where the video is scaled or I420 (frame() then).
+  bool begin_frame(cv::Mat* into, cv::Mat* last);
+  GstBuffer* end_frame();
+  // Frees the pool's buffers and the last frame (the stream ended); frames
+  // after it are allocated one by one until the next negotiation.
   void release() { drop_pool(); }
 
  private:
   void drop_pool();
+  GstBuffer* acquire();
+  void drop_last();
+  GstBuffer* last_ = nullptr;  // the last frame begin_frame() mapped (a reference)
+  GstVideoFrame into_map_{}, last_map_{};
+  bool last_mapped_ = false;
   GstBufferPool* pool_ = nullptr;
   GstVideoInfo out_{};
   int width_ = 0, height_ = 0;  // frames composited (scaled to out_ if it differs)

@@ -669,6 +669,83 @@ TEST_F(Harness, CompositorCapsAndBadInput) {
   gst_harness_teardown(h);
 }
 
+// lfcompositor resolves a frame straight into its output buffer (RGBA at
+// the view's size, gst/lfvideoout.h) and keeps the last one sent: a
+// request left incomplete at EOS takes the last frame's pixels where its
+// one camera gave no weight, and the frame sent before is not written to.
+TEST_F(Harness, AnIncompleteFrameTakesTheLastFramesPixels) {
+  const lf::Rig two = rig_.subset({0, 1});
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "lf-harness-two.json").string();
+  lf::save_rig(two, path);
+  GstElement* el = gst_element_factory_make("lfcompositor", nullptr);
+  g_object_set(el, "rig", path.c_str(), "viewer-id", 3, nullptr);
+  GstHarness* h0 = gst_harness_new_with_element(el, "sink_0", "src");
+  GstHarness* h1 = gst_harness_new_with_element(el, "sink_1", nullptr);
+  gst_object_unref(el);
+  for (GstHarness* h : {h0, h1}) {
+    gst_harness_set_live(h, FALSE);
+    gst_harness_set_src_caps_str(h, "application/x-lf-fragment,encoding=raw,width=80,height=60");
+  }
+  auto fragment = [&](int cam, uint64_t seq, double t) {
+    const lf::ViewRequest req = request(seq);
+    lf::Fragment f;
+    f.viewer_id = req.viewer_id;
+    f.sequence = seq;
+    const cv::Mat img = lf::SyntheticScene::for_rig(two).render(two.cameras[cam], t);
+    lf::render_fragment(lf::plan_fragment(lf::ViewGeometry(two, req), cam), two.cameras[cam], img,
+                        f);
+    return f;
+  };
+  const lf::Fragment a0 = fragment(0, 5, 0.0), a1 = fragment(1, 5, 0.0);
+  const lf::Fragment b0 = fragment(0, 6, 0.5);  // another instant: other pixels
+  ASSERT_FALSE(a0.empty());
+  ASSERT_FALSE(a1.empty());
+  ASSERT_EQ(gst_harness_push(h0, bytes(lf::serialize_fragment(a0, lf::Encoding::kRaw), 0)),
+            GST_FLOW_OK);
+  ASSERT_EQ(gst_harness_push(h1, bytes(lf::serialize_fragment(a1, lf::Encoding::kRaw), 0)),
+            GST_FLOW_OK);
+  GstBuffer* first = gst_harness_pull(h0);
+  ASSERT_NE(first, nullptr);
+  lf::Compositor c;
+  c.reset(80, 60);
+  c.add(a0), c.add(a1);
+  cv::Mat want_first;
+  c.resolve(want_first);
+  ASSERT_EQ(gst_harness_push(h0, bytes(lf::serialize_fragment(b0, lf::Encoding::kRaw), GST_SECOND)),
+            GST_FLOW_OK);
+  gst_harness_push_event(h1, gst_event_new_eos());
+  gst_harness_push_event(h0, gst_event_new_eos());
+  GstBuffer* second = gst_harness_pull(h0);
+  ASSERT_NE(second, nullptr);
+  c.reset(80, 60);
+  c.add(b0);
+  cv::Mat only_b0;
+  c.resolve(only_b0);
+  GstMapInfo m1, m2;
+  ASSERT_TRUE(gst_buffer_map(first, &m1, GST_MAP_READ));
+  ASSERT_TRUE(gst_buffer_map(second, &m2, GST_MAP_READ));
+  const cv::Mat got_first(60, 80, CV_8UC4, m1.data), got_second(60, 80, CV_8UC4, m2.data);
+  EXPECT_EQ(cv::norm(got_first, want_first, cv::NORM_INF), 0) << "the first frame, unchanged";
+  int filled = 0, own = 0;
+  for (int y = 0; y < 60; ++y)
+    for (int x = 0; x < 80; ++x) {
+      const bool weighted = only_b0.at<cv::Vec4b>(y, x)[3] != 0;
+      const cv::Vec4b want =
+          weighted ? only_b0.at<cv::Vec4b>(y, x) : want_first.at<cv::Vec4b>(y, x);
+      ASSERT_EQ(got_second.at<cv::Vec4b>(y, x), want) << x << "," << y;
+      (weighted ? own : filled) += want_first.at<cv::Vec4b>(y, x)[3] != 0;
+    }
+  EXPECT_GT(filled, 100) << "pixels taken from the last frame";
+  EXPECT_GT(own, 100) << "pixels of camera 0 at the new instant";
+  gst_buffer_unmap(first, &m1);
+  gst_buffer_unmap(second, &m2);
+  gst_buffer_unref(first);
+  gst_buffer_unref(second);
+  gst_harness_teardown(h1);
+  gst_harness_teardown(h0);
+}
+
 // lfpartialsum on one camera's pad: garbage and a fragment for a frame
 // larger than the view (the caps' 80x60) are dropped with a warning, not
 // summed; a real fragment comes out as its own sum (one camera: a plain

@@ -977,7 +977,7 @@ TEST(CameraAnswer, RawJpegAndQuiltAnswersAreTheFragmentsOnTheWire) {
 // lf::Compositor does; a drawing left to it gives the frame its fragment
 // would; stereo puts the right viewer's pieces on the right; an incomplete
 // request takes the last frame where no weight came; a bad piece is left
-// out and named.
+// out and named; composite_into() does the same in a caller's frame.
 TEST(FrameCompositor, FragmentsDrawingsStereoAndTheLastFrame) {
   const lf::Rig rig = lf::synthetic_grid_rig(3, 3, 0.5, 160, 120, 50);
   const lf::ViewRequest req = view_request(3, 5, {0.4, 0.3, -1});
@@ -1043,6 +1043,34 @@ TEST(FrameCompositor, FragmentsDrawingsStereoAndTheLastFrame) {
     for (int x = 0; x < 160; x += 7)
       if (!only.contains({x, y}))
         EXPECT_EQ(r.frame->at<cv::Vec4b>(y, x), complete.at<cv::Vec4b>(y, x)) << x << "," << y;
+
+  // Straight into a caller's frame (an output buffer): the same picture
+  // from fragments and drawings, the last frame given by the caller, a
+  // frame of another shape refused.
+  cv::Mat into(120, 160, CV_8UC4, cv::Scalar::all(77)), none;
+  r = frames.composite_into(pieces, 160, 120, true, into, none);
+  EXPECT_EQ(r.frame, &into);
+  EXPECT_EQ(cv::norm(into, want, cv::NORM_INF), 0);
+  const cv::Mat sent = into.clone();
+  into.setTo(cv::Scalar::all(77));
+  r = frames.composite_into(drawn, 160, 120, true, into, sent);
+  EXPECT_EQ(cv::norm(into, want, cv::NORM_INF), 0);
+  EXPECT_EQ(r.filled, 0u);
+  r = frames.composite_into({pieces[0], bad}, 160, 120, false, into, sent);
+  EXPECT_GT(r.filled, 0u);
+  ASSERT_EQ(r.refused.size(), 1u);
+  for (int y = 0; y < 120; y += 7)
+    for (int x = 0; x < 160; x += 7)
+      if (!only.contains({x, y}))
+        EXPECT_EQ(into.at<cv::Vec4b>(y, x), sent.at<cv::Vec4b>(y, x)) << x << "," << y;
+  r = frames.composite_into({pieces[0]}, 160, 120, false, into, none);
+  EXPECT_EQ(r.filled, 0u) << "no last frame: nothing to fill from";
+  cv::Mat wide(120, 320, CV_8UC4);
+  EXPECT_THROW(frames.composite_into(pieces, 160, 120, true, wide, none), std::invalid_argument);
+  EXPECT_THROW(frames.composite_into(pieces, 160, 120, true, into, wide), std::invalid_argument);
+  EXPECT_THROW(frames.composite_into(pieces, 160, 120, true, into, wide(cv::Rect(0, 0, 160, 120))),
+               std::invalid_argument)
+      << "not continuous";
 }
 
 // lf::shared_geometry: the cameras answering one plane request share one

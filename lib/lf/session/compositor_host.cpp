@@ -11,6 +11,20 @@
 
 namespace lf {
 
+void FrameCompositor::composite_eye(int eye, const std::vector<FragmentPixels>& frags,
+                                    const std::vector<const DeferredDrawing*>& deferred, int width,
+                                    int height, cv::Mat& into, Result& r) {
+  std::vector<SlotDrawing> drawings;
+  for (const DeferredDrawing* d : deferred) {
+    renderer_->set_image(d->slot, d->image, d->frame_key, d->frame_pts);
+    drawings.push_back({&d->plan, &d->camera, d->slot});
+  }
+  for (auto& [i, why] : renderer_->composite(eye, width, height, frags, drawings, into))
+    r.refused.emplace_back(i < frags.size() ? static_cast<int>(frags[i].fragment->camera_id)
+                                            : drawings[i - frags.size()].camera->id,
+                           std::move(why));
+}
+
 FrameCompositor::Result FrameCompositor::composite(const std::vector<ReceivedPiece>& pieces,
                                                    int width, int height, bool stereo,
                                                    uint32_t left_viewer, bool complete) {
@@ -31,23 +45,39 @@ FrameCompositor::Result FrameCompositor::composite(const std::vector<ReceivedPie
   cv::Mat& frame = frames_[next_];
   next_ ^= 1;
   cv::Mat right;
-  for (int e = 0; e < (stereo ? 2 : 1); ++e) {
-    std::vector<SlotDrawing> drawings;
-    // (Per eye: the two eyes' requests may have taken other frames.)
-    for (const DeferredDrawing* d : deferred[e]) {
-      renderer_->set_image(d->slot, d->image, d->frame_key, d->frame_pts);
-      drawings.push_back({&d->plan, &d->camera, d->slot});
-    }
-    for (auto& [i, why] :
-         renderer_->composite(e, width, height, eye[e], drawings, e ? right : frame))
-      r.refused.emplace_back(i < eye[e].size() ? static_cast<int>(eye[e][i].fragment->camera_id)
-                                               : drawings[i - eye[e].size()].camera->id,
-                             std::move(why));
-  }
+  // (Per eye: the two eyes' requests may have taken other frames.)
+  for (int e = 0; e < (stereo ? 2 : 1); ++e)
+    composite_eye(e, eye[e], deferred[e], width, height, e ? right : frame, r);
   if (stereo) cv::hconcat(frame, right, frame);
   if (!complete && last_.size() == frame.size()) r.filled = Compositor::fill_from(frame, last_);
   last_ = frame;
   r.frame = &frame;
+  return r;
+}
+
+FrameCompositor::Result FrameCompositor::composite_into(const std::vector<ReceivedPiece>& pieces,
+                                                        int width, int height, bool complete,
+                                                        cv::Mat& into, const cv::Mat& last) {
+  const auto shaped = [&](const cv::Mat& m) {
+    return m.rows == height && m.cols == width && m.type() == CV_8UC4 && m.isContinuous();
+  };
+  if (!shaped(into) || (!last.empty() && !shaped(last)))
+    throw std::invalid_argument("FrameCompositor: the frame to resolve into is not " +
+                                std::to_string(width) + "x" + std::to_string(height) +
+                                " continuous RGBA");
+  std::vector<FragmentPixels> frags;
+  std::vector<const DeferredDrawing*> deferred;
+  for (const ReceivedPiece& piece : pieces)
+    if (piece.deferred)
+      deferred.push_back(piece.deferred.get());
+    else
+      frags.push_back({&piece.f, piece.pixels()});
+  Result r;
+  released_ = false;
+  composite_eye(0, frags, deferred, width, height, into, r);
+  if (!complete && !last.empty()) r.filled = Compositor::fill_from(into, last);
+  last_.release();  // composite() has no last frame after this one
+  r.frame = &into;
   return r;
 }
 

@@ -56,6 +56,15 @@ class FrameCompositor {
   // (std::invalid_argument, std::runtime_error).
   Result composite(const std::vector<ReceivedPiece>& pieces, int width, int height, bool stereo,
                    uint32_t left_viewer, bool complete);
+  // The same for one eye, resolved straight into `into` (height x width,
+  // CV_8UC4, continuous: e.g. an output buffer mapped for writing, so the
+  // frame is not copied again), the missing pixels of an incomplete request
+  // taken from `last` (the last frame sent; empty for none). The frames
+  // this object keeps are not used. Result::frame is `&into`. Throws
+  // std::invalid_argument where `into` or a non-empty `last` is not of that
+  // shape, else what composite() throws.
+  Result composite_into(const std::vector<ReceivedPiece>& pieces, int width, int height,
+                        bool complete, cv::Mat& into, const cv::Mat& last);
   Renderer& renderer() { return *renderer_; }
   // Frees the frames and the renderer's sums (its viewer went quiet, or the
   // stream ended: a 3840x2160 view holds about 230 MB of them); the next
@@ -65,6 +74,10 @@ class FrameCompositor {
   bool holds_memory() const { return !released_; }
 
  private:
+  // One eye's fragments and drawings resolved into `into`; refusals into `r`.
+  void composite_eye(int eye, const std::vector<FragmentPixels>& frags,
+                     const std::vector<const DeferredDrawing*>& deferred, int width, int height,
+                     cv::Mat& into, Result& r);
   std::unique_ptr<Renderer> renderer_;
   cv::Mat last_;       // the last frame (missing pixels come from it)
   cv::Mat frames_[2];  // the frames resolved into, in turn (one is last_): no allocation per frame
