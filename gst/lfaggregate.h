@@ -20,11 +20,12 @@ inline GstClockTime running_now(GstElement* e) {
 }
 
 // How long after its request's time (its PTS as running time on `pad`)
-// buffer `buf` is taken now, ns; -1 without a time or a clock.
-inline gint64 arrival_age(GstElement* e, GstAggregatorPad* pad, GstBuffer* buf) {
+// buffer `buf` is taken at running time `now` (running_now(), read once
+// for all the buffers one aggregate() takes), ns; -1 without a time or a
+// clock.
+inline gint64 arrival_age(GstAggregatorPad* pad, GstBuffer* buf, GstClockTime now) {
   const GstClockTime rt =
       gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, GST_BUFFER_PTS(buf));
-  const GstClockTime now = running_now(e);
   return GST_CLOCK_TIME_IS_VALID(rt) && GST_CLOCK_TIME_IS_VALID(now) ? GST_CLOCK_DIFF(rt, now) : -1;
 }
 

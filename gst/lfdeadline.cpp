@@ -16,8 +16,8 @@ void CompositorDeadline::set_period(GstAggregator* agg, GstClockTime period) {
   apply(agg);
 }
 
-void CompositorDeadline::arrived(GstAggregator* agg, GstAggregatorPad* pad, GstBuffer* buf) {
-  ages_.arrived(arrival_age(GST_ELEMENT(agg), pad, buf));
+void CompositorDeadline::arrived(GstAggregatorPad* pad, GstBuffer* buf, GstClockTime now) {
+  ages_.arrived(arrival_age(pad, buf, now));
 }
 
 GstClockTime CompositorDeadline::adapt(GstAggregator* agg) {

@@ -23,8 +23,9 @@ class CompositorDeadline {
   void reset();
   // The request rate's frame period (ns; from the caps), then apply().
   void set_period(GstAggregator* agg, GstClockTime period);
-  // A fragment taken from `pad`, used or late (aggregate thread): its age.
-  void arrived(GstAggregator* agg, GstAggregatorPad* pad, GstBuffer* buf);
+  // A fragment taken from `pad` at running time `now`, used or late
+  // (aggregate thread): its age.
+  void arrived(GstAggregatorPad* pad, GstBuffer* buf, GstClockTime now);
   // Live, with adaptive-deadline (aggregate thread): the deadline from the
   // ages when it changes (then applied), else 0.
   GstClockTime adapt(GstAggregator* agg);
