@@ -370,12 +370,16 @@ TEST(Render, AWiderApertureCoversALostCamera) {
 // fragments have runs of every length (so the vector loops' tails run too).
 TEST(Render, VectorKernelsAreBitIdenticalToScalar) {
   std::vector<lf::Kernel> kernels;
-  for (lf::Kernel k : {lf::Kernel::kSse2, lf::Kernel::kAvx2})
+  for (lf::Kernel k : {lf::Kernel::kSse2, lf::Kernel::kAvx2, lf::Kernel::kAvx512})
     if (lf::kernel_available(k)) kernels.push_back(k);
 #if defined(__x86_64__)
-  // A SIMD build on x86-64 has SSE2, and AVX2 exactly where the CPU does.
+  // A SIMD build on x86-64 has SSE2, and AVX2 and AVX-512 exactly where the
+  // CPU does.
   if (lf::simd_available()) {
     EXPECT_EQ(lf::kernel_available(lf::Kernel::kAvx2), __builtin_cpu_supports("avx2") != 0);
+    EXPECT_EQ(lf::kernel_available(lf::Kernel::kAvx512),
+              __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+                  __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl"));
   }
 #endif
   EXPECT_TRUE(lf::kernel_available(lf::best_kernel()));
@@ -426,7 +430,8 @@ TEST(Render, KernelsRunOnlyWhereAvailable) {
   const auto plan = lf::plan_fragment(g, cam);
   ASSERT_FALSE(plan.empty());
   const cv::Mat image(48, 64, CV_8UC4, cv::Scalar::all(90));
-  for (lf::Kernel k : {lf::Kernel::kScalar, lf::Kernel::kSse2, lf::Kernel::kAvx2}) {
+  for (lf::Kernel k :
+       {lf::Kernel::kScalar, lf::Kernel::kSse2, lf::Kernel::kAvx2, lf::Kernel::kAvx512}) {
     lf::Fragment f;
     if (lf::kernel_available(k)) {
       EXPECT_NO_THROW(lf::render_fragment(plan, rig.cameras[cam], image, f, k));
@@ -568,7 +573,8 @@ TEST(Composite, ResolveMatchesTheFormulaEverywhere) {
   }
   // Every kernel this CPU has: the same sums and the same bytes.
   int kernels = 0;
-  for (const lf::Kernel kernel : {lf::Kernel::kScalar, lf::Kernel::kSse2, lf::Kernel::kAvx2}) {
+  for (const lf::Kernel kernel :
+       {lf::Kernel::kScalar, lf::Kernel::kSse2, lf::Kernel::kAvx2, lf::Kernel::kAvx512}) {
     lf::Compositor comp;
     if (!lf::kernel_available(kernel)) {
       EXPECT_THROW(comp.set_kernel(kernel), std::invalid_argument);

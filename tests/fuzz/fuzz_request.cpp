@@ -58,7 +58,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     lf::Fragment b;
     lf::render_fragment(plan, s.rig.cameras[i], s.images[i], b, lf::Kernel::kScalar);
     // Every vector kernel this CPU has, byte for byte against the reference.
-    for (lf::Kernel k : {lf::Kernel::kSse2, lf::Kernel::kAvx2}) {
+    for (lf::Kernel k : {lf::Kernel::kSse2, lf::Kernel::kAvx2, lf::Kernel::kAvx512}) {
       if (!lf::kernel_available(k)) continue;
       lf::Fragment a;
       lf::render_fragment(plan, s.rig.cameras[i], s.images[i], a, k);

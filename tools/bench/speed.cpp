@@ -31,7 +31,8 @@ void speed_table(const lf::Rig& rig, const std::vector<cv::Mat>& images,
   // Every fragment kernel this CPU and build have, side by side with
   // OpenCV in the same repetitions (the best one is what the elements use).
   std::vector<lf::Kernel> kernels;
-  for (lf::Kernel k : {lf::Kernel::kScalar, lf::Kernel::kSse2, lf::Kernel::kAvx2})
+  for (lf::Kernel k :
+       {lf::Kernel::kScalar, lf::Kernel::kSse2, lf::Kernel::kAvx2, lf::Kernel::kAvx512})
     if (lf::kernel_available(k)) kernels.push_back(k);
   std::vector<std::vector<double>> ours_ms(kernels.size());
   std::vector<double> warp_ms, naive_ms, plan_ms;

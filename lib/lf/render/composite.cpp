@@ -125,7 +125,7 @@ Kernel Compositor::kernel() const {
 void Compositor::add_rows(const Fragment& f, const uint8_t* pixels, int r0, int r1) {
   void (*add)(uint32_t*, const uint8_t*, int, int) = accumulate;
 #ifdef LF_COMPOSITE_SSE2
-  if (kernel() == Kernel::kAvx2) add = accumulate_avx2;
+  if (kernel() == Kernel::kAvx2 || kernel() == Kernel::kAvx512) add = accumulate_avx2;
 #endif
   const uint8_t* px = pixels;
   for (int r = r0; r < r1; ++r) {
@@ -162,7 +162,7 @@ void Compositor::resolve_rows(cv::Mat& out, int y0, int y1) const {
     uint8_t* o = out.ptr<uint8_t>(y);
     int x = 0;
 #ifdef LF_COMPOSITE_SSE2
-    if (k == Kernel::kAvx2) {
+    if (k == Kernel::kAvx2 || k == Kernel::kAvx512) {
       x = resolve_avx2(a, o, w_);
       a += 4 * x, o += 4 * x;
     }

@@ -168,9 +168,17 @@ bool kernel_available(Kernel kernel) {
       static const bool avx2 = __builtin_cpu_supports("avx2");
       return avx2;
     }
+    case Kernel::kAvx512: {
+      static const bool avx512 =
+          __builtin_cpu_supports("avx2") && __builtin_cpu_supports("avx512f") &&
+          __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512bw") &&
+          __builtin_cpu_supports("avx512vl");
+      return avx512;
+    }
 #else
     case Kernel::kSse2:
     case Kernel::kAvx2:
+    case Kernel::kAvx512:
       return false;
 #endif
   }
@@ -178,7 +186,7 @@ bool kernel_available(Kernel kernel) {
 }
 
 Kernel best_kernel() {
-  for (Kernel k : {Kernel::kAvx2, Kernel::kSse2})
+  for (Kernel k : {Kernel::kAvx512, Kernel::kAvx2, Kernel::kSse2})
     if (kernel_available(k)) return k;
   return Kernel::kScalar;
 }
@@ -193,6 +201,8 @@ const char* kernel_name(Kernel kernel) {
       return "sse2";
     case Kernel::kAvx2:
       return "avx2";
+    case Kernel::kAvx512:
+      return "avx512";
   }
   return "?";
 }
@@ -294,7 +304,8 @@ void render_rows(const FragmentPlan& plan, const Camera& cam, const cv::Mat& ima
   // The AVX2 bilinear gather reads taps at 32-bit byte offsets (made in the
   // coordinate pass); an image of 2 GiB or more takes the SSE2 kernel, whose
   // bytes are the same.
-  if (kernel == Kernel::kAvx2 && !cubic &&
+  const bool wide = kernel == Kernel::kAvx2 || kernel == Kernel::kAvx512;
+  if (wide && !cubic &&
       static_cast<double>(image.step[0]) * image.rows > static_cast<double>(INT32_MAX))
     kernel = Kernel::kSse2;
 
@@ -319,9 +330,9 @@ void render_rows(const FragmentPlan& plan, const Camera& cam, const cv::Mat& ima
       const int n = std::min(kBlock, run.x1 - x);
       uint8_t* dst = row + 4 * (x - spans[r][0]);
 #ifdef LF_X86_SIMD
-      if (kernel == Kernel::kAvx2) {
-        kernels::coords_avx2(distort, cubic, k, x, n, iu, iv, wtop, wbot, stride,
-                             cubic ? nullptr : off);
+      if (kernel == Kernel::kAvx2 || kernel == Kernel::kAvx512) {
+        (kernel == Kernel::kAvx512 ? kernels::coords_avx512 : kernels::coords_avx2)(
+            distort, cubic, k, x, n, iu, iv, wtop, wbot, stride, cubic ? nullptr : off);
         if (cubic)
           kernels::gather_cubic_avx2(image.data, stride, cam.width, cam.height, n, iu, iv, wtop,
                                      wbot, dst);

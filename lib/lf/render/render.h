@@ -22,13 +22,14 @@ namespace lf {
 // no allocation beyond `out`'s spans and pixels. Throws std::invalid_argument on an image
 // of the wrong size or type.
 //
-// Kernels: kScalar is the reference; kSse2 (x86-64 baseline) and kAvx2
-// (chosen at run time where the CPU has it) evaluate the same arithmetic and
-// give bit-identical results (tests/test_render.cpp). kBest is the fastest
+// Kernels: kScalar is the reference; kSse2 (x86-64 baseline), kAvx2 and
+// kAvx512 (its coordinate pass sixteen pixels wide, the gathers AVX2's;
+// each chosen at run time where the CPU has it) evaluate the same
+// arithmetic and give bit-identical results (tests/test_render.cpp). kBest is the fastest
 // that this CPU and build have (best_kernel()); the meson option simd=false
 // leaves only the scalar kernel. Asking for a kernel that is not available
 // throws std::invalid_argument.
-enum class Kernel { kBest, kScalar, kSse2, kAvx2 };
+enum class Kernel { kBest, kScalar, kSse2, kAvx2, kAvx512 };
 void render_fragment(const FragmentPlan& plan, const Camera& camera, const cv::Mat& image,
                      Fragment& out, Kernel kernel = Kernel::kBest);
 
@@ -56,8 +57,9 @@ void render_pixels(const FragmentPlan& plan, const Camera& camera, const cv::Mat
 void render_rows(const FragmentPlan& plan, const Camera& camera, const cv::Mat& image, int r0,
                  int r1, uint8_t* pixels, Kernel kernel = Kernel::kBest, size_t row_bytes = 0);
 bool kernel_available(Kernel kernel);
-Kernel best_kernel();                    // never kBest
-const char* kernel_name(Kernel kernel);  // "scalar", "sse2", "avx2" (kBest: the one it picks)
-bool simd_available();                   // kernel_available(Kernel::kSse2)
+Kernel best_kernel();  // never kBest
+// "scalar", "sse2", "avx2", "avx512" (kBest: the one it picks).
+const char* kernel_name(Kernel kernel);
+bool simd_available();  // kernel_available(Kernel::kSse2)
 
 }  // namespace lf
