@@ -337,7 +337,8 @@ void render_rows(const FragmentPlan& plan, const Camera& cam, const cv::Mat& ima
           kernels::gather_cubic_avx2(image.data, stride, cam.width, cam.height, n, iu, iv, wtop,
                                      wbot, dst);
         else
-          kernels::gather_avx2(image.data, stride, n, off, iu, iv, wtop, wbot, dst);
+          (kernel == Kernel::kAvx512 ? kernels::gather_avx512 : kernels::gather_avx2)(
+              image.data, stride, n, off, iu, iv, wtop, wbot, dst);
         continue;
       }
 #endif

@@ -23,7 +23,8 @@ namespace lf {
 // of the wrong size or type.
 //
 // Kernels: kScalar is the reference; kSse2 (x86-64 baseline), kAvx2 and
-// kAvx512 (its coordinate pass sixteen pixels wide, the gathers AVX2's;
+// kAvx512 (the coordinate pass 16 pixels wide, the bilinear gather 8, the
+// bicubic gather AVX2's;
 // each chosen at run time where the CPU has it) evaluate the same
 // arithmetic and give bit-identical results (tests/test_render.cpp). kBest is the fastest
 // that this CPU and build have (best_kernel()); the meson option simd=false

@@ -134,10 +134,13 @@ void gather_cubic_avx2(const uint8_t* src, int stride, int width, int height, in
                        const int32_t* wq, uint8_t* dst);
 void gather_avx2(const uint8_t* src, int stride, int n, const int32_t* off, const int32_t* iu,
                  const int32_t* iv, const int32_t* wtop, const int32_t* wbot, uint8_t* dst);
-// AVX-512 coordinate pass (render_avx512.cpp): call only where the CPU has
-// AVX-512 F, DQ, BW and VL (and so AVX2, whose gathers follow it).
+// AVX-512 coordinate pass and bilinear gather (render_avx512.cpp): call only
+// where the CPU has AVX-512 F, DQ, BW and VL (and so AVX2: their tails and
+// the bicubic gather are AVX2's).
 void coords_avx512(bool distort, bool cubic, const Consts& k, int x0, int n, int32_t* iu,
                    int32_t* iv, int32_t* wt, int32_t* wb, int stride, int32_t* off);
+void gather_avx512(const uint8_t* src, int stride, int n, const int32_t* off, const int32_t* iu,
+                   const int32_t* iv, const int32_t* wtop, const int32_t* wbot, uint8_t* dst);
 #endif
 
 }  // namespace lf::kernels
