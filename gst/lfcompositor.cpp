@@ -4,7 +4,6 @@
 // and metadata are in gst/lfcompositorprops.cpp.
 #include <gst/base/gstaggregator.h>
 #include <gst/video/video.h>
-#include <libdeflate.h>
 
 #include <algorithm>
 #include <memory>
@@ -182,39 +181,31 @@ static GstFlowReturn emit(LfCompositor* self, uint64_t seq, Request& g, bool com
     return GST_FLOW_NOT_NEGOTIATED;
   const guint left_id = static_cast<guint>(std::max<int64_t>(0, st->intake->viewer.viewer()));
   // Each eye's fragments and the drawings lffragment left to us (defer:
-  // whole-view mode), composited at once (lib/lf/session/compositor_host.h).
-  // One eye goes straight into the output buffer where its video allows
-  // (gst/lfvideoout.h); a stereo pair is put side by side first.
-  cv::Mat into, last;
-  const bool direct = !st->s.stereo && st->output.begin_frame(&into, &last);
+  // whole-view mode), composited at once (lib/lf/session/compositor_host.h);
+  // one eye straight into the output buffer where its video allows
+  // (gst/lfvideoout.h), a stereo pair side by side first.
   lf::FrameCompositor::Result r;
+  GstBuffer* out = nullptr;
+  const auto make = [&](cv::Mat* into, const cv::Mat* last) -> const cv::Mat& {
+    r = into ? st->frames->composite_into(g.pieces, w, H, complete, *into, *last)
+             : st->frames->composite(g.pieces, w, H, st->s.stereo, left_id, complete);
+    if (lfgst::trace_enabled())
+      lfgst::trace_frame(GST_ELEMENT(self), left_id, seq, static_cast<gint64>(g.count),
+                         r.frame->data, r.frame->total() * r.frame->elemSize(),
+                         (g_get_monotonic_time() - t0) * 1000, r.filled);
+    return *r.frame;
+  };
   GError* err = nullptr;
-  if (!lfgst::guard(
-          [&] {
-            r = direct ? st->frames->composite_into(g.pieces, w, H, complete, into, last)
-                       : st->frames->composite(g.pieces, w, H, st->s.stereo, left_id, complete);
-          },
-          &err)) {
-    if (direct) gst_buffer_unref(st->output.end_frame());
+  if (!lfgst::guard([&] { out = st->output.make_frame(!st->s.stereo, make); }, &err)) {
     GST_ELEMENT_ERROR(self, STREAM, FAILED, ("Cannot composite the frame"), ("%s", err->message));
     g_error_free(err);
     return GST_FLOW_ERROR;
   }
   for (const auto& [camera, why] : r.refused)
     GST_WARNING_OBJECT(self, "dropping fragment of camera %d: %s", camera, why.c_str());
-  const size_t filled = r.filled;  // a missed deadline: pixels from the last frame
-  if (filled)
+  if (r.filled)  // a missed deadline: pixels from the last frame
     GST_DEBUG_OBJECT(self, "request %" G_GUINT64_FORMAT ": %zu pixels from the last frame", seq,
-                     filled);
-  const cv::Mat& rgba = *r.frame;
-  if (lfgst::trace_enabled()) {
-    const uint32_t sum = libdeflate_crc32(0, rgba.data, rgba.total() * rgba.elemSize());
-    lfgst::trace(GST_ELEMENT(self), "composited", left_id, seq, -1, static_cast<gint64>(g.count),
-                 static_cast<gint64>(sum), (g_get_monotonic_time() - t0) * 1000);
-    if (filled)
-      lfgst::trace(GST_ELEMENT(self), "filled", left_id, seq, -1, static_cast<gint64>(filled));
-  }
-  GstBuffer* out = direct ? st->output.end_frame() : st->output.frame(rgba);
+                     r.filled);
   GST_BUFFER_PTS(out) = g.pts;
   GST_BUFFER_DURATION(out) = g.duration;
   GST_BUFFER_OFFSET(out) = seq;

@@ -1,5 +1,7 @@
 #include "lftrace.h"
 
+#include <libdeflate.h>
+
 #include <cinttypes>
 #include <cstdio>
 #include <cstdlib>
@@ -46,6 +48,13 @@ void trace(GstElement* el, const char* event, guint viewer, guint64 sequence, gi
                " %" G_GINT64_FORMAT " %" G_GINT64_FORMAT "\n",
                event, viewer, sequence, camera, now, a, b, c);
   std::fflush(t.f);
+}
+
+void trace_frame(GstElement* el, guint viewer, guint64 sequence, gint64 fragments,
+                 const guint8* rgba, gsize bytes, gint64 ns, gsize filled) {
+  const uint32_t sum = libdeflate_crc32(0, rgba, bytes);
+  trace(el, "composited", viewer, sequence, -1, fragments, static_cast<gint64>(sum), ns);
+  if (filled) trace(el, "filled", viewer, sequence, -1, static_cast<gint64>(filled));
 }
 
 }  // namespace lfgst

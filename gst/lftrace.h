@@ -23,8 +23,14 @@ namespace lfgst {
 //   decoded    lfcompositor: fragment parsed/decoded; A = ns spent
 //   composited lfcompositor: output frame done; A = fragments, B = CRC-32
 //              of the RGBA frame, C = ns spent compositing
+//   filled     lfcompositor: an incomplete frame; A = pixels taken from the
+//              last frame
 bool trace_enabled();
 void trace(GstElement* el, const char* event, guint viewer, guint64 sequence, gint camera,
            gint64 a = 0, gint64 b = 0, gint64 c = 0);
+// lfcompositor's "composited" and (when `filled` > 0) "filled" events of
+// one frame: `rgba`, `bytes` long, made from `fragments` in `ns`.
+void trace_frame(GstElement* el, guint viewer, guint64 sequence, gint64 fragments,
+                 const guint8* rgba, gsize bytes, gint64 ns, gsize filled);
 
 }  // namespace lfgst

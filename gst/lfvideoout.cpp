@@ -128,13 +128,25 @@ bool RawVideoOutput::begin_frame(cv::Mat* into, cv::Mat* last) {
   return false;
 }
 
-GstBuffer* RawVideoOutput::end_frame() {
+GstBuffer* RawVideoOutput::end_frame(bool keep) {
   GstBuffer* out = into_map_.buffer;
   gst_video_frame_unmap(&into_map_);
   if (last_mapped_) gst_video_frame_unmap(&last_map_), last_mapped_ = false;
   drop_last();
-  last_ = gst_buffer_ref(out);
+  if (keep) last_ = gst_buffer_ref(out);
   return out;
+}
+
+GstBuffer* RawVideoOutput::make_frame(bool direct, const MakeFrame& make) {
+  cv::Mat into, last;
+  if (!direct || !begin_frame(&into, &last)) return frame(make(nullptr, nullptr));
+  try {
+    make(&into, &last);
+  } catch (...) {
+    gst_buffer_unref(end_frame(false));  // half made: not a last frame
+    throw;
+  }
+  return end_frame(true);
 }
 
 GstBuffer* RawVideoOutput::frame(const cv::Mat& rgba) {

@@ -12,6 +12,7 @@
 #include <gst/base/gstaggregator.h>
 #include <gst/video/video.h>
 
+#include <functional>
 #include <opencv2/core.hpp>
 
 #include "lfprops.h"
@@ -55,17 +56,18 @@ class RawVideoOutput {
   void renegotiate() { negotiated_ = false; }
   // A buffer of the negotiated video holding `rgba` (the negotiated frame size).
   GstBuffer* frame(const cv::Mat& rgba);
-  // Where the negotiated video is RGBA or RGBx of the composited size, a
-  // frame is resolved straight into its buffer (a copy of 8 MB a frame
-  // less at 1080p): begin_frame() maps one as `into` (continuous
-  // CV_8UC4) and the last frame sent as `last` (empty if none), and
-  // end_frame() unmaps them and gives the buffer to send. The last frame
-  // stays referenced, read-only, so that an incomplete request's missing
-  // pixels can come from it (an element downstream that writes into
-  // frames copies it, as it would behind a tee). False, nothing mapped,
-  // where the video is scaled or I420 (frame() then).
-  bool begin_frame(cv::Mat* into, cv::Mat* last);
-  GstBuffer* end_frame();
+  // A buffer of the negotiated video made by `make`. Where `direct` and the
+  // negotiated video is RGBA or RGBx of the composited size, make(&into,
+  // &last) resolves the frame straight into the buffer (`into`: it mapped,
+  // continuous CV_8UC4; `last`: the last frame sent, empty if none; a copy
+  // of 8 MB a frame less at 1080p). Else make(nullptr, nullptr) returns a
+  // frame of its own, copied as frame() does. The last frame stays
+  // referenced, read-only, so that an incomplete request's missing pixels
+  // can come from it (an element downstream that writes into frames copies
+  // it, as it would behind a tee). What `make` throws is thrown after the
+  // buffer is given back.
+  using MakeFrame = std::function<const cv::Mat&(cv::Mat* into, const cv::Mat* last)>;
+  GstBuffer* make_frame(bool direct, const MakeFrame& make);
   // Frees the pool's buffers and the last frame (the stream ended); frames
   // after it are allocated one by one until the next negotiation.
   void release() { drop_pool(); }
@@ -74,6 +76,12 @@ class RawVideoOutput {
   void drop_pool();
   GstBuffer* acquire();
   void drop_last();
+  // make_frame()'s direct path: maps a buffer as `into` and the last frame
+  // as `last`; false, nothing mapped, where it cannot (scaled, I420, a
+  // padded stride). end_frame() unmaps both and gives the buffer, kept as
+  // the next frame's last with `keep`.
+  bool begin_frame(cv::Mat* into, cv::Mat* last);
+  GstBuffer* end_frame(bool keep);
   GstBuffer* last_ = nullptr;  // the last frame begin_frame() mapped (a reference)
   GstVideoFrame into_map_{}, last_map_{};
   bool last_mapped_ = false;
