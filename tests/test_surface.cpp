@@ -187,7 +187,7 @@ TEST(Surface, SecondPlanesAtDepthEdgesSharpenTheDiscsRim) {
       "dB; fragment pixels %.2fx -> %.2fx the output\n",
       e.two_plane_tiles, tiles, p1, p2, s1.fragment_pixels / (320.0 * 240),
       s2.fragment_pixels / (320.0 * 240));
-  // Measured: 48 of 300 tiles, 36.22 -> 40.15 dB, 3.00x -> 3.59x.
+  // Measured: 48 of 300 tiles, 36.22 -> 40.34 dB, 3.00x -> 3.59x.
   EXPECT_GT(e.two_plane_tiles, 10);
   EXPECT_LT(e.two_plane_tiles, tiles / 4) << "only the rim needs two planes";
   EXPECT_EQ(e.two_plane_tiles, e.surface.two_plane_tiles());
@@ -221,7 +221,7 @@ TEST(Surface, ThinBarsArePickedPerPixelFromTwoPlanes) {
   const double p_far = v.psnr(far), p_both = v.psnr(both), p_swapped = v.psnr(near_first);
   std::printf("thin bars: far plane %.2f dB, both planes per pixel %.2f dB (layers swapped %.2f)\n",
               p_far, p_both, p_swapped);
-  EXPECT_GT(p_both, p_far + 5.0);  // measured +8.5 dB
+  EXPECT_GT(p_both, p_far + 5.0);  // measured +9.9 dB (+8.5 with a 3 x 3 choice)
   // The choice depends on depth, not on which layer a plane is sent in.
   EXPECT_NEAR(p_swapped, p_both, 0.05);
   EXPECT_EQ(p_swapped, p_both);
@@ -895,9 +895,9 @@ TEST(Surface, ThinBarsInsideTilesGetTheirSecondPlane) {
         "PSNR one plane per tile %.2f dB, two %.2f dB; fragment pixels %.2fx -> %.2fx the "
         "output\n",
         what, r->e.two_plane_tiles, tiles, r->e.thin_tiles, r->p1, r->p2, r->px1, r->px2);
-    // Measured from the images: 41 of 300 tiles, 28.36 -> 35.33 dB, 3.00x
-    // -> 3.47x (both true planes in every tile: 36.41 dB); from the probe
-    // (one pass, at 160x120): 37 tiles, 28.07 -> 34.49 dB, 3.42x.
+    // Measured from the images: 68 of 300 tiles, 28.36 -> 36.93 dB, 3.00x
+    // -> 3.69x; from the probe (one pass, at 160x120): 65 tiles, 28.07 ->
+    // 37.73 dB, 3.65x. Without SurfaceOptions::thin_spread: 41 and 37 tiles.
     EXPECT_GT(r->e.thin_tiles, 15) << what;
     EXPECT_LT(r->e.thin_tiles, tiles / 3) << what;
     EXPECT_GT(r->p2, r->p1 + (r == &im ? 4.5 : 2.5)) << what;
@@ -914,6 +914,14 @@ TEST(Surface, ThinBarsInsideTilesGetTheirSecondPlane) {
                  q_bars) < 2 * step)
       ++near_bars;
   EXPECT_GT(near_bars, im.e.two_plane_tiles * 3 / 4);
+  // A bar on a tile border: without spreading to the tiles beside, fewer
+  // tiles and 0.6 dB less.
+  lf::SurfaceOptions no_spread = opt;
+  no_spread.thin_spread = false;
+  const ThinResult off =
+      render_both(v, lf::FocalSurfaceEstimator(v.rig, v.images, no_spread).estimate(v.req));
+  EXPECT_LT(off.e.thin_tiles, im.e.thin_tiles * 3 / 4);
+  EXPECT_GT(im.p2, off.p2 + 0.3);
   // Other widths and spacings: never worse than one plane per tile.
   for (const auto& [bar, pitch] :
        {std::pair{3.0, 20.0}, {4.0, 20.0}, {8.0, 20.0}, {10.0, 30.0}, {6.0, 40.0}, {12.0, 40.0}}) {
@@ -959,7 +967,7 @@ TEST(Surface, ThinBarsInsideTilesGetTheirSecondPlane) {
 // OffPlaneView's own eye at t = 0.3, the test above).
 TEST(Surface, ThinStructuresComeWithinHalfADecibelOfAPerPixelSweep) {
   double sum_default = 0, sum_one = 0, sum_sweep = 0, ms_estimate = 0, ms_sweep = 0;
-  double px_default = 0, px_one = 0;
+  double px_default = 0, px_one = 0, sum_probe = 0, ms_probe = 0;
   int n = 0;
   for (const auto& [bar, pitch] :
        {std::pair{5.0, 24.0}, {7.0, 28.0}, {9.0, 36.0}, {3.5, 16.0}, {4.5, 30.0}})
@@ -972,6 +980,16 @@ TEST(Surface, ThinStructuresComeWithinHalfADecibelOfAPerPixelSweep) {
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       const ThinResult r = render_both(v, e);
       const double p1 = r.p1, p2 = r.p2;
+      // The live path: the cameras' probe fragments (160 x 120, one per
+      // plane) and the estimate from them.
+      t0 = std::chrono::steady_clock::now();
+      const lf::SurfaceProbeAnswers answers = answer_probe(Held{v.rig, v.images, v.req, v.truth});
+      bool ok = false;
+      const lf::SurfaceEstimate pe = answers.estimate(v.rig, &ok);
+      ms_probe +=
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      ASSERT_TRUE(ok);
+      sum_probe += render_both(v, pe).p2;
       t0 = std::chrono::steady_clock::now();
       const lf::SweepResult sweep = lf::per_pixel_sweep(v.rig, v.images, v.req, 64, 9);
       ms_sweep +=
@@ -986,16 +1004,20 @@ TEST(Surface, ThinStructuresComeWithinHalfADecibelOfAPerPixelSweep) {
       px_default += r.px2, px_one += r.px1;
     }
   std::printf(
-      "mean of %d views: default %.2f dB, one plane per tile %.2f dB, per-pixel sweep %.2f dB; "
-      "fragment pixels %.2fx one plane per tile's; estimate %.0f ms, sweep %.0f ms a view\n",
-      n, sum_default / n, sum_one / n, sum_sweep / n, px_default / px_one, ms_estimate / n,
-      ms_sweep / n);
-  // Measured: default 33.71 dB, one plane per tile 29.87 dB, the sweep
-  // 34.29 dB: 0.58 dB below it (the issue asks for 0.5; on the views the
-  // rules were made on, OffPlaneView's own eye, 0.20 dB below); fragment
-  // pixels 1.13x.
-  EXPECT_GT(sum_default / n, sum_sweep / n - 0.75);
-  EXPECT_GT(sum_default / n, sum_one / n + 3.0);
+      "mean of %d views: default %.2f dB, one plane per tile %.2f dB, per-pixel sweep %.2f dB, "
+      "from the cameras' probe %.2f dB; fragment pixels %.2fx one plane per tile's; estimate "
+      "%.0f ms (from the probe: %.0f ms, its fragments included), sweep %.0f ms a view\n",
+      n, sum_default / n, sum_one / n, sum_sweep / n, sum_probe / n, px_default / px_one,
+      ms_estimate / n, ms_probe / n, ms_sweep / n);
+  // Measured: default 34.90 dB (33.71 before SurfaceOptions::thin_spread
+  // and the compositor's 7 x 7 choice), one plane per tile 29.87 dB, the
+  // sweep 34.29 dB: 0.61 dB above it; fragment pixels 1.20x; from the
+  // cameras' probe (the live path) 34.05 dB, 0.24 dB below the sweep, in
+  // 19 ms against the sweep's 108 ms (the estimate from the images: 134 ms,
+  // its analysis is scalar code). The issue asks for 0.5 dB of the sweep.
+  EXPECT_GT(sum_default / n, sum_sweep / n);
+  EXPECT_GT(sum_probe / n, sum_sweep / n - 0.5);
+  EXPECT_GT(sum_default / n, sum_one / n + 4.0);
   EXPECT_LT(px_default, 1.3 * px_one);
 }
 

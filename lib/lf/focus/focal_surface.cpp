@@ -527,6 +527,26 @@ SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols
             if (best >= 0) thin_k[u] = best, grow.push_back(u);
           }
       }
+      // A structure on a tile's border: the 4 neighbours of the tiles found
+      // get its plane too, each the one of its neighbours' planes that its
+      // own cells voted for most (within a plane).
+      if (opt.thin_spread) {
+        const std::vector<int> found = thin_k;
+        for (int t = 0; t < tiles; ++t) {
+          if (found[t] >= 0 || label[t] < 0 || fs.second_of[t] != FocalSurface::kNone) continue;
+          const int r = t / cols, q = t % cols;
+          const int* v = &voted[static_cast<size_t>(t) * K];
+          int most = -1;
+          for (const auto& [dr, dq] : {std::pair{-1, 0}, {1, 0}, {0, -1}, {0, 1}}) {
+            const int rr = r + dr, qq = q + dq;
+            if (rr < 0 || qq < 0 || rr >= rows || qq >= cols) continue;
+            const int k = found[rr * cols + qq];
+            if (k < 0) continue;
+            const int n = v[k] + (k > 0 ? v[k - 1] : 0) + (k + 1 < K ? v[k + 1] : 0);
+            if (n > most) most = n, thin_k[t] = k;
+          }
+        }
+      }
       for (int t = 0; t < tiles; ++t) {
         const int k = thin_k[t];
         if (k < 0) continue;

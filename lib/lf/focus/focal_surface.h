@@ -83,12 +83,17 @@ struct SurfaceOptions {
   // docs/rendering.md for what it gains; one vote was enough for the bars, but found false
   // structures on the Blender shop). A textured plane or a slope has cells whose best plane is the
   // tile's or near it: no votes. The cells' costs are measured at
-  // fine_width, where a thin structure is wider in analysis pixels.
+  // fine_width, where a thin structure is wider in analysis pixels. With thin_spread, the tiles
+  // so found then give the structure's plane to each of their 4 neighbours that has no second
+  // plane (once, not on and on): a bar on a tile border leaves the tile beside it a pixel or two
+  // of the bar, too few votes (docs/rendering.md: +0.4 dB on thin structures, 1.06x the fragment
+  // pixels; the compositor's per-pixel choice keeps the tile's own plane where the bar is not).
   double thin_ratio = 0.5;     // 0 < thin_ratio <= 1
   double thin_margin = 10.0;   // percent of the contrast, >= 0
   double thin_fraction = 0.2;  // of the tile's cells, 0..1
   int thin_neighbours = 2;     // of 8 neighbouring tiles, 0..8
   int thin_grow_votes = 2;     // >= 1
+  bool thin_spread = true;
   // Hysteresis between estimates of one view (a SurfacePrior: a live
   // stream re-estimates the surface every few frames): a tile keeps the
   // inverse depth it had unless its new plane is cheaper by more than

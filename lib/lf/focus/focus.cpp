@@ -120,13 +120,19 @@ void photo_consistency(const Rig& rig, const std::vector<cv::Mat>& gray, const V
     const cv::Mat& img = gray[i];
     for (const Run& run : plan.runs) {
       const FragmentPiece& pc = plan.pieces[run.piece];
+      // The weight's terms and the homography are affine in x along a row.
+      const double y = run.y;
+      const double num_y = pc.weight_num.b * y + pc.weight_num.c,
+                   den_y = pc.weight_den.b * y + pc.weight_den.c;
+      const cv::Matx33d& H = pc.H;
+      const double h0_y = H(0, 1) * y + H(0, 2), h1_y = H(1, 1) * y + H(1, 2),
+                   h2_y = H(2, 1) * y + H(2, 2);
       for (int x = run.x0; x < run.x1; ++x) {
-        const double y = run.y;
-        const double den = pc.weight_den(x, y);
-        const double w = den != 0 ? std::clamp(pc.weight_num(x, y) / den, 0.0, 1.0) : 0.0;
-        const cv::Vec3d h = pc.H * cv::Vec3d(x, y, 1.0);
-        if (!(h[2] > 0) || !(w > 0)) continue;
-        cv::Vec2d p(h[0] / h[2], h[1] / h[2]);
+        const double den = pc.weight_den.a * x + den_y;
+        const double w = den != 0 ? std::clamp((pc.weight_num.a * x + num_y) / den, 0.0, 1.0) : 0.0;
+        const double hz = H(2, 0) * x + h2_y;
+        if (!(hz > 0) || !(w > 0)) continue;
+        cv::Vec2d p((H(0, 0) * x + h0_y) / hz, (H(1, 0) * x + h1_y) / hz);
         if (cam.intrinsics.has_distortion()) p = cam.distort_pixel(p);
         // Checked after rounding to float: 238.9999999 becomes 239.0f, whose
         // bilinear neighbour would be a row past the image.

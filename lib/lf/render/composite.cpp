@@ -4,6 +4,7 @@
 #include <array>
 #include <cstring>
 #include <opencv2/core/utility.hpp>
+#include <opencv2/imgproc.hpp>
 #include <stdexcept>
 #include <string>
 
@@ -599,41 +600,63 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
   }
   add_squares(fragments, layer_of[1], comp_[1], blocks, sq_[1]);
   add_squares(fragments, layer_of[0], comp_[1], blocks, sq_[0]);
-  // Per pixel where layer 1 has weight: both layers' variances; then their
-  // window means over those pixels, block by block.
+  // Per pixel where layer 1 has weight: both layers' variances (0
+  // elsewhere), and a 1 there; then their sums over the window (box
+  // filters, zero beyond the frame) give the means over the window's
+  // layer-1 pixels.
+  const int bcols = blocks.cols, brows = (height + kBlock - 1) / kBlock;
+  int bx0 = bcols, bx1 = -1, by0 = brows, by1 = -1;
+  for (int by = 0; by < brows; ++by)
+    for (int bx = 0; bx < bcols; ++bx)
+      if (blocks.on[by * bcols + bx])
+        bx0 = std::min(bx0, bx), bx1 = std::max(bx1, bx), by0 = std::min(by0, by),
+        by1 = std::max(by1, by);
+  if (bx1 < 0) return refused;
   const int R = kChoiceWindow / 2;
-  // Written below at every pixel where layer 1 has weight before any is
-  // read, and read nowhere else: no zeroing needed.
+  const cv::Rect roi =
+      cv::Rect(bx0 * kBlock - R, by0 * kBlock - R, (bx1 - bx0 + 1) * kBlock + 2 * R,
+               (by1 - by0 + 1) * kBlock + 2 * R) &
+      cv::Rect(0, 0, width, height);
   cv::Mat* v = var_;
   for (int l = 0; l < 2; ++l) v[l].create(height, width, CV_32FC1);
-  // Rows of blocks on every core: each pixel's result is its own.
-  auto each_block_pixel = [&](auto fn) {
-    cv::parallel_for_(cv::Range(0, (height + kBlock - 1) / kBlock), [&](const cv::Range& rows) {
-      for (int by = rows.start; by < rows.end; ++by)
-        for (int bx = 0; bx < blocks.cols; ++bx) {
-          if (!blocks.on[by * blocks.cols + bx]) continue;
-          for (int y = by * kBlock; y < std::min(height, (by + 1) * kBlock); ++y)
-            for (int x = bx * kBlock; x < std::min(width, (bx + 1) * kBlock); ++x)
-              if (comp_[1].weight_at(x, y) > 0) fn(x, y);
-        }
-    });
-  };
-  each_block_pixel([&](int x, int y) {
-    for (int l = 0; l < 2; ++l) v[l].at<float>(y, x) = variance_at(l, x, y);
-  });
-  each_block_pixel([&](int x, int y) {
-    float s0 = 0, s1 = 0, c = 0;
-    for (int yy = std::max(0, y - R); yy <= std::min(height - 1, y + R); ++yy)
-      for (int xx = std::max(0, x - R); xx <= std::min(width - 1, x + R); ++xx) {
-        if (comp_[1].weight_at(xx, yy) == 0) continue;  // not layer 1's: no variances
-        s0 += v[0].at<float>(yy, xx);
-        s1 += v[1].at<float>(yy, xx);
-        c += 1;
+  mask_.create(roi.size(), CV_32FC1);
+  cv::parallel_for_(cv::Range(0, roi.height), [&](const cv::Range& rows) {
+    for (int r = rows.start; r < rows.end; ++r) {
+      const int y = roi.y + r;
+      float* m = mask_.ptr<float>(r);
+      float* v0 = v[0].ptr<float>(y) + roi.x;
+      float* v1 = v[1].ptr<float>(y) + roi.x;
+      for (int i = 0; i < roi.width; ++i) {
+        const int x = roi.x + i;
+        const bool on = blocks.at(x, y) && comp_[1].weight_at(x, y) > 0;
+        m[i] = on ? 1.0f : 0.0f;
+        v0[i] = on ? variance_at(0, x, y) : 0.0f;
+        v1[i] = on ? variance_at(1, x, y) : 0.0f;
       }
-    // The nearer layer, unless the other agrees clearly better.
-    if (s0 / c + kChoiceMargin < s1 / c && comp_[0].weight_at(x, y) > 0) return;
-    resolve1(comp_[1].sums_at(x, y), out.ptr<uint8_t>(y) + 4 * x);
-    if (choice) choice->at<uint8_t>(y, x) = 1;
+    }
+  });
+  const cv::Size win(kChoiceWindow, kChoiceWindow);
+  for (int l = 0; l < 2; ++l)
+    cv::boxFilter(v[l](roi), sum_[l], CV_32F, win, cv::Point(-1, -1), false,
+                  cv::BORDER_CONSTANT | cv::BORDER_ISOLATED);
+  cv::boxFilter(mask_, mask_, CV_32F, win, cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
+  // Rows of blocks on every core: each pixel's result is its own.
+  cv::parallel_for_(cv::Range(by0, by1 + 1), [&](const cv::Range& rows) {
+    for (int by = rows.start; by < rows.end; ++by)
+      for (int bx = bx0; bx <= bx1; ++bx) {
+        if (!blocks.on[by * bcols + bx]) continue;
+        for (int y = by * kBlock; y < std::min(height, (by + 1) * kBlock); ++y)
+          for (int x = bx * kBlock; x < std::min(width, (bx + 1) * kBlock); ++x) {
+            if (comp_[1].weight_at(x, y) == 0) continue;
+            const int r = y - roi.y, i = x - roi.x;
+            const float c = std::max(1.0f, mask_.at<float>(r, i));
+            const float s0 = sum_[0].at<float>(r, i) / c, s1 = sum_[1].at<float>(r, i) / c;
+            // The nearer layer, unless the other agrees clearly better.
+            if (kChoiceRatio * s0 + kChoiceMargin < s1 && comp_[0].weight_at(x, y) > 0) continue;
+            resolve1(comp_[1].sums_at(x, y), out.ptr<uint8_t>(y) + 4 * x);
+            if (choice) choice->at<uint8_t>(y, x) = 1;
+          }
+      }
   });
   return refused;
 }
