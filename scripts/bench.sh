@@ -241,7 +241,9 @@ live() {  # row of the focus table: its live fps
   done
   echo "## Quality per method"
   echo
-  echo "Leave-one-out: each held-out camera's image rendered from the others and compared."
+  echo "Leave-one-out: each held-out camera's image rendered from the others and compared, inside"
+  echo "the image (cotton's square images leave black padding at the sides of a 4:3 view:"
+  echo "lf::camera_view_rect)."
   echo
   echo "![PSNR against time per frame, Chess]($rel/speed-error-chess.png)"
   echo
@@ -252,8 +254,8 @@ live() {  # row of the focus table: its live fps
   echo "## Held-out in-between views"
   echo
   echo "The views of the cameras on odd rows or columns of a 9 x 9 grid, rendered from the 5 x 5"
-  echo "sub-grid of every other row and column and compared with their images: views no method"
-  echo "was tuned on (the defaults: docs/rendering.md)."
+  echo "sub-grid of every other row and column and compared with their images (inside them:"
+  echo "lf::camera_view_rect): views no method was tuned on (the defaults: docs/rendering.md)."
   echo
   for scene in stanford-chess blender-shop-9x9 hci-cotton; do
     echo "![PSNR against time per frame, in-between views of $scene]($rel/speed-error-between-$scene.png)"

@@ -425,12 +425,15 @@ int main(int argc, char** argv) {
         const auto [ws, hs] = sizes.front();
         lf::ViewRequest sreq;
         sreq.view = lf::VirtualView::from_camera(rig.cameras[j], ws, hs);
-        const cv::Mat sgt = lf::camera_view_image(rig.cameras[j], images[j], ws, hs);
+        // Metrics where the held-out image has the scene (lf/quality/quality.h).
+        const cv::Rect srect = lf::camera_view_rect(rig.cameras[j], ws, hs);
+        const cv::Mat sgt = lf::camera_view_image(rig.cameras[j], images[j], ws, hs)(srect);
         double best = -1, qbest = 0;
         for (int s = 0; s < steps; ++s) {
           const double q = q_max * s / (steps - 1);
           sreq.focal_plane = lf::plane_at_inverse_depth(rj, q);
-          const double p = lf::psnr(render_frame(rj, ij, sreq, {"none"}).image, sgt, hs / 40);
+          const double p =
+              lf::psnr(render_frame(rj, ij, sreq, {"none"}).image(srect), sgt, hs / 40);
           sweep_mean[s] += p / n_loo;
           if (p > best) best = p, qbest = q;
         }
@@ -438,7 +441,8 @@ int main(int argc, char** argv) {
         for (const auto& [W, H] : sizes) {
           lf::ViewRequest req;
           req.view = lf::VirtualView::from_camera(rig.cameras[j], W, H);
-          const cv::Mat gt = lf::camera_view_image(rig.cameras[j], images[j], W, H);
+          const cv::Rect valid = lf::camera_view_rect(rig.cameras[j], W, H);
+          const cv::Mat gt = lf::camera_view_image(rig.cameras[j], images[j], W, H)(valid);
           const int border = H / 40;
           const auto t0 = Clock::now();
           req.focal_plane = lf::FocalPlane::infinity();
@@ -489,9 +493,9 @@ int main(int argc, char** argv) {
                     fr = render_frame(rj, ij, req, e);
                     times.push_back(fr.ms);
                   }
-                  const double p = lf::psnr(fr.image, gt, border);
+                  const double p = lf::psnr(fr.image(valid), gt, border);
                   st.psnr.push_back(p);
-                  st.ssim.push_back(lf::ssim(fr.image, gt, border));
+                  st.ssim.push_back(lf::ssim(fr.image(valid), gt, border));
                   st.ms.push_back(median(times));
                   st.px_ratio.push_back(static_cast<double>(fr.fragment_pixels) / (W * H));
                   st.bytes.push_back(static_cast<double>(fr.bytes));
@@ -516,7 +520,7 @@ int main(int argc, char** argv) {
             req.aperture = lf::Aperture::kTent;
             req.sampling = lf::Sampling::kBilinear;
             nearest_psnr.push_back(
-                lf::psnr(render_frame(one, {ij[nearest]}, req, {"none"}).image, gt, border));
+                lf::psnr(render_frame(one, {ij[nearest]}, req, {"none"}).image(valid), gt, border));
           }
         }
         cli::progress("leave-one-out", k + 1, n_loo);

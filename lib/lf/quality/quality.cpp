@@ -7,21 +7,34 @@
 
 namespace lf {
 
-cv::Mat camera_view_image(const Camera& cam, const cv::Mat& image, int width, int height) {
+namespace {
+// The camera's image scaled to the view's height: its width and the
+// columns cropped from each side (negative: padded).
+std::pair<int, int> view_fit(const Camera& cam, int width, int height) {
   const double s = static_cast<double>(height) / cam.height;
   const double sw = cam.width * s, crop = 0.5 * (sw - width);
   if (std::abs(sw - std::round(sw)) > 1e-9 || std::abs(crop - std::round(crop)) > 1e-9)
     throw std::invalid_argument("camera_view_image: " + std::to_string(width) + "x" +
                                 std::to_string(height) + " is not a whole-pixel crop of camera " +
                                 std::to_string(cam.id) + "'s image");
+  return {static_cast<int>(std::lround(sw)), static_cast<int>(std::lround(crop))};
+}
+}  // namespace
+
+cv::Mat camera_view_image(const Camera& cam, const cv::Mat& image, int width, int height) {
+  const auto [sw, c] = view_fit(cam, width, height);
   cv::Mat scaled;
-  cv::resize(image, scaled, cv::Size(static_cast<int>(std::lround(sw)), height), 0, 0,
-             cv::INTER_AREA);
+  cv::resize(image, scaled, cv::Size(sw, height), 0, 0, cv::INTER_AREA);
   cv::Mat out(height, width, image.type(), cv::Scalar::all(0));
-  const int c = static_cast<int>(std::lround(crop));
   const int x0 = std::max(0, c), x1 = std::min(scaled.cols, c + width);
   if (x1 > x0) scaled.colRange(x0, x1).copyTo(out.colRange(x0 - c, x1 - c));
   return out;
+}
+
+cv::Rect camera_view_rect(const Camera& cam, int width, int height) {
+  const auto [sw, c] = view_fit(cam, width, height);
+  const int x0 = std::max(0, c), x1 = std::min(sw, c + width);
+  return cv::Rect(x0 - c, 0, std::max(0, x1 - x0), height);
 }
 
 cv::Mat square_pixel_image(const Camera& cam, const cv::Mat& image, Camera* square) {

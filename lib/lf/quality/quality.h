@@ -14,6 +14,13 @@ namespace lf {
 // Throws if the horizontal crop is not a whole number of pixels.
 cv::Mat camera_view_image(const Camera& cam, const cv::Mat& image, int width, int height);
 
+// The part of that frame which camera_view_image() fills from the camera's
+// image: all of it where the image is cropped, its centre columns where the
+// image is padded (e.g. a square camera in a 4:3 view). Metrics against the
+// image belong there: beyond it the truth is padding, not the scene, and a
+// render that shows the scene there would count as wrong. Same checks.
+cv::Rect camera_view_rect(const Camera& cam, int width, int height);
+
 // A camera with fx != fy (e.g. Middlebury's) as one with square pixels, for
 // VirtualView::from_camera: *square gets fx = fy, and the image is resampled
 // to it (x' = cx + (x - cx) fy / fx, Lanczos; the principal point, the rows
