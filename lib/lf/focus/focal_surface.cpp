@@ -30,6 +30,8 @@ void validate(const SurfaceOptions& opt) {
     bad("thin structure votes: ratio 0..1, margin >= 0, fraction 0..1, neighbours 0..8, grow "
         "votes >= 1");
   if (!(opt.change_penalty >= 0)) bad("change penalty must be >= 0");
+  if (opt.edge_gap < 0 || !(opt.edge_weight >= 0 && opt.edge_weight <= 1))
+    bad("edge-aware aggregation: gap >= 0, weight 0..1");
 }
 
 SurfacePrior prior_of(const SurfaceEstimate& e, int cols, int rows) {
@@ -144,18 +146,45 @@ double best_single(const SweepCosts& c, int tiles, double fallback) {
   return refined_minimum(global_costs(c, tiles, fallback));
 }
 
+// Each tile's own cheapest plane (-1 where some plane saw none of it):
+// where two neighbours' differ, a depth edge runs between them.
+std::vector<int> own_best(const SweepCosts& c, int tiles) {
+  const int n = static_cast<int>(c.qs.size());
+  std::vector<int> own(tiles, -1);
+  for (int t = 0; t < tiles; ++t) {
+    double best = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < n; ++k) {
+      const double m = c.count[static_cast<size_t>(k) * tiles + t];
+      if (!(m > 0)) {
+        own[t] = -1;
+        break;
+      }
+      const double v = c.sum[static_cast<size_t>(k) * tiles + t] / m;
+      if (v < best) best = v, own[t] = k;
+    }
+  }
+  return own;
+}
+
 // The mean cost of plane k over the 3 x 3 tiles around tile (r, q), and
-// its sample count in `m` (solve()'s aggregation).
-double neighbourhood_cost(const SweepCosts& c, int cols, int rows, int r, int q, int k, double* m) {
-  const int tiles = cols * rows;
+// its sample count in `m` (solve()'s aggregation). A neighbour whose own
+// cheapest plane is more than o.edge_gap planes from the tile's counts
+// o.edge_weight: the aggregation does not carry a depth across an edge.
+double neighbourhood_cost(const SweepCosts& c, int cols, int rows, int r, int q, int k,
+                          const std::vector<int>& own, const SurfaceOptions& o, double* m) {
+  const int tiles = cols * rows, t = r * cols + q;
   double s = 0;
   *m = 0;
   for (int dr = -1; dr <= 1; ++dr)
     for (int dq = -1; dq <= 1; ++dq) {
-      const int rr = r + dr, qq = q + dq;
+      const int rr = r + dr, qq = q + dq, u = rr * cols + qq;
       if (rr < 0 || qq < 0 || rr >= rows || qq >= cols) continue;
-      s += c.sum[k * tiles + rr * cols + qq];
-      *m += c.count[k * tiles + rr * cols + qq];
+      const double w =
+          u != t && own[t] >= 0 && own[u] >= 0 && std::abs(own[u] - own[t]) > o.edge_gap
+              ? o.edge_weight
+              : 1.0;
+      s += w * c.sum[static_cast<size_t>(k) * tiles + u];
+      *m += w * c.count[static_cast<size_t>(k) * tiles + u];
     }
   return *m > 0 ? s / *m : 0.0;
 }
@@ -184,13 +213,14 @@ std::vector<int> solve(const SweepCosts& c, int cols, int rows, double gpos, dou
   std::vector<double> unary(static_cast<size_t>(tiles) * L, 0.0);
   textured.assign(tiles, false);
   std::vector<double> agg(n), range;
+  const std::vector<int> own = own_best(c, tiles);
   for (int r = 0; r < rows; ++r)
     for (int q = 0; q < cols; ++q) {
       const int t = r * cols + q;
       bool seen = true;
       for (int k = 0; k < n && seen; ++k) {
         double m = 0;
-        agg[k] = neighbourhood_cost(c, cols, rows, r, q, k, &m);
+        agg[k] = neighbourhood_cost(c, cols, rows, r, q, k, own, o, &m);
         if (m < min_count) seen = false;
       }
       if (!seen) continue;  // no information: neighbours decide, the tile keeps the single plane
@@ -402,13 +432,15 @@ SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols
       return kept.back().second;
     };
     std::vector<double> cost(M);
+    const std::vector<int> own = own_best(c, tiles);
     for (int r = 0; r < rows; ++r)
       for (int q = 0; q < cols; ++q) {
         const int t = r * cols + q;
         const double was = prior->tile_q[t];
         if (label[t] < 0 || !std::isfinite(was) || was == out.tile_q[t]) continue;
         double m = 0;
-        for (int k = 0; k < M; ++k) cost[k] = neighbourhood_cost(c, cols, rows, r, q, k, &m);
+        for (int k = 0; k < M; ++k)
+          cost[k] = neighbourhood_cost(c, cols, rows, r, q, k, own, opt, &m);
         const double cost_was = interpolate_at(c.qs, cost, was);
         if (!(cost_was <= interpolate_at(c.qs, cost, out.tile_q[t]) + opt.change_penalty * scale))
           continue;
