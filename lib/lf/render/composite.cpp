@@ -617,15 +617,14 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
       cv::Rect(bx0 * kBlock - R, by0 * kBlock - R, (bx1 - bx0 + 1) * kBlock + 2 * R,
                (by1 - by0 + 1) * kBlock + 2 * R) &
       cv::Rect(0, 0, width, height);
-  cv::Mat* v = var_;
-  for (int l = 0; l < 2; ++l) v[l].create(height, width, CV_32FC1);
+  for (int l = 0; l < 2; ++l) var_[l].create(roi.size(), CV_32FC1);
   mask_.create(roi.size(), CV_32FC1);
   cv::parallel_for_(cv::Range(0, roi.height), [&](const cv::Range& rows) {
     for (int r = rows.start; r < rows.end; ++r) {
       const int y = roi.y + r;
       float* m = mask_.ptr<float>(r);
-      float* v0 = v[0].ptr<float>(y) + roi.x;
-      float* v1 = v[1].ptr<float>(y) + roi.x;
+      float* v0 = var_[0].ptr<float>(r);
+      float* v1 = var_[1].ptr<float>(r);
       for (int i = 0; i < roi.width; ++i) {
         const int x = roi.x + i;
         const bool on = blocks.at(x, y) && comp_[1].weight_at(x, y) > 0;
@@ -637,8 +636,7 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
   });
   const cv::Size win(kChoiceWindow, kChoiceWindow);
   for (int l = 0; l < 2; ++l)
-    cv::boxFilter(v[l](roi), sum_[l], CV_32F, win, cv::Point(-1, -1), false,
-                  cv::BORDER_CONSTANT | cv::BORDER_ISOLATED);
+    cv::boxFilter(var_[l], sum_[l], CV_32F, win, cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
   cv::boxFilter(mask_, mask_, CV_32F, win, cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
   // Rows of blocks on every core: each pixel's result is its own.
   cv::parallel_for_(cv::Range(by0, by1 + 1), [&](const cv::Range& rows) {

@@ -177,10 +177,12 @@ class LayerCompositor {
  private:
   float variance_at(int layer, int x, int y) const;
   Compositor comp_[2];
-  cv::Mat sq_[2];   // CV_32FC1: sum over cameras of w * |c|^2, where layer 1 has weight
-  cv::Mat var_[2];  // CV_32FC1: the layers' variances there (kept from frame to frame)
-  cv::Mat sum_[2];  // CV_32FC1: their window sums over the choice's region
-  cv::Mat mask_;    // CV_32FC1: 1 where layer 1 has weight, then the window's count
+  cv::Mat sq_[2];  // CV_32FC1: sum over cameras of w * |c|^2, where layer 1 has weight
+  // Over the choice's region (layer 1's blocks and the window's reach
+  // around them; memory kept from frame to frame), CV_32FC1:
+  cv::Mat var_[2];  // the layers' variances where layer 1 has weight, else 0
+  cv::Mat sum_[2];  // their window sums
+  cv::Mat mask_;    // 1 where layer 1 has weight, else 0; then the window's count
 };
 
 }  // namespace lf
