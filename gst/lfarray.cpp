@@ -24,6 +24,15 @@
  * thread. The frames equal those of every `lffragment` drawing its own
  * fragment (`whole-view=false`), exactly.
  *
+ * Where the fragments draw their own (JPEG, `whole-view=false`,
+ * `partial-sums`) from cameras that are not live, `request-threads` threads
+ * (one per core by default) each answer every n-th camera (live cameras keep
+ * one each: a request may wait for its frame), and the compositor, not
+ * live, lets the cameras
+ * run up to 16 requests ahead of it (see `lfcompositor`): fewer hand-offs
+ * than a thread per camera, and no core idle while one camera's fragment
+ * is late (docs/results.md, Pipeline).
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 lfviewrequest rig=rig.json orbit=0.5 ! lfarray rig=rig.json ! \
@@ -65,8 +74,9 @@ static void lf_array_class_init(LfArrayClass* klass) {
               "its own where frames are picked by capture time), and leave their drawing to the "
               "compositor (lffragment defer), which draws all cameras of a view: on the CPU "
               "fused into its compositing, on all cores; with GL in one pass sequence, each "
-              "camera frame uploaded once, no fragment read back. FALSE: a request thread per "
-              "camera, and every lffragment draws its own fragment (in its own GL context with "
+              "camera frame uploaded once, no fragment read back. FALSE: the request threads "
+              "(request-threads), and every lffragment draws its own fragment (in its own GL "
+              "context with "
               "the GL backend). The same frames either way. No effect with JPEG fragments or "
               "partial-sums",
               TRUE, lfgst::kReadWriteReady));

@@ -39,6 +39,7 @@
 #include "lf/io/parse.h"
 #include "lf/render/gl_render.h"
 #include "lfbackend.h"
+#include "lfcamerahostprops.h"
 #include "lfforward.h"
 #include "lfguard.h"
 #include "lfprops.h"
@@ -56,13 +57,9 @@ GST_DEBUG_CATEGORY_STATIC(lf_camera_host_debug);
 
 namespace {
 
-// Property ids: 1..8 the camera host's own (`props`, in the order added),
-// 9 lfarray's whole-view, then the children's properties it forwards.
-constexpr guint PROP_FIRST_FORWARD = 10;
-#define DEFAULT_RECORD_QUALITY 0
-#define DEFAULT_REQUEST_MAX_AGE 0
-#define DEFAULT_SUM_LATENCY (20 * GST_MSECOND)
-#define DEFAULT_WHOLE_VIEW TRUE
+// Property ids: 1..9 the camera host's own (`props`, in the order added),
+// 10 lfarray's whole-view, then the children's properties it forwards.
+constexpr guint PROP_FIRST_FORWARD = 11;
 
 using lfgst::Forward;
 const Forward kCameraHostForwards[] = {
@@ -86,16 +83,7 @@ std::vector<Forward> forwards(bool composite) {
   return f;
 }
 
-// The bin's own properties (object lock).
-struct Settings {
-  std::string rig, cameras;
-  std::string record, playback;  // file name patterns (camera_file_name)
-  gint record_quality = DEFAULT_RECORD_QUALITY;
-  guint64 request_max_age = DEFAULT_REQUEST_MAX_AGE;  // ns
-  bool partial_sums = false;
-  guint64 sum_latency = DEFAULT_SUM_LATENCY;  // ns
-  bool whole_view = DEFAULT_WHOLE_VIEW;       // lfarray
-};
+using Settings = lfgst::CameraHostSettings;
 lfgst::Properties<Settings> props;
 
 struct Priv {
@@ -216,9 +204,10 @@ static bool build(LfCameraHost* self) {
             g_object_set(tee, "allow-not-linked", TRUE, nullptr);
             // Live: one lfrequestqueue before the tee sheds stale requests once for
             // every camera (the viewers in turn; a viewer's request behind one of its
-            // own request-max-age newer is stale), and each camera's queue holds one
-            // and blocks: a camera shedding alone answered a request that others
-            // dropped (incomplete frames). Not live: queues with their defaults.
+            // own request-max-age newer is stale), and each request thread's queue
+            // holds one and blocks: a camera shedding alone answered a request that
+            // others dropped (incomplete frames). Not live: queues with their
+            // defaults.
             const lfgst::Adopt adopt_here = [&](GstElement* e) {
               return adopt(GST_BIN(self), p, e);
             };
@@ -263,11 +252,36 @@ static bool build(LfCameraHost* self) {
               g_object_set(out, "rig", rig_path.c_str(), nullptr);
               apply(out, lf_compositor_get_type());
             }
+            // The request threads: one plans every camera (whole-view); a
+            // camera whose request may wait for its frame (live cameras, or
+            // frames picked by capture time) has its own; otherwise
+            // `request-threads` of them, each a queue and a tee for every
+            // n-th camera, whose cameras answer every request (answer-empty:
+            // one that answered none would hold the thread).
+            const size_t n_cams = chosen.size();
+            const size_t threads =
+                one_thread ? 1
+                : live || by_capture_time || !record.empty() || !playback.empty()
+                    ? n_cams
+                    : std::min<size_t>(
+                          n_cams, ps.request_threads ? ps.request_threads : g_get_num_processors());
+            std::vector<GstElement*> fans;  // the threads' tees (none: a queue per camera)
+            for (size_t t = 0; !one_thread && threads < n_cams && t < threads; ++t) {
+              const std::string id = std::to_string(t);
+              GstElement* q = request_queue("requests-" + id, false);
+              GstElement* fan = adopt(GST_BIN(self), p, make("tee", "request-fan-" + id));
+              g_object_set(fan, "allow-not-linked", TRUE, nullptr);
+              if (!gst_element_link_pads(tee, "src_%u", q, "sink") || !gst_element_link(q, fan))
+                throw std::runtime_error("cannot link request thread " + id);
+              fans.push_back(fan);
+            }
             std::vector<GstElement*> frags;
             for (int i : chosen) {
               const int cam_id = rig->cameras[i].id;
               const std::string id = std::to_string(cam_id);
-              GstElement* q = one_thread ? nullptr : request_queue("requests" + id, false);
+              GstElement* from = fans.empty() ? tee : fans[frags.size() % fans.size()];
+              GstElement* q =
+                  one_thread || !fans.empty() ? nullptr : request_queue("requests" + id, false);
               GstElement* frag = adopt(GST_BIN(self), p, make("lffragment", "fragment" + id));
               frags.push_back(frag);
               g_object_set(frag, "rig", rig_path.c_str(), "camera-id", cam_id, nullptr);
@@ -276,6 +290,7 @@ static bool build(LfCameraHost* self) {
               if (defer)
                 g_object_set(frag, "defer", TRUE, "backend", static_cast<gint>(lf::Backend::kCpu),
                              nullptr);
+              if (!fans.empty()) g_object_set(frag, "answer-empty", TRUE, nullptr);
               // A recording pairs frames with requests by capture time, live
               // and played back alike.
               if ((!record.empty() || !playback.empty()) && !frame_select_set)
@@ -296,7 +311,7 @@ static bool build(LfCameraHost* self) {
                                           ps.record_quality, id);
               if ((q && (!gst_element_link_pads(tee, "src_%u", q, "sink") ||
                          !gst_element_link_pads(q, "src", frag, "request"))) ||
-                  (!q && !gst_element_link_pads(tee, "src_%u", frag, "request")) ||
+                  (!q && !gst_element_link_pads(from, "src_%u", frag, "request")) ||
                   !gst_element_link_pads(cam, nullptr, frag, "sink") ||
                   !gst_element_link_pads(frag, "src", sum ? sum : out, "sink_%u"))
                 throw std::runtime_error("cannot link the graph of camera " + id);
@@ -392,62 +407,7 @@ static void lf_camera_host_init(LfCameraHost* self) {
 
 // Installs the camera host's own and forwarded properties on `oc`.
 static void install_properties(GObjectClass* oc) {
-  const GParamFlags rw = lfgst::kReadWriteReady;
-  props.add(oc, &Settings::rig,
-            g_param_spec_string("rig", "Rig", "Rig file (.json) or dataset folder", nullptr, rw));
-  props.add(
-      oc, &Settings::cameras,
-      g_param_spec_string("cameras", "Cameras",
-                          "Cameras of this host: rig-order indices and ranges, e.g. \"0-15\" or "
-                          "\"0,4,8\" (empty: all)",
-                          nullptr, rw));
-  props.add(oc, &Settings::record,
-            g_param_spec_string(
-                "record", "Record",
-                "Record every camera's frames and capture times to a Matroska file (matroskamux, "
-                "nanosecond timecodes): a file name with one %d for the camera id, e.g. "
-                "\"rec/cam%02d.mkv\" (empty: no recording)",
-                nullptr, rw));
-  props.add(oc, &Settings::record_quality,
-            g_param_spec_int("record-quality", "Recording quality",
-                             "0: lossless (raw RGB); 1..100: JPEG at that quality", 0, 100,
-                             DEFAULT_RECORD_QUALITY, rw));
-  props.add(oc, &Settings::playback,
-            g_param_spec_string(
-                "playback", "Playback",
-                "Play a recording (see record) instead of the cameras: same pattern; each camera's "
-                "frames come on their recorded capture schedule (clocksync). The camera properties "
-                "(mode, framerate, ...) are then unused. With record or playback, frame-select "
-                "defaults to capture-time, so the same requests give the same output",
-                nullptr, rw));
-  props.add(
-      oc, &Settings::request_max_age,
-      g_param_spec_uint64(
-          "request-max-age", "Request max age",
-          "Live: a request waiting for the cameras (one queue for all: answered by every camera "
-          "or dropped by all) behind one of its viewer this much newer (ns, PTS) is dropped; the "
-          "viewers' turns are weighted by output pixels, at most 64 wait (lfrequestqueue). 0: "
-          "the newest request wins; 70 ms also keeps a small-view viewer's requests that come "
-          "while another's large view holds the cameras (+70 ms latency when overloaded). lfarray "
-          "uses at least its latency (a request its compositor still waits for is not stale)",
-          0, G_MAXUINT64, DEFAULT_REQUEST_MAX_AGE, rw));
-  props.add(
-      oc, &Settings::partial_sums,
-      g_param_spec_boolean(
-          "partial-sums", "Partial sums",
-          "Add up this host's fragments of each request into one (lfpartialsum: premultiplied "
-          "colour and weight, encoded once with encoding and jpeg-quality; the compositor's "
-          "renormalisation keeps the frame). Pays when the cameras are a contiguous block of "
-          "the grid (their fragments overlap); a dead host then leaves a hole where only its "
-          "block sees",
-          FALSE, rw));
-  props.add(oc, &Settings::sum_latency,
-            g_param_spec_uint64(
-                "sum-latency", "Partial sum latency",
-                "Live, with partial-sums: how long after a request's time (ns, its PTS) the sum "
-                "leaves with the cameras that answered when one of them has not (lfpartialsum's "
-                "latency); keep it inside the compositor's deadline",
-                0, G_MAXUINT64, DEFAULT_SUM_LATENCY, rw));
+  lfgst::install_camera_host_properties(oc, &props);
   lfgst::install_forwards(oc, PROP_FIRST_FORWARD, std::begin(kCameraHostForwards),
                           std::end(kCameraHostForwards));
 }

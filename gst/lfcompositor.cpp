@@ -47,8 +47,7 @@ constexpr size_t kMaxPending = 16;
 // A probe is scored when every camera answered every step, or this long (at
 // least the latency) after its first fragment, with what came.
 constexpr gint64 kProbeDeadlineUs = G_USEC_PER_SEC;
-// From start (READY->PAUSED) to stop (PAUSED->READY); used on the aggregate
-// thread only (GstAggregator handles serialized sink events there too).
+// From start to stop (READY <-> PAUSED), on the aggregate thread only (sink events too).
 struct State {
   Settings s;  // snapshot taken at start
   std::shared_ptr<const lf::Rig> rig;
@@ -119,7 +118,7 @@ static gboolean lf_compositor_start(GstAggregator* agg) {
   std::unique_ptr<lf::Renderer> renderer;
   if (!lfgst::open_renderer(GST_ELEMENT(self), st->s.backend, renderer)) return FALSE;
   st->frames.emplace(std::move(renderer));
-  self->priv->deadline.reset();
+  self->priv->deadline.reset(GST_AGGREGATOR(self));
   self->priv->state = std::move(st);
   return TRUE;
 }
@@ -147,9 +146,16 @@ static gboolean lf_compositor_sink_event(GstAggregator* agg, GstAggregatorPad* p
     if (st->format->take_caps(GST_ELEMENT(self), caps, lfgst::kMaxOutputSide)) {
       const lfgst::Fraction fps = st->format->fps();
       self->priv->deadline.set_period(agg, gst_util_uint64_scale_int(GST_SECOND, fps.d, fps.n));
+      int w = 0, h = 0;  // for the cameras' run-ahead when not live (gst/lfdeadline.h)
+      if (st->format->view_size(&w, &h)) self->priv->deadline.set_view_pixels(w * h);
     }
   }
   return GST_AGGREGATOR_CLASS(lf_compositor_parent_class)->sink_event(agg, pad, event);
+}
+
+static gboolean lf_compositor_src_query(GstAggregator* agg, GstQuery* query) {
+  return LF_COMPOSITOR(agg)->priv->deadline.src_query(
+      agg, query, GST_AGGREGATOR_CLASS(lf_compositor_parent_class)->src_query);
 }
 
 // Fragments in a complete request: the rig's cameras, else one per sink pad (x2 in stereo).
@@ -161,11 +167,9 @@ static size_t expected_fragments(LfCompositor* self) {
   return n * (st->s.stereo ? 2 : 1);  // stereo: a left and a right fragment each
 }
 
-// GstAggregator's own negotiation (at start, and when downstream asks for a
-// reconfiguration) would fix caps before the view size is known: the template
-// fixates to 2x2 at 0/1 fps, and an encoder such as vp8enc, configured for
-// that, then drops every frame. The output is negotiated by emit() at
-// the next frame instead (aggregate thread, like aggregate()).
+// GstAggregator's own negotiation (at start, on a reconfigure) would fix the
+// template's 2x2 at 0/1 fps before the view size is known (vp8enc then drops
+// every frame): emit() negotiates at the next frame instead (aggregate thread).
 static gboolean lf_compositor_negotiate(GstAggregator* agg) {
   if (State* st = LF_COMPOSITOR(agg)->priv->state.get()) st->output.renegotiate();
   return TRUE;
@@ -482,6 +486,7 @@ static void lf_compositor_class_init(LfCompositorClass* klass) {
   ac->start = lf_compositor_start;
   ac->stop = lf_compositor_stop;
   ac->sink_event = lf_compositor_sink_event;
+  ac->src_query = lf_compositor_src_query;
   ac->negotiate = lf_compositor_negotiate;
   LfFragmentAggregatorClass* fc = LF_FRAGMENT_AGGREGATOR_CLASS(klass);
   fc->begin = lf_compositor_begin;

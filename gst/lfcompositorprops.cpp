@@ -41,6 +41,15 @@
  * each change posts a latency message). The `latency` property, when set,
  * replaces both. The paper's deadline (one period) is `adaptive-deadline=false`.
  *
+ * Not live (upstream answers a latency query not live), every request is
+ * waited for and throughput is what counts: each sink pad may hold the
+ * fragments of up to 16 requests (fewer for large views, about 128 MB of
+ * fragments in all), so a camera's request thread that runs ahead does not
+ * wait for the compositor fragment by fragment. GstAggregator holds one
+ * buffer a pad unless its latency allows more, so this is its
+ * `min-upstream-latency`, set to that many request periods unless the user
+ * set it; it is dropped again when a latency query comes back live.
+ *
  * Probes are scored here, never composited (lib/lf/session/probe_scoring.h):
  * a focus probe gives the depth under a clicked pixel (an upstream
  * `lf-focus` event), a surface probe a focal surface for the whole view (an

@@ -6,9 +6,36 @@
 
 namespace lfgst {
 
-void CompositorDeadline::reset() {
+void CompositorDeadline::reset(GstAggregator* agg) {
   ages_ = lf::ArrivalDeadline{};
   adaptive_ = 0;
+  std::lock_guard<std::mutex> lock(run_ahead_lock_);
+  GstClockTime set = 0;
+  g_object_get(agg, "min-upstream-latency", &set, nullptr);
+  if (set != 0 && set == run_ahead_.exchange(0))
+    g_object_set(agg, "min-upstream-latency", GstClockTime{0}, nullptr);
+}
+
+gboolean CompositorDeadline::src_query(GstAggregator* agg, GstQuery* query,
+                                       gboolean (*parent)(GstAggregator*, GstQuery*)) {
+  gboolean ok = parent(agg, query), live = FALSE;
+  if (!ok || GST_QUERY_TYPE(query) != GST_QUERY_LATENCY) return ok;
+  gst_query_parse_latency(query, &live, nullptr, nullptr);
+  const GstClockTime period = period_.load();
+  const guint64 pixels = view_pixels_.load();
+  GstClockTime want = 0;  // live, or the view not known yet: none
+  if (!live && period > 0 && pixels > 0)
+    want = period *
+           std::clamp<guint64>(kRunAheadBytes / (12 * pixels), 1, static_cast<guint64>(kRunAhead));
+  {
+    std::lock_guard<std::mutex> lock(run_ahead_lock_);
+    GstClockTime set = 0;
+    g_object_get(agg, "min-upstream-latency", &set, nullptr);
+    if (set == want || (set != 0 && set != run_ahead_.load())) return ok;  // done, or the user's
+    run_ahead_ = want;
+    g_object_set(agg, "min-upstream-latency", want, nullptr);
+  }
+  return parent(agg, query);  // again, with it (not under the lock: it asks upstream)
 }
 
 void CompositorDeadline::set_period(GstAggregator* agg, GstClockTime period) {

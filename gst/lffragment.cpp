@@ -302,8 +302,8 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
     answer_empty();
     return GST_FLOW_OK;
   }
-  // defer (lfarray's whole-view mode, one request thread for all cameras):
-  // a request this camera cannot answer still gets an empty answer, so
+  // defer (lfarray's whole-view mode, one request thread for all cameras)
+  // or answer-empty: a request this camera cannot answer gets an empty answer, so
   // every camera's pad of a non-live compositor stays in step (a pad left
   // without the fragment that the others have would hold GstAggregator,
   // and with it the request thread, for ever).
@@ -314,7 +314,7 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
         "camera %d delivered no frame within %" GST_TIME_FORMAT " (request %" G_GUINT64_FORMAT ")",
         cam.id, GST_TIME_ARGS(st->s.frame_timeout), req.sequence);
     if (frame) gst_buffer_unref(frame);
-    if (st->s.defer) answer_empty();
+    if (st->s.defer || st->s.answer_empty) answer_empty();
     return GST_FLOW_OK;
   }
   const gint quality = lfgst::read_setting(GST_OBJECT(self), p->settings, &Settings::quality);
@@ -387,7 +387,7 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
                                req.viewer_id, err->message);
     g_error_free(err);
     if (out) gst_buffer_unref(out);
-    if (st->s.defer) answer_empty();
+    if (st->s.defer || st->s.answer_empty) answer_empty();
     return GST_FLOW_OK;
   }
   gst_buffer_copy_into(out, buf, GST_BUFFER_COPY_TIMESTAMPS, 0, -1);

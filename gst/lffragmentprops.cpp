@@ -132,7 +132,7 @@ void install_fragment_properties(GObjectClass* oc, Properties<FragmentSettings>*
                  "How long a request waits, in all, for its camera frame (the "
                  "first one; with frame-select=capture-time or for a probe, the "
                  "one of its time), ns, when the camera is live; a request without a frame is "
-                 "dropped with a warning (with defer, answered with an empty "
+                 "dropped with a warning (with defer or answer-empty, answered with an empty "
                  "fragment). A non-live camera has no deadline once its caps came "
                  "(before, ten frame-timeouts to start): the request waits for its "
                  "frame, and the camera is held two frames ahead of the requests; the "
@@ -167,6 +167,17 @@ void install_fragment_properties(GObjectClass* oc, Properties<FragmentSettings>*
           "with an empty fragment (and a warning), not dropped: lfarray plans all cameras "
           "on one thread, whose pads must stay in step",
           FALSE, kReadWriteReady));
+  props->add(oc, &FragmentSettings::answer_empty,
+             g_param_spec_boolean(
+                 "answer-empty", "Answer empty",
+                 "Answer a request this camera cannot answer (no camera frame within "
+                 "frame-timeout, a fragment it cannot render) with an empty fragment and a "
+                 "warning instead of none, so a non-live compositor's pads stay in step. "
+                 "lfcamerahost and lfarray set it where a request thread serves several "
+                 "cameras: a pad left without the fragment the others have holds "
+                 "GstAggregator, and with it the thread and every camera it serves, for ever. "
+                 "Always so with defer",
+                 FALSE, kReadWriteReady));
   gst_type_mark_as_plugin_api(LF_TYPE_FRAGMENT_FRAME_SELECT, static_cast<GstPluginAPIFlags>(0));
   gst_type_mark_as_plugin_api(LF_TYPE_BACKEND, static_cast<GstPluginAPIFlags>(0));
 }

@@ -27,7 +27,8 @@ struct FragmentSettings : CameraAddress {
   guint64 frame_timeout = GST_SECOND;
   FrameSelect frame_select = FrameSelect::kNewest;
   lf::Backend backend = lf::Backend::kAuto;
-  bool defer = false;  // leave the drawing to an lfcompositor in this process
+  bool defer = false;         // leave the drawing to an lfcompositor in this process
+  bool answer_empty = false;  // a request it cannot answer: an empty fragment (defer: always)
 };
 
 // lffragment's metadata (long name, class, description, example, events).

@@ -1029,35 +1029,46 @@ TEST_F(Gst, DeferredFragmentsWithoutGlAndOverRtp) {
 // hung.
 TEST_F(Gst, OneRequestThreadKeepsTheCamerasInStep) {
   const lf::Rig rig = lf::load_rig(rig_path_);
-  // Camera 0's frames never arrive (valve): every request waits its
-  // frame-timeout (20 ms) there, then gets its empty fragment.
-  std::string d = "lfviewrequest rig=" + rig_path_ +
-                  " num-buffers=4 width=160 height=120 focal-plane=param:-0.2 orbit=0.5"
-                  " focal-surface=false ! tee name=t lfcompositor name=comp rig=" +
-                  rig_path_ +
-                  " backend=cpu ! video/x-raw,format=RGBA ! appsink name=out sync=false";
-  for (size_t i = 0; i < rig.cameras.size(); ++i) {
-    const std::string id = std::to_string(rig.cameras[i].id), n = std::to_string(i);
-    d += " lfcamsrc rig=" + rig_path_ + " camera-id=" + id + " num-buffers=1 ! " +
-         (i == 0 ? "valve drop=true ! " : "") + "f" + n + ".sink";
-    d += " t. ! lffragment name=f" + n + " rig=" + rig_path_ + " camera-id=" + id + " defer=true" +
-         (i == 0 ? " frame-timeout=20000000" : "") + " ! comp.sink_" + n;
-  }
-  std::vector<std::string> warnings;
-  std::string err;
-  const auto frames = run(d, 100, &warnings, &err);
-  EXPECT_TRUE(err.empty()) << err;
-  EXPECT_EQ(frames.size(), 4u);
-  EXPECT_TRUE(std::any_of(warnings.begin(), warnings.end(), [](const std::string& w) {
-    return w.find("No camera frame") != std::string::npos;
-  }));
   auto covered = [](const cv::Mat& f) {  // pixels with weight (alpha)
     cv::Mat alpha;
     cv::extractChannel(f, alpha, 3);
     return cv::countNonZero(alpha);
   };
-  // The other three cameras' pixels are there.
-  for (const cv::Mat& f : frames) EXPECT_GT(covered(f), static_cast<int>(f.total()) / 4);
+  // Camera 0's frames never arrive (valve): every request waits there (ten
+  // 5 ms frame-timeouts: the camera never started), then gets its empty
+  // fragment: deferred
+  // (whole-view), or JPEG with answer-empty (request threads shared by
+  // several cameras, as lfarray's request-threads are). 40 requests: more
+  // than the compositor's pads hold (17, its run-ahead), so a camera that
+  // answered nothing would hold the thread for ever (it did without
+  // answer-empty).
+  for (const std::string fragment : {"defer=true", "encoding=jpeg answer-empty=true"}) {
+    std::string d = "lfviewrequest rig=" + rig_path_ +
+                    " num-buffers=40 width=160 height=120 focal-plane=param:-0.2 orbit=0.5"
+                    " focal-surface=false ! tee name=t lfcompositor name=comp rig=" +
+                    rig_path_ +
+                    " backend=cpu ! video/x-raw,format=RGBA ! appsink name=out sync=false";
+    for (size_t i = 0; i < rig.cameras.size(); ++i) {
+      const std::string id = std::to_string(rig.cameras[i].id), n = std::to_string(i);
+      d += " lfcamsrc rig=" + rig_path_ + " camera-id=" + id + " num-buffers=1 ! " +
+           (i == 0 ? "valve drop=true ! " : "") + "f" + n + ".sink";
+      d += " t. ! lffragment name=f" + n + " rig=" + rig_path_ + " camera-id=" + id + " " +
+           fragment + (i == 0 ? " frame-timeout=5000000" : "") + " ! comp.sink_" + n;
+    }
+    std::vector<std::string> warnings;
+    std::string err;
+    const auto frames = run(d, 100, &warnings, &err);
+    EXPECT_TRUE(err.empty()) << err;
+    EXPECT_EQ(frames.size(), 40u) << fragment;
+    EXPECT_TRUE(std::any_of(warnings.begin(), warnings.end(), [](const std::string& w) {
+      return w.find("No camera frame") != std::string::npos;
+    })) << fragment;
+    // The other three cameras' pixels are there.
+    for (const cv::Mat& f : frames)
+      EXPECT_GT(covered(f), static_cast<int>(f.total()) / 4) << fragment;
+  }
+  std::vector<std::string> warnings;
+  std::string err;
   // 2000 requests as fast as the pipeline takes them, at most 50 a second
   // (bursts of 50): some pass, the rest are dropped with a warning, and the
   // run ends; each frame that comes is whole (every camera's weight).
@@ -1095,6 +1106,100 @@ TEST_F(Gst, OneRequestThreadKeepsTheCamerasInStep) {
     gst_element_set_state(a, GST_STATE_NULL);
     gst_object_unref(a);
   }
+}
+
+// request-threads: K threads answer the requests, each a queue and a tee
+// for every K-th camera (0: one per core), or a queue per camera where
+// there are at least as many threads as cameras (and wherever frames are
+// picked by capture time): the same frames either way. Not live, the
+// compositor lets every pad hold 16 requests' fragments (its
+// min-upstream-latency set to 16 periods; fewer for large views); live, or
+// when the user set it, it leaves it alone.
+TEST_F(Gst, RequestThreadsShareTheCamerasAndNonLiveCamerasRunAhead) {
+  const lf::Rig rig = lf::load_rig(rig_path_);
+  ASSERT_EQ(rig.cameras.size(), 4u);
+  const std::string req = "lfviewrequest rig=" + rig_path_ +
+                          " num-buffers=3 width=160 height=120 focal-plane=param:-0.2 orbit=0.5"
+                          " focal-surface=false framerate=30/1";
+  const std::string out = " ! video/x-raw,format=RGBA ! appsink name=out sync=false";
+  // The request threads' queues of an lfarray built with `props`.
+  auto queues = [&](const std::string& props) {
+    GstElement* a = nullptr;
+    GstElement* f = array_fragment(props, &a);
+    std::vector<std::string> names;
+    if (f) gst_object_unref(f);
+    if (!a) return names;
+    GstIterator* it = gst_bin_iterate_elements(GST_BIN(a));
+    GValue v = G_VALUE_INIT;
+    while (gst_iterator_next(it, &v) == GST_ITERATOR_OK) {
+      GstElement* e = GST_ELEMENT(g_value_get_object(&v));
+      const gchar* factory = gst_plugin_feature_get_name(gst_element_get_factory(e));
+      gchar* name = gst_element_get_name(e);
+      if (g_str_equal(factory, "queue")) names.push_back(name);
+      g_free(name);
+      g_value_reset(&v);
+    }
+    g_value_unset(&v);
+    gst_iterator_free(it);
+    gst_element_set_state(a, GST_STATE_NULL);
+    gst_object_unref(a);
+    std::sort(names.begin(), names.end());
+    return names;
+  };
+  EXPECT_EQ(queues("encoding=jpeg request-threads=2"),
+            (std::vector<std::string>{"requests-0", "requests-1"}));
+  EXPECT_EQ(queues("encoding=jpeg request-threads=1"), (std::vector<std::string>{"requests-0"}));
+  EXPECT_EQ(queues("encoding=jpeg request-threads=4").size(), 4u);  // a queue per camera
+  EXPECT_EQ(queues("encoding=jpeg request-threads=4")[0].rfind("requests-", 0), std::string::npos);
+  EXPECT_EQ(queues("encoding=jpeg request-threads=1 frame-select=capture-time").size(), 4u);
+  const size_t cores = std::min<size_t>(4, g_get_num_processors());
+  EXPECT_EQ(queues("encoding=jpeg").size(), cores);
+  EXPECT_TRUE(queues("").empty());  // whole-view: one request thread, no queue
+  std::string err;
+  const auto each = run(
+      req + " ! lfarray rig=" + rig_path_ + " num-buffers=1 encoding=jpeg request-threads=4" + out,
+      100, nullptr, &err);
+  ASSERT_EQ(each.size(), 3u) << err;
+  for (const char* threads : {"1", "2"}) {
+    const auto shared = run(req + " ! lfarray rig=" + rig_path_ +
+                                " num-buffers=1 encoding=jpeg request-threads=" + threads + out,
+                            100, nullptr, &err);
+    ASSERT_EQ(shared.size(), 3u) << threads << " threads: " << err;
+    for (size_t k = 0; k < each.size(); ++k)
+      EXPECT_EQ(cv::norm(each[k], shared[k], cv::NORM_INF), 0)
+          << threads << " threads, frame " << k;
+  }
+  // The compositor's run-ahead once the stream has run (to EOS, not torn
+  // down): 16 periods of 30 fps not live, none live, the user's kept.
+  auto run_ahead = [&](const std::string& desc, const char* comp) {
+    GstElement* p = gst_parse_launch(desc.c_str(), nullptr);
+    if (!p) return G_MAXUINT64;
+    gst_element_set_state(p, GST_STATE_PLAYING);
+    GstBus* bus = gst_element_get_bus(p);
+    GstMessage* m = gst_bus_timed_pop_filtered(
+        bus, 20 * GST_SECOND, static_cast<GstMessageType>(GST_MESSAGE_EOS | GST_MESSAGE_ERROR));
+    const bool eos = m && GST_MESSAGE_TYPE(m) == GST_MESSAGE_EOS;
+    if (m) gst_message_unref(m);
+    GstElement* c = gst_bin_get_by_name(GST_BIN(p), comp);
+    guint64 v = G_MAXUINT64;
+    if (c && eos) g_object_get(c, "min-upstream-latency", &v, nullptr);
+    if (c) gst_object_unref(c);
+    gst_element_set_state(p, GST_STATE_NULL);
+    gst_object_unref(bus);
+    gst_object_unref(p);
+    return v;
+  };
+  const std::string sink = " ! fakesink sync=false";
+  EXPECT_EQ(
+      run_ahead(req + " ! lfarray name=a rig=" + rig_path_ + " num-buffers=1" + sink, "compositor"),
+      16 * gst_util_uint64_scale_int(GST_SECOND, 1, 30));
+  EXPECT_EQ(run_ahead(req + " is-live=true ! lfarray rig=" + rig_path_ + " num-buffers=1" + sink,
+                      "compositor"),
+            0u);
+  std::string own = pipeline("num-buffers=3 width=160 height=120 focal-plane=param:-0.2",
+                             "encoding=jpeg", "min-upstream-latency=5000000");
+  own.replace(own.find(" ! video/x-raw"), own.find(" lfcamsrc") - own.find(" ! video/x-raw"), sink);
+  EXPECT_EQ(run_ahead(own, "comp"), 5000000u);
 }
 
 // Non-live: a still camera makes one or two frames a request, not as many as

@@ -666,9 +666,10 @@ namespace {
 // recording played back on a busy machine then lost cameras from frames).
 // Every live host has one request queue for all cameras (request-queue,
 // before the tee), so a request is answered by every camera or dropped by
-// all; where each camera has a request thread of its own (not lfarray's
-// whole-view mode), a queue per camera (requests<id>) holds one request and
-// blocks. (Before, each camera had its own lfrequestqueue and shed alone.)
+// all; where each camera has a request thread of its own (live cameras,
+// not lfarray's whole-view mode), a queue per camera (requests<id>) holds
+// one request and blocks. (Before, each camera had its own lfrequestqueue
+// and shed alone.)
 TEST_F(Runtime, LiveRequestQueuesAreBoundedByTheRequestMaxAge) {
   struct Case {
     std::string element;
@@ -676,16 +677,18 @@ TEST_F(Runtime, LiveRequestQueuesAreBoundedByTheRequestMaxAge) {
     guint64 expected_ns;
     int camera_queues;
   };
+  const int threads = 4;  // live cameras: one each, whatever request-threads says
   const Case cases[] = {
-      {"lfcamerahost", "", 0, 4},  // the default: the newest request wins
-      {"lfcamerahost", "request-max-age=50000000", 50 * GST_MSECOND, 4},
+      {"lfcamerahost", "", 0, threads},  // the default: the newest request wins
+      {"lfcamerahost", "request-max-age=50000000", 50 * GST_MSECOND, threads},
       {"lfarray", "", 0, 0},
-      {"lfarray", "whole-view=false", 0, 4},
-      {"lfarray", "encoding=jpeg request-max-age=200000000", 200 * GST_MSECOND, 4},
+      {"lfarray", "whole-view=false", 0, threads},
+      {"lfarray", "whole-view=false request-threads=2", 0, 4},
+      {"lfarray", "encoding=jpeg request-max-age=200000000", 200 * GST_MSECOND, threads},
       {"lfarray", "latency=3000000000", 3 * GST_SECOND, 0},
       {"lfarray", "latency=10000000 request-max-age=400000000", 400 * GST_MSECOND, 0},
       {"lfarray", "whole-view=false latency=10000000 request-max-age=400000000", 400 * GST_MSECOND,
-       4}};
+       threads}};
   for (const Case& c : cases) {
     GstElement* e = gst_parse_launch(
         (c.element + " name=h rig=" + rig_path_ + " is-live=true " + c.props).c_str(), nullptr);

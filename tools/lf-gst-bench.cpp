@@ -2,7 +2,11 @@
 // GStreamer pipeline (lfviewrequest ! lfarray ! appsink: N x (lfcamsrc,
 // lffragment) and an lfcompositor), in process.
 //  * throughput: non-live, requests as fast as the pipeline takes them;
-//    output frames per second after a warm-up.
+//    output frames per second between two frames where the pipeline is
+//    full: after a warm-up and kTail frames before the last (not live, the
+//    compositor lets the cameras run up to 16 requests ahead; counted to the
+//    last frame, the frames drained at the end, whose fragments were drawn
+//    before, would add throughput that no work paid for).
 //  * kernel bound, in the same run: the library's plan + render + composite
 //    of the same views on one thread, times the number of cores (raw
 //    fragments; the faster of the library's two ways: fragments rendered
@@ -101,9 +105,9 @@ std::string g_focal_plane = "param:-0.2";
 // lfarray's properties for `backend`: cpu and gl (its whole-view mode, the
 // default: the fragments only plan, on one request thread, and the
 // compositor draws them all, fused into its CPU compositing or with GL) or
-// cpu-fragments and gl-fragments (whole-view=false: a request thread per
-// camera, where each lffragment draws its own fragment, and the compositor
-// adds them). More lfarray properties may follow after '+' signs
+// cpu-fragments and gl-fragments (whole-view=false: each lffragment draws
+// its own fragment, on the bin's request threads, and the compositor adds
+// them). More lfarray properties may follow after '+' signs
 // ("cpu-fragments+request-max-age=0").
 std::string backend_properties(const std::string& spec) {
   const size_t plus = spec.find('+');
@@ -156,8 +160,9 @@ std::string pipeline(const std::string& rig, int W, int H, const std::string& en
 }
 
 // One output frame: when it reached the sink (s, monotonic), the process's
-// CPU time then (s) and the machine's ticks (read for the first 32 frames and
-// at EOS, for the last one; 0 for the others).
+// CPU time then (s) and the machine's ticks (read for the first 32 frames,
+// the last kTail + 8 of the `expected` and, at EOS, for the last one; 0 for
+// the others).
 struct Mark {
   double wall = 0, cpu = 0;
   MachineTicks machine;
@@ -184,7 +189,13 @@ cv::Mat frame_of(GstSample* s) {
 
 // Runs to EOS; returns a mark per output frame (and in `first` the pixels
 // of frame kCompareFrame).
-std::vector<Mark> run(const std::string& desc, Probe* probe, cv::Mat* first = nullptr) {
+// Frames before the last that end a throughput window (more than the
+// requests the compositor lets the cameras run ahead, LfCompositor's
+// kRunAhead = 16).
+constexpr size_t kTail = 24;
+
+std::vector<Mark> run(const std::string& desc, Probe* probe, cv::Mat* first = nullptr,
+                      size_t expected = 0) {
   GError* err = nullptr;
   GstElement* p = gst_parse_launch(desc.c_str(), &err);
   if (!p || err) {  // a missing element is an error too, not a pipeline that never ends
@@ -211,9 +222,9 @@ std::vector<Mark> run(const std::string& desc, Probe* probe, cv::Mat* first = nu
   while (true) {
     GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(out), 50 * GST_MSECOND);
     if (s) {
-      // CPU time and machine ticks at the first frames only (reading them
-      // costs; see the end mark below).
-      if (times.size() < 32)
+      // CPU time and machine ticks at the first and the last frames only
+      // (reading them costs; see the end mark below).
+      if (times.size() < 32 || (expected > 0 && times.size() + kTail + 8 >= expected))
         times.push_back({g_get_monotonic_time() / 1e6, process_cpu_s(), machine_ticks()});
       else
         times.push_back({g_get_monotonic_time() / 1e6, 0, {}});
@@ -388,7 +399,7 @@ int main(int argc, char** argv) {
        "and gl are lfarray's whole-view mode (the fragments only plan, on one request thread; "
        "the compositor draws them all, fused into its CPU compositing or with EGL/GLES); "
        "cpu-fragments and gl-fragments are whole-view=false (each lffragment draws its own, on "
-       "a request thread per camera); each optionally with more lfarray properties after '+' "
+       "lfarray's request-threads); each optionally with more lfarray properties after '+' "
        "signs, e.g. cpu-fragments+request-max-age=0; each row is compared with the cpu plane row",
        "LIST"},
       {"skip-bound", 0, 0, G_OPTION_ARG_NONE, &skip_bound,
@@ -597,12 +608,18 @@ int main(int argc, char** argv) {
             cv::Mat frame;
             const auto t = run(
                 pipeline(rig_path, W, H, enc, false, frames, 1000, surface, focus.props, backend),
-                nullptr, &frame);
+                nullptr, &frame, frames);
+            // From frame `warm` to kTail frames before the last (both with
+            // the pipeline full), where there are enough; else to the last.
             const int warm = std::min<int>(20, static_cast<int>(t.size()) / 4);
+            const size_t end =
+                t.size() > static_cast<size_t>(warm) + kTail + 32 && t[t.size() - 1 - kTail].cpu > 0
+                    ? t.size() - 1 - kTail
+                    : t.size() - 1;
             const bool steady = t.size() > static_cast<size_t>(warm + 1);
             const Mark& a = steady ? t[warm] : Mark{};
-            const Mark& z = steady ? t.back() : Mark{};
-            const double frames_steady = steady ? static_cast<double>(t.size() - 1 - warm) : 0;
+            const Mark& z = steady ? t[end] : Mark{};
+            const double frames_steady = steady ? static_cast<double>(end - warm) : 0;
             const double fps = steady ? frames_steady / (z.wall - a.wall) : 0;
             const double cpu_ms = steady ? (z.cpu - a.cpu) * 1000.0 / frames_steady : 0;
             const double cores_used = steady ? (z.cpu - a.cpu) / (z.wall - a.wall) : 0;
