@@ -2,8 +2,10 @@
 # Where the in-process pipeline's CPU goes (issue 38, item 2): perf samples
 # of lf-gst-bench (64 Chess cameras, raw fragments, the focal plane,
 # non-live throughput then the live latency run) at 640x480 and 1920x1080,
-# grouped by what the code does: the warp kernels, adding and resolving the
-# fragments, planning, copies and fills, allocation, threads and hand-offs
+# and with JPEG fragments (q90) at 640x480, grouped by what the code does:
+# the warp kernels, adding and resolving the fragments, JPEG coding (the
+# codec, the fragments' JPEG framing and decoding into the raw format),
+# planning, copies and fills, allocation, threads and hand-offs
 # (locks, wake-ups, the scheduler, TBB's pool), GStreamer and GLib, and
 # start-up (libraries, image decoding). Shares are of all CPU samples of
 # the process, every thread, user and kernel. Prints a markdown section;
@@ -19,17 +21,18 @@ command -v perf > /dev/null || { echo "profile-bench: needs perf (apt-get instal
 export GST_PLUGIN_PATH="$build/gst"
 tmp="$(mktemp -d)"; trap 'rm -rf "$tmp"' EXIT
 echo "Machine: $(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -1), $(nproc) cores."
-echo "Each column: \`perf record -F 999 -- build/tools/lf-gst-bench --input ../shared/data/stanford-chess --sizes SIZE --encodings raw --frames N --skip-bound\`"
+echo "Each column: \`perf record -F 999 -- build/tools/lf-gst-bench --input ../shared/data/stanford-chess --sizes SIZE --encodings ENC --frames N --skip-bound\`"
 echo "(N = $f640 at 640x480, $f1080 at 1920x1080), then \`perf report --no-children --sort dso,sym\`, the"
 echo "symbols grouped as this script says; share of all CPU samples of the process."
 echo
-for size in 640x480 1920x1080; do
+for run in 640x480:raw 1920x1080:raw 640x480:jpeg90; do
+  size="${run%%:*}" enc="${run#*:}"
   n=$([ "$size" = 640x480 ] && echo "$f640" || echo "$f1080")
-  perf record -q -F 999 -o "$tmp/$size.data" -- "$build/tools/lf-gst-bench" --input "$data" \
-    --sizes "$size" --encodings raw --frames "$n" --skip-bound > "$tmp/$size.md" 2> "$tmp/err" || {
-    echo "profile-bench: perf record of lf-gst-bench failed at $size:" >&2; cat "$tmp/err" >&2; exit 1; }
-  perf report -i "$tmp/$size.data" --no-children --sort dso,sym --stdio -q -t '@' 2> /dev/null \
-    > "$tmp/$size.txt"
+  perf record -q -F 999 -o "$tmp/$run.data" -- "$build/tools/lf-gst-bench" --input "$data" \
+    --sizes "$size" --encodings "$enc" --frames "$n" --skip-bound > "$tmp/$run.md" 2> "$tmp/err" || {
+    echo "profile-bench: perf record of lf-gst-bench failed at $run:" >&2; cat "$tmp/err" >&2; exit 1; }
+  perf report -i "$tmp/$run.data" --no-children --sort dso,sym --stdio -q -t '@' 2> /dev/null \
+    > "$tmp/$run.txt"
 done
 python3 - "$tmp" <<'EOF'
 import re, sys
@@ -40,6 +43,9 @@ rules = [
      r"lf::kernels::|render_rows|row_extent|warp_rows|sample_"),
     ("adding and resolving (lf/render/composite.h)", None,
      r"accumulate_|resolve_|Compositor::|LayerCompositor|add_squares"),
+    ("JPEG coding (libturbojpeg, the fragments' JPEG framing and decoding)", r"libturbojpeg",
+     r"write_jpeg|parse_fragment_impl|decode_jpeg|serialize_jpeg|compress|extractChannel|"
+     r"mixChannels"),
     ("planning (lf/render/plan.h, view geometry)", None,
      r"plan_|camera_parts|facet_|ViewGeometry|answer_request|FragmentPlan|plan\b|Plan"),
     ("copies and fills (memcpy, memset)", None, r"memmove|memcpy|memset"),
@@ -55,7 +61,7 @@ rules = [
      r"ld-linux|libpng|libjpeg|libz\.|imgcodecs|libwebp|libtiff",
      r"png_|jpeg_|inflate|_dl_|_copy_to_iter|filemap_|copy_page_to_iter"),
 ]
-sizes = ["640x480", "1920x1080"]
+sizes = ["640x480:raw", "1920x1080:raw", "640x480:jpeg90"]
 shares = {s: {} for s in sizes}
 tops = {}
 for s in sizes:
@@ -71,7 +77,7 @@ for s in sizes:
                 cat = name
                 break
         shares[s][cat] = shares[s].get(cat, 0) + pct
-        if s == "640x480":
+        if s == "640x480:raw":
             short = re.sub(r"\(anonymous namespace\)::", "", sym)
             short = re.split(r"[(<]", short)[0][:40]
             if short.startswith("0x"):
@@ -79,14 +85,17 @@ for s in sizes:
             tops.setdefault(cat, {})
             tops[cat][short] = tops[cat].get(short, 0) + pct
 cats = [r[0] for r in rules] + ["other"]
-print("| where the CPU goes | 640x480 | 1920x1080 | largest symbols at 640x480 |")
-print("|---|---|---|---|")
+print("| where the CPU goes | 640x480 raw | 1920x1080 raw | 640x480 JPEG q90 | largest symbols at 640x480 raw |")
+print("|---|---|---|---|---|")
 for c in cats:
     t = sorted(tops.get(c, {}).items(), key=lambda kv: -kv[1])[:3]
     top = ", ".join(f"`{k}` {v:.1f}" for k, v in t)
-    print(f"| {c} | {shares['640x480'].get(c, 0):.1f} % | {shares['1920x1080'].get(c, 0):.1f} % | {top} |")
+    cols = " | ".join(f"{shares[s].get(c, 0):.1f} %" for s in sizes)
+    print(f"| {c} | {cols} | {top} |")
 EOF
 echo
 echo "The runs' own rows (throughput under perf, so a little below an unprofiled run's):"
 echo
-for size in 640x480 1920x1080; do grep "^| [0-9]*x[0-9]* | raw" "$tmp/$size.md" || true; done
+for run in 640x480:raw 1920x1080:raw 640x480:jpeg90; do
+  grep "^| [0-9]*x[0-9]* | ${run#*:}" "$tmp/$run.md" || true
+done
