@@ -12,8 +12,9 @@ void CompositorDeadline::reset(GstAggregator* agg) {
   std::lock_guard<std::mutex> lock(run_ahead_lock_);
   GstClockTime set = 0;
   g_object_get(agg, "min-upstream-latency", &set, nullptr);
-  if (set != 0 && set == run_ahead_.exchange(0))
+  if (set != 0 && set == run_ahead_)
     g_object_set(agg, "min-upstream-latency", GstClockTime{0}, nullptr);
+  run_ahead_ = 0;
 }
 
 gboolean CompositorDeadline::src_query(GstAggregator* agg, GstQuery* query,
@@ -31,7 +32,7 @@ gboolean CompositorDeadline::src_query(GstAggregator* agg, GstQuery* query,
     std::lock_guard<std::mutex> lock(run_ahead_lock_);
     GstClockTime set = 0;
     g_object_get(agg, "min-upstream-latency", &set, nullptr);
-    if (set == want || (set != 0 && set != run_ahead_.load())) return ok;  // done, or the user's
+    if (set == want || (set != 0 && set != run_ahead_)) return ok;  // done, or the user's
     run_ahead_ = want;
     g_object_set(agg, "min-upstream-latency", want, nullptr);
   }

@@ -54,9 +54,9 @@ class CompositorDeadline {
 
  private:
   std::atomic<GstClockTime> period_{0}, adaptive_{0};
-  std::atomic<GstClockTime> run_ahead_{0};  // the min-upstream-latency src_query() set
+  GstClockTime run_ahead_ = 0;  // the min-upstream-latency src_query() set (run_ahead_lock_)
   std::atomic<guint64> view_pixels_{0};
-  std::mutex run_ahead_lock_;  // src_query() and reset(): what run_ahead_ says
+  std::mutex run_ahead_lock_;  // src_query() and reset()
   lf::ArrivalDeadline ages_;   // aggregate thread
 };
 

@@ -190,8 +190,8 @@ cv::Mat frame_of(GstSample* s) {
 // Runs to EOS; returns a mark per output frame (and in `first` the pixels
 // of frame kCompareFrame).
 // Frames before the last that end a throughput window (more than the
-// requests the compositor lets the cameras run ahead, LfCompositor's
-// kRunAhead = 16).
+// requests the compositor lets the cameras run ahead:
+// lfgst::CompositorDeadline::kRunAhead = 16, gst/lfdeadline.h).
 constexpr size_t kTail = 24;
 
 std::vector<Mark> run(const std::string& desc, Probe* probe, cv::Mat* first = nullptr,
