@@ -585,7 +585,56 @@ TEST(Surface, BadOptionsAreRefused) {
   refused([](lf::SurfaceOptions& o) { o.thin_margin = NAN; });
   refused([](lf::SurfaceOptions& o) { o.thin_fraction = -0.1; });
   refused([](lf::SurfaceOptions& o) { o.thin_neighbours = 9; });
+  refused([](lf::SurfaceOptions& o) { o.sub_steps = 0; });
+  refused([](lf::SurfaceOptions& o) { o.sub_steps = 9; });
   EXPECT_THROW(lf::FocalSurfaceEstimator(rig, {images[0]}), std::invalid_argument);
+}
+
+// SurfaceOptions::sub_steps: a tile whose costs' minimum lies between two
+// planes moves towards it by the parabola's vertex, rounded to a 1/N step.
+// Hand-made costs on 6 x 4 tiles over 9 planes 0.1 apart: the left half's
+// parabola has its vertex at plane 2.3, the right half's on plane 6; the
+// costs are quadratic, so the vertex is exact.
+TEST(Surface, SubStepsMoveATileToTheVertexBetweenItsPlanes) {
+  const lf::Rig rig = small_rig();
+  const int cols = 6, rows = 4, tiles = cols * rows, M = 9;
+  lf::SweepCosts c;
+  for (int k = 0; k < M; ++k) c.qs.push_back(0.1 * k);
+  c.sum.resize(static_cast<size_t>(M) * tiles);
+  c.count.assign(c.sum.size(), 100.0);
+  for (int k = 0; k < M; ++k)
+    for (int t = 0; t < tiles; ++t) {
+      const double vertex = t % cols < 3 ? 2.3 : 6.0;
+      c.sum[static_cast<size_t>(k) * tiles + t] = 100.0 * 20.0 * (k - vertex) * (k - vertex);
+    }
+  auto estimate = [&](int sub_steps) {
+    lf::SurfaceOptions o;
+    o.sub_steps = sub_steps;
+    return lf::surface_from_costs(rig, c, cols, rows, NAN, 50.0, o);
+  };
+  const lf::SurfaceEstimate planes = estimate(1), thirds = estimate(3), halves = estimate(2);
+  for (int r = 0; r < rows; ++r)
+    for (int q : {0, 1, 4, 5}) {  // away from the halves' edge
+      const int t = r * cols + q;
+      if (q < 3) {
+        EXPECT_NEAR(planes.tile_q[t], 0.2, 1e-12) << t;
+        EXPECT_NEAR(thirds.tile_q[t], 0.2 + 0.1 / 3, 1e-12) << t;  // 0.3 * 3 rounds to 1
+        EXPECT_NEAR(halves.tile_q[t], 0.25, 1e-12) << t;           // 0.3 * 2 rounds to 1
+      } else {
+        for (const lf::SurfaceEstimate* e : {&planes, &thirds, &halves})
+          EXPECT_NEAR(e->tile_q[t], 0.6, 1e-12) << t;  // on its plane: stays
+      }
+      // The tile's plane is the one at its depth.
+      const lf::FocalPlane& fp = thirds.surface.planes[thirds.surface.plane_of[t]];
+      const lf::FocalPlane want = lf::plane_at_inverse_depth(rig, thirds.tile_q[t]);
+      EXPECT_NEAR(fp.d, want.d, 1e-9 * std::abs(want.d)) << t;
+    }
+  // The left half's tiles share one plane (2 1/3); at most 2 per label more
+  // in all (the tiles at the halves' edge, whose costs mix both halves').
+  for (int r = 0; r < rows; ++r)
+    EXPECT_EQ(thirds.surface.plane_of[r * cols], thirds.surface.plane_of[0]) << r;
+  EXPECT_GT(thirds.surface.planes.size(), planes.surface.planes.size());
+  EXPECT_LE(thirds.surface.planes.size(), planes.surface.planes.size() + 2 * 4);
 }
 
 TEST(Surface, DisparityErrorsAgainstAGroundTruthMap) {

@@ -63,6 +63,8 @@ usage: lf-bench [options]
                       column only (the in-between views of a sparser rig; the
                       held-out cameras are those inside it that it leaves out)
   --sweep-steps N     planes in the exhaustive sweep (default 96)
+  --sub-steps N       surface depths between the fine planes, in 1/N steps
+                      (lf/focus/focal_surface.h SurfaceOptions::sub_steps; default 1)
   --plot FILE         write a PNG plot (default lf-bench.png)
   --skip-quality, --skip-bandwidth, --skip-speed   leave out a section
   --backend LIST      renderers to time side by side on whole views from all the
@@ -261,11 +263,11 @@ struct SettingStats {
 int main(int argc, char** argv) {
   if (cli::help_requested(argc, argv, kHelp)) return 0;
   try {
-    cli::Args args(
-        argc, argv,
-        {"--input", "--block", "--input-scale", "--sizes", "--encodings", "--focal", "--loo",
-         "--sweep-steps", "--plot", "--backend", "--apertures", "--samplings", "--hold-out"},
-        {"--skip-quality", "--skip-bandwidth", "--skip-speed"});
+    cli::Args args(argc, argv,
+                   {"--input", "--block", "--input-scale", "--sizes", "--encodings", "--focal",
+                    "--loo", "--sweep-steps", "--plot", "--backend", "--apertures", "--samplings",
+                    "--hold-out", "--sub-steps"},
+                   {"--skip-quality", "--skip-bandwidth", "--skip-speed"});
     cv::setNumThreads(1);
     const lf::Rig rig = cli::select_cameras(
         lf::load_rig_or_dataset(args.get("--input", "../shared/data/stanford-chess")), args, true);
@@ -408,6 +410,7 @@ int main(int argc, char** argv) {
         w->af = std::make_unique<lf::AutofocusContext>(w->rig, w->images);
         lf::SurfaceOptions surf_opt;
         surf_opt.second_planes = true;  // "surface" leaves them out
+        surf_opt.sub_steps = args.integer("--sub-steps", 1);
         w->surf = std::make_unique<lf::FocalSurfaceEstimator>(w->rig, w->images, surf_opt);
         return w;
       };

@@ -30,6 +30,7 @@ void validate(const SurfaceOptions& opt) {
     bad("thin structure votes: ratio 0..1, margin >= 0, fraction 0..1, neighbours 0..8, grow "
         "votes >= 1");
   if (!(opt.change_penalty >= 0)) bad("change penalty must be >= 0");
+  if (opt.sub_steps < 1 || opt.sub_steps > 8) bad("sub-steps must be 1..8");
   if (opt.edge_gap < 0 || !(opt.edge_weight >= 0 && opt.edge_weight <= 1))
     bad("edge-aware aggregation: gap >= 0, weight 0..1");
 }
@@ -287,6 +288,45 @@ std::vector<int> solve(const SweepCosts& c, int cols, int rows, double gpos, dou
   return label;
 }
 
+// SurfaceOptions::sub_steps: each labelled tile's depth moves from its
+// plane by the vertex of the parabola through its neighbourhood costs at
+// the planes either side (at most half a step), rounded to 1/sub_steps of
+// a step, half away from zero; tiles of one label and offset share a plane.
+// The tile keeps its plane where the costs are not convex there, the
+// vertex rounds to it, or the palette is nearly full (8 kept for the
+// second planes).
+void refine_between_planes(const Rig& rig, const SweepCosts& c, int cols, int rows,
+                           const std::vector<int>& label, const SurfaceOptions& opt,
+                           FocalSurface* fs, std::vector<double>* tile_q) {
+  const int M = static_cast<int>(c.qs.size()), S = opt.sub_steps;
+  const std::vector<int> own = own_best(c, cols * rows);
+  // (label, offset) -> plane
+  std::vector<int> plane_of_step(static_cast<size_t>(M) * (2 * S + 1), -1);
+  for (int r = 0; r < rows; ++r)
+    for (int q = 0; q < cols; ++q) {
+      const int t = r * cols + q, l = label[t];
+      if (l <= 0 || l >= M - 1) continue;  // the single plane (M), the range's ends, untextured
+      double m = 0;
+      const double a = neighbourhood_cost(c, cols, rows, r, q, l - 1, own, opt, &m),
+                   b = neighbourhood_cost(c, cols, rows, r, q, l, own, opt, &m),
+                   d = neighbourhood_cost(c, cols, rows, r, q, l + 1, own, opt, &m);
+      const double curvature = a - 2 * b + d;
+      if (!(curvature > 0)) continue;
+      const double vertex = std::clamp((a - d) / (2 * curvature), -0.5, 0.5);
+      const int off = static_cast<int>(std::lround(vertex * S));
+      if (off == 0) continue;
+      int& plane = plane_of_step[static_cast<size_t>(l) * (2 * S + 1) + off + S];
+      const double pos = l + static_cast<double>(off) / S;
+      if (plane < 0 && fs->planes.size() + 8 < static_cast<size_t>(FocalSurface::kMaxPlanes)) {
+        plane = static_cast<int>(fs->planes.size());
+        fs->planes.push_back(plane_at_inverse_depth(rig, q_at(c.qs, pos)));
+      }
+      if (plane < 0) continue;
+      fs->plane_of[t] = static_cast<uint8_t>(plane);
+      (*tile_q)[t] = q_at(c.qs, pos);
+    }
+}
+
 }  // namespace
 
 SurfaceEstimate FocalSurfaceEstimator::estimate(const ViewRequest& req, SurfaceCosts* carry) const {
@@ -413,6 +453,7 @@ SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols
     fs.plane_of[t] = static_cast<uint8_t>(plane_of_label[l]);
     out.tile_q[t] = l == M ? out.single_q : c.qs[l];
   }
+  if (opt.sub_steps > 1) refine_between_planes(rig, c, cols, rows, label, opt, &fs, &out.tile_q);
   if (hysteresis) {
     // A labelled tile keeps the prior's depth unless its new plane is
     // cheaper there by more than change_penalty percent of the contrast.

@@ -169,6 +169,7 @@ bool FocusProbeScore::best(const Rig& rig, double* inverse_depth) const {
   if (planes < kFocusProbeSteps / 2) return false;
   SurfaceOptions opt;
   opt.tile = T;
+  opt.sub_steps = 1;  // the clicked tile is refined below, on its own pixels' costs
   const SurfaceEstimate e =
       surface_from_costs(rig, c, cols, cols, NAN, 0.5 * T * T, opt);  // half a tile's pixels
   // The clicked pixel's tile: its label's plane when that is one of the
