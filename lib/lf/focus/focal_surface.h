@@ -66,7 +66,7 @@ struct SurfaceOptions {
   // vertex of the parabola through its (aggregated) costs at the planes
   // either side, rounded to 1/sub_steps of a plane step. 1 (the default):
   // the planes only. 3 gains 0.02-0.09 dB on the in-between views but costs
-  // the live pipeline about 15 % more CPU per frame (each tile off its plane
+  // the live pipeline about a fifth more CPU per frame (each tile off its plane
   // cuts the runs of tiles that share one; docs/rendering.md), so it is for
   // offline renders. 1..8.
   int sub_steps = 1;
