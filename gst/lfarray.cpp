@@ -26,7 +26,7 @@
  *
  * Where the fragments draw their own (JPEG, `whole-view=false`,
  * `partial-sums`) from cameras that are not live, `request-threads` threads
- * (one per core by default) each answer every n-th camera (live cameras keep
+ * (one per core and one more by default) each answer every n-th camera (live cameras keep
  * one each: a request may wait for its frame), and the compositor, not
  * live, lets the cameras
  * run up to 16 requests ahead of it (see `lfcompositor`): fewer hand-offs

@@ -263,8 +263,8 @@ static bool build(LfCameraHost* self) {
                 one_thread ? 1
                 : live || by_capture_time || !record.empty() || !playback.empty()
                     ? n_cams
-                    : std::min<size_t>(
-                          n_cams, ps.request_threads ? ps.request_threads : g_get_num_processors());
+                    : std::min<size_t>(n_cams, ps.request_threads ? ps.request_threads
+                                                                  : g_get_num_processors() + 1);
             std::vector<GstElement*> fans;  // the threads' tees (none: a queue per camera)
             for (size_t t = 0; !one_thread && threads < n_cams && t < threads; ++t) {
               const std::string id = std::to_string(t);

@@ -337,7 +337,7 @@ live() {  # row of the focus table: its live fps
     echo "of this script runs it again where perf is installed; quick runs keep the last). The warp"
     echo "kernels and the adding (and, with JPEG fragments, the coding) are the work the kernel bound"
     echo "counts; the rest is why the pipeline efficiency (the tables above) stays under 1. With JPEG"
-    echo "fragments the cameras' request threads (\`request-threads\`, one per core) each answer every"
+    echo "fragments the cameras' request threads (\`request-threads\`, one per core and one more) each answer every"
     echo "n-th camera, and the compositor, not live, lets them run 16 requests ahead of it; what is"
     echo "left is mostly hand-offs: GstAggregator wakes its thread for every fragment that comes (64"
     echo "a frame), though it can only use the last of a request's."

@@ -1109,7 +1109,7 @@ TEST_F(Gst, OneRequestThreadKeepsTheCamerasInStep) {
 }
 
 // request-threads: K threads answer the requests, each a queue and a tee
-// for every K-th camera (0: one per core), or a queue per camera where
+// for every K-th camera (0: one per core and one more), or a queue per camera where
 // there are at least as many threads as cameras (and wherever frames are
 // picked by capture time): the same frames either way. Not live, the
 // compositor lets every pad hold 16 requests' fragments (its
@@ -1149,18 +1149,21 @@ TEST_F(Gst, RequestThreadsShareTheCamerasAndNonLiveCamerasRunAhead) {
   EXPECT_EQ(queues("encoding=jpeg request-threads=2"),
             (std::vector<std::string>{"requests-0", "requests-1"}));
   EXPECT_EQ(queues("encoding=jpeg request-threads=1"), (std::vector<std::string>{"requests-0"}));
+  // 0 (the default): one per core and one more (on 2 cores 3 threads for the
+  // 4 cameras; with 3 cores or more a queue per camera).
+  const size_t cores = g_get_num_processors();
+  EXPECT_EQ(queues("encoding=jpeg").size(), std::min<size_t>(4, cores + 1));
+  EXPECT_EQ(queues("encoding=jpeg")[0].rfind("requests-", 0) == 0, cores + 1 < 4);
   EXPECT_EQ(queues("encoding=jpeg request-threads=4").size(), 4u);  // a queue per camera
   EXPECT_EQ(queues("encoding=jpeg request-threads=4")[0].rfind("requests-", 0), std::string::npos);
   EXPECT_EQ(queues("encoding=jpeg request-threads=1 frame-select=capture-time").size(), 4u);
-  const size_t cores = std::min<size_t>(4, g_get_num_processors());
-  EXPECT_EQ(queues("encoding=jpeg").size(), cores);
   EXPECT_TRUE(queues("").empty());  // whole-view: one request thread, no queue
   std::string err;
   const auto each = run(
       req + " ! lfarray rig=" + rig_path_ + " num-buffers=1 encoding=jpeg request-threads=4" + out,
       100, nullptr, &err);
   ASSERT_EQ(each.size(), 3u) << err;
-  for (const char* threads : {"1", "2"}) {
+  for (const char* threads : {"1", "2", "3"}) {
     const auto shared = run(req + " ! lfarray rig=" + rig_path_ +
                                 " num-buffers=1 encoding=jpeg request-threads=" + threads + out,
                             100, nullptr, &err);
