@@ -31,7 +31,9 @@
  * live, lets the cameras
  * run up to 16 requests ahead of it (see `lfcompositor`): fewer hand-offs
  * than a thread per camera, and no core idle while one camera's fragment
- * is late (docs/results.md, Pipeline).
+ * is late (docs/results.md, Pipeline). Each thread hands the compositor its
+ * fragments of a request in one buffer for up to 16 cameras (gst/lfbundle.h),
+ * so the compositor wakes a few times a frame, not once a camera.
  *
  * ## Example launch line
  * |[

@@ -8,7 +8,8 @@
 //    while others are still on their way, not one after another on the
 //    aggregate thread once the last has come. Only fragments the aggregate
 //    thread would composite (what it last published: its viewer, inside the
-//    sequence window, at most the view's area) and one fragment per buffer;
+//    sequence window, at most the view's area), one fragment per buffer or
+//    per part of a bundle (gst/lfbundle.h);
 //    everything else, and a fragment that does not parse, goes on unchanged
 //    (the aggregate thread reports it).
 #pragma once
@@ -37,6 +38,10 @@ class ArrivalDecoder {
 
  private:
   static GstPadProbeReturn decode(GstPad* pad, GstPadProbeInfo* info, gpointer self);
+  // A JPEG fragment's bytes that the aggregate thread would composite,
+  // decoded into a new memory in the raw wire format, sealed; null for
+  // anything else (and for one that does not decode).
+  GstMemory* decode_one(const guint8* data, gsize size, uint64_t limit) const;
   std::atomic<uint64_t> pixels_{0};
   std::atomic<int64_t> viewer_{-1};
   std::atomic<bool> stereo_{false};

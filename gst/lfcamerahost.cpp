@@ -39,6 +39,7 @@
 #include "lf/io/parse.h"
 #include "lf/render/gl_render.h"
 #include "lfbackend.h"
+#include "lfbundle.h"
 #include "lfcamerahostprops.h"
 #include "lfforward.h"
 #include "lfguard.h"
@@ -266,6 +267,9 @@ static bool build(LfCameraHost* self) {
                     : std::min<size_t>(n_cams, ps.request_threads ? ps.request_threads
                                                                   : g_get_num_processors() + 1);
             std::vector<GstElement*> fans;  // the threads' tees (none: a queue per camera)
+            // Into the compositor, each thread's fragments of a request in one
+            // buffer or two (gst/lfbundle.h: a push per camera wakes it each time).
+            std::vector<GstElement*> bundles;
             for (size_t t = 0; !one_thread && threads < n_cams && t < threads; ++t) {
               const std::string id = std::to_string(t);
               GstElement* q = request_queue("requests-" + id, false);
@@ -274,6 +278,13 @@ static bool build(LfCameraHost* self) {
               if (!gst_element_link_pads(tee, "src_%u", q, "sink") || !gst_element_link(q, fan))
                 throw std::runtime_error("cannot link request thread " + id);
               fans.push_back(fan);
+              if (!composite_of(self) || sum) continue;
+              GstElement* b = adopt(GST_BIN(self), p,
+                                    GST_ELEMENT(g_object_new(LF_TYPE_FRAGMENT_BUNDLE, "name",
+                                                             ("bundle-" + id).c_str(), nullptr)));
+              if (!gst_element_link_pads(b, "src", out, "sink_%u"))
+                throw std::runtime_error("cannot link request thread " + id + "'s bundle");
+              bundles.push_back(b);
             }
             std::vector<GstElement*> frags;
             for (int i : chosen) {
@@ -313,7 +324,12 @@ static bool build(LfCameraHost* self) {
                          !gst_element_link_pads(q, "src", frag, "request"))) ||
                   (!q && !gst_element_link_pads(from, "src_%u", frag, "request")) ||
                   !gst_element_link_pads(cam, nullptr, frag, "sink") ||
-                  !gst_element_link_pads(frag, "src", sum ? sum : out, "sink_%u"))
+                  !gst_element_link_pads(frag, "src",
+                                         sum ? sum
+                                         : bundles.empty()
+                                             ? out
+                                             : bundles[(frags.size() - 1) % bundles.size()],
+                                         "sink_%u"))
                 throw std::runtime_error("cannot link the graph of camera " + id);
             }
             // Live, that queue before the tee (the source never waits for the

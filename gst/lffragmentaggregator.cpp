@@ -2,8 +2,8 @@
 
 #include <algorithm>
 
-#include "lf/wire/wire.h"
 #include "lfaggregate.h"
+#include "lfbundle.h"
 #include "lfguard.h"
 #include "lfprops.h"
 
@@ -22,19 +22,6 @@ gboolean lf_fragment_aggregator_push_upstream(LfFragmentAggregator* self, GstEve
   g_list_free_full(pads, gst_object_unref);
   gst_event_unref(event);
   return any;
-}
-
-// Request sequence of a queued fragment buffer (-1 if unreadable: the
-// subclass reports it when it takes it).
-static gint64 queued_sequence(GstBuffer* buf) {
-  gint64 seq = -1;
-  lfgst::guard(
-      [&] {
-        const lfgst::MappedBuffer m(buf, GST_MAP_READ);
-        seq = static_cast<gint64>(lf::peek_fragment_header(m.data(), m.size()).sequence);
-      },
-      nullptr);
-  return seq;
 }
 
 // LF_IDLE_RELEASE after the last output, in running time (none before one).
@@ -57,7 +44,9 @@ static GstFlowReturn lf_fragment_aggregator_aggregate(GstAggregator* agg, gboole
   auto take = [&](GstAggregatorPad* pad) {
     GstBuffer* buf = gst_aggregator_pad_pop_buffer(pad);
     if (!buf) return false;
-    ret = klass->absorb(self, pad, buf);
+    lfgst::each_bundled(buf, [&](GstBuffer* part) {  // a bundle's parts one by one
+      if (ret == GST_FLOW_OK) ret = klass->absorb(self, pad, part);
+    });
     gst_buffer_unref(buf);
     return ret == GST_FLOW_OK;
   };
@@ -71,7 +60,7 @@ static GstFlowReturn lf_fragment_aggregator_aggregate(GstAggregator* agg, gboole
     for (GList* l = pads; l && ret == GST_FLOW_OK; l = l->next) {
       GstAggregatorPad* pad = GST_AGGREGATOR_PAD(l->data);
       while (GstBuffer* peek = gst_aggregator_pad_peek_buffer(pad)) {
-        const gint64 seq = queued_sequence(peek);
+        const gint64 seq = lfgst::first_sequence(peek);  // -1: reported when taken
         gst_buffer_unref(peek);
         if (seq > static_cast<gint64>(due) || !take(pad)) break;
       }

@@ -50,8 +50,9 @@ struct _LfFragmentAggregatorClass {
   // Optional: called at the start of every aggregate(), before a fragment
   // is taken (settings that may change while playing apply from there on).
   void (*begin)(LfFragmentAggregator* self);
-  // Files one fragment buffer (borrowed) taken from `pad`. A flow other
-  // than GST_FLOW_OK ends the aggregate() with it.
+  // Files one fragment buffer (borrowed) taken from `pad`: each part of a
+  // bundle (gst/lfbundle.h) on its own. A flow other than GST_FLOW_OK ends
+  // the aggregate() with it.
   GstFlowReturn (*absorb)(LfFragmentAggregator* self, GstAggregatorPad* pad, GstBuffer* buf);
   // Buffers taken from each pad per aggregate() when live (at least 1).
   gsize (*live_batch)(LfFragmentAggregator* self);

@@ -32,28 +32,6 @@ bool read_capture_meta(GstBuffer* buf, int* camera_id, guint64* capture_time) {
          gst_structure_get_uint64(s, "capture-time", capture_time);
 }
 
-// A meta of this process only: registered once, with no tags and no
-// transform, so that every copy of a buffer drops it.
-struct LocalMeta {
-  const char* api_name;
-  const char* name;
-  gsize size;
-  GstMetaInitFunction init;
-  GstMetaFreeFunction free;
-  GType api = 0;
-  const GstMetaInfo* info = nullptr;
-  gsize once = 0;
-  const GstMetaInfo* registered() {
-    if (g_once_init_enter(&once)) {
-      static const gchar* tags[] = {nullptr};
-      api = gst_meta_api_type_register(api_name, tags);
-      info = gst_meta_register(api, name, size, init, free, nullptr);
-      g_once_init_leave(&once, 1);
-    }
-    return info;
-  }
-};
-
 // No fields: a bare GstMeta.
 static LocalMeta sealed_meta{"LfSealedMetaAPI", "LfSealedMeta", sizeof(GstMeta),
                              [](GstMeta*, gpointer, GstBuffer*) -> gboolean { return TRUE; },

@@ -25,6 +25,28 @@ bool read_capture_meta(GstBuffer* buf, int* camera_id, guint64* capture_time);
 // -1. A meta naming another camera than `camera_id` is logged on `warn_on`.
 int64_t capture_time_of(GstBuffer* frame, int camera_id, GstObject* warn_on);
 
+// A meta of this process only: registered once, with no tags and no
+// transform, so that every copy of a buffer drops it.
+struct LocalMeta {
+  const char* api_name;
+  const char* name;
+  gsize size;
+  GstMetaInitFunction init;
+  GstMetaFreeFunction free;
+  GType api = 0;
+  const GstMetaInfo* info = nullptr;
+  gsize once = 0;
+  const GstMetaInfo* registered() {
+    if (g_once_init_enter(&once)) {
+      static const gchar* tags[] = {nullptr};
+      api = gst_meta_api_type_register(api_name, tags);
+      info = gst_meta_register(api, name, size, init, free, nullptr);
+      g_once_init_leave(&once, 1);
+    }
+    return info;
+  }
+};
+
 // Sealed meta (LfSealedMeta): on a fragment buffer that lffragment
 // serialised and sealed (CRC written) in this process. Never copied with a
 // buffer (no transform), so only that buffer object carries it, and nothing

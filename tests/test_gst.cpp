@@ -147,6 +147,20 @@ class Gst : public ::testing::Test {
   }
 
   // Runs a pipeline to EOS (or `max_frames`), collecting RGBA frames.
+  // An RGBA sample's picture (a copy); the sample is unreferenced.
+  static cv::Mat rgba_of(GstSample* s) {
+    GstStructure* st = gst_caps_get_structure(gst_sample_get_caps(s), 0);
+    int w = 0, h = 0;
+    gst_structure_get_int(st, "width", &w);
+    gst_structure_get_int(st, "height", &h);
+    GstMapInfo m;
+    gst_buffer_map(gst_sample_get_buffer(s), &m, GST_MAP_READ);
+    cv::Mat frame = cv::Mat(h, w, CV_8UC4, m.data).clone();
+    gst_buffer_unmap(gst_sample_get_buffer(s), &m);
+    gst_sample_unref(s);
+    return frame;
+  }
+
   static std::vector<cv::Mat> run(const std::string& desc, int max_frames = 1000,
                                   std::vector<std::string>* warnings = nullptr,
                                   std::string* error = nullptr) {
@@ -166,18 +180,7 @@ class Gst : public ::testing::Test {
       GstSample* s =
           sink ? gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 20 * GST_MSECOND) : nullptr;
       if (!sink) g_usleep(20000);
-      if (s) {
-        GstCaps* caps = gst_sample_get_caps(s);
-        GstStructure* st = gst_caps_get_structure(caps, 0);
-        int w = 0, h = 0;
-        gst_structure_get_int(st, "width", &w);
-        gst_structure_get_int(st, "height", &h);
-        GstMapInfo m;
-        gst_buffer_map(gst_sample_get_buffer(s), &m, GST_MAP_READ);
-        frames.push_back(cv::Mat(h, w, CV_8UC4, m.data).clone());
-        gst_buffer_unmap(gst_sample_get_buffer(s), &m);
-        gst_sample_unref(s);
-      }
+      if (s) frames.push_back(rgba_of(s));
       while (GstMessage* msg = gst_bus_pop(bus)) {
         if (GST_MESSAGE_TYPE(msg) == GST_MESSAGE_EOS) done = true;
         if (GST_MESSAGE_TYPE(msg) == GST_MESSAGE_ERROR) {
@@ -1133,7 +1136,8 @@ TEST_F(Gst, RequestThreadsShareTheCamerasAndNonLiveCamerasRunAhead) {
     GValue v = G_VALUE_INIT;
     while (gst_iterator_next(it, &v) == GST_ITERATOR_OK) {
       GstElement* e = GST_ELEMENT(g_value_get_object(&v));
-      const gchar* factory = gst_plugin_feature_get_name(gst_element_get_factory(e));
+      GstElementFactory* made_by = gst_element_get_factory(e);  // none: lfarray's bundles
+      const gchar* factory = made_by ? GST_OBJECT_NAME(made_by) : "";
       gchar* name = gst_element_get_name(e);
       if (g_str_equal(factory, "queue")) names.push_back(name);
       g_free(name);
@@ -1203,6 +1207,84 @@ TEST_F(Gst, RequestThreadsShareTheCamerasAndNonLiveCamerasRunAhead) {
                              "encoding=jpeg", "min-upstream-latency=5000000");
   own.replace(own.find(" ! video/x-raw"), own.find(" lfcamsrc") - own.find(" ! video/x-raw"), sink);
   EXPECT_EQ(run_ahead(own, "comp"), 5000000u);
+}
+
+// A request thread's fragments reach the compositor bundled (gst/lfbundle.h):
+// one buffer a request for up to 16 cameras, one more for each 16 after, and
+// the frames are those of a thread per camera (no bundles).
+TEST_F(Gst, RequestThreadsBundleTheirFragmentsForTheCompositor) {
+  struct Counts {
+    std::atomic<int> buffers{0}, parts{0};
+  };
+  // The frames of `desc`, counting the buffers (and their memories: the
+  // bundles' parts) that reach the sink pads of its element "compositor".
+  auto counted = [](const std::string& desc, Counts* c, std::string* err) {
+    std::vector<cv::Mat> frames;
+    GstElement* p = gst_parse_launch(desc.c_str(), nullptr);
+    if (!p) return frames;
+    gst_element_set_state(p, GST_STATE_READY);  // lfarray builds its graph
+    GstElement* comp = gst_bin_get_by_name(GST_BIN(p), "compositor");
+    for (GList* l = comp ? GST_ELEMENT(comp)->sinkpads : nullptr; l; l = l->next)
+      gst_pad_add_probe(
+          GST_PAD(l->data), GST_PAD_PROBE_TYPE_BUFFER,
+          [](GstPad*, GstPadProbeInfo* info, gpointer data) {
+            auto* c = static_cast<Counts*>(data);
+            c->buffers++;
+            c->parts += static_cast<int>(gst_buffer_n_memory(GST_PAD_PROBE_INFO_BUFFER(info)));
+            return GST_PAD_PROBE_OK;
+          },
+          c, nullptr);
+    if (comp) gst_object_unref(comp);
+    GstElement* sink = gst_bin_get_by_name(GST_BIN(p), "out");
+    gst_element_set_state(p, GST_STATE_PLAYING);
+    while (GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 30 * GST_SECOND))
+      frames.push_back(rgba_of(s));
+    GstBus* bus = gst_element_get_bus(p);
+    if (GstMessage* m = gst_bus_pop_filtered(bus, GST_MESSAGE_ERROR)) {
+      GError* e = nullptr;
+      gst_message_parse_error(m, &e, nullptr);
+      *err = e->message;
+      g_clear_error(&e);
+      gst_message_unref(m);
+    }
+    gst_object_unref(bus);
+    gst_object_unref(sink);
+    gst_element_set_state(p, GST_STATE_NULL);
+    gst_object_unref(p);
+    return frames;
+  };
+  // 20 cameras (a 5 x 4 block of Chess at a quarter resolution): one thread
+  // bundles 16 and 4.
+  const std::string rig20 =
+      (std::filesystem::temp_directory_path() / "lf-test-chess20.json").string();
+  lf::save_rig(
+      lf::scale_rig(lf::grid_block(lf::import_dataset(data_path("stanford-chess")), 1, 2, 5, 4),
+                    0.25),
+      rig20);
+  constexpr int kRequests = 4;
+  for (const auto& [rig, cameras] : {std::pair{rig_path_, 4}, std::pair{rig20, 20}}) {
+    const std::string desc = "lfviewrequest rig=" + rig +
+                             " num-buffers=" + std::to_string(kRequests) +
+                             " width=96 height=72 focal-plane=param:-0.2 orbit=0.5"
+                             " focal-surface=false ! lfarray rig=" +
+                             rig + " num-buffers=1 encoding=jpeg request-threads=";
+    const std::string out = " ! video/x-raw,format=RGBA ! appsink name=out sync=false";
+    Counts one, each;
+    std::string err;
+    const auto bundled = counted(desc + "1" + out, &one, &err);
+    ASSERT_EQ(bundled.size(), static_cast<size_t>(kRequests)) << cameras << " cameras: " << err;
+    const auto apart = counted(desc + std::to_string(cameras) + out, &each, &err);
+    ASSERT_EQ(apart.size(), static_cast<size_t>(kRequests)) << cameras << " cameras: " << err;
+    // A thread per camera: a buffer per fragment.
+    EXPECT_EQ(each.buffers.load(), kRequests * cameras);
+    EXPECT_EQ(each.parts.load(), kRequests * cameras);
+    // One thread: every fragment in a bundle of at most 16.
+    EXPECT_EQ(one.parts.load(), kRequests * cameras);
+    EXPECT_EQ(one.buffers.load(), kRequests * ((cameras + 15) / 16)) << cameras << " cameras";
+    for (int k = 0; k < kRequests; ++k)
+      EXPECT_EQ(cv::norm(bundled[k], apart[k], cv::NORM_INF), 0)
+          << cameras << " cameras, frame " << k;
+  }
 }
 
 // Non-live: a still camera makes one or two frames a request, not as many as
