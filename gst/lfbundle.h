@@ -33,8 +33,10 @@ void add_bundle_meta(GstBuffer* buf, guint32 sealed);
 bool is_bundle(GstBuffer* buf, guint32* sealed);
 
 // Calls `fn` with each part of a bundle as a buffer of its own (its memory,
-// the bundle's timestamps and flags, LfSealedMeta where the part is
-// sealed), or with `buf` itself when it is not a bundle.
+// the bundle's timestamps, offsets and flags, LfSealedMeta where the part is
+// sealed), or with `buf` itself when it is not a bundle. (So each part of a
+// bundle decoded on arrival carries the whole bundle's decoding time in
+// GST_BUFFER_OFFSET_END, which LF_TRACE's "decoded" events report.)
 void each_bundled(GstBuffer* buf, const std::function<void(GstBuffer*)>& fn);
 
 // Calls `fn(k, data, size)` with the bytes of each part k of a bundle (its

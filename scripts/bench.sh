@@ -338,7 +338,7 @@ live() {  # row of the focus table: its live fps
     echo "kernels and the adding (and, with JPEG fragments, the coding) are the work the kernel bound"
     echo "counts; the rest is why the pipeline efficiency (the tables above) stays under 1. With JPEG"
     echo "fragments the cameras' request threads (\`request-threads\`, one per core and one more) each answer every"
-    echo "n-th camera and hands the compositor its fragments of a request in one buffer for up to"
+    echo "n-th camera and hand the compositor their fragments of a request in one buffer for up to"
     echo "16 cameras (gst/lfbundle.h: GstAggregator wakes its thread for every buffer that comes), and"
     echo "the compositor, not live, lets them run 16 requests ahead of it; what is left is mostly the"
     echo "threads' hand-offs and scheduling."
