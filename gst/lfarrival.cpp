@@ -1,5 +1,6 @@
 #include "lfarrival.h"
 
+#include <algorithm>
 #include <memory>
 #include <stdexcept>
 
@@ -111,6 +112,7 @@ GstPadProbeReturn ArrivalDecoder::decode(GstPad*, GstPadProbeInfo* info, gpointe
     if ((parts[k] = p->decode_one(bytes, size, limit))) ++decoded;
   });
   if (decoded == 0) return GST_PAD_PROBE_OK;
+  if (bundle) n = std::min(gst_buffer_n_memory(buf), kMaxBundleParts);  // every part kept
   GstBuffer* raw = gst_buffer_new();
   for (guint k = 0; k < n; ++k) {
     if (parts[k]) sealed |= 1u << k;

@@ -65,12 +65,17 @@ void each_part_bytes(GstBuffer* buf, const std::function<void(guint, const guint
   }
 }
 
-gint64 first_sequence(GstBuffer* buf) {
+gint64 first_sequence(GstBuffer* buf, guint32* viewer) {
   gint64 seq = -1;
   GstMapInfo map;
   auto peek = [&] {
-    guard([&] { seq = static_cast<gint64>(lf::peek_fragment_header(map.data, map.size).sequence); },
-          nullptr);
+    guard(
+        [&] {
+          const lf::FragmentHeader h = lf::peek_fragment_header(map.data, map.size);
+          seq = static_cast<gint64>(h.sequence);
+          if (viewer) *viewer = h.viewer_id;
+        },
+        nullptr);
   };
   if (is_bundle(buf, nullptr)) {  // its first memory only
     GstMemory* mem = gst_buffer_peek_memory(buf, 0);
@@ -94,6 +99,7 @@ struct _LfFragmentBundle {
   GstBuffer* parts[lfgst::kMaxBundleParts];
   guint n;
   gint64 sequence;
+  guint32 viewer;
   guint seen;  // parts of that request so far (held or already sent)
   guint eos;   // sink pads at EOS
 };
@@ -140,7 +146,8 @@ static void drop_held(LfFragmentBundle* self) {
 
 static GstFlowReturn bundle_chain(GstPad*, GstObject* parent, GstBuffer* buf) {
   auto* self = LF_FRAGMENT_BUNDLE(parent);
-  const gint64 seq = lfgst::first_sequence(buf);
+  guint32 viewer = 0;
+  const gint64 seq = lfgst::first_sequence(buf, &viewer);
   // Alone: one that does not parse (the compositor reports it), or one of
   // several memories, or a drawing left to the compositor.
   if (seq < 0 || gst_buffer_n_memory(buf) != 1 || lfgst::deferred_of(buf)) {
@@ -152,10 +159,11 @@ static GstFlowReturn bundle_chain(GstPad*, GstObject* parent, GstBuffer* buf) {
     return gst_pad_push(self->src, buf);
   }
   GST_OBJECT_LOCK(self);
-  GstBuffer* before = self->n && seq != self->sequence ? take_held(self) : nullptr;
-  if (seq != self->sequence) self->seen = 0;
+  const bool other = seq != self->sequence || viewer != self->viewer;  // request
+  GstBuffer* before = self->n && other ? take_held(self) : nullptr;
+  if (other) self->seen = 0;
   self->parts[self->n++] = buf;
-  self->sequence = seq;
+  self->sequence = seq, self->viewer = viewer;
   ++self->seen;
   const bool full = self->n == lfgst::kMaxBundleParts ||
                     self->seen >= static_cast<guint>(GST_ELEMENT(self)->numsinkpads);

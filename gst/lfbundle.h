@@ -45,15 +45,17 @@ void each_bundled(GstBuffer* buf, const std::function<void(GstBuffer*)>& fn);
 void each_part_bytes(GstBuffer* buf, const std::function<void(guint, const guint8*, gsize)>& fn);
 
 // The request sequence of `buf`'s first fragment (a bundle's first part), or
-// -1 when it has none that parses; maps no more than that memory.
-gint64 first_sequence(GstBuffer* buf);
+// -1 when it has none that parses; maps no more than that memory. `viewer`:
+// null, or where its viewer id goes.
+gint64 first_sequence(GstBuffer* buf, guint32* viewer = nullptr);
 
 }  // namespace lfgst
 
 G_BEGIN_DECLS
 // lffragmentbundle: request sink pads `sink_%u` (fragment buffers, each one
 // camera's answer, all pushed from one thread), one `src` pad: the buffers
-// of one request, bundled when every sink pad has given one for it (or
+// of one request (a viewer's sequence; in stereo each eye its own), bundled
+// when every sink pad has given one for it (or
 // kMaxBundleParts have come); a buffer of another request, an event, EOS or
 // a buffer that cannot be bundled sends what is held first. Only
 // lfcamerahost makes it (not registered with a factory).

@@ -15,6 +15,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <thread>
+#include <tuple>
 
 #include "gst_init.h"
 #include "helpers.h"
@@ -1262,28 +1263,33 @@ TEST_F(Gst, RequestThreadsBundleTheirFragmentsForTheCompositor) {
                     0.25),
       rig20);
   constexpr int kRequests = 4;
-  for (const auto& [rig, cameras] : {std::pair{rig_path_, 4}, std::pair{rig20, 20}}) {
-    const std::string desc = "lfviewrequest rig=" + rig +
-                             " num-buffers=" + std::to_string(kRequests) +
-                             " width=96 height=72 focal-plane=param:-0.2 orbit=0.5"
-                             " focal-surface=false ! lfarray rig=" +
-                             rig + " num-buffers=1 encoding=jpeg request-threads=";
+  // (rig, cameras, eyes): in stereo each eye's requests are bundled apart.
+  for (const auto& [rig, cameras, eyes] :
+       {std::tuple{rig_path_, 4, 1}, std::tuple{rig20, 20, 1}, std::tuple{rig_path_, 4, 2}}) {
+    const std::string desc =
+        "lfviewrequest rig=" + rig + " num-buffers=" + std::to_string(kRequests) +
+        " width=96 height=72 focal-plane=param:-0.2 orbit=0.5 focal-surface=false" +
+        (eyes == 2 ? " stereo-baseline=2" : "") + " ! lfarray rig=" + rig +
+        (eyes == 2 ? " stereo=true viewer-id=0" : "") +
+        " num-buffers=1 encoding=jpeg request-threads=";
     const std::string out = " ! video/x-raw,format=RGBA ! appsink name=out sync=false";
+    const std::string what =
+        std::to_string(cameras) + " cameras, " + std::to_string(eyes) + " eyes";
     Counts one, each;
     std::string err;
     const auto bundled = counted(desc + "1" + out, &one, &err);
-    ASSERT_EQ(bundled.size(), static_cast<size_t>(kRequests)) << cameras << " cameras: " << err;
+    ASSERT_EQ(bundled.size(), static_cast<size_t>(kRequests)) << what << ": " << err;
     const auto apart = counted(desc + std::to_string(cameras) + out, &each, &err);
-    ASSERT_EQ(apart.size(), static_cast<size_t>(kRequests)) << cameras << " cameras: " << err;
+    ASSERT_EQ(apart.size(), static_cast<size_t>(kRequests)) << what << ": " << err;
+    EXPECT_EQ(bundled[0].cols, 96 * eyes);
     // A thread per camera: a buffer per fragment.
-    EXPECT_EQ(each.buffers.load(), kRequests * cameras);
-    EXPECT_EQ(each.parts.load(), kRequests * cameras);
+    EXPECT_EQ(each.buffers.load(), kRequests * eyes * cameras) << what;
+    EXPECT_EQ(each.parts.load(), kRequests * eyes * cameras) << what;
     // One thread: every fragment in a bundle of at most 16.
-    EXPECT_EQ(one.parts.load(), kRequests * cameras);
-    EXPECT_EQ(one.buffers.load(), kRequests * ((cameras + 15) / 16)) << cameras << " cameras";
+    EXPECT_EQ(one.parts.load(), kRequests * eyes * cameras) << what;
+    EXPECT_EQ(one.buffers.load(), kRequests * eyes * ((cameras + 15) / 16)) << what;
     for (int k = 0; k < kRequests; ++k)
-      EXPECT_EQ(cv::norm(bundled[k], apart[k], cv::NORM_INF), 0)
-          << cameras << " cameras, frame " << k;
+      EXPECT_EQ(cv::norm(bundled[k], apart[k], cv::NORM_INF), 0) << what << ", frame " << k;
   }
 }
 
