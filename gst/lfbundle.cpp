@@ -33,59 +33,35 @@ bool is_bundle(GstBuffer* buf, guint32* sealed) {
   return m != nullptr;
 }
 
-void each_bundled(GstBuffer* buf, const std::function<void(GstBuffer*)>& fn) {
-  guint32 sealed = 0;
-  if (!is_bundle(buf, &sealed)) return fn(buf);
-  const guint n = gst_buffer_n_memory(buf);
-  for (guint k = 0; k < n; ++k) {
-    GstBuffer* part = gst_buffer_new();
-    gst_buffer_append_memory(part, gst_buffer_get_memory(buf, k));
-    gst_buffer_copy_into(
-        part, buf, GstBufferCopyFlags(GST_BUFFER_COPY_FLAGS | GST_BUFFER_COPY_TIMESTAMPS), 0, -1);
-    if (sealed & (1u << k)) add_sealed_meta(part);
-    fn(part);
-    gst_buffer_unref(part);
-  }
-}
-
-void each_part_bytes(GstBuffer* buf, const std::function<void(guint, const guint8*, gsize)>& fn) {
-  GstMapInfo map;
-  if (!is_bundle(buf, nullptr)) {
-    if (!gst_buffer_map(buf, &map, GST_MAP_READ)) return;
-    fn(0, map.data, map.size);
-    gst_buffer_unmap(buf, &map);
-    return;
-  }
-  const guint n = gst_buffer_n_memory(buf);
-  for (guint k = 0; k < n; ++k) {
-    GstMemory* mem = gst_buffer_peek_memory(buf, k);
-    if (!gst_memory_map(mem, &map, GST_MAP_READ)) continue;
-    fn(k, map.data, map.size);
-    gst_memory_unmap(mem, &map);
-  }
+GstBuffer* bundle_part(GstBuffer* bundle, guint k, guint32 sealed) {
+  GstBuffer* part = gst_buffer_new();
+  gst_buffer_append_memory(part, gst_buffer_get_memory(bundle, k));
+  gst_buffer_copy_into(
+      part, bundle, GstBufferCopyFlags(GST_BUFFER_COPY_FLAGS | GST_BUFFER_COPY_TIMESTAMPS), 0, -1);
+  if (sealed & (1u << k)) add_sealed_meta(part);
+  return part;
 }
 
 gint64 first_sequence(GstBuffer* buf, guint32* viewer) {
+  if (gst_buffer_n_memory(buf) == 0) return -1;
   gint64 seq = -1;
   GstMapInfo map;
-  auto peek = [&] {
-    guard(
-        [&] {
-          const lf::FragmentHeader h = lf::peek_fragment_header(map.data, map.size);
-          seq = static_cast<gint64>(h.sequence);
-          if (viewer) *viewer = h.viewer_id;
-        },
-        nullptr);
-  };
-  if (is_bundle(buf, nullptr)) {  // its first memory only
-    GstMemory* mem = gst_buffer_peek_memory(buf, 0);
-    if (!gst_memory_map(mem, &map, GST_MAP_READ)) return -1;
-    peek();
+  // A bundle's first memory only; any other buffer whole.
+  const bool bundle = is_bundle(buf, nullptr);
+  GstMemory* mem = bundle ? gst_buffer_peek_memory(buf, 0) : nullptr;
+  if (bundle ? !gst_memory_map(mem, &map, GST_MAP_READ) : !gst_buffer_map(buf, &map, GST_MAP_READ))
+    return -1;
+  guard(
+      [&] {
+        const lf::FragmentHeader h = lf::peek_fragment_header(map.data, map.size);
+        seq = static_cast<gint64>(h.sequence);
+        if (viewer) *viewer = h.viewer_id;
+      },
+      nullptr);
+  if (bundle)
     gst_memory_unmap(mem, &map);
-  } else if (gst_buffer_map(buf, &map, GST_MAP_READ)) {
-    peek();
+  else
     gst_buffer_unmap(buf, &map);
-  }
   return seq;
 }
 

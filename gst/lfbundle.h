@@ -20,8 +20,6 @@
 
 #include <gst/gst.h>
 
-#include <functional>
-
 namespace lfgst {
 
 constexpr guint kMaxBundleParts = 16;  // GST_BUFFER_MEM_MAX
@@ -32,17 +30,46 @@ void add_bundle_meta(GstBuffer* buf, guint32 sealed);
 // Whether `buf` is a bundle; its sealed parts' bits in `*sealed`.
 bool is_bundle(GstBuffer* buf, guint32* sealed);
 
-// Calls `fn` with each part of a bundle as a buffer of its own (its memory,
-// the bundle's timestamps, offsets and flags, LfSealedMeta where the part is
-// sealed), or with `buf` itself when it is not a bundle. (So each part of a
-// bundle decoded on arrival carries the whole bundle's decoding time in
-// GST_BUFFER_OFFSET_END, which LF_TRACE's "decoded" events report.)
-void each_bundled(GstBuffer* buf, const std::function<void(GstBuffer*)>& fn);
+// Part k of a bundle whose sealed parts are `sealed`, as a buffer of its
+// own (new): its memory, the bundle's timestamps, offsets and flags,
+// LfSealedMeta where the part is sealed.
+GstBuffer* bundle_part(GstBuffer* bundle, guint k, guint32 sealed);
+
+// Calls `fn(GstBuffer*)` with each part of a bundle (bundle_part()), or with
+// `buf` itself when it is not a bundle. (So each part of a bundle decoded on
+// arrival carries the whole bundle's decoding time in GST_BUFFER_OFFSET_END,
+// which LF_TRACE's "decoded" events report.) A template: on every fragment
+// buffer's path, with no std::function to allocate.
+template <class Fn>
+void each_bundled(GstBuffer* buf, Fn&& fn) {
+  guint32 sealed = 0;
+  if (!is_bundle(buf, &sealed)) return fn(buf);
+  for (guint k = 0, n = gst_buffer_n_memory(buf); k < n; ++k) {
+    GstBuffer* part = bundle_part(buf, k, sealed);
+    fn(part);
+    gst_buffer_unref(part);
+  }
+}
 
 // Calls `fn(k, data, size)` with the bytes of each part k of a bundle (its
 // memories, each mapped alone), or of `buf` itself (k 0) when it is not a
 // bundle; a part that cannot be mapped is left out.
-void each_part_bytes(GstBuffer* buf, const std::function<void(guint, const guint8*, gsize)>& fn);
+template <class Fn>
+void each_part_bytes(GstBuffer* buf, Fn&& fn) {
+  GstMapInfo map;
+  if (!is_bundle(buf, nullptr)) {
+    if (!gst_buffer_map(buf, &map, GST_MAP_READ)) return;
+    fn(0u, map.data, map.size);
+    gst_buffer_unmap(buf, &map);
+    return;
+  }
+  for (guint k = 0, n = gst_buffer_n_memory(buf); k < n; ++k) {
+    GstMemory* mem = gst_buffer_peek_memory(buf, k);
+    if (!gst_memory_map(mem, &map, GST_MAP_READ)) continue;
+    fn(k, static_cast<const guint8*>(map.data), map.size);
+    gst_memory_unmap(mem, &map);
+  }
+}
 
 // The request sequence of `buf`'s first fragment (a bundle's first part), or
 // -1 when it has none that parses; maps no more than that memory. `viewer`:
