@@ -8,6 +8,7 @@
 #include <random>
 
 #include "helpers.h"
+#include "lf/focus/focus.h"
 #include "lf/quality/quality.h"
 #include "lf/quality/synthetic.h"
 #include "lf/render/plan.h"
@@ -659,4 +660,97 @@ TEST(Plan, FourCameraWeightsAreBilinearOverTheCell) {
   for (int i = 0; i < static_cast<int>(loose.cameras.size()); ++i)
     cams += g.ulr_weight(i, 1, 1) > 0;
   EXPECT_LE(cams, 3) << "no cells without a grid: the tent";
+}
+
+// A sweep over planes plans each camera once (lf/render/plan.h aim_plan):
+// where plan_is_plane_free holds at both planes, the plan made at one plane
+// and re-aimed at the other is exactly plan_fragment's at the other.
+TEST(Plan, APlaneFreePlanReAimedIsThePlanOfTheOtherPlane) {
+  lf::Rig rig = lf::synthetic_grid_rig(4, 4, 0.5, 160, 120, 45, 2.0, 11);
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> u(-1, 1);
+  int compared = 0, refused = 0;
+  for (int v = 0; v < 8; ++v) {
+    const lf::ViewRequest req = random_request(rig, rng, 90, 70, v % 2 == 0);
+    lf::ViewRequest other = req;
+    other.focal_plane = lf::FocalPlane::through({0, 0, 6 + 20 * (u(rng) + 1)},
+                                                cv::Vec3d(0.2 * u(rng), 0.2 * u(rng), 1.0));
+    lf::ViewRequest behind = req;  // behind the eye: every pixel's ray misses it
+    behind.focal_plane = lf::FocalPlane::through({0, 0, -5}, {0, 0, 1});
+    const lf::ViewGeometry a(rig, req), b(rig, other), c(rig, behind);
+    for (int i = 0; i < 16; ++i) {
+      EXPECT_FALSE(lf::plan_is_plane_free(c, i));
+      if (!lf::plan_is_plane_free(a, i) || !lf::plan_is_plane_free(b, i)) {
+        ++refused;
+        continue;
+      }
+      lf::FragmentPlan pa = lf::plan_fragment(a, i);
+      lf::aim_plan(b, pa);
+      const lf::FragmentPlan pb = lf::plan_fragment(b, i);
+      ASSERT_EQ(pa.runs.size(), pb.runs.size());
+      for (size_t k = 0; k < pa.runs.size(); ++k) {
+        EXPECT_EQ(pa.runs[k].y, pb.runs[k].y);
+        EXPECT_EQ(pa.runs[k].x0, pb.runs[k].x0);
+        EXPECT_EQ(pa.runs[k].x1, pb.runs[k].x1);
+        EXPECT_EQ(pa.runs[k].piece, pb.runs[k].piece);
+      }
+      ASSERT_EQ(pa.pieces.size(), pb.pieces.size());
+      for (size_t k = 0; k < pa.pieces.size(); ++k) {
+        EXPECT_EQ(pa.pieces[k].H, pb.pieces[k].H);
+        EXPECT_EQ(pa.pieces[k].weight_num.a, pb.pieces[k].weight_num.a);
+        EXPECT_EQ(pa.pieces[k].weight_den.c, pb.pieces[k].weight_den.c);
+      }
+      EXPECT_EQ(pa.rect, pb.rect);
+      compared += !pa.empty();
+    }
+  }
+  std::printf("%d non-empty plans compared, %d cameras not plane-free\n", compared, refused);
+  EXPECT_GT(compared, 40);
+  // A surface request is never plane-free.
+  lf::ViewRequest surf = random_request(rig, rng, 90, 70, false);
+  surf.surface.tile = 16;
+  surf.surface.cols = 6, surf.surface.rows = 5;
+  surf.surface.planes = {surf.focal_plane};
+  surf.surface.plane_of.assign(30, 0);
+  EXPECT_FALSE(lf::plan_is_plane_free(lf::ViewGeometry(rig, surf), 0));
+}
+
+// photo_consistency with the plans kept between planes gives exactly the
+// costs of planning every camera again at each plane.
+TEST(Plan, PhotoConsistencyWithKeptPlansIsUnchanged) {
+  const lf::Rig rig = lf::synthetic_grid_rig(4, 4, 0.5, 160, 120, 45, 2.0, 11);
+  const lf::SyntheticScene scene = lf::SyntheticScene::for_rig(rig);
+  std::vector<cv::Mat> images;
+  for (const auto& c : rig.cameras) images.push_back(scene.render(c, 0.0, false));
+  const lf::AnalysisImages an = lf::analysis_images(rig, images, 120);
+  for (int v = 0; v < 3; ++v) {
+    // Eyes between the cameras, on their plane and behind it.
+    const cv::Vec3d eye(0.1 * v - 0.05, 0.07 - 0.05 * v, -0.3 * v);
+    lf::ViewRequest req;
+    req.view = lf::VirtualView::look_at(eye, eye + cv::Vec3d(0, 0, 10), {0, 1, 0}, 40, 120, 90);
+    lf::ConsistencyPlans kept;
+    int kernels = 0;
+    for (double q : {0.0, 0.02, 0.05, 0.1, 0.2}) {
+      cv::Mat fresh, reused;
+      lf::photo_consistency(an.rig, an.gray, req, q, 25.0, fresh);
+      lf::photo_consistency(an.rig, an.gray, req, q, 25.0, reused, &kept);
+      ASSERT_EQ(fresh.size(), reused.size());
+      EXPECT_EQ(cv::norm(fresh, reused, cv::NORM_INF), 0.0) << "view " << v << " q " << q;
+      // Every kernel this CPU has gives the scalar reference's costs.
+      cv::Mat scalar;
+      lf::photo_consistency(an.rig, an.gray, req, q, 25.0, scalar, nullptr, lf::Kernel::kScalar);
+      for (lf::Kernel k : {lf::Kernel::kSse2, lf::Kernel::kAvx2, lf::Kernel::kAvx512}) {
+        if (!lf::kernel_available(k)) continue;
+        cv::Mat other;
+        lf::photo_consistency(an.rig, an.gray, req, q, 25.0, other, nullptr, k);
+        EXPECT_EQ(cv::norm(scalar, other, cv::NORM_INF), 0.0) << lf::kernel_name(k);
+        ++kernels;
+      }
+      EXPECT_GT(cv::countNonZero(fresh >= 0), fresh.total() / 4) << "the view sees the scene";
+    }
+    int kept_plans = 0;
+    for (bool r : kept.reusable) kept_plans += r;
+    EXPECT_GT(kept_plans, 0);
+    std::printf("view %d: %d kernel comparisons\n", v, kernels);
+  }
 }

@@ -100,9 +100,10 @@ void sweep(const AnalysisImages& an, const ViewRequest& req, int W, int H, int T
   const std::vector<int> tx = analysis_bins(aw, W, T), ty = analysis_bins(ah, H, T);
   const std::vector<int> cx = analysis_bins(C ? aw : 0, W, C), cy = analysis_bins(C ? ah : 0, H, C);
   cv::Mat cost;
+  ConsistencyPlans plans;  // each camera planned once for all the planes
   for (int k = 0; k < n; ++k) {
     if (c.have[k] && k % stride != phase) continue;
-    photo_consistency(an.rig, an.gray, sreq, c.qs[k], truncate, cost);
+    photo_consistency(an.rig, an.gray, sreq, c.qs[k], truncate, cost, &plans);
     double* sum = &c.sum[static_cast<size_t>(k) * tiles];
     double* cnt = &c.count[static_cast<size_t>(k) * tiles];
     std::fill(sum, sum + tiles, 0.0);

@@ -2,11 +2,16 @@
 
 #include <algorithm>
 #include <cmath>
+#if (defined(__x86_64__) || defined(_M_X64)) && !defined(LF_NO_SIMD)
+#include <immintrin.h>
+#endif
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
+#include <string>
 
 #include "lf/geometry/rig_ops.h"
 #include "lf/render/plan.h"
+#include "lf/render/render.h"
 
 namespace lf {
 
@@ -77,6 +82,104 @@ float bilinear(const cv::Mat& g, float u, float v) {
   const float* r1 = g.ptr<float>(y + 1) + x;
   return (1 - fy) * ((1 - fx) * r0[0] + fx * r0[1]) + fy * ((1 - fx) * r1[0] + fx * r1[1]);
 }
+
+// One run of a camera's pixels through one fragment piece: the homography's
+// rows and the aperture weight's numerator and denominator as affine
+// functions of x along the row (float), and the grey image's sampling limits
+// (bilinear taps inside: u < umax = cols - 1, v < vmax = rows - 1).
+struct RunTerms {
+  float xa, xb, ya, yb, za, zb, na, nb, da, db;
+  const float* img;
+  int stride;  // floats per image row
+  float umax, vmax;
+};
+
+// Adds each pixel's aperture weight w, w c and w c^2 (c the camera's
+// bilinear sample) to a0, a1, a2 for x = x0 .. x0 + n - 1. Without a branch,
+// so that the compiler vectorises it (a pixel the camera does not see is
+// sampled at (0, 0) with weight 0); compiled for each instruction set below.
+[[gnu::always_inline]] inline void accumulate_run_body(const RunTerms& k, int x0, int n,
+                                                       float* __restrict a0, float* __restrict a1,
+                                                       float* __restrict a2) {
+  const float xa = k.xa, xb = k.xb, ya = k.ya, yb = k.yb, za = k.za, zb = k.zb;
+  const float na = k.na, nb = k.nb, da = k.da, db = k.db, umax = k.umax, vmax = k.vmax;
+  const float* __restrict img = k.img;
+  const int stride = k.stride;
+  for (int j = 0; j < n; ++j) {
+    const float x = static_cast<float>(x0 + j);
+    const float den = da * x + db, hz = za * x + zb;
+    const float w = std::min(1.0f, (na * x + nb) / den);
+    const float iz = 1.0f / hz;
+    const float u = (xa * x + xb) * iz, v = (ya * x + yb) * iz;
+    const bool ok = (den != 0.0f) & (hz > 0.0f) & (w > 0.0f) & (u >= 0.0f) & (v >= 0.0f) &
+                    (u < umax) & (v < vmax);
+    const float uu = ok ? u : 0.0f, vv = ok ? v : 0.0f, ww = ok ? w : 0.0f;
+    const int iu = static_cast<int>(uu), iv = static_cast<int>(vv);
+    const float fu = uu - static_cast<float>(iu), fv = vv - static_cast<float>(iv);
+    const int i = iv * stride + iu;
+    const float c = (1 - fv) * ((1 - fu) * img[i] + fu * img[i + 1]) +
+                    fv * ((1 - fu) * img[i + stride] + fu * img[i + stride + 1]);
+    a0[j] += ww;
+    a1[j] += ww * c;
+    a2[j] += ww * c * c;
+  }
+}
+
+void accumulate_run(const RunTerms& k, int x0, int n, float* a0, float* a1, float* a2) {
+  accumulate_run_body(k, x0, n, a0, a1, a2);
+}
+#if (defined(__x86_64__) || defined(_M_X64)) && !defined(LF_NO_SIMD)
+#define LF_PC_SIMD 1
+// Eight pixels at a time, the same operations in the same order as the
+// scalar body (no fused multiply-add), so the sums are identical; the
+// scalar body finishes the run.
+__attribute__((target("avx2"))) void accumulate_run_avx2(const RunTerms& k, int x0, int n,
+                                                         float* a0, float* a1, float* a2) {
+  const __m256 xa = _mm256_set1_ps(k.xa), xb = _mm256_set1_ps(k.xb), ya = _mm256_set1_ps(k.ya),
+               yb = _mm256_set1_ps(k.yb), za = _mm256_set1_ps(k.za), zb = _mm256_set1_ps(k.zb),
+               na = _mm256_set1_ps(k.na), nb = _mm256_set1_ps(k.nb), da = _mm256_set1_ps(k.da),
+               db = _mm256_set1_ps(k.db), umax = _mm256_set1_ps(k.umax),
+               vmax = _mm256_set1_ps(k.vmax), one = _mm256_set1_ps(1.0f),
+               zero = _mm256_setzero_ps(), lanes = _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256i stride = _mm256_set1_epi32(k.stride);
+  const float* img = k.img;
+  int j = 0;
+  for (; j + 8 <= n; j += 8) {
+    const __m256 x = _mm256_add_ps(_mm256_set1_ps(static_cast<float>(x0 + j)), lanes);
+    const __m256 den = _mm256_add_ps(_mm256_mul_ps(da, x), db);
+    const __m256 hz = _mm256_add_ps(_mm256_mul_ps(za, x), zb);
+    const __m256 w =
+        _mm256_min_ps(_mm256_div_ps(_mm256_add_ps(_mm256_mul_ps(na, x), nb), den), one);
+    const __m256 iz = _mm256_div_ps(one, hz);
+    const __m256 u = _mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(xa, x), xb), iz);
+    const __m256 v = _mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(ya, x), yb), iz);
+    __m256 ok =
+        _mm256_and_ps(_mm256_cmp_ps(den, zero, _CMP_NEQ_UQ), _mm256_cmp_ps(hz, zero, _CMP_GT_OQ));
+    ok = _mm256_and_ps(ok, _mm256_cmp_ps(w, zero, _CMP_GT_OQ));
+    ok = _mm256_and_ps(ok, _mm256_cmp_ps(u, zero, _CMP_GE_OQ));
+    ok = _mm256_and_ps(ok, _mm256_cmp_ps(v, zero, _CMP_GE_OQ));
+    ok = _mm256_and_ps(ok, _mm256_cmp_ps(u, umax, _CMP_LT_OQ));
+    ok = _mm256_and_ps(ok, _mm256_cmp_ps(v, vmax, _CMP_LT_OQ));
+    const __m256 uu = _mm256_and_ps(ok, u), vv = _mm256_and_ps(ok, v), ww = _mm256_and_ps(ok, w);
+    const __m256i iu = _mm256_cvttps_epi32(uu), iv = _mm256_cvttps_epi32(vv);
+    const __m256 fu = _mm256_sub_ps(uu, _mm256_cvtepi32_ps(iu)),
+                 fv = _mm256_sub_ps(vv, _mm256_cvtepi32_ps(iv));
+    const __m256i i = _mm256_add_epi32(_mm256_mullo_epi32(iv, stride), iu);
+    const __m256 p00 = _mm256_i32gather_ps(img, i, 4), p01 = _mm256_i32gather_ps(img + 1, i, 4),
+                 p10 = _mm256_i32gather_ps(img + k.stride, i, 4),
+                 p11 = _mm256_i32gather_ps(img + k.stride + 1, i, 4);
+    const __m256 gu = _mm256_sub_ps(one, fu), gv = _mm256_sub_ps(one, fv);
+    const __m256 top = _mm256_add_ps(_mm256_mul_ps(gu, p00), _mm256_mul_ps(fu, p01));
+    const __m256 bot = _mm256_add_ps(_mm256_mul_ps(gu, p10), _mm256_mul_ps(fu, p11));
+    const __m256 c = _mm256_add_ps(_mm256_mul_ps(gv, top), _mm256_mul_ps(fv, bot));
+    const __m256 wc = _mm256_mul_ps(ww, c);
+    _mm256_storeu_ps(a0 + j, _mm256_add_ps(_mm256_loadu_ps(a0 + j), ww));
+    _mm256_storeu_ps(a1 + j, _mm256_add_ps(_mm256_loadu_ps(a1 + j), wc));
+    _mm256_storeu_ps(a2 + j, _mm256_add_ps(_mm256_loadu_ps(a2 + j), _mm256_mul_ps(wc, c)));
+  }
+  accumulate_run_body(k, x0 + j, n - j, a0 + j, a1 + j, a2 + j);
+}
+#endif
 }  // namespace
 
 double refined_minimum(const std::vector<double>& cost) {
@@ -106,43 +209,83 @@ AnalysisImages analysis_images(const Rig& rig, const std::vector<cv::Mat>& image
 }
 
 void photo_consistency(const Rig& rig, const std::vector<cv::Mat>& gray, const ViewRequest& req_in,
-                       double q, double truncate, cv::Mat& cost) {
+                       double q, double truncate, cv::Mat& cost, ConsistencyPlans* reuse,
+                       Kernel kernel) {
   ViewRequest req = req_in;
   req.surface = {};
   req.focal_plane = plane_at_inverse_depth(rig, q);
   const ViewGeometry g(rig, req);
   const int W = req.view.width, H = req.view.height;
   std::vector<float> s0(static_cast<size_t>(W) * H, 0), s1(s0.size(), 0), s2(s0.size(), 0);
+  if (kernel == Kernel::kBest) kernel = best_kernel();
+  if (!kernel_available(kernel))
+    throw std::invalid_argument(std::string("photo consistency: the ") + kernel_name(kernel) +
+                                " kernel is not available on this CPU or build");
+  auto run_kernel = accumulate_run;
+#ifdef LF_PC_SIMD
+  if (kernel == Kernel::kAvx2 || kernel == Kernel::kAvx512) run_kernel = accumulate_run_avx2;
+#endif
+  if (reuse && reuse->plans.size() != rig.cameras.size()) {
+    reuse->plans.assign(rig.cameras.size(), FragmentPlan{});
+    reuse->reusable.assign(rig.cameras.size(), false);
+  }
+  FragmentPlan fresh;
   for (size_t i = 0; i < rig.cameras.size(); ++i) {
-    const FragmentPlan plan = plan_fragment(g, static_cast<int>(i));
+    const int index = static_cast<int>(i);
+    const FragmentPlan* pp = &fresh;
+    if (!reuse) {
+      fresh = plan_fragment(g, index);
+    } else if (reuse->reusable[i] && plan_is_plane_free(g, index)) {
+      aim_plan(g, reuse->plans[i]);
+      pp = &reuse->plans[i];
+    } else {
+      reuse->plans[i] = plan_fragment(g, index);
+      reuse->reusable[i] = plan_is_plane_free(g, index);
+      pp = &reuse->plans[i];
+    }
+    const FragmentPlan& plan = *pp;
     if (plan.empty()) continue;
     const Camera& cam = rig.cameras[i];
     const cv::Mat& img = gray[i];
+    CV_Assert(img.type() == CV_32F && img.isContinuous());
     for (const Run& run : plan.runs) {
       const FragmentPiece& pc = plan.pieces[run.piece];
+      const size_t at = static_cast<size_t>(run.y) * W + run.x0;
       // The weight's terms and the homography are affine in x along a row.
       const double y = run.y;
+      const cv::Matx33d& Hm = pc.H;
+      if (!cam.intrinsics.has_distortion()) {
+        const auto f = [](double v) { return static_cast<float>(v); };
+        const RunTerms k{f(Hm(0, 0)),        f(Hm(0, 1) * y + Hm(0, 2)),
+                         f(Hm(1, 0)),        f(Hm(1, 1) * y + Hm(1, 2)),
+                         f(Hm(2, 0)),        f(Hm(2, 1) * y + Hm(2, 2)),
+                         f(pc.weight_num.a), f(pc.weight_num.b * y + pc.weight_num.c),
+                         f(pc.weight_den.a), f(pc.weight_den.b * y + pc.weight_den.c),
+                         img.ptr<float>(),   img.cols,
+                         f(img.cols - 1),    f(img.rows - 1)};
+        run_kernel(k, run.x0, run.x1 - run.x0, &s0[at], &s1[at], &s2[at]);
+        continue;
+      }
       const double num_y = pc.weight_num.b * y + pc.weight_num.c,
                    den_y = pc.weight_den.b * y + pc.weight_den.c;
-      const cv::Matx33d& H = pc.H;
-      const double h0_y = H(0, 1) * y + H(0, 2), h1_y = H(1, 1) * y + H(1, 2),
-                   h2_y = H(2, 1) * y + H(2, 2);
+      const double h0_y = Hm(0, 1) * y + Hm(0, 2), h1_y = Hm(1, 1) * y + Hm(1, 2),
+                   h2_y = Hm(2, 1) * y + Hm(2, 2);
       for (int x = run.x0; x < run.x1; ++x) {
         const double den = pc.weight_den.a * x + den_y;
         const double w = den != 0 ? std::clamp((pc.weight_num.a * x + num_y) / den, 0.0, 1.0) : 0.0;
-        const double hz = H(2, 0) * x + h2_y;
+        const double hz = Hm(2, 0) * x + h2_y;
         if (!(hz > 0) || !(w > 0)) continue;
-        cv::Vec2d p((H(0, 0) * x + h0_y) / hz, (H(1, 0) * x + h1_y) / hz);
-        if (cam.intrinsics.has_distortion()) p = cam.distort_pixel(p);
+        const cv::Vec2d p =
+            cam.distort_pixel(cv::Vec2d((Hm(0, 0) * x + h0_y) / hz, (Hm(1, 0) * x + h1_y) / hz));
         // Checked after rounding to float: 238.9999999 becomes 239.0f, whose
         // bilinear neighbour would be a row past the image.
         const float u = static_cast<float>(p[0]), v = static_cast<float>(p[1]);
         if (!(u >= 0 && v >= 0 && u < img.cols - 1 && v < img.rows - 1)) continue;
         const float c = bilinear(img, u, v);
-        const size_t k = static_cast<size_t>(run.y) * W + x;
-        s0[k] += static_cast<float>(w);
-        s1[k] += static_cast<float>(w) * c;
-        s2[k] += static_cast<float>(w) * c * c;
+        const size_t j = at + (x - run.x0);
+        s0[j] += static_cast<float>(w);
+        s1[j] += static_cast<float>(w) * c;
+        s2[j] += static_cast<float>(w) * c * c;
       }
     }
   }

@@ -10,6 +10,8 @@
 
 #include "lf/geometry/rig.h"
 #include "lf/geometry/view.h"
+#include "lf/render/plan.h"
+#include "lf/render/render.h"
 
 namespace lf {
 
@@ -53,8 +55,21 @@ struct AutofocusResult {
 // camera, at the rig's sizes); the cost is their aperture-weighted colour
 // variance, truncated at truncate^2 (occlusions), or -1 where less than 0.9
 // of the aperture sees the point. `cost` becomes CV_32F of the view's size.
+// `plans`, where given, keeps the cameras' fragment plans between calls
+// over different planes of the same rig, request and images (a sweep): a
+// camera is planned once and re-aimed at each plane where its pixels do not
+// depend on the plane (lf/render/plan.h plan_is_plane_free, aim_plan); the
+// costs are the same as without it. `kernel` (lf/render/render.h): the
+// AVX2 pixel loop where kAvx2 or kAvx512, the scalar one otherwise; all give
+// identical costs. Throws std::invalid_argument for a kernel this CPU or
+// build lacks.
+struct ConsistencyPlans {
+  std::vector<FragmentPlan> plans;  // per camera
+  std::vector<bool> reusable;       // plans[i] was made where plan_is_plane_free
+};
 void photo_consistency(const Rig& rig, const std::vector<cv::Mat>& gray, const ViewRequest& req,
-                       double q, double truncate, cv::Mat& cost);
+                       double q, double truncate, cv::Mat& cost, ConsistencyPlans* plans = nullptr,
+                       Kernel kernel = Kernel::kBest);
 
 // A copy of the rig scaled so that its median image width is about
 // 1.5 x `width`, with its images grey (CV_32F) at that size: what an

@@ -449,6 +449,19 @@ FragmentPlan plan_fragment(const ViewGeometry& g, int index, int layer) {
                       regions, layer);
 }
 
+bool plan_is_plane_free(const ViewGeometry& g, int index) {
+  const int W = g.width(), H = g.height();
+  const cv::Matx33d& Hc = g.homography(index, 0);
+  return g.request().surface.empty() && g.ulr_cols() == 0 &&
+         (g.focal_at_infinity(0) || positive_on(g.focal_denominator(0), 0, 0, W, H)) &&
+         positive_on({Hc(2, 0), Hc(2, 1), Hc(2, 2)}, 0, 0, W, H);
+}
+
+void aim_plan(const ViewGeometry& g, FragmentPlan& plan) {
+  for (FragmentPiece& pc : plan.pieces)
+    pc.H = make_piece(g.homography(plan.camera_index, 0), 1, pc.weight_num, pc.weight_den).H;
+}
+
 std::array<FragmentPlan, 2> plan_fragment_layers(const ViewGeometry& g, int index) {
   const std::vector<Part> parts = camera_parts(g, index);
   return {plan_regions(g, index, parts, focal_regions(g, 0), 0),

@@ -257,4 +257,18 @@ FragmentPlan plan_fragment(const ViewGeometry& geometry, int index, int layer = 
 // the focal plane.
 std::array<FragmentPlan, 2> plan_fragment_layers(const ViewGeometry& geometry, int index);
 
+// Whether camera `index`'s plan for the geometry's request is its weighted
+// pixels alone, whatever the focal plane: a single plane (no surface, no
+// ULR or four-camera blending field), ahead of the eye at every output pixel
+// (or at infinity), with every pixel's focal point in front of the camera.
+// The aperture weights live on the camera plane, so two such geometries
+// that differ only in the focal plane give the camera plans with the same
+// runs and weight forms; only the homographies differ (aim_plan).
+bool plan_is_plane_free(const ViewGeometry& geometry, int index);
+// A plan made where plan_is_plane_free, re-aimed at `geometry`'s plane
+// (plan_is_plane_free there too, same rig, eye, view and aperture): each
+// piece's homography becomes this plane's, as plan_fragment would make it.
+// What a sweep over planes (lf/focus/focus.h photo_consistency) plans once.
+void aim_plan(const ViewGeometry& geometry, FragmentPlan& plan);
+
 }  // namespace lf
