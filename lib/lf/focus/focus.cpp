@@ -309,10 +309,11 @@ AutofocusContext::AutofocusContext(const Rig& rig, const std::vector<cv::Mat>& i
     levels_.push_back(analysis_images(rig, images, width));
 }
 
-double AutofocusContext::sweep_cost(const ViewRequest& req, int width, double q, int level) const {
+double AutofocusContext::sweep_cost(const ViewRequest& req, int width, double q, int level,
+                                    ConsistencyPlans* plans) const {
   cv::Mat cost;
   photo_consistency(levels_[level].rig, levels_[level].gray, scaled_request(req, width), q,
-                    opt_.truncate, cost);
+                    opt_.truncate, cost, plans);
   double sum = 0;
   size_t count = 0;
   for (const float* c = cost.ptr<float>(); c != cost.ptr<float>() + cost.total(); ++c)
@@ -327,9 +328,10 @@ AutofocusResult AutofocusContext::run(const ViewRequest& req) const {
   AutofocusResult res;
   const int nc = std::max(3, opt_.coarse_steps);
   std::vector<double> qs(nc), cost(nc);
+  ConsistencyPlans coarse_plans, fine_plans;  // each camera planned once per pass
   for (int k = 0; k < nc; ++k) {
     qs[k] = q_max * k / (nc - 1);
-    cost[k] = sweep_cost(req, std::min(opt_.coarse_width, req.view.width), qs[k], 0);
+    cost[k] = sweep_cost(req, std::min(opt_.coarse_width, req.view.width), qs[k], 0, &coarse_plans);
     res.curve.emplace_back(qs[k], cost[k]);
   }
   const int kb = static_cast<int>(std::min_element(cost.begin(), cost.end()) - cost.begin());
@@ -338,7 +340,7 @@ AutofocusResult AutofocusContext::run(const ViewRequest& req) const {
   std::vector<double> fq(nf), fc(nf);
   for (int k = 0; k < nf; ++k) {
     fq[k] = lo + (hi - lo) * k / (nf - 1);
-    fc[k] = sweep_cost(req, std::min(opt_.fine_width, req.view.width), fq[k], 1);
+    fc[k] = sweep_cost(req, std::min(opt_.fine_width, req.view.width), fq[k], 1, &fine_plans);
     res.curve.emplace_back(fq[k], fc[k]);
   }
   const double pos = refined_minimum(fc);

@@ -96,7 +96,8 @@ class AutofocusContext {
   AutofocusResult run(const ViewRequest& req) const;
 
  private:
-  double sweep_cost(const ViewRequest& req, int width, double q, int level) const;
+  double sweep_cost(const ViewRequest& req, int width, double q, int level,
+                    ConsistencyPlans* plans = nullptr) const;
   const Rig* rig_;
   AutofocusOptions opt_;
   std::vector<AnalysisImages> levels_;
