@@ -617,27 +617,36 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
       cv::Rect(bx0 * kBlock - R, by0 * kBlock - R, (bx1 - bx0 + 1) * kBlock + 2 * R,
                (by1 - by0 + 1) * kBlock + 2 * R) &
       cv::Rect(0, 0, width, height);
-  for (int l = 0; l < 2; ++l) var_[l].create(roi.size(), CV_32FC1);
-  mask_.create(roi.size(), CV_32FC1);
+  win_.create(roi.size(), CV_32FC3);
+  win_sum_.create(roi.size(), CV_32FC3);
   cv::parallel_for_(cv::Range(0, roi.height), [&](const cv::Range& rows) {
     for (int r = rows.start; r < rows.end; ++r) {
       const int y = roi.y + r;
-      float* m = mask_.ptr<float>(r);
-      float* v0 = var_[0].ptr<float>(r);
-      float* v1 = var_[1].ptr<float>(r);
-      for (int i = 0; i < roi.width; ++i) {
+      float* p = win_.ptr<float>(r);
+      for (int i = 0; i < roi.width; ++i, p += 3) {
         const int x = roi.x + i;
         const bool on = blocks.at(x, y) && comp_[1].weight_at(x, y) > 0;
-        m[i] = on ? 1.0f : 0.0f;
-        v0[i] = on ? variance_at(0, x, y) : 0.0f;
-        v1[i] = on ? variance_at(1, x, y) : 0.0f;
+        p[0] = on ? variance_at(0, x, y) : 0.0f;
+        p[1] = on ? variance_at(1, x, y) : 0.0f;
+        p[2] = on ? 1.0f : 0.0f;
       }
     }
   });
+  // The window sums in bands of rows on every core: a band's filter reads
+  // the rows beyond it from the whole region (a submatrix's neighbours, as
+  // OpenCV's filters do without BORDER_ISOLATED), so the sums are the
+  // whole region's; zero beyond the region's edges.
   const cv::Size win(kChoiceWindow, kChoiceWindow);
-  for (int l = 0; l < 2; ++l)
-    cv::boxFilter(var_[l], sum_[l], CV_32F, win, cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
-  cv::boxFilter(mask_, mask_, CV_32F, win, cv::Point(-1, -1), false, cv::BORDER_CONSTANT);
+  constexpr int kBoxBand = 64;
+  cv::parallel_for_(
+      cv::Range(0, (roi.height + kBoxBand - 1) / kBoxBand), [&](const cv::Range& bands) {
+        for (int b = bands.start; b < bands.end; ++b) {
+          const cv::Range rows(b * kBoxBand, std::min(roi.height, (b + 1) * kBoxBand));
+          cv::Mat dst = win_sum_.rowRange(rows);
+          cv::boxFilter(win_.rowRange(rows), dst, CV_32F, win, cv::Point(-1, -1), false,
+                        cv::BORDER_CONSTANT);
+        }
+      });
   // Rows of blocks on every core: each pixel's result is its own.
   cv::parallel_for_(cv::Range(by0, by1 + 1), [&](const cv::Range& rows) {
     for (int by = rows.start; by < rows.end; ++by)
@@ -646,9 +655,9 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
         for (int y = by * kBlock; y < std::min(height, (by + 1) * kBlock); ++y)
           for (int x = bx * kBlock; x < std::min(width, (bx + 1) * kBlock); ++x) {
             if (comp_[1].weight_at(x, y) == 0) continue;
-            const int r = y - roi.y, i = x - roi.x;
-            const float c = std::max(1.0f, mask_.at<float>(r, i));
-            const float s0 = sum_[0].at<float>(r, i) / c, s1 = sum_[1].at<float>(r, i) / c;
+            const cv::Vec3f& w = win_sum_.at<cv::Vec3f>(y - roi.y, x - roi.x);
+            const float c = std::max(1.0f, w[2]);
+            const float s0 = w[0] / c, s1 = w[1] / c;
             // The nearer layer, unless the other agrees clearly better.
             if (kChoiceRatio * s0 + kChoiceMargin < s1 && comp_[0].weight_at(x, y) > 0) continue;
             resolve1(comp_[1].sums_at(x, y), out.ptr<uint8_t>(y) + 4 * x);

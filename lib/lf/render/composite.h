@@ -169,9 +169,8 @@ class LayerCompositor {
   cv::Mat variance(int layer) const;
   // Frees the sums; the next composite() allocates them again.
   void release() {
-    for (int l = 0; l < 2; ++l)
-      comp_[l].release(), sq_[l].release(), var_[l].release(), sum_[l].release();
-    mask_.release();
+    for (int l = 0; l < 2; ++l) comp_[l].release(), sq_[l].release();
+    win_.release(), win_sum_.release();
   }
 
  private:
@@ -179,10 +178,10 @@ class LayerCompositor {
   Compositor comp_[2];
   cv::Mat sq_[2];  // CV_32FC1: sum over cameras of w * |c|^2, where layer 1 has weight
   // Over the choice's region (layer 1's blocks and the window's reach
-  // around them; memory kept from frame to frame), CV_32FC1:
-  cv::Mat var_[2];  // the layers' variances where layer 1 has weight, else 0
-  cv::Mat sum_[2];  // their window sums
-  cv::Mat mask_;    // 1 where layer 1 has weight, else 0; then the window's count
+  // around them; memory kept from frame to frame), CV_32FC3: the layers'
+  // variances where layer 1 has weight (else 0) and a 1 there (else 0);
+  // then their window sums (one box filter for the three).
+  cv::Mat win_, win_sum_;
 };
 
 }  // namespace lf
