@@ -748,6 +748,21 @@ TEST(Plan, PhotoConsistencyWithKeptPlansIsUnchanged) {
       }
       EXPECT_GT(cv::countNonZero(fresh >= 0), fresh.total() / 4) << "the view sees the scene";
     }
+    // Grey images inside larger ones (rows with a gap between them) give the
+    // same costs; an image not of its camera's size is refused.
+    std::vector<cv::Mat> framed;
+    for (const cv::Mat& g : an.gray) {
+      cv::Mat big(g.rows + 2, g.cols + 3, CV_32F, cv::Scalar(1e6));
+      g.copyTo(big(cv::Rect(1, 1, g.cols, g.rows)));
+      framed.push_back(big(cv::Rect(1, 1, g.cols, g.rows)));
+    }
+    cv::Mat a, b;
+    lf::photo_consistency(an.rig, an.gray, req, 0.05, 25.0, a);
+    lf::photo_consistency(an.rig, framed, req, 0.05, 25.0, b);
+    EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0);
+    std::vector<cv::Mat> small = an.gray;
+    small[3] = small[3](cv::Rect(0, 0, small[3].cols - 1, small[3].rows));
+    EXPECT_THROW(lf::photo_consistency(an.rig, small, req, 0.05, 25.0, a), std::invalid_argument);
     int kept_plans = 0;
     for (bool r : kept.reusable) kept_plans += r;
     EXPECT_GT(kept_plans, 0);

@@ -217,6 +217,15 @@ void photo_consistency(const Rig& rig, const std::vector<cv::Mat>& gray, const V
   const ViewGeometry g(rig, req);
   const int W = req.view.width, H = req.view.height;
   std::vector<float> s0(static_cast<size_t>(W) * H, 0), s1(s0.size(), 0), s2(s0.size(), 0);
+  if (gray.size() != rig.cameras.size())
+    throw std::invalid_argument("photo consistency: " + std::to_string(gray.size()) +
+                                " grey images for " + std::to_string(rig.cameras.size()) +
+                                " cameras");
+  for (size_t i = 0; i < gray.size(); ++i)
+    if (gray[i].type() != CV_32F || gray[i].cols != rig.cameras[i].width ||
+        gray[i].rows != rig.cameras[i].height)
+      throw std::invalid_argument("photo consistency: camera " + std::to_string(rig.cameras[i].id) +
+                                  "'s grey image is not CV_32F of its size");
   if (kernel == Kernel::kBest) kernel = best_kernel();
   if (!kernel_available(kernel))
     throw std::invalid_argument(std::string("photo consistency: the ") + kernel_name(kernel) +
@@ -247,7 +256,6 @@ void photo_consistency(const Rig& rig, const std::vector<cv::Mat>& gray, const V
     if (plan.empty()) continue;
     const Camera& cam = rig.cameras[i];
     const cv::Mat& img = gray[i];
-    CV_Assert(img.type() == CV_32F && img.isContinuous());
     for (const Run& run : plan.runs) {
       const FragmentPiece& pc = plan.pieces[run.piece];
       const size_t at = static_cast<size_t>(run.y) * W + run.x0;
@@ -261,7 +269,7 @@ void photo_consistency(const Rig& rig, const std::vector<cv::Mat>& gray, const V
                          f(Hm(2, 0)),        f(Hm(2, 1) * y + Hm(2, 2)),
                          f(pc.weight_num.a), f(pc.weight_num.b * y + pc.weight_num.c),
                          f(pc.weight_den.a), f(pc.weight_den.b * y + pc.weight_den.c),
-                         img.ptr<float>(),   img.cols,
+                         img.ptr<float>(),   static_cast<int>(img.step1()),
                          f(img.cols - 1),    f(img.rows - 1)};
         run_kernel(k, run.x0, run.x1 - run.x0, &s0[at], &s1[at], &s2[at]);
         continue;

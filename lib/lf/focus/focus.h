@@ -62,7 +62,8 @@ struct AutofocusResult {
 // costs are the same as without it. `kernel` (lf/render/render.h): the
 // AVX2 pixel loop where kAvx2 or kAvx512, the scalar one otherwise; all give
 // identical costs. Throws std::invalid_argument for a kernel this CPU or
-// build lacks.
+// build lacks, or grey images that are not one CV_32F image of its size
+// per camera.
 struct ConsistencyPlans {
   std::vector<FragmentPlan> plans;  // per camera
   std::vector<bool> reusable;       // plans[i] was made where plan_is_plane_free
