@@ -667,14 +667,21 @@ TEST(Plan, FourCameraWeightsAreBilinearOverTheCell) {
 // and re-aimed at the other is exactly plan_fragment's at the other.
 TEST(Plan, APlaneFreePlanReAimedIsThePlanOfTheOtherPlane) {
   lf::Rig rig = lf::synthetic_grid_rig(4, 4, 0.5, 160, 120, 45, 2.0, 11);
-  std::mt19937_64 rng(9);
-  std::uniform_real_distribution<double> u(-1, 1);
   int compared = 0, refused = 0;
+  // Eyes on, behind and in front of the camera plane, looking at the scene
+  // at different angles; tilted focal planes near and far. (Fixed values:
+  // random ones drawn inside one call's arguments differ between
+  // compilers.)
+  const cv::Vec3d eyes[] = {{0.1, 0.2, 0.0}, {-0.6, 0.3, -1.0}, {0.7, -0.4, 0.5}, {0.0, 0.0, -2.0},
+                            {0.3, 0.6, 1.2}, {-0.2, -0.7, 0.0}, {1.1, 0.1, -0.5}, {-0.9, 0.8, 0.8}};
   for (int v = 0; v < 8; ++v) {
-    const lf::ViewRequest req = random_request(rig, rng, 90, 70, v % 2 == 0);
+    lf::ViewRequest req;
+    const cv::Vec3d target(0.4 * (v % 3) - 0.4, 0.3 * (v % 2), 10.0 + v);
+    req.view = lf::VirtualView::look_at(eyes[v], target, {0, 1, 0}, 35 + 5 * v, 90, 70);
+    req.focal_plane = lf::FocalPlane::through({0, 0, 8.0 + v}, cv::Vec3d(0.05 * v - 0.2, 0.1, 1.0));
     lf::ViewRequest other = req;
-    other.focal_plane = lf::FocalPlane::through({0, 0, 6 + 20 * (u(rng) + 1)},
-                                                cv::Vec3d(0.2 * u(rng), 0.2 * u(rng), 1.0));
+    other.focal_plane =
+        lf::FocalPlane::through({0, 0, 6.0 + 5 * v}, cv::Vec3d(0.1 - 0.03 * v, -0.05 * v, 1.0));
     lf::ViewRequest behind = req;  // behind the eye: every pixel's ray misses it
     behind.focal_plane = lf::FocalPlane::through({0, 0, -5}, {0, 0, 1});
     const lf::ViewGeometry a(rig, req), b(rig, other), c(rig, behind);
@@ -707,7 +714,9 @@ TEST(Plan, APlaneFreePlanReAimedIsThePlanOfTheOtherPlane) {
   std::printf("%d non-empty plans compared, %d cameras not plane-free\n", compared, refused);
   EXPECT_GT(compared, 40);
   // A surface request is never plane-free.
-  lf::ViewRequest surf = random_request(rig, rng, 90, 70, false);
+  lf::ViewRequest surf;
+  surf.view = lf::VirtualView::look_at({0.1, 0.2, -1.0}, {0, 0, 10}, {0, 1, 0}, 40, 90, 70);
+  surf.focal_plane = lf::FocalPlane::through({0, 0, 9}, {0, 0, 1});
   surf.surface.tile = 16;
   surf.surface.cols = 6, surf.surface.rows = 5;
   surf.surface.planes = {surf.focal_plane};
