@@ -95,15 +95,14 @@ struct RunTerms {
 };
 
 // Adds each pixel's aperture weight w, w c and w c^2 (c the camera's
-// bilinear sample) to a0, a1, a2 for x = x0 .. x0 + n - 1. Without a branch,
-// so that the compiler vectorises it (a pixel the camera does not see is
-// sampled at (0, 0) with weight 0); compiled for each instruction set below.
-[[gnu::always_inline]] inline void accumulate_run_body(const RunTerms& k, int x0, int n,
-                                                       float* __restrict a0, float* __restrict a1,
-                                                       float* __restrict a2) {
+// bilinear sample) to a0, a1, a2 for x = x0 .. x0 + n - 1: the reference
+// that accumulate_run_avx2 reproduces. Without a branch on the pixel (one the
+// camera does not see is sampled at (0, 0) with weight 0), as the vector loop
+// must be; the terms are copied to locals, which the writes cannot alias.
+void accumulate_run(const RunTerms& k, int x0, int n, float* a0, float* a1, float* a2) {
   const float xa = k.xa, xb = k.xb, ya = k.ya, yb = k.yb, za = k.za, zb = k.zb;
   const float na = k.na, nb = k.nb, da = k.da, db = k.db, umax = k.umax, vmax = k.vmax;
-  const float* __restrict img = k.img;
+  const float* img = k.img;
   const int stride = k.stride;
   for (int j = 0; j < n; ++j) {
     const float x = static_cast<float>(x0 + j);
@@ -125,9 +124,6 @@ struct RunTerms {
   }
 }
 
-void accumulate_run(const RunTerms& k, int x0, int n, float* a0, float* a1, float* a2) {
-  accumulate_run_body(k, x0, n, a0, a1, a2);
-}
 #if (defined(__x86_64__) || defined(_M_X64)) && !defined(LF_NO_SIMD)
 #define LF_PC_SIMD 1
 // Eight pixels at a time, the same operations in the same order as the
@@ -177,7 +173,7 @@ __attribute__((target("avx2"))) void accumulate_run_avx2(const RunTerms& k, int 
     _mm256_storeu_ps(a1 + j, _mm256_add_ps(_mm256_loadu_ps(a1 + j), wc));
     _mm256_storeu_ps(a2 + j, _mm256_add_ps(_mm256_loadu_ps(a2 + j), _mm256_mul_ps(wc, c)));
   }
-  accumulate_run_body(k, x0 + j, n - j, a0 + j, a1 + j, a2 + j);
+  accumulate_run(k, x0 + j, n - j, a0 + j, a1 + j, a2 + j);
 }
 #endif
 }  // namespace
@@ -211,12 +207,6 @@ AnalysisImages analysis_images(const Rig& rig, const std::vector<cv::Mat>& image
 void photo_consistency(const Rig& rig, const std::vector<cv::Mat>& gray, const ViewRequest& req_in,
                        double q, double truncate, cv::Mat& cost, ConsistencyPlans* reuse,
                        Kernel kernel) {
-  ViewRequest req = req_in;
-  req.surface = {};
-  req.focal_plane = plane_at_inverse_depth(rig, q);
-  const ViewGeometry g(rig, req);
-  const int W = req.view.width, H = req.view.height;
-  std::vector<float> s0(static_cast<size_t>(W) * H, 0), s1(s0.size(), 0), s2(s0.size(), 0);
   if (gray.size() != rig.cameras.size())
     throw std::invalid_argument("photo consistency: " + std::to_string(gray.size()) +
                                 " grey images for " + std::to_string(rig.cameras.size()) +
@@ -230,6 +220,12 @@ void photo_consistency(const Rig& rig, const std::vector<cv::Mat>& gray, const V
   if (!kernel_available(kernel))
     throw std::invalid_argument(std::string("photo consistency: the ") + kernel_name(kernel) +
                                 " kernel is not available on this CPU or build");
+  ViewRequest req = req_in;
+  req.surface = {};
+  req.focal_plane = plane_at_inverse_depth(rig, q);
+  const ViewGeometry g(rig, req);
+  const int W = req.view.width, H = req.view.height;
+  std::vector<float> s0(static_cast<size_t>(W) * H, 0), s1(s0.size(), 0), s2(s0.size(), 0);
   auto run_kernel = accumulate_run;
 #ifdef LF_PC_SIMD
   if (kernel == Kernel::kAvx2 || kernel == Kernel::kAvx512) run_kernel = accumulate_run_avx2;
