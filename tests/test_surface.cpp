@@ -826,6 +826,54 @@ TEST(SurfaceProbe, TheLastEstimateAsThePriorKeepsTilesSteady) {
   EXPECT_LE(changed_with, changed_without / 2);
 }
 
+// A tile that keeps the prior's depth may keep the depth of a neighbour's
+// new plane. Its second plane comes from the depths the tiles have, so it
+// is never the tile's own plane: the request stays valid. (It was once the
+// neighbour's new label's plane, lf::validate refused the surface, and
+// lfviewrequest ignored nearly every re-estimated surface of the live
+// pipeline: tests/test_gst.cpp WholeViewModeDefersLayerPairs.)
+TEST(SurfaceProbe, ATileThatKeptItsDepthGetsNoSecondPlaneOfItsOwn) {
+  const Held h = disc_scene(0.3);
+  lf::SurfaceOptions opt;
+  opt.change_penalty = 1e9;  // every tile keeps the prior's depth
+  const lf::SurfaceProbeAnswers answers = answer_probe(h, opt);
+  bool ok = false;
+  lf::SurfacePrior none;
+  const lf::SurfaceEstimate first = answers.estimate(h.rig, &ok, &none);
+  ASSERT_TRUE(ok);
+  ASSERT_GT(first.two_plane_tiles, 0);
+  // The prior: each tile at the depth of its neighbour furthest in depth
+  // (a tile by the disc's edge had the depth across it).
+  const int cols = first.surface.cols, rows = first.surface.rows;
+  lf::SurfacePrior prior = lf::prior_of(first, cols, rows);
+  ASSERT_TRUE(prior.fits(cols, rows));
+  const std::vector<double>& q = first.tile_q;
+  for (int t = 0; t < cols * rows; ++t) {
+    int far = t;
+    for (int dr = -1; dr <= 1; ++dr)
+      for (int dc = -1; dc <= 1; ++dc) {
+        const int r = t / cols + dr, c = t % cols + dc;
+        if (r >= 0 && c >= 0 && r < rows && c < cols &&
+            std::abs(q[r * cols + c] - q[t]) > std::abs(q[far] - q[t]))
+          far = r * cols + c;
+      }
+    prior.tile_q[t] = q[far];
+  }
+  const lf::SurfaceEstimate next = answers.estimate(h.rig, &ok, &prior);
+  ASSERT_TRUE(ok);
+  std::printf("%d tiles kept the prior's depth, %d have two planes\n", next.kept_tiles,
+              next.two_plane_tiles);
+  EXPECT_GT(next.kept_tiles, 20);
+  EXPECT_GT(next.two_plane_tiles, 20);
+  const lf::FocalSurface& fs = next.surface;
+  ASSERT_EQ(fs.second_of.size(), fs.plane_of.size());
+  for (size_t t = 0; t < fs.plane_of.size(); ++t)
+    if (fs.second_of[t] != lf::FocalSurface::kNone) EXPECT_NE(fs.second_of[t], fs.plane_of[t]) << t;
+  lf::ViewRequest r = h.req;
+  lf::apply(next, r);
+  EXPECT_NO_THROW(lf::validate(r));
+}
+
 TEST(SurfaceProbe, LateCamerasRepeatsAndStrangersAreLeftOut) {
   const Held h = disc_scene(0.3);
   // Camera 3 answered only the first 10 steps: it is not scored.

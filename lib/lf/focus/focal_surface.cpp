@@ -495,26 +495,27 @@ SurfaceEstimate surface_from_costs(const Rig& rig, const SweepCosts& c, int cols
   }
   if (opt.second_planes) {
     // A tile next to a depth edge holds both depths: its second plane is
-    // the label among its 8 neighbours furthest from its own, when that is
-    // at least second_gap planes of the first pass away (in inverse depth:
-    // the costs may be a finer sweep's).
+    // the plane among its 8 labelled neighbours' furthest from its own, when
+    // that is at least second_gap planes of the first pass away (in inverse
+    // depth: the costs may be a finer sweep's). The tiles' depths are the
+    // ones they have now: a tile that kept the prior's depth may have the
+    // plane of a neighbour's new label, which is then no second plane.
     fs.second_of.assign(tiles, FocalSurface::kNone);
     const double min_dq = opt.second_gap * sweep_q_max(rig, opt) / (opt.planes - 1);
-    auto q_of = [&](int l) { return l == M ? single_q : c.qs[l]; };
+    const std::vector<double>& tq = out.tile_q;
     for (int r = 0; r < rows; ++r)
       for (int q = 0; q < cols; ++q) {
-        const int t = r * cols + q, l = label[t];
-        if (l < 0) continue;
+        const int t = r * cols + q;
+        if (label[t] < 0) continue;
         int far = -1;
         for (int dr = -1; dr <= 1; ++dr)
           for (int dq = -1; dq <= 1; ++dq) {
-            const int rr = r + dr, qq = q + dq;
-            if (rr < 0 || qq < 0 || rr >= rows || qq >= cols) continue;
-            const int n = label[rr * cols + qq];
-            if (n < 0 || std::abs(q_of(n) - q_of(l)) < min_dq) continue;
-            if (far < 0 || std::abs(q_of(n) - q_of(l)) > std::abs(q_of(far) - q_of(l))) far = n;
+            const int rr = r + dr, qq = q + dq, u = rr * cols + qq;
+            if (rr < 0 || qq < 0 || rr >= rows || qq >= cols || label[u] < 0) continue;
+            if (std::abs(tq[u] - tq[t]) < min_dq) continue;
+            if (far < 0 || std::abs(tq[u] - tq[t]) > std::abs(tq[far] - tq[t])) far = u;
           }
-        if (far >= 0) fs.second_of[t] = static_cast<uint8_t>(plane_of_label[far]);
+        if (far >= 0) fs.second_of[t] = fs.plane_of[far];
       }
     if (cells && cells->cell > 0) {
       const SweepCosts& cc = *cells;
