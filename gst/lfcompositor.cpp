@@ -346,14 +346,12 @@ static void absorb(LfCompositor* self, GstAggregatorPad* pad, GstBuffer* buf) {
   std::vector<Piece> pieces = lf::received_pieces(
       std::move(parts),
       any_raw ? std::make_shared<const lfgst::MappedBuffer>(std::move(*mapped)) : nullptr);
-  Piece& piece = pieces.front();
-  // A drawing left to us: only on an empty fragment this process made
-  // (the meta is never copied), for this camera and this view size.
-  if (piece.f.empty() && pieces.size() == 1)
-    if (auto d = lfgst::deferred_of(buf); d &&
-                                          d->camera.id == static_cast<int>(piece.f.camera_id) &&
-                                          d->plan.out_width == w && d->plan.out_height == h)
-      piece.deferred = std::move(d);
+  // Drawings left to us (one, or a layer pair's two: a second piece).
+  if (pieces.front().f.empty() && pieces.size() == 1) {
+    auto d = lfgst::deferred_drawings(buf, static_cast<int>(camera), w, h);
+    if (d.size() == 2) pieces.push_back(pieces.front()), pieces.back().f.layer = 1;
+    for (size_t k = 0; k < d.size(); ++k) pieces[k].deferred = std::move(d[k]);
+  }
   const GstClockTime pts = GST_BUFFER_PTS(buf);
   const GstClockTime rt = GST_CLOCK_TIME_IS_VALID(pts)
                               ? gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, pts)

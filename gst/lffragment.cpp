@@ -340,16 +340,16 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
           out = empty_fragment(req, cam, f.capture_time_ns);
           return;
         }
-        // defer (lfarray's whole-view mode): no pixels here; the plan and
-        // the image go on an empty fragment to the compositor, which draws
-        // them (probes, which are scored from pixels, and layer pairs are
-        // drawn here as always).
-        if (st->s.defer && st->s.encoding == Encoding::kRaw && !probe && answer.count() == 1 &&
+        // defer (lfarray's whole-view mode): the plan (a layer pair's two) and the image go on
+        // an empty fragment to the compositor (probes, scored from pixels, are drawn here).
+        const size_t n = answer.count();
+        if (st->s.defer && st->s.encoding == Encoding::kRaw && !probe && (n == 1 || n == 2) &&
             !answer.quilt() && !answer.plan(0).empty()) {
           out = empty_fragment(req, cam, f.capture_time_ns);
           lfgst::add_deferred_meta(
               out, lfgst::deferred_draw(frame, info, rgba.data == image.data ? cv::Mat() : rgba,
-                                        cam, st->index, answer.take_plan(0)));
+                                        cam, st->index, answer.take_plan(0),
+                                        n == 2 ? answer.take_plan(1) : lf::FragmentPlan{}));
           lfgst::trace(GST_ELEMENT(self), "warped", req.viewer_id, req.sequence, cam.id, 0);
           lfgst::trace(GST_ELEMENT(self), "encoded", req.viewer_id, req.sequence, cam.id,
                        static_cast<gint64>(gst_buffer_get_size(out)));

@@ -73,6 +73,17 @@ std::shared_ptr<const DeferredDraw> deferred_of(GstBuffer* buf) {
   return m && m->draw ? *m->draw : nullptr;
 }
 
+std::vector<std::shared_ptr<const lf::DeferredDrawing>> deferred_drawings(GstBuffer* buf,
+                                                                          int camera_id, int width,
+                                                                          int height) {
+  std::shared_ptr<const DeferredDraw> d = deferred_of(buf);
+  if (!d || d->camera.id != camera_id || d->plan.out_width != width || d->plan.out_height != height)
+    return {};
+  std::vector<std::shared_ptr<const lf::DeferredDrawing>> all{d};
+  if (!d->layer1.plan.empty()) all.emplace_back(d, &d->layer1);  // shares d's lifetime
+  return all;
+}
+
 int64_t capture_time_of(GstBuffer* frame, int camera_id, GstObject* warn_on) {
   int meta_cam = -1;
   guint64 meta_time = 0;
@@ -87,7 +98,7 @@ int64_t capture_time_of(GstBuffer* frame, int camera_id, GstObject* warn_on) {
 
 std::shared_ptr<DeferredDraw> deferred_draw(GstBuffer* frame, const GstVideoInfo& info,
                                             const cv::Mat& image, const lf::Camera& cam, int slot,
-                                            lf::FragmentPlan plan) {
+                                            lf::FragmentPlan plan, lf::FragmentPlan layer1) {
   auto d = std::make_shared<DeferredDraw>();
   if (image.empty()) {  // the frame itself: mapped while the drawing waits
     if (!gst_video_frame_map(&d->frame, &info, frame, GST_MAP_READ))
@@ -104,6 +115,11 @@ std::shared_ptr<DeferredDraw> deferred_draw(GstBuffer* frame, const GstVideoInfo
   d->camera = cam;
   d->slot = slot;
   d->plan = std::move(plan);
+  if (!layer1.empty()) {
+    lf::DeferredDrawing& l = d->layer1;
+    l.image = d->image, l.frame_key = d->frame_key, l.frame_pts = d->frame_pts;
+    l.camera = cam, l.slot = slot, l.plan = std::move(layer1);
+  }
   return d;
 }
 

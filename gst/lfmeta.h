@@ -8,6 +8,7 @@
 
 #include <memory>
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "lf/geometry/camera.h"
 #include "lf/render/plan.h"
@@ -65,6 +66,9 @@ struct DeferredDraw : lf::DeferredDrawing {
   // colour-corrected copy.
   GstVideoFrame frame{};  // holds a reference to the frame buffer while mapped
   bool mapped = false;
+  // A layer pair (a focal surface with second planes): the layer-1
+  // drawing, of the same image (its plan empty otherwise).
+  lf::DeferredDrawing layer1;
   DeferredDraw() = default;
   DeferredDraw(const DeferredDraw&) = delete;
   DeferredDraw& operator=(const DeferredDraw&) = delete;
@@ -74,13 +78,20 @@ struct DeferredDraw : lf::DeferredDrawing {
 };
 // The drawing of `plan` (camera `cam`, renderer slot `slot`) from camera
 // frame `frame` (`info`): `image` when it is a copy (colour-corrected,
-// shared), else (empty) the frame itself, mapped while the drawing lives.
-// Throws std::runtime_error when the frame cannot be mapped.
+// shared), else (empty) the frame itself, mapped while the drawing lives;
+// `layer1`, when not empty, a layer pair's layer-1 plan, drawn from the
+// same image. Throws std::runtime_error when the frame cannot be mapped.
 std::shared_ptr<DeferredDraw> deferred_draw(GstBuffer* frame, const GstVideoInfo& info,
                                             const cv::Mat& image, const lf::Camera& cam, int slot,
-                                            lf::FragmentPlan plan);
+                                            lf::FragmentPlan plan, lf::FragmentPlan layer1 = {});
 void add_deferred_meta(GstBuffer* buf, std::shared_ptr<const DeferredDraw> draw);
 // The drawing on `buf`, or null.
 std::shared_ptr<const DeferredDraw> deferred_of(GstBuffer* buf);
+// The drawings on `buf` when it carries one for camera `camera_id` and a
+// `width` x `height` view (only an empty fragment this process made: the
+// meta is never copied): its plan's, then a layer pair's layer 1; else none.
+std::vector<std::shared_ptr<const lf::DeferredDrawing>> deferred_drawings(GstBuffer* buf,
+                                                                          int camera_id, int width,
+                                                                          int height);
 
 }  // namespace lfgst

@@ -1574,6 +1574,59 @@ TEST_F(Gst, TheDefaultPipelineFocusesOnASurface) {
   gst_object_unref(p);
 }
 
+// A focal surface with second planes (the default) in lfarray's whole-view
+// mode: a camera's layer pair is deferred like a single fragment (both
+// plans on its empty fragment), and the compositor draws the pairs on every
+// core. The frames equal whole-view=false's, where each lffragment draws its
+// own pair, exactly; the view has two-plane tiles, so pairs were drawn.
+TEST_F(Gst, WholeViewModeDefersLayerPairs) {
+  // A 4 x 4 block at half resolution (the 2 x 2 block's surfaces keep one
+  // plane per tile).
+  const std::string rig_path =
+      (std::filesystem::temp_directory_path() / "lf-test-chess16.json").string();
+  lf::save_rig(
+      lf::scale_rig(lf::grid_block(lf::import_dataset(data_path("stanford-chess")), 0, 0, 8, 8),
+                    1.0),
+      rig_path);
+  const std::string req = "lfviewrequest name=req rig=" + rig_path +
+                          " num-buffers=6 width=640 height=480 orbit=0.3 surface-interval=2";
+  const std::string out = " ! video/x-raw,format=RGBA ! appsink name=out sync=false";
+  std::string err;
+  std::vector<std::string> warnings;
+  const auto whole = run(req + " ! lfarray rig=" + rig_path + out, 100, &warnings, &err);
+  ASSERT_EQ(whole.size(), 6u) << err;
+  const auto each =
+      run(req + " ! lfarray rig=" + rig_path + " whole-view=false" + out, 100, &warnings, &err);
+  ASSERT_EQ(each.size(), 6u) << err;
+  // Every surface the compositor sent back was taken (a tile that kept the
+  // prior's depth once got its neighbour's new plane, its own, as its
+  // second, and lfviewrequest ignored the whole surface).
+  for (const std::string& w : warnings) ADD_FAILURE() << w;
+  for (size_t k = 0; k < whole.size(); ++k) {
+    EXPECT_EQ(cv::norm(whole[k], each[k], cv::NORM_INF), 0) << "frame " << k;
+    EXPECT_GT(cv::countNonZero(whole[k].reshape(1)), static_cast<int>(whole[k].total()))
+        << "frame " << k << " is mostly empty";
+  }
+  // The same requests, for their surfaces' two-plane tiles.
+  GstElement* p =
+      gst_parse_launch((req + " ! lfarray rig=" + rig_path + " ! fakesink").c_str(), nullptr);
+  ASSERT_NE(p, nullptr);
+  gst_element_set_state(p, GST_STATE_PLAYING);
+  GstBus* bus = gst_element_get_bus(p);
+  expect_eos(bus);
+  GstElement* r = gst_bin_get_by_name(GST_BIN(p), "req");
+  guint two = 0, planes = 0;
+  g_object_get(r, "surface-two-plane-tiles", &two, "surface-planes", &planes, nullptr);
+  std::printf("whole-view layer pairs: %u planes, %u two-plane tiles in the last request\n", planes,
+              two);
+  EXPECT_GT(two, 0u) << "no second planes: the pairs were not exercised";
+  gst_object_unref(r);
+  gst_object_unref(bus);
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(p);
+  std::filesystem::remove(rig_path);
+}
+
 TEST_F(Gst, BadPropertiesGiveClearErrors) {
   std::string err;
   run("lfviewrequest num-buffers=1 ! fakesink", 1, nullptr, &err);

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cstring>
+#include <exception>
+#include <opencv2/core/utility.hpp>
 #include <stdexcept>
 
 #include "lf/render/render.h"
@@ -41,9 +43,11 @@ std::vector<std::pair<size_t, std::string>> Renderer::composite(
     int eye, int width, int height, const std::vector<FragmentPixels>& fragments,
     const std::vector<SlotDrawing>& drawings, cv::Mat& into) {
   if (eye != 0 && eye != 1) throw std::invalid_argument("renderer: eye must be 0 or 1");
-  const bool layered = std::any_of(fragments.begin(), fragments.end(), [](const FragmentPixels& f) {
-    return f.fragment && f.fragment->layer != 0;
-  });
+  const bool layered =
+      std::any_of(fragments.begin(), fragments.end(),
+                  [](const FragmentPixels& f) { return f.fragment && f.fragment->layer != 0; }) ||
+      std::any_of(drawings.begin(), drawings.end(),
+                  [](const SlotDrawing& d) { return d.plan && d.plan->layer != 0; });
   if (!layered) return add(eye, width, height, fragments, drawings, into);
   // Two planes per tile, chosen per pixel from every camera's pixels: the
   // drawings drawn first, into fragments of their own.
@@ -59,10 +63,15 @@ std::vector<std::pair<size_t, std::string>> Renderer::composite(
     describe_fragment(*d.plan, drawn[i]);
     drawn[i].camera_id = static_cast<uint32_t>(d.camera->id);
     drawn[i].pixels.resize(4 * d.plan->pixel_count());
-    draw(*d.plan, *d.camera, d.slot, drawn[i].pixels.data());
     all.push_back({&drawn[i], drawn[i].pixels.data()});
   }
+  draw_all(drawings, drawn);
   return layers_[eye].composite(width, height, all, into);
+}
+
+void Renderer::draw_all(const std::vector<SlotDrawing>& drawings, std::vector<Fragment>& drawn) {
+  for (size_t i = 0; i < drawings.size(); ++i)
+    draw(*drawings[i].plan, *drawings[i].camera, drawings[i].slot, drawn[i].pixels.data());
 }
 
 namespace {
@@ -90,6 +99,22 @@ class CpuRenderer final : public Renderer {
   }
 
  protected:
+  // On every core, each drawing by one thread (the bytes are the serial
+  // ones); the first drawing's error in drawing order is thrown, as the
+  // serial loop would throw it.
+  void draw_all(const std::vector<SlotDrawing>& drawings, std::vector<Fragment>& drawn) override {
+    std::vector<std::exception_ptr> failed(drawings.size());
+    cv::parallel_for_(cv::Range(0, static_cast<int>(drawings.size())), [&](const cv::Range& r) {
+      for (int i = r.start; i < r.end; ++i) try {
+          const SlotDrawing& d = drawings[i];
+          draw(*d.plan, *d.camera, d.slot, drawn[i].pixels.data());
+        } catch (...) {
+          failed[i] = std::current_exception();
+        }
+    });
+    for (const std::exception_ptr& e : failed)
+      if (e) std::rethrow_exception(e);
+  }
   std::vector<std::pair<size_t, std::string>> add(int eye, int width, int height,
                                                   const std::vector<FragmentPixels>& fragments,
                                                   const std::vector<SlotDrawing>& drawings,

@@ -67,10 +67,10 @@ class Renderer {
   // Eye `eye` (0, or 1 for a stereo pair's right eye: each has sums of its
   // own) of a width x height frame: the fragments and the drawings added
   // and resolved into `into` (CV_8UC4), as Compositor::composite(). A frame
-  // with layer-1 fragments (a focal surface's second planes) takes its two
-  // planes per tile per pixel (LayerCompositor, on the CPU for either
-  // backend; its drawings drawn first). Returns what was left out, (index,
-  // why): fragments first, then drawings.
+  // with layer-1 fragments or drawings (a focal surface's second planes)
+  // takes its two planes per tile per pixel (LayerCompositor, on the CPU
+  // for either backend; its drawings drawn first, draw_all()). Returns what
+  // was left out, (index, why): fragments first, then drawings.
   std::vector<std::pair<size_t, std::string>> composite(
       int eye, int width, int height, const std::vector<FragmentPixels>& fragments,
       const std::vector<SlotDrawing>& drawings, cv::Mat& into);
@@ -90,6 +90,10 @@ class Renderer {
       int eye, int width, int height, const std::vector<FragmentPixels>& fragments,
       const std::vector<SlotDrawing>& drawings, cv::Mat& into) = 0;
   static void check_slot(int slot);
+  // composite()'s drawings of a frame with layer-1 fragments, each into
+  // its fragment's pixels (sized by the caller): draw() of each in turn;
+  // the CPU's on every core.
+  virtual void draw_all(const std::vector<SlotDrawing>& drawings, std::vector<Fragment>& drawn);
 
  private:
   LayerCompositor layers_[2];
