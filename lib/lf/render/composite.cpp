@@ -20,11 +20,19 @@
 namespace lf {
 
 void Compositor::reset(int width, int height) {
+  reset(width, height, 0, height);
+}
+
+void Compositor::reset(int width, int height, int y0, int y1) {
   if (width < 1 || height < 1 || width > 16384 || height > 16384)
     throw std::invalid_argument("compositor: output size out of range");
+  if (y0 < 0 || y0 > y1 || y1 > height)
+    throw std::invalid_argument("compositor: rows to zero out of range");
   w_ = width;
   h_ = height;
-  acc_.assign(static_cast<size_t>(width) * height * 4, 0);
+  acc_.resize(static_cast<size_t>(width) * height * 4);
+  std::fill(acc_.begin() + static_cast<size_t>(y0) * width * 4,
+            acc_.begin() + static_cast<size_t>(y1) * width * 4, 0u);
 }
 
 void Compositor::add(const Fragment& f) {
@@ -557,7 +565,8 @@ Fragment sum_fragments(const std::vector<FragmentPixels>& fragments) {
 std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
     int width, int height, const std::vector<FragmentPixels>& fragments, cv::Mat& out,
     cv::Mat* choice) {
-  comp_[1].reset(width, height);  // throws for a bad size (layer 0: composite() below)
+  comp_[1].reset(width, height, 0, 0);  // throws for a bad size (layer 0: composite() below)
+  y0_ = y1_ = 0;
   std::vector<std::pair<size_t, std::string>> refused;
   std::vector<size_t> layer_of[2];
   for (size_t i = 0; i < fragments.size(); ++i) {
@@ -583,9 +592,22 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
   for (size_t i : layer_of[0]) zero.push_back(fragments[i]);
   comp_[0].composite(width, height, zero, out);
   if (layer_of[1].empty()) return refused;
+  // Layer 1's sums and both layers' squares are read only in the blocks
+  // that layer 1 reaches: only their rows are zeroed.
+  y0_ = height, y1_ = 0;
+  for (size_t i : layer_of[1]) {
+    const cv::Rect& r = fragments[i].fragment->rect;
+    if (r.height > 0) y0_ = std::min(y0_, r.y), y1_ = std::max(y1_, r.y + r.height);
+  }
+  if (y0_ >= y1_) {
+    y0_ = y1_ = 0;
+    return refused;
+  }
+  y0_ = y0_ / kBlock * kBlock, y1_ = std::min(height, (y1_ + kBlock - 1) / kBlock * kBlock);
+  comp_[1].reset(width, height, y0_, y1_);
   for (int l = 0; l < 2; ++l) {
     sq_[l].create(height, width, CV_32FC1);  // the last frame's memory when the size is the same
-    sq_[l].setTo(0);
+    sq_[l].rowRange(y0_, y1_).setTo(0);
   }
   // Layer 1 first: where it has weight is where the choice is made.
   Blocks blocks;
@@ -680,7 +702,7 @@ float LayerCompositor::variance_at(int layer, int x, int y) const {
 cv::Mat LayerCompositor::variance(int layer) const {
   const int w = comp_[0].width(), h = comp_[0].height();
   cv::Mat v(h, w, CV_32FC1, cv::Scalar(0));
-  for (int y = 0; y < h; ++y)
+  for (int y = y0_; y < y1_; ++y)
     for (int x = 0; x < w; ++x)
       if (comp_[1].weight_at(x, y) > 0) v.at<float>(y, x) = variance_at(layer, x, y);
   return v;

@@ -39,6 +39,10 @@ struct FragmentDrawing {
 class Compositor {
  public:
   void reset(int width, int height);
+  // The same with only rows [y0, y1) zeroed (0 <= y0 <= y1 <= height): the
+  // other rows' sums are left as they were, so only those rows may be added
+  // to and read (LayerCompositor: the rows that layer 1 reaches).
+  void reset(int width, int height, int y0, int y1);
   // Frees the sums (16 bytes a pixel); the next reset() allocates them again.
   void release() { std::vector<uint32_t>().swap(acc_); }
   // Adds a fragment. Throws std::invalid_argument if it does not fit the frame.
@@ -175,8 +179,9 @@ class LayerCompositor {
 
  private:
   float variance_at(int layer, int x, int y) const;
-  Compositor comp_[2];
-  cv::Mat sq_[2];  // CV_32FC1: sum over cameras of w * |c|^2, where layer 1 has weight
+  Compositor comp_[2];   // comp_[1] and sq_: zeroed (and valid) in rows [y0_, y1_) only
+  int y0_ = 0, y1_ = 0;  // the rows of the last composite's layer-1 fragments
+  cv::Mat sq_[2];        // CV_32FC1: sum over cameras of w * |c|^2, where layer 1 has weight
   // Over the choice's region (layer 1's blocks and the window's reach
   // around them; memory kept from frame to frame), CV_32FC3: the layers'
   // variances where layer 1 has weight (else 0) and a 1 there (else 0);

@@ -52,26 +52,33 @@ std::vector<std::pair<size_t, std::string>> Renderer::composite(
   // Two planes per tile, chosen per pixel from every camera's pixels: the
   // drawings drawn first, into fragments of their own.
   std::vector<Fragment>& drawn = drawn_[eye];
+  std::vector<Scratch>& scratch = scratch_[eye];
   drawn.resize(drawings.size());
+  scratch.resize(drawings.size());
   std::vector<FragmentPixels> all = fragments;
+  std::vector<uint8_t*> pixels(drawings.size());
   for (size_t i = 0; i < drawings.size(); ++i) {
     const SlotDrawing& d = drawings[i];
     if (!d.plan || !d.camera) throw std::invalid_argument("renderer: a drawing without its plan");
-    std::vector<uint8_t> memory = std::move(drawn[i].pixels);  // the last frame's, reused
     drawn[i] = Fragment{};
-    drawn[i].pixels = std::move(memory);
     describe_fragment(*d.plan, drawn[i]);
     drawn[i].camera_id = static_cast<uint32_t>(d.camera->id);
-    drawn[i].pixels.resize(4 * d.plan->pixel_count());
-    all.push_back({&drawn[i], drawn[i].pixels.data()});
+    // The last frame's memory when it is large enough; never zeroed (every
+    // byte is drawn).
+    const size_t bytes = 4 * d.plan->pixel_count();
+    if (scratch[i].capacity < bytes)
+      scratch[i] = {std::unique_ptr<uint8_t[]>(new uint8_t[bytes]), bytes};
+    pixels[i] = scratch[i].bytes.get();
+    all.push_back({&drawn[i], pixels[i]});
   }
-  draw_all(drawings, drawn);
+  draw_all(drawings, pixels);
   return layers_[eye].composite(width, height, all, into);
 }
 
-void Renderer::draw_all(const std::vector<SlotDrawing>& drawings, std::vector<Fragment>& drawn) {
+void Renderer::draw_all(const std::vector<SlotDrawing>& drawings,
+                        const std::vector<uint8_t*>& pixels) {
   for (size_t i = 0; i < drawings.size(); ++i)
-    draw(*drawings[i].plan, *drawings[i].camera, drawings[i].slot, drawn[i].pixels.data());
+    draw(*drawings[i].plan, *drawings[i].camera, drawings[i].slot, pixels[i]);
 }
 
 namespace {
@@ -102,12 +109,13 @@ class CpuRenderer final : public Renderer {
   // On every core, each drawing by one thread (the bytes are the serial
   // ones); the first drawing's error in drawing order is thrown, as the
   // serial loop would throw it.
-  void draw_all(const std::vector<SlotDrawing>& drawings, std::vector<Fragment>& drawn) override {
+  void draw_all(const std::vector<SlotDrawing>& drawings,
+                const std::vector<uint8_t*>& pixels) override {
     std::vector<std::exception_ptr> failed(drawings.size());
     cv::parallel_for_(cv::Range(0, static_cast<int>(drawings.size())), [&](const cv::Range& r) {
       for (int i = r.start; i < r.end; ++i) try {
           const SlotDrawing& d = drawings[i];
-          draw(*d.plan, *d.camera, d.slot, drawn[i].pixels.data());
+          draw(*d.plan, *d.camera, d.slot, pixels[i]);
         } catch (...) {
           failed[i] = std::current_exception();
         }

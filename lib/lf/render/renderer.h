@@ -79,6 +79,7 @@ class Renderer {
   virtual void release() {
     for (LayerCompositor& l : layers_) l.release();
     for (std::vector<Fragment>& d : drawn_) std::vector<Fragment>().swap(d);
+    for (std::vector<Scratch>& d : scratch_) std::vector<Scratch>().swap(d);
   }
   // As interleave_quilt() (lf/render/lenticular.h).
   virtual void interleave(const DisplayCalibration& cal, const Quilt& layout, const cv::Mat& quilt,
@@ -91,15 +92,21 @@ class Renderer {
       const std::vector<SlotDrawing>& drawings, cv::Mat& into) = 0;
   static void check_slot(int slot);
   // composite()'s drawings of a frame with layer-1 fragments, each into
-  // its fragment's pixels (sized by the caller): draw() of each in turn;
+  // its `pixels` (4 * plan pixel_count() bytes): draw() of each in turn;
   // the CPU's on every core.
-  virtual void draw_all(const std::vector<SlotDrawing>& drawings, std::vector<Fragment>& drawn);
+  virtual void draw_all(const std::vector<SlotDrawing>& drawings,
+                        const std::vector<uint8_t*>& pixels);
 
  private:
   LayerCompositor layers_[2];
   // Per eye: the drawings of a frame with layer-1 fragments, drawn into
   // fragments of their own (their memory kept from frame to frame).
   std::vector<Fragment> drawn_[2];
+  struct Scratch {  // a drawn fragment's pixels
+    std::unique_ptr<uint8_t[]> bytes;
+    size_t capacity = 0;
+  };
+  std::vector<Scratch> scratch_[2];
 };
 
 // The renderer for `backend` (lf/render/gl_render.h resolve_backend: auto is GL on
