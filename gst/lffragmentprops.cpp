@@ -33,9 +33,9 @@
  * output buffer in their wire format (no copy) and carry `LfSealedMeta`
  * (gst/lfmeta.h), by which `lfcompositor` in the same process skips their
  * CRC check. With `defer=true` (lfarray's whole-view mode) a raw
- * fragment is only planned here: it leaves as an empty fragment carrying
- * the plan and the camera image (`LfDeferredMeta`), for an `lfcompositor`
- * in the same process to draw.
+ * fragment (or a layer pair) is only planned here: it leaves as an empty
+ * fragment carrying the plan (both plans) and the camera image
+ * (`LfDeferredMeta`), for an `lfcompositor` in the same process to draw.
  *
  * The camera is named like lfcamsrc's: `camera-id`, or `row` and `col` of
  * the rig's grid.
@@ -162,7 +162,9 @@ void install_fragment_properties(GObjectClass* oc, Properties<FragmentSettings>*
           "band by band straight into its sums, on all cores (lib/lf/render/composite.h). The "
           "attachment never leaves the process: over RTP or to any other element these "
           "fragments are empty, so use it only with a compositor in the same process. "
-          "Raw encoding only; probes and layer pairs are drawn here as always. A request "
+          "A layer pair (a focal surface's second planes) goes the same way, both plans on "
+          "one empty fragment; the CPU compositor draws the pairs on all cores before "
+          "choosing per pixel. Raw encoding only; probes are drawn here as always. A request "
           "without a camera frame (frame-timeout) or that cannot be planned is answered "
           "with an empty fragment (and a warning), not dropped: lfarray plans all cameras "
           "on one thread, whose pads must stay in step",
