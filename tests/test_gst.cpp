@@ -1580,14 +1580,12 @@ TEST_F(Gst, TheDefaultPipelineFocusesOnASurface) {
 // core. The frames equal whole-view=false's, where each lffragment draws its
 // own pair, exactly; the view has two-plane tiles, so pairs were drawn.
 TEST_F(Gst, WholeViewModeDefersLayerPairs) {
-  // A 4 x 4 block at half resolution (the 2 x 2 block's surfaces keep one
-  // plane per tile).
+  // The 8 x 8 Chess block at full size, whose 640x480 surfaces have
+  // two-plane tiles (the fixture's 2 x 2 block at half size had none).
   const std::string rig_path =
-      (std::filesystem::temp_directory_path() / "lf-test-chess16.json").string();
-  lf::save_rig(
-      lf::scale_rig(lf::grid_block(lf::import_dataset(data_path("stanford-chess")), 0, 0, 8, 8),
-                    1.0),
-      rig_path);
+      (std::filesystem::temp_directory_path() / "lf-test-chess64.json").string();
+  lf::save_rig(lf::grid_block(lf::import_dataset(data_path("stanford-chess")), 0, 0, 8, 8),
+               rig_path);
   const std::string req = "lfviewrequest name=req rig=" + rig_path +
                           " num-buffers=6 width=640 height=480 orbit=0.3 surface-interval=2";
   const std::string out = " ! video/x-raw,format=RGBA ! appsink name=out sync=false";

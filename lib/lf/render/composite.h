@@ -180,7 +180,7 @@ class LayerCompositor {
  private:
   float variance_at(int layer, int x, int y) const;
   Compositor comp_[2];   // comp_[1] and sq_: zeroed (and valid) in rows [y0_, y1_) only
-  int y0_ = 0, y1_ = 0;  // the rows of the last composite's layer-1 fragments
+  int y0_ = 0, y1_ = 0;  // the last composite's layer-1 block rows (kBlock-aligned)
   cv::Mat sq_[2];        // CV_32FC1: sum over cameras of w * |c|^2, where layer 1 has weight
   // Over the choice's region (layer 1's blocks and the window's reach
   // around them; memory kept from frame to frame), CV_32FC3: the layers'
