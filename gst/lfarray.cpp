@@ -17,7 +17,9 @@
  * once, no fragment read back, no GL context per camera;
  * lib/lf/render/gl_render.h). Planning is cheap, so one request thread plans
  * every camera (not one thread per camera: one hand-off per request
- * instead of 64, which a profile of the pipeline showed to cost); the request
+ * instead of 64, which a profile of the pipeline showed to cost), and its
+ * plans reach the compositor in one buffer for up to 16 cameras
+ * (gst/lfbundle.h); the request
  * limits (`max-rate`, `max-pixel-rate`) are kept once for all cameras; only where frames are
  * picked by capture time (`record`, `playback`, `frame-select`), a request
  * may wait for a camera's frame and each camera keeps its own request

@@ -1,5 +1,8 @@
 #include "lfbundle.h"
 
+#include <algorithm>
+#include <iterator>
+
 #include "lf/wire/wire.h"
 #include "lfcaps.h"
 #include "lfguard.h"
@@ -10,30 +13,45 @@ namespace {
 struct BundleMeta {
   GstMeta meta;
   guint32 sealed;
+  GstBuffer* whole[kMaxBundleParts];  // a part's own buffer (held), or null
 };
 // It tells that the memories are this process's answers: never copied.
 LocalMeta bundle_meta{"LfBundleMetaAPI", "LfBundleMeta", sizeof(BundleMeta),
                       [](GstMeta* m, gpointer, GstBuffer*) -> gboolean {
-                        reinterpret_cast<BundleMeta*>(m)->sealed = 0;
+                        auto* b = reinterpret_cast<BundleMeta*>(m);
+                        b->sealed = 0;
+                        std::fill(std::begin(b->whole), std::end(b->whole), nullptr);
                         return TRUE;
                       },
-                      nullptr};
+                      [](GstMeta* m, GstBuffer*) {
+                        for (GstBuffer* w : reinterpret_cast<BundleMeta*>(m)->whole)
+                          if (w) gst_buffer_unref(w);
+                      }};
+
+BundleMeta* bundle_meta_of(GstBuffer* buf) {
+  bundle_meta.registered();
+  return reinterpret_cast<BundleMeta*>(gst_buffer_get_meta(buf, bundle_meta.api));
+}
 }  // namespace
 
-void add_bundle_meta(GstBuffer* buf, guint32 sealed) {
+void add_bundle_meta(GstBuffer* buf, guint32 sealed, GstBuffer* const* whole) {
   auto* m =
       reinterpret_cast<BundleMeta*>(gst_buffer_add_meta(buf, bundle_meta.registered(), nullptr));
-  if (m) m->sealed = sealed;
+  if (!m) return;
+  m->sealed = sealed;
+  for (guint k = 0; whole && k < kMaxBundleParts; ++k)
+    m->whole[k] = whole[k] ? gst_buffer_ref(whole[k]) : nullptr;
 }
 
 bool is_bundle(GstBuffer* buf, guint32* sealed) {
-  bundle_meta.registered();
-  auto* m = reinterpret_cast<BundleMeta*>(gst_buffer_get_meta(buf, bundle_meta.api));
+  BundleMeta* m = bundle_meta_of(buf);
   if (m && sealed) *sealed = m->sealed;
   return m != nullptr;
 }
 
 GstBuffer* bundle_part(GstBuffer* bundle, guint k, guint32 sealed) {
+  BundleMeta* m = k < kMaxBundleParts ? bundle_meta_of(bundle) : nullptr;
+  if (m && m->whole[k]) return gst_buffer_ref(m->whole[k]);
   GstBuffer* part = gst_buffer_new();
   gst_buffer_append_memory(part, gst_buffer_get_memory(bundle, k));
   gst_buffer_copy_into(
@@ -94,12 +112,15 @@ static GstBuffer* take_held(LfFragmentBundle* self) {
   if (self->n > 1) {
     out = gst_buffer_new();
     guint32 sealed = 0;
+    GstBuffer* whole[lfgst::kMaxBundleParts] = {};
+    bool any_whole = false;
     for (guint k = 0; k < self->n; ++k) {
       gst_buffer_append_memory(out, gst_buffer_get_all_memory(self->parts[k]));
       if (lfgst::has_sealed_meta(self->parts[k])) sealed |= 1u << k;
+      if (lfgst::deferred_of(self->parts[k])) any_whole = true, whole[k] = self->parts[k];
     }
     gst_buffer_copy_into(out, self->parts[0], GST_BUFFER_COPY_TIMESTAMPS, 0, -1);
-    lfgst::add_bundle_meta(out, sealed);
+    lfgst::add_bundle_meta(out, sealed, any_whole ? whole : nullptr);
     for (guint k = 0; k < self->n; ++k) gst_buffer_unref(self->parts[k]);
   }
   self->n = 0;
@@ -125,8 +146,8 @@ static GstFlowReturn bundle_chain(GstPad*, GstObject* parent, GstBuffer* buf) {
   guint32 viewer = 0;
   const gint64 seq = lfgst::first_sequence(buf, &viewer);
   // Alone: one that does not parse (the compositor reports it), or one of
-  // several memories, or a drawing left to the compositor.
-  if (seq < 0 || gst_buffer_n_memory(buf) != 1 || lfgst::deferred_of(buf)) {
+  // several memories.
+  if (seq < 0 || gst_buffer_n_memory(buf) != 1) {
     const GstFlowReturn ret = push_held(self);
     if (ret != GST_FLOW_OK) {
       gst_buffer_unref(buf);

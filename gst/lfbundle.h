@@ -25,13 +25,17 @@ namespace lfgst {
 constexpr guint kMaxBundleParts = 16;  // GST_BUFFER_MEM_MAX
 
 // Marks `buf` as a bundle whose part k is sealed (gst/lfmeta.h) where bit k
-// of `sealed` is set.
-void add_bundle_meta(GstBuffer* buf, guint32 sealed);
+// of `sealed` is set. `whole`, when not null, holds kMaxBundleParts
+// entries: part k's own buffer where it must come back whole (a drawing
+// left to the compositor: its LfDeferredMeta, which a memory does not
+// carry), held by the bundle (a reference taken), or null.
+void add_bundle_meta(GstBuffer* buf, guint32 sealed, GstBuffer* const* whole = nullptr);
 // Whether `buf` is a bundle; its sealed parts' bits in `*sealed`.
 bool is_bundle(GstBuffer* buf, guint32* sealed);
 
 // Part k of a bundle whose sealed parts are `sealed`, as a buffer of its
-// own (new): its memory, the bundle's timestamps, offsets and flags,
+// own (new): the part's own buffer where the bundle holds it (a new
+// reference), else its memory, the bundle's timestamps, offsets and flags,
 // LfSealedMeta where the part is sealed.
 GstBuffer* bundle_part(GstBuffer* bundle, guint k, guint32 sealed);
 

@@ -269,15 +269,20 @@ static bool build(LfCameraHost* self) {
             std::vector<GstElement*> fans;  // the threads' tees (none: a queue per camera)
             // Into the compositor, each thread's fragments of a request in one
             // buffer or two (gst/lfbundle.h: a push per camera wakes it each time).
+            // Whole-view mode's one thread too: its 64 plans reach the
+            // compositor in 4 pushes, not 64.
             std::vector<GstElement*> bundles;
-            for (size_t t = 0; !one_thread && threads < n_cams && t < threads; ++t) {
+            const bool fan_out = !one_thread && threads < n_cams;
+            for (size_t t = 0; (one_thread && t == 0) || (fan_out && t < threads); ++t) {
               const std::string id = std::to_string(t);
-              GstElement* q = request_queue("requests-" + id, false);
-              GstElement* fan = adopt(GST_BIN(self), p, make("tee", "request-fan-" + id));
-              g_object_set(fan, "allow-not-linked", TRUE, nullptr);
-              if (!gst_element_link_pads(tee, "src_%u", q, "sink") || !gst_element_link(q, fan))
-                throw std::runtime_error("cannot link request thread " + id);
-              fans.push_back(fan);
+              if (!one_thread) {
+                GstElement* q = request_queue("requests-" + id, false);
+                GstElement* fan = adopt(GST_BIN(self), p, make("tee", "request-fan-" + id));
+                g_object_set(fan, "allow-not-linked", TRUE, nullptr);
+                if (!gst_element_link_pads(tee, "src_%u", q, "sink") || !gst_element_link(q, fan))
+                  throw std::runtime_error("cannot link request thread " + id);
+                fans.push_back(fan);
+              }
               if (!composite_of(self) || sum) continue;
               GstElement* b = adopt(GST_BIN(self), p,
                                     GST_ELEMENT(g_object_new(LF_TYPE_FRAGMENT_BUNDLE, "name",

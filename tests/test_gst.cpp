@@ -1212,7 +1212,8 @@ TEST_F(Gst, RequestThreadsShareTheCamerasAndNonLiveCamerasRunAhead) {
 
 // A request thread's fragments reach the compositor bundled (gst/lfbundle.h):
 // one buffer a request for up to 16 cameras, one more for each 16 after, and
-// the frames are those of a thread per camera (no bundles).
+// the frames are those of a thread per camera (no bundles); whole-view
+// mode's deferred drawings alike.
 TEST_F(Gst, RequestThreadsBundleTheirFragmentsForTheCompositor) {
   struct Counts {
     std::atomic<int> buffers{0}, parts{0};
@@ -1290,6 +1291,28 @@ TEST_F(Gst, RequestThreadsBundleTheirFragmentsForTheCompositor) {
     EXPECT_EQ(one.buffers.load(), kRequests * eyes * ((cameras + 15) / 16)) << what;
     for (int k = 0; k < kRequests; ++k)
       EXPECT_EQ(cv::norm(bundled[k], apart[k], cv::NORM_INF), 0) << what << ", frame " << k;
+  }
+  // Whole-view mode (raw fragments): the one request thread's plans are
+  // bundled too, each part still carrying its drawing, and the frames are
+  // those of a thread per camera each drawing its own fragment.
+  const std::string desc = "lfviewrequest rig=" + rig20 +
+                           " num-buffers=" + std::to_string(kRequests) +
+                           " width=96 height=72 focal-plane=param:-0.2 orbit=0.5 "
+                           "focal-surface=false ! lfarray rig=" +
+                           rig20 + " num-buffers=1 ";
+  const std::string out = " ! video/x-raw,format=RGBA ! appsink name=out sync=false";
+  Counts whole, drawn;
+  std::string err;
+  const auto deferred = counted(desc + "whole-view=true" + out, &whole, &err);
+  ASSERT_EQ(deferred.size(), static_cast<size_t>(kRequests)) << err;
+  const auto own = counted(desc + "whole-view=false request-threads=20" + out, &drawn, &err);
+  ASSERT_EQ(own.size(), static_cast<size_t>(kRequests)) << err;
+  EXPECT_EQ(whole.parts.load(), kRequests * 20);
+  EXPECT_EQ(whole.buffers.load(), kRequests * 2);  // 16 and 4
+  EXPECT_EQ(drawn.buffers.load(), kRequests * 20);
+  for (int k = 0; k < kRequests; ++k) {
+    EXPECT_GT(cv::norm(own[k], cv::NORM_L1), 0) << "frame " << k;
+    EXPECT_EQ(cv::norm(deferred[k], own[k], cv::NORM_INF), 0) << "frame " << k;
   }
 }
 
