@@ -258,6 +258,30 @@ TEST(Surface, ThinBarsArePickedPerPixelFromTwoPlanes) {
     if (f.layer < 2) px.push_back({&f, f.pixels.data()});
   EXPECT_TRUE(lc.composite(320, 240, px, a, &choice).empty());
   EXPECT_TRUE(cv::checkRange(lc.variance(0)) && cv::checkRange(lc.variance(1)));
+  // Layer 0 drawn band by band into the sums and squares instead (the CPU
+  // renderer's way, no layer-0 fragment in memory): the same frame, choice
+  // and variances, bit for bit; a drawing of layer 1 is refused there.
+  {
+    std::vector<lf::FragmentPixels> ones;
+    for (const lf::FragmentPixels& p : px)
+      if (p.fragment->layer == 1) ones.push_back(p);
+    const size_t n = v.rig.cameras.size();
+    std::vector<lf::FragmentPlan> plans;
+    for (size_t i = 0; i < n; ++i) plans.push_back(lf::plan_fragment(g, static_cast<int>(i), 0));
+    plans.push_back(lf::plan_fragment(g, 0, 1));
+    std::vector<lf::FragmentDrawing> draws;
+    for (size_t i = 0; i <= n; ++i)
+      draws.push_back({&plans[i], &v.rig.cameras[i % n], &v.images[i % n]});
+    lf::LayerCompositor fused;
+    cv::Mat fa, fchoice;
+    const auto left = fused.composite(320, 240, ones, draws, fa, &fchoice);
+    ASSERT_EQ(left.size(), 1u);
+    EXPECT_EQ(left[0].first, ones.size() + n);  // the layer-1 drawing
+    EXPECT_EQ(cv::norm(fa, a, cv::NORM_INF), 0);
+    EXPECT_EQ(cv::norm(fchoice, choice, cv::NORM_INF), 0);
+    for (int l = 0; l < 2; ++l)
+      EXPECT_EQ(cv::norm(fused.variance(l), lc.variance(l), cv::NORM_INF), 0) << "layer " << l;
+  }
   const int taken = cv::countNonZero(choice);
   std::printf("thin bars: layer 1 (the bars' plane) taken at %d of %d pixels\n", taken, 320 * 240);
   // The choice against its definition, in doubles: the layers' variances

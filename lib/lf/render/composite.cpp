@@ -4,7 +4,6 @@
 #include <array>
 #include <cstring>
 #include <opencv2/core/utility.hpp>
-#include <opencv2/imgproc.hpp>
 #include <stdexcept>
 #include <string>
 
@@ -33,6 +32,15 @@ void Compositor::reset(int width, int height, int y0, int y1) {
   acc_.resize(static_cast<size_t>(width) * height * 4);
   std::fill(acc_.begin() + static_cast<size_t>(y0) * width * 4,
             acc_.begin() + static_cast<size_t>(y1) * width * 4, 0u);
+}
+
+void Compositor::zero(const cv::Rect& r) {
+  if ((r & cv::Rect(0, 0, w_, h_)) != r)
+    throw std::invalid_argument("compositor: pixels to zero out of the frame");
+  for (int y = r.y; y < r.y + r.height; ++y) {
+    auto row = acc_.begin() + (static_cast<size_t>(y) * w_ + r.x) * 4;
+    std::fill(row, row + static_cast<size_t>(r.width) * 4, 0u);
+  }
 }
 
 void Compositor::add(const Fragment& f) {
@@ -269,7 +277,7 @@ std::vector<std::pair<size_t, std::string>> Compositor::composite(
 
 std::vector<std::pair<size_t, std::string>> Compositor::composite(
     int width, int height, const std::vector<FragmentPixels>& fragments,
-    const std::vector<FragmentDrawing>& drawings, cv::Mat& out) {
+    const std::vector<FragmentDrawing>& drawings, cv::Mat& out, const RowsAdded* rows_added) {
   if (width < 1 || height < 1 || width > 16384 || height > 16384)
     throw std::invalid_argument("compositor: output size out of range");
   w_ = width;
@@ -338,7 +346,9 @@ std::vector<std::pair<size_t, std::string>> Compositor::composite(
         const Fragment& f = *ok[k]->fragment;
         const int r0 = std::max(y0, f.rect.y) - f.rect.y;
         const int r1 = std::min(y1, f.rect.y + f.rect.height) - f.rect.y;
-        if (r0 < r1) add_rows(f, ok[k]->pixels + row_start[k][r0], r0, r1);
+        if (r0 >= r1) continue;
+        add_rows(f, ok[k]->pixels + row_start[k][r0], r0, r1);
+        if (rows_added) (*rows_added)(f, ok[k]->pixels + row_start[k][r0], r0, r1);
       }
       for (size_t k = 0; k < drawn.size(); ++k) {
         const Fragment& f = drawn[k];
@@ -351,6 +361,7 @@ std::vector<std::pair<size_t, std::string>> Compositor::composite(
         const FragmentDrawing& d = *to_draw[k];
         render_rows(*d.plan, *d.camera, *d.image, r0, r1, rows.data());
         add_rows(f, rows.data(), r0, r1);
+        if (rows_added) (*rows_added)(f, rows.data(), r0, r1);
       }
       resolve_rows(out, y0, y1);
     }
@@ -565,6 +576,12 @@ Fragment sum_fragments(const std::vector<FragmentPixels>& fragments) {
 std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
     int width, int height, const std::vector<FragmentPixels>& fragments, cv::Mat& out,
     cv::Mat* choice) {
+  return composite(width, height, fragments, {}, out, choice);
+}
+
+std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
+    int width, int height, const std::vector<FragmentPixels>& fragments,
+    const std::vector<FragmentDrawing>& drawings, cv::Mat& out, cv::Mat* choice) {
   comp_[1].reset(width, height, 0, 0);  // throws for a bad size (layer 0: composite() below)
   y0_ = y1_ = 0;
   std::vector<std::pair<size_t, std::string>> refused;
@@ -585,13 +602,6 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
     layer_of[fp.fragment->layer].push_back(i);
   }
   if (choice) *choice = cv::Mat::zeros(height, width, CV_8UC1);
-  // Layer 0, the whole frame: Compositor's fused, banded composite on every
-  // core (its sums are the serial ones, and stay for sums_at).
-  std::vector<FragmentPixels> zero;
-  zero.reserve(layer_of[0].size());
-  for (size_t i : layer_of[0]) zero.push_back(fragments[i]);
-  comp_[0].composite(width, height, zero, out);
-  if (layer_of[1].empty()) return refused;
   // Layer 1's sums and both layers' squares are read only in the blocks
   // that layer 1 reaches: only their rows are zeroed.
   y0_ = height, y1_ = 0;
@@ -599,85 +609,133 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
     const cv::Rect& r = fragments[i].fragment->rect;
     if (r.height > 0) y0_ = std::min(y0_, r.y), y1_ = std::max(y1_, r.y + r.height);
   }
-  if (y0_ >= y1_) {
-    y0_ = y1_ = 0;
-    return refused;
-  }
-  y0_ = y0_ / kBlock * kBlock, y1_ = std::min(height, (y1_ + kBlock - 1) / kBlock * kBlock);
-  comp_[1].reset(width, height, y0_, y1_);
-  for (int l = 0; l < 2; ++l) {
-    sq_[l].create(height, width, CV_32FC1);  // the last frame's memory when the size is the same
-    sq_[l].rowRange(y0_, y1_).setTo(0);
-  }
+  const bool two = y0_ < y1_;
+  if (!two) y0_ = y1_ = 0;
   // Layer 1 first: where it has weight is where the choice is made.
   Blocks blocks;
   blocks.cols = (width + kBlock - 1) / kBlock;
-  blocks.on.assign(static_cast<size_t>(blocks.cols) * ((height + kBlock - 1) / kBlock), 0);
-  for (size_t i : layer_of[1]) {
-    const Fragment& f = *fragments[i].fragment;
-    comp_[1].add(f, fragments[i].pixels);
-    for (int r = 0; r < f.rect.height; ++r)
-      for (int x = f.spans[r][0]; x < f.spans[r][1]; x = (x / kBlock + 1) * kBlock)
-        blocks.on[((f.rect.y + r) / kBlock) * blocks.cols + x / kBlock] = 1;
+  blocks.on.assign(two ? static_cast<size_t>(blocks.cols) * ((height + kBlock - 1) / kBlock) : 0,
+                   0);
+  if (two) {
+    y0_ = y0_ / kBlock * kBlock, y1_ = std::min(height, (y1_ + kBlock - 1) / kBlock * kBlock);
+    for (size_t i : layer_of[1]) {
+      const Fragment& f = *fragments[i].fragment;
+      for (int r = 0; r < f.rect.height; ++r)
+        for (int x = f.spans[r][0]; x < f.spans[r][1]; x = (x / kBlock + 1) * kBlock)
+          blocks.on[((f.rect.y + r) / kBlock) * blocks.cols + x / kBlock] = 1;
+    }
+    // Only those blocks are zeroed (each run of them along a row of blocks
+    // at once), read and written: a few where the scene needs few.
+    comp_[1].reset(width, height, 0, 0);
+    for (int l = 0; l < 2; ++l)
+      sq_[l].create(height, width, CV_32FC1);  // the last frame's memory when the size is the same
+    const int brows = (height + kBlock - 1) / kBlock;
+    for (int by = y0_ / kBlock; by < brows; ++by)
+      for (int bx = 0; bx < blocks.cols;) {
+        if (!blocks.on[by * blocks.cols + bx]) {
+          ++bx;
+          continue;
+        }
+        int end = bx;
+        while (end < blocks.cols && blocks.on[by * blocks.cols + end]) ++end;
+        const cv::Rect run = cv::Rect(bx * kBlock, by * kBlock, (end - bx) * kBlock, kBlock) &
+                             cv::Rect(0, 0, width, height);
+        comp_[1].zero(run);
+        for (int l = 0; l < 2; ++l) sq_[l](run).setTo(0);
+        bx = end;
+      }
+    for (size_t i : layer_of[1]) comp_[1].add(*fragments[i].fragment, fragments[i].pixels);
+    add_squares(fragments, layer_of[1], comp_[1], blocks, sq_[1]);
   }
-  add_squares(fragments, layer_of[1], comp_[1], blocks, sq_[1]);
-  add_squares(fragments, layer_of[0], comp_[1], blocks, sq_[0]);
+  on_ = blocks.on, bcols_ = blocks.cols;
+  // Layer 0, the whole frame: Compositor's fused, banded composite on every
+  // core (its sums are the serial ones, and stay for sums_at), its drawings
+  // drawn band by band; each band's rows add their squares where layer 1
+  // has weight as they are added (a band's rows are its thread's alone, and
+  // each pixel's squares are added in the serial order).
+  std::vector<FragmentPixels> zero;
+  zero.reserve(layer_of[0].size());
+  for (size_t i : layer_of[0]) zero.push_back(fragments[i]);
+  std::vector<FragmentDrawing> draw0;
+  std::vector<size_t> draw0_index;
+  for (size_t i = 0; i < drawings.size(); ++i) {
+    if (drawings[i].plan && drawings[i].plan->layer != 0) {
+      refused.emplace_back(fragments.size() + i, "compositor: drawing of layer " +
+                                                     std::to_string(drawings[i].plan->layer) +
+                                                     " (only layer 0 is drawn here)");
+      continue;
+    }
+    draw0.push_back(drawings[i]);
+    draw0_index.push_back(i);
+  }
+  const Compositor::RowsAdded squares = [&](const Fragment& f, const uint8_t* pixels, int r0,
+                                            int r1) {
+    const int from = std::max(r0, y0_ - f.rect.y), to = std::min(r1, y1_ - f.rect.y);
+    if (from >= to) return;
+    for (int r = r0; r < from; ++r) pixels += 4 * (f.spans[r][1] - f.spans[r][0]);
+    add_squares(f, pixels, from, to, comp_[1], blocks, sq_[0]);
+  };
+  for (const auto& [k, why] :
+       comp_[0].composite(width, height, zero, draw0, out, two ? &squares : nullptr))
+    refused.emplace_back(
+        k < zero.size() ? layer_of[0][k] : fragments.size() + draw0_index[k - zero.size()], why);
+  if (!two) return refused;
   // Per pixel where layer 1 has weight: both layers' variances (0
-  // elsewhere), and a 1 there; then their sums over the window (box
-  // filters, zero beyond the frame) give the means over the window's
-  // layer-1 pixels.
+  // elsewhere), and a 1 there, in the blocks the window reaches from layer
+  // 1's (R < kBlock: its blocks and their eight neighbours); then, at
+  // layer 1's pixels, their sums over the window (zero beyond the frame)
+  // give the means over the window's layer-1 pixels. The rest of the frame
+  // is neither written nor read.
   const int bcols = blocks.cols, brows = (height + kBlock - 1) / kBlock;
-  int bx0 = bcols, bx1 = -1, by0 = brows, by1 = -1;
+  static_assert(kChoiceWindow / 2 < kBlock, "the window reaches the neighbouring blocks only");
+  std::vector<uint8_t> near(blocks.on.size(), 0);
   for (int by = 0; by < brows; ++by)
     for (int bx = 0; bx < bcols; ++bx)
       if (blocks.on[by * bcols + bx])
-        bx0 = std::min(bx0, bx), bx1 = std::max(bx1, bx), by0 = std::min(by0, by),
-        by1 = std::max(by1, by);
-  if (bx1 < 0) return refused;
-  const int R = kChoiceWindow / 2;
-  const cv::Rect roi =
-      cv::Rect(bx0 * kBlock - R, by0 * kBlock - R, (bx1 - bx0 + 1) * kBlock + 2 * R,
-               (by1 - by0 + 1) * kBlock + 2 * R) &
-      cv::Rect(0, 0, width, height);
-  win_.create(roi.size(), CV_32FC3);
-  win_sum_.create(roi.size(), CV_32FC3);
-  cv::parallel_for_(cv::Range(0, roi.height), [&](const cv::Range& rows) {
-    for (int r = rows.start; r < rows.end; ++r) {
-      const int y = roi.y + r;
-      float* p = win_.ptr<float>(r);
-      for (int i = 0; i < roi.width; ++i, p += 3) {
-        const int x = roi.x + i;
-        const bool on = blocks.at(x, y) && comp_[1].weight_at(x, y) > 0;
-        p[0] = on ? variance_at(0, x, y) : 0.0f;
-        p[1] = on ? variance_at(1, x, y) : 0.0f;
-        p[2] = on ? 1.0f : 0.0f;
-      }
-    }
-  });
-  // The window sums in bands of rows on every core: a band's filter reads
-  // the rows beyond it from the whole region (a submatrix's neighbours, as
-  // OpenCV's filters do without BORDER_ISOLATED), so the sums are the
-  // whole region's; zero beyond the region's edges.
-  const cv::Size win(kChoiceWindow, kChoiceWindow);
-  constexpr int kBoxBand = 64;
-  cv::parallel_for_(
-      cv::Range(0, (roi.height + kBoxBand - 1) / kBoxBand), [&](const cv::Range& bands) {
-        for (int b = bands.start; b < bands.end; ++b) {
-          const cv::Range rows(b * kBoxBand, std::min(roi.height, (b + 1) * kBoxBand));
-          cv::Mat dst = win_sum_.rowRange(rows);
-          cv::boxFilter(win_.rowRange(rows), dst, CV_32F, win, cv::Point(-1, -1), false,
-                        cv::BORDER_CONSTANT);
-        }
-      });
-  // Rows of blocks on every core: each pixel's result is its own.
-  cv::parallel_for_(cv::Range(by0, by1 + 1), [&](const cv::Range& rows) {
+        for (int j = std::max(0, by - 1); j <= std::min(brows - 1, by + 1); ++j)
+          for (int i = std::max(0, bx - 1); i <= std::min(bcols - 1, bx + 1); ++i)
+            near[j * bcols + i] = 1;
+  win_.create(height, width, CV_32FC3);  // the last frame's memory when the size is the same
+  cv::parallel_for_(cv::Range(0, brows), [&](const cv::Range& rows) {
     for (int by = rows.start; by < rows.end; ++by)
-      for (int bx = bx0; bx <= bx1; ++bx) {
+      for (int bx = 0; bx < bcols; ++bx) {
+        if (!near[by * bcols + bx]) continue;
+        const bool in = blocks.on[by * bcols + bx] != 0;
+        for (int y = by * kBlock; y < std::min(height, (by + 1) * kBlock); ++y) {
+          float* p = win_.ptr<float>(y) + 3 * bx * kBlock;
+          for (int x = bx * kBlock; x < std::min(width, (bx + 1) * kBlock); ++x, p += 3) {
+            const bool on = in && comp_[1].weight_at(x, y) > 0;
+            p[0] = on ? variance_at(0, x, y) : 0.0f;
+            p[1] = on ? variance_at(1, x, y) : 0.0f;
+            p[2] = on ? 1.0f : 0.0f;
+          }
+        }
+      }
+  });
+  // Layer 1's blocks on every core, each block's window sums separably
+  // (columns, then rows): each pixel's result is its own.
+  const int R = kChoiceWindow / 2;
+  cv::parallel_for_(cv::Range(0, brows), [&](const cv::Range& rows) {
+    cv::Vec3f col[kBlock][kBlock + 2 * R];  // a block's rows, summed over the window's rows
+    for (int by = rows.start; by < rows.end; ++by)
+      for (int bx = 0; bx < bcols; ++bx) {
         if (!blocks.on[by * bcols + bx]) continue;
-        for (int y = by * kBlock; y < std::min(height, (by + 1) * kBlock); ++y)
-          for (int x = bx * kBlock; x < std::min(width, (bx + 1) * kBlock); ++x) {
+        const int x0 = bx * kBlock, y0 = by * kBlock;
+        const int x1 = std::min(width, x0 + kBlock), y1 = std::min(height, y0 + kBlock);
+        const int cx0 = std::max(0, x0 - R), cx1 = std::min(width, x1 + R);
+        for (int y = y0; y < y1; ++y)
+          for (int x = cx0; x < cx1; ++x) {
+            cv::Vec3f c(0, 0, 0);
+            for (int j = std::max(0, y - R); j <= std::min(height - 1, y + R); ++j)
+              c += win_.at<cv::Vec3f>(j, x);
+            col[y - y0][x - cx0] = c;
+          }
+        for (int y = y0; y < y1; ++y)
+          for (int x = x0; x < x1; ++x) {
             if (comp_[1].weight_at(x, y) == 0) continue;
-            const cv::Vec3f& w = win_sum_.at<cv::Vec3f>(y - roi.y, x - roi.x);
+            cv::Vec3f w(0, 0, 0);
+            for (int i = std::max(cx0, x - R); i <= std::min(cx1 - 1, x + R); ++i)
+              w += col[y - y0][i - cx0];
             const float c = std::max(1.0f, w[2]);
             const float s0 = w[0] / c, s1 = w[1] / c;
             // The nearer layer, unless the other agrees clearly better.
@@ -704,7 +762,8 @@ cv::Mat LayerCompositor::variance(int layer) const {
   cv::Mat v(h, w, CV_32FC1, cv::Scalar(0));
   for (int y = y0_; y < y1_; ++y)
     for (int x = 0; x < w; ++x)
-      if (comp_[1].weight_at(x, y) > 0) v.at<float>(y, x) = variance_at(layer, x, y);
+      if (on_[(y / kBlock) * bcols_ + x / kBlock] && comp_[1].weight_at(x, y) > 0)
+        v.at<float>(y, x) = variance_at(layer, x, y);
   return v;
 }
 

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <opencv2/core.hpp>
 #include <string>
 #include <utility>
@@ -43,6 +44,10 @@ class Compositor {
   // other rows' sums are left as they were, so only those rows may be added
   // to and read (LayerCompositor: the rows that layer 1 reaches).
   void reset(int width, int height, int y0, int y1);
+  // Zeroes the sums in `r` (within the frame of the last reset()), e.g.
+  // after reset(width, height, 0, 0): only those pixels may then be added
+  // to and read (LayerCompositor: the blocks that layer 1 reaches).
+  void zero(const cv::Rect& r);
   // Frees the sums (16 bytes a pixel); the next reset() allocates them again.
   void release() { std::vector<uint32_t>().swap(acc_); }
   // Adds a fragment. Throws std::invalid_argument if it does not fit the frame.
@@ -71,10 +76,16 @@ class Compositor {
   // rendered by render_fragment(). A drawing that render_pixels() or add()
   // would refuse (no plan, camera or image, an image of the wrong size or
   // type, a plan for another output size) is left out and returned as
-  // (fragments.size() + its index, why).
+  // (fragments.size() + its index, why). `rows_added`, when given, is
+  // called with each fragment's and drawing's rows [r0, r1) of a band right
+  // after they were added (`pixels`: row r0's, in the spans' layout), in
+  // the order they are added, by the band's thread (bands on other threads
+  // at the same time: it may write only within the band's rows).
+  using RowsAdded = std::function<void(const Fragment& f, const uint8_t* pixels, int r0, int r1)>;
   std::vector<std::pair<size_t, std::string>> composite(
       int width, int height, const std::vector<FragmentPixels>& fragments,
-      const std::vector<FragmentDrawing>& drawings, cv::Mat& out);
+      const std::vector<FragmentDrawing>& drawings, cv::Mat& out,
+      const RowsAdded* rows_added = nullptr);
   // Where no weight arrived (alpha 0 in `out`), takes the pixel of
   // `previous` (the last frame shown, same size, CV_8UC4): a frame
   // composited without some of its fragments (a missed deadline) shows the
@@ -168,25 +179,38 @@ class LayerCompositor {
   std::vector<std::pair<size_t, std::string>> composite(
       int width, int height, const std::vector<FragmentPixels>& fragments, cv::Mat& out,
       cv::Mat* choice = nullptr);
+  // The same with layer-0 fragments still to draw besides, drawn band by
+  // band into layer 0's sums and squares (Compositor::composite with
+  // drawings: no fragment in memory): the frame, the choice and the
+  // variances equal, bit for bit, composite() of the fragments followed by
+  // the drawings rendered by render_fragment(). A drawing that
+  // Compositor::composite would refuse, or one of another layer than 0, is
+  // left out and returned as (fragments.size() + its index, why).
+  std::vector<std::pair<size_t, std::string>> composite(
+      int width, int height, const std::vector<FragmentPixels>& fragments,
+      const std::vector<FragmentDrawing>& drawings, cv::Mat& out, cv::Mat* choice = nullptr);
   // The last composite's colour variance of a layer (CV_32FC1, levels^2
   // summed over 3 channels) where layer 1 has weight; 0 elsewhere.
   cv::Mat variance(int layer) const;
   // Frees the sums; the next composite() allocates them again.
   void release() {
     for (int l = 0; l < 2; ++l) comp_[l].release(), sq_[l].release();
-    win_.release(), win_sum_.release();
+    win_.release();
   }
 
  private:
   float variance_at(int layer, int x, int y) const;
-  Compositor comp_[2];   // comp_[1] and sq_: zeroed (and valid) in rows [y0_, y1_) only
-  int y0_ = 0, y1_ = 0;  // the last composite's layer-1 block rows (kBlock-aligned)
-  cv::Mat sq_[2];        // CV_32FC1: sum over cameras of w * |c|^2, where layer 1 has weight
-  // Over the choice's region (layer 1's blocks and the window's reach
-  // around them; memory kept from frame to frame), CV_32FC3: the layers'
-  // variances where layer 1 has weight (else 0) and a 1 there (else 0);
-  // then their window sums (one box filter for the three).
-  cv::Mat win_, win_sum_;
+  Compositor comp_[2];  // comp_[1] and sq_: zeroed (and valid) in the blocks on_ only
+  // The last composite's blocks of 8 x 8 pixels that layer 1 reaches, row
+  // by row (bcols_ a row), and the rows [y0_, y1_) they span (0, 0: none).
+  std::vector<uint8_t> on_;
+  int bcols_ = 0, y0_ = 0, y1_ = 0;
+  cv::Mat sq_[2];  // CV_32FC1: sum over cameras of w * |c|^2, where layer 1 has weight
+  // The frame's size (memory kept from frame to frame), CV_32FC3, written
+  // and read only in the blocks that the window reaches from layer 1's: the
+  // layers' variances where layer 1 has weight (else 0) and a 1 there (else
+  // 0), whose window sums the choice takes.
+  cv::Mat win_;
 };
 
 }  // namespace lf

@@ -49,17 +49,33 @@ std::vector<std::pair<size_t, std::string>> Renderer::composite(
       std::any_of(drawings.begin(), drawings.end(),
                   [](const SlotDrawing& d) { return d.plan && d.plan->layer != 0; });
   if (!layered) return add(eye, width, height, fragments, drawings, into);
-  // Two planes per tile, chosen per pixel from every camera's pixels: the
-  // drawings drawn first, into fragments of their own.
+  // Two planes per tile, chosen per pixel from every camera's pixels. Layer
+  // 0's drawings from images in this process's memory (the CPU's) are drawn
+  // band by band into the sums (LayerCompositor with drawings); the others
+  // (layer 1's, GL's) are drawn first, into fragments of their own.
   std::vector<Fragment>& drawn = drawn_[eye];
   std::vector<Scratch>& scratch = scratch_[eye];
-  drawn.resize(drawings.size());
-  scratch.resize(drawings.size());
   std::vector<FragmentPixels> all = fragments;
-  std::vector<uint8_t*> pixels(drawings.size());
+  std::vector<FragmentDrawing> fused;
+  std::vector<size_t> fused_index, drawn_index;
+  std::vector<SlotDrawing> to_draw;
   for (size_t i = 0; i < drawings.size(); ++i) {
     const SlotDrawing& d = drawings[i];
     if (!d.plan || !d.camera) throw std::invalid_argument("renderer: a drawing without its plan");
+    const cv::Mat* image = d.plan->layer == 0 ? cpu_image(d.slot) : nullptr;
+    if (image) {
+      fused.push_back({d.plan, d.camera, image});
+      fused_index.push_back(i);
+    } else {
+      to_draw.push_back(d);
+      drawn_index.push_back(i);
+    }
+  }
+  drawn.resize(to_draw.size());
+  scratch.resize(to_draw.size());
+  std::vector<uint8_t*> pixels(to_draw.size());
+  for (size_t i = 0; i < to_draw.size(); ++i) {
+    const SlotDrawing& d = to_draw[i];
     drawn[i] = Fragment{};
     describe_fragment(*d.plan, drawn[i]);
     drawn[i].camera_id = static_cast<uint32_t>(d.camera->id);
@@ -71,8 +87,15 @@ std::vector<std::pair<size_t, std::string>> Renderer::composite(
     pixels[i] = scratch[i].bytes.get();
     all.push_back({&drawn[i], pixels[i]});
   }
-  draw_all(drawings, pixels);
-  return layers_[eye].composite(width, height, all, into);
+  draw_all(to_draw, pixels);
+  // (index, why) in the caller's numbering: fragments, then drawings.
+  std::vector<std::pair<size_t, std::string>> refused =
+      layers_[eye].composite(width, height, all, fused, into);
+  const size_t nf = fragments.size();
+  for (auto& [k, why] : refused)
+    k = k < nf ? k : k < all.size() ? nf + drawn_index[k - nf] : nf + fused_index[k - all.size()];
+  std::sort(refused.begin(), refused.end());
+  return refused;
 }
 
 void Renderer::draw_all(const std::vector<SlotDrawing>& drawings,
@@ -106,6 +129,7 @@ class CpuRenderer final : public Renderer {
   }
 
  protected:
+  const cv::Mat* cpu_image(int slot) const override { return &image(slot); }
   // On every core, each drawing by one thread (the bytes are the serial
   // ones); the first drawing's error in drawing order is thrown, as the
   // serial loop would throw it.

@@ -69,7 +69,8 @@ class Renderer {
   // and resolved into `into` (CV_8UC4), as Compositor::composite(). A frame
   // with layer-1 fragments or drawings (a focal surface's second planes)
   // takes its two planes per tile per pixel (LayerCompositor, on the CPU
-  // for either backend; its drawings drawn first, draw_all()). Returns what
+  // for either backend; layer 0's drawings fused into it on the CPU
+  // backend, the others drawn first, draw_all()). Returns what
   // was left out, (index, why): fragments first, then drawings.
   std::vector<std::pair<size_t, std::string>> composite(
       int eye, int width, int height, const std::vector<FragmentPixels>& fragments,
@@ -96,6 +97,13 @@ class Renderer {
   // the CPU's on every core.
   virtual void draw_all(const std::vector<SlotDrawing>& drawings,
                         const std::vector<uint8_t*>& pixels);
+  // The image in a slot where it is in this process's memory (the CPU's),
+  // for composite() to draw from band by band; null where draws read it
+  // elsewhere (GL). Throws as check_slot().
+  virtual const cv::Mat* cpu_image(int slot) const {
+    check_slot(slot);
+    return nullptr;
+  }
 
  private:
   LayerCompositor layers_[2];
