@@ -393,7 +393,24 @@ constexpr int kBlock = 8;
 struct Blocks {
   int cols = 0;
   std::vector<uint8_t> on;
-  bool at(int x, int y) const { return on[(y / kBlock) * cols + x / kBlock] != 0; }
+  // Per row of blocks, its runs of blocks on, as pixel columns [x0, x1)
+  // (left to right; set by find_runs()).
+  std::vector<std::vector<std::pair<int, int>>> runs;
+  void find_runs(int width) {
+    const int rows = cols ? static_cast<int>(on.size()) / cols : 0;
+    runs.assign(rows, {});
+    for (int by = 0; by < rows; ++by)
+      for (int bx = 0; bx < cols;) {
+        if (!on[by * cols + bx]) {
+          ++bx;
+          continue;
+        }
+        int end = bx;
+        while (end < cols && on[by * cols + end]) ++end;
+        runs[by].emplace_back(bx * kBlock, std::min(width, end * kBlock));
+        bx = end;
+      }
+  }
 };
 
 // Adds 255 |p|^2 / a (w |c|^2 with w = a / 255 and c = 255 p / a, p
@@ -405,16 +422,14 @@ void add_squares(const Fragment& f, const uint8_t* pixels, int r0, int r1, const
   for (int r = r0; r < r1; ++r) {
     const int b = f.spans[r][0], e = f.spans[r][1], y = f.rect.y + r;
     float* row = sq.ptr<float>(y);
-    for (int x = b; x < e;) {
-      const int end = std::min(e, (x / kBlock + 1) * kBlock);
-      if (blocks.at(x, y))
-        for (int k = x; k < end; ++k) {
-          const uint8_t* q = px + 4 * (k - b);
-          if (q[3] == 0 || where.weight_at(k, y) == 0) continue;
-          const float p0 = q[0], p1 = q[1], p2 = q[2];
-          row[k] += 255.0f * (p0 * p0 + p1 * p1 + p2 * p2) / q[3];
-        }
-      x = end;
+    for (const auto& [x0, x1] : blocks.runs[y / kBlock]) {
+      if (x0 >= e) break;
+      for (int k = std::max(b, x0); k < std::min(e, x1); ++k) {
+        const uint8_t* q = px + 4 * (k - b);
+        if (q[3] == 0 || where.weight_at(k, y) == 0) continue;
+        const float p0 = q[0], p1 = q[1], p2 = q[2];
+        row[k] += 255.0f * (p0 * p0 + p1 * p1 + p2 * p2) / q[3];
+      }
     }
     px += 4 * (e - b);
   }
@@ -626,23 +641,16 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
     }
     // Only those blocks are zeroed (each run of them along a row of blocks
     // at once), read and written: a few where the scene needs few.
+    blocks.find_runs(width);
     comp_[1].reset(width, height, 0, 0);
     for (int l = 0; l < 2; ++l)
       sq_[l].create(height, width, CV_32FC1);  // the last frame's memory when the size is the same
-    const int brows = (height + kBlock - 1) / kBlock;
-    for (int by = y0_ / kBlock; by < brows; ++by)
-      for (int bx = 0; bx < blocks.cols;) {
-        if (!blocks.on[by * blocks.cols + bx]) {
-          ++bx;
-          continue;
-        }
-        int end = bx;
-        while (end < blocks.cols && blocks.on[by * blocks.cols + end]) ++end;
-        const cv::Rect run = cv::Rect(bx * kBlock, by * kBlock, (end - bx) * kBlock, kBlock) &
+    for (size_t by = 0; by < blocks.runs.size(); ++by)
+      for (const auto& [x0, x1] : blocks.runs[by]) {
+        const cv::Rect run = cv::Rect(x0, static_cast<int>(by) * kBlock, x1 - x0, kBlock) &
                              cv::Rect(0, 0, width, height);
         comp_[1].zero(run);
         for (int l = 0; l < 2; ++l) sq_[l](run).setTo(0);
-        bx = end;
       }
     for (size_t i : layer_of[1]) comp_[1].add(*fragments[i].fragment, fragments[i].pixels);
     add_squares(fragments, layer_of[1], comp_[1], blocks, sq_[1]);
@@ -723,19 +731,26 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
         const int x0 = bx * kBlock, y0 = by * kBlock;
         const int x1 = std::min(width, x0 + kBlock), y1 = std::min(height, y0 + kBlock);
         const int cx0 = std::max(0, x0 - R), cx1 = std::min(width, x1 + R);
-        for (int y = y0; y < y1; ++y)
-          for (int x = cx0; x < cx1; ++x) {
-            cv::Vec3f c(0, 0, 0);
-            for (int j = std::max(0, y - R); j <= std::min(height - 1, y + R); ++j)
-              c += win_.at<cv::Vec3f>(j, x);
+        // Running sums down each column and along each row (as box
+        // filters keep them).
+        for (int x = cx0; x < cx1; ++x) {
+          cv::Vec3f c(0, 0, 0);
+          for (int j = std::max(0, y0 - R); j < std::min(height, y0 + R); ++j)
+            c += win_.at<cv::Vec3f>(j, x);
+          for (int y = y0; y < y1; ++y) {
+            if (y + R < height) c += win_.at<cv::Vec3f>(y + R, x);
+            if (y > y0 && y - R - 1 >= 0) c -= win_.at<cv::Vec3f>(y - R - 1, x);
             col[y - y0][x - cx0] = c;
           }
-        for (int y = y0; y < y1; ++y)
+        }
+        for (int y = y0; y < y1; ++y) {
+          cv::Vec3f w(0, 0, 0);
+          for (int i = std::max(cx0, x0 - R); i < std::min(cx1, x0 + R); ++i)
+            w += col[y - y0][i - cx0];
           for (int x = x0; x < x1; ++x) {
+            if (x + R < cx1) w += col[y - y0][x + R - cx0];
+            if (x > x0 && x - R - 1 >= cx0) w -= col[y - y0][x - R - 1 - cx0];
             if (comp_[1].weight_at(x, y) == 0) continue;
-            cv::Vec3f w(0, 0, 0);
-            for (int i = std::max(cx0, x - R); i <= std::min(cx1 - 1, x + R); ++i)
-              w += col[y - y0][i - cx0];
             const float c = std::max(1.0f, w[2]);
             const float s0 = w[0] / c, s1 = w[1] / c;
             // The nearer layer, unless the other agrees clearly better.
@@ -743,6 +758,7 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
             resolve1(comp_[1].sums_at(x, y), out.ptr<uint8_t>(y) + 4 * x);
             if (choice) choice->at<uint8_t>(y, x) = 1;
           }
+        }
       }
   });
   return refused;
