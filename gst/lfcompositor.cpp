@@ -413,6 +413,8 @@ static GstFlowReturn lf_compositor_emit_due(LfFragmentAggregator* agg, const LfD
       d->live ? std::max<gint64>(kProbeDeadlineUs, static_cast<gint64>(d->latency / GST_USECOND))
               : kProbeDeadlineUs;
   st->intake->max_pixel_rate = d->live ? st->s.max_pixel_rate : 0;  // not live: every request
+  // Live: surface estimates in the background (40 ms at 1080p); not live: reproducible.
+  st->probes->set_background(d->live);
   st->probes->expire(g_get_monotonic_time(), probe_deadline_us);
   if (d->live && st->s.adaptive_deadline)
     if (const GstClockTime v = self->priv->deadline.adapt(GST_AGGREGATOR(agg)))

@@ -53,7 +53,9 @@
  * Probes are scored here, never composited (lib/lf/session/probe_scoring.h):
  * a focus probe gives the depth under a clicked pixel (an upstream
  * `lf-focus` event), a surface probe a focal surface for the whole view (an
- * upstream `lf-surface` event; see `lfviewrequest`'s focal-surface). This is
+ * upstream `lf-surface` event; see `lfviewrequest`'s focal-surface; live,
+ * its estimate runs on a thread of its own, 40 ms at 1080p, while the frames
+ * go on; not live, at once, so that the frames are reproducible). This is
  * the one place where every camera's contribution arrives separately, so it
  * works unchanged across machines: no camera image leaves its host.
  *

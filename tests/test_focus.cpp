@@ -369,6 +369,73 @@ TEST(ProbeScoring, CompleteAtOnceIncompleteAtTheDeadlineAndSatOutProbes) {
   }
 }
 
+// Surface estimates in the background (lfcompositor, live): the outcomes
+// are those of estimating at once, in the same order (three probes in a
+// row, each concluded before the next: the same priors), and the scoring
+// can end with estimates running.
+TEST(ProbeScoring, BackgroundSurfaceEstimatesEqualThoseMadeAtOnce) {
+  const auto rig = std::make_shared<const lf::Rig>(lf::synthetic_grid_rig(4, 4, 0.05, 320, 240));
+  const lf::SyntheticScene scene = lf::SyntheticScene::for_rig(*rig);
+  const double t = 0.3;
+  const lf::ViewRequest view = probe_view(*rig);
+  const lf::SurfaceOptions opt;
+  std::vector<cv::Mat> images;
+  for (const lf::Camera& c : rig->cameras) images.push_back(scene.render(c, t));
+  // Every camera's answer to every step of surface probe `id`.
+  auto absorb_probe = [&](lf::ProbeScoring& scoring, uint32_t id) {
+    const auto steps = lf::surface_probe_requests(*rig, view, id, opt);
+    for (size_t i = 0; i < rig->cameras.size(); ++i)
+      for (const lf::ViewRequest& r : steps) {
+        lf::Fragment f;
+        f.sequence = r.sequence, f.viewer_id = 2, f.camera_id = rig->cameras[i].id;
+        f.capture_time_ns = 1000;
+        lf::render_fragment(lf::plan_fragment(lf::ViewGeometry(*rig, r), static_cast<int>(i)),
+                            rig->cameras[i], images[i], f);
+        const auto bytes = lf::serialize_fragment(f, lf::Encoding::kRaw);
+        scoring.absorb(bytes.data(), bytes.size(), 320, 240, opt, 0);
+      }
+  };
+  constexpr uint32_t kProbes[] = {30, 31, 32};
+  lf::ProbeScoring at_once(rig), background(rig);
+  background.set_background(true);
+  std::vector<lf::ProbeOutcome> want, got;
+  for (uint32_t id : kProbes) {
+    absorb_probe(at_once, id);
+    for (lf::ProbeOutcome& o : at_once.take()) want.push_back(std::move(o));
+    absorb_probe(background, id);
+    background.wait();  // the next probe's prior is this one's surface
+    for (lf::ProbeOutcome& o : background.take()) got.push_back(std::move(o));
+  }
+  ASSERT_EQ(want.size(), 3u);
+  ASSERT_EQ(got.size(), want.size());
+  for (size_t k = 0; k < want.size(); ++k) {
+    ASSERT_EQ(want[k].result, lf::ProbeOutcome::Result::kAnswer) << want[k].describe();
+    EXPECT_EQ(got[k].result, want[k].result) << got[k].describe();
+    EXPECT_EQ(got[k].probe, kProbes[k]);
+    EXPECT_EQ(got[k].surface.plane_of, want[k].surface.plane_of) << "probe " << kProbes[k];
+    EXPECT_EQ(got[k].surface.second_of, want[k].surface.second_of) << "probe " << kProbes[k];
+    ASSERT_EQ(got[k].surface.planes.size(), want[k].surface.planes.size());
+    EXPECT_GT(got[k].estimate_ms, 0);
+  }
+  EXPECT_GT(want[0].planes_used, 1) << "the disc before the background: two depths at least";
+  // Scored with estimates still running and never taken: the destructor
+  // waits for them (the ASan build would see a use after it).
+  {
+    lf::ProbeScoring ending(rig);
+    ending.set_background(true);
+    absorb_probe(ending, 40);
+    absorb_probe(ending, 41);
+  }
+  // Two probes complete before either estimate is taken: both come, in order.
+  absorb_probe(background, 50);
+  absorb_probe(background, 51);
+  background.wait();
+  got = background.take();
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_EQ(got[0].probe, 50u);
+  EXPECT_EQ(got[1].probe, 51u);
+}
+
 // The point of the disc's plane that the moving disc covers from t0 to t1
 // with the widest margin (the least distance to its edge, in `margin`): on
 // the line from the orbit's centre towards the disc's centre at the middle

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cstdio>
 #include <exception>
+#include <optional>
 #include <utility>
 
 #include "lf/wire/probe_bundle.h"
@@ -79,6 +80,7 @@ void ProbeScoring::expire(int64_t now_us, int64_t deadline_us) {
 }
 
 std::vector<ProbeOutcome> ProbeScoring::take() {
+  collect(false);
   return std::exchange(outcomes_, {});
 }
 
@@ -98,22 +100,67 @@ void ProbeScoring::finish_focus(FocusProbes::Iter it) {
   outcomes_.push_back(std::move(o));
 }
 
-void ProbeScoring::finish_surface(SurfaceProbes::Iter it) {
-  const auto probe = surface_.take(it);
-  ProbeOutcome o = outcome_of(ProbeOutcome::Kind::kSurface, probe);
+ProbeScoring::~ProbeScoring() {
+  for (Running& r : running_)
+    if (r.estimated.valid()) r.estimated.wait();  // at most kMaxSurfaceProbes estimates
+}
+
+ProbeScoring::Estimated ProbeScoring::estimate_surface(const SurfaceProbes::Probe& probe,
+                                                       const SurfacePrior* prior) const {
+  Estimated r;
   const auto t0 = std::chrono::steady_clock::now();
-  SurfaceEstimate e;
-  bool ok = false;
-  bool threw = false;
-  const auto prior = priors_.find(probe.viewer);
   try {
-    if (rig_)
-      e = probe.answers.estimate(*rig_, &ok, prior == priors_.end() ? nullptr : &prior->second);
+    if (rig_) r.e = probe.answers.estimate(*rig_, &r.ok, prior);
   } catch (const std::exception& ex) {
-    o.why = ex.what(), threw = true;
+    r.why = ex.what(), r.threw = true, r.ok = false;
   }
-  o.estimate_ms =
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  r.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return r;
+}
+
+void ProbeScoring::finish_surface(SurfaceProbes::Iter it) {
+  auto probe = std::make_shared<SurfaceProbes::Probe>(surface_.take(it));
+  const auto prior = priors_.find(probe->viewer);
+  if (!background_) {
+    conclude_surface(*probe,
+                     estimate_surface(*probe, prior == priors_.end() ? nullptr : &prior->second));
+    return;
+  }
+  // On a thread of its own, with a copy of the viewer's prior; concluded
+  // by take() once it is done.
+  std::optional<SurfacePrior> copy;
+  if (prior != priors_.end()) copy = prior->second;
+  Running r;
+  r.probe = probe;
+  r.estimated = std::async(std::launch::async, [this, probe, copy] {
+    return estimate_surface(*probe, copy ? &*copy : nullptr);
+  });
+  running_.push_back(std::move(r));
+}
+
+void ProbeScoring::collect(bool block) {
+  while (!running_.empty()) {
+    Running& r = running_.front();
+    if (!block && r.estimated.wait_for(std::chrono::seconds(0)) != std::future_status::ready)
+      return;
+    Estimated e = r.estimated.get();
+    const std::shared_ptr<SurfaceProbes::Probe> probe = r.probe;
+    running_.pop_front();
+    conclude_surface(*probe, std::move(e));
+  }
+}
+
+void ProbeScoring::wait() {
+  collect(true);
+}
+
+void ProbeScoring::conclude_surface(const SurfaceProbes::Probe& probe, Estimated est) {
+  ProbeOutcome o = outcome_of(ProbeOutcome::Kind::kSurface, probe);
+  SurfaceEstimate& e = est.e;
+  const bool ok = est.ok, threw = est.threw;
+  if (threw) o.why = est.why;
+  o.estimate_ms = est.ms;
+  const auto prior = priors_.find(probe.viewer);
   if (!ok) {
     // Every camera sat the probe out (its instant was not among their
     // frames: a live pipeline starting, or a host overloaded): nothing was

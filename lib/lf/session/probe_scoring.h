@@ -12,11 +12,14 @@
 //
 // Plain C++, no GStreamer: lfcompositor is the glue (it turns outcomes into
 // lf-focus and lf-surface events, or warnings). Times are microseconds of a
-// monotonic clock. Not thread-safe.
+// monotonic clock. Not thread-safe (its background estimates touch nothing
+// of it but their own probe).
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
+#include <deque>
+#include <future>
 #include <map>
 #include <memory>
 #include <string>
@@ -75,6 +78,20 @@ class ProbeScoring {
   // `rig` (may be null: probes then wait for their deadline, and fail for
   // lack of geometry).
   explicit ProbeScoring(std::shared_ptr<const Rig> rig) : rig_(std::move(rig)) {}
+  // Waits for the estimates still running (at most kMaxSurfaceProbes).
+  ~ProbeScoring();
+  ProbeScoring(const ProbeScoring&) = delete;
+  ProbeScoring& operator=(const ProbeScoring&) = delete;
+  // Where a surface probe's estimate runs (tens of ms at 1080p): false (the
+  // default), at once, in the absorb() or expire() that scored the probe;
+  // true, on a thread of its own (std::async), so that the caller's frames
+  // go on meanwhile (lfcompositor: a live 1080p stream kept its rate), its
+  // outcome returned by the first take() after it is done (in the order
+  // the probes were scored). Its prior is the viewer's last surface
+  // concluded before it started.
+  void set_background(bool background) { background_ = background; }
+  // Waits for the estimates still running; take() then returns them.
+  void wait();
 
   // One camera's answer to a probe (its viewer and camera already checked):
   // one step's fragment, or a bundle of its steps (lib/lf/wire/probe_bundle.h),
@@ -99,6 +116,24 @@ class ProbeScoring {
                       int width, int height, const SurfaceOptions& opt, int64_t now_us);
   void finish_focus(FocusProbes::Iter it);
   void finish_surface(SurfaceProbes::Iter it);
+  // A surface estimate: pure (any thread), then concluded here (the
+  // outcome, the viewer's prior).
+  struct Estimated {
+    SurfaceEstimate e;
+    bool ok = false, threw = false;
+    std::string why;  // threw: the exception's message
+    double ms = 0;
+  };
+  Estimated estimate_surface(const SurfaceProbes::Probe& probe, const SurfacePrior* prior) const;
+  void conclude_surface(const SurfaceProbes::Probe& probe, Estimated est);
+  // Concludes the estimates done, in order (block: all of them, waiting).
+  void collect(bool block);
+  struct Running {
+    std::shared_ptr<SurfaceProbes::Probe> probe;
+    std::future<Estimated> estimated;
+  };
+  bool background_ = false;
+  std::deque<Running> running_;
 
   std::shared_ptr<const Rig> rig_;
   // Each viewer's last surface: the next estimate's prior (hysteresis,
