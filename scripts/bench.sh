@@ -112,7 +112,7 @@ if [ "$quick" = 0 ]; then
     echo "bench: no profile this run; the last one is kept" >&2
 fi
 step "4/8 the pipeline's focus modes side by side (the default focal surface, the paper's plane)"
-bench focus "$build/tools/lf-gst-bench" --input "$data/stanford-chess" --sizes 640x480 \
+bench focus "$build/tools/lf-gst-bench" --input "$data/stanford-chess" --sizes 640x480,1920x1080 \
   --encodings raw --frames "$frames" --focal plane,surface:60,surface:60+sampling=bicubic --skip-bound
 step "4b/8 quilts: N eyes in one request round against N viewers of the same eyes"
 qruns=$([ "$quick" = 1 ] && echo 1 || echo 2)
@@ -186,9 +186,9 @@ cot_best=$(col "$tmp/cotton.md" "| none | best |" 4)
 between() {  # scene, row: PSNR of that row of the in-between views' table
   col "$tmp/between-$1.md" "| 640x480 | none | $2 |" 4
 }
-live() {  # row of the focus table: its live fps
-  awk -F'|' -v p="$1" '/live fps/ && !h {for (i = 1; i <= NF; i++) if ($i ~ /live fps/ && !c) c = i; h = 1; next}
-                       h && c && index($0, p) {gsub(/ /, "", $c); print $c; exit}' "$tmp/focus.md"
+live() {  # row of the focus table, output size (640x480 unless given): its live fps
+  awk -F'|' -v p="$1" -v s="| ${2:-640x480} |" '/live fps/ && !h {for (i = 1; i <= NF; i++) if ($i ~ /live fps/ && !c) c = i; h = 1; next}
+                       h && c && index($0, s) && index($0, p) {gsub(/ /, "", $c); print $c; exit}' "$tmp/focus.md"
 }
 
 {
@@ -228,6 +228,7 @@ live() {  # row of the focus table: its live fps
   echo "| thin structures (bars before a background), 10 in-between views: the default focal surface against a per-pixel 64-plane sweep and one plane per tile | $(sed -n 's/^mean of [0-9]* views: default \([0-9.]*\) dB, one plane per tile \([0-9.]*\) dB, per-pixel sweep \([0-9.]*\) dB.*/\1 dB against \3 dB and \2 dB/p' "$tmp/thin.md") | [Thin structures](#thin-structures-against-a-per-pixel-sweep) |"
   echo "| flicker of a static scene over 100 frames, still eye: the default focal surface against the paper's auto-focused plane (levels) | $(sed -n 's/^flicker over 100 frames, still eye: plane \([0-9.]*\), surface \([0-9.]*\) .*/\2 against \1/p' "$tmp/flicker.md") | [Flicker](#flicker-a-static-scene-re-estimated-every-frame) |"
   echo "| live 640x480 pipeline, 64 cameras, 30 requests/s: fps with the default focal surface against the paper's plane | $(live "| surface, a probe every 60 |") against $(live "| plane |") | [Focus modes in the pipeline](#focus-modes-in-the-pipeline) |"
+  echo "| live 1920x1080 pipeline, 64 cameras, 30 requests/s: fps with the default focal surface against the paper's plane | $(live "| surface, a probe every 60 |" 1920x1080) against $(live "| plane |" 1920x1080) | [Focus modes in the pipeline](#focus-modes-in-the-pipeline) |"
   echo "| CPU per round: 8 eyes as one quilt request / as 8 viewers (5 rounds/s); 48 eyes (1 round/s) | $(quilt_ratio quilt8); $(quilt_ratio quilt48) | [Quilts](#quilts-many-views-in-one-request-round) |"
   if [ "$net" = 1 ]; then
     echo "| all-viewpoints JPEG bytes / fragment bytes, 64 cameras | $(sed -n 's/^| fragments, JPEG (64 cameras) | [0-9]* | \([0-9.]*x\) less.*/\1/p' "$tmp/net.md" | head -1) | [Deployment](#deployment) |"
@@ -292,8 +293,8 @@ live() {  # row of the focus table: its live fps
   echo "## Focus modes in the pipeline"
   echo
   echo "The default focal surface (a probe every 60 requests, lfviewrequest's default) against the"
-  echo "paper's single plane, side by side in one run: throughput (non-live), live fps at 30"
-  echo "requests a second, CPU per frame."
+  echo "paper's single plane, side by side in one run, at 640x480 and 1920x1080: throughput"
+  echo "(non-live), live fps at 30 requests a second, CPU per frame (each size against its plane row)."
   echo
   section focus
   echo "## Quilts: many views in one request round"
