@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <exception>
 #include <optional>
+#include <system_error>
 #include <utility>
 
 #include "lf/wire/probe_bundle.h"
@@ -132,9 +133,15 @@ void ProbeScoring::finish_surface(SurfaceProbes::Iter it) {
   if (prior != priors_.end()) copy = prior->second;
   Running r;
   r.probe = probe;
-  r.estimated = std::async(std::launch::async, [this, probe, copy] {
-    return estimate_surface(*probe, copy ? &*copy : nullptr);
-  });
+  try {
+    r.estimated = std::async(std::launch::async, [this, probe, copy] {
+      return estimate_surface(*probe, copy ? &*copy : nullptr);
+    });
+  } catch (const std::system_error&) {  // no thread to be had: at once, after those running
+    collect(true);
+    conclude_surface(*probe, estimate_surface(*probe, copy ? &*copy : nullptr));
+    return;
+  }
   running_.push_back(std::move(r));
 }
 
