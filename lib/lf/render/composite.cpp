@@ -618,7 +618,7 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
   }
   if (choice) *choice = cv::Mat::zeros(height, width, CV_8UC1);
   // Layer 1's sums and both layers' squares are read only in the blocks
-  // that layer 1 reaches: only their rows are zeroed.
+  // that layer 1 reaches, within rows [y0_, y1_).
   y0_ = height, y1_ = 0;
   for (size_t i : layer_of[1]) {
     const cv::Rect& r = fragments[i].fragment->rect;
