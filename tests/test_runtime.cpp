@@ -736,6 +736,8 @@ struct Latency {
   std::mutex m;
   std::map<guint64, gint64> sent;
   std::vector<double> ms;
+  std::vector<std::pair<gint64, gint64>> matched;  // (request sent, its frame out), µs
+  std::vector<gint64> out;                         // every frame out, µs
   static GstPadProbeReturn request(GstPad*, GstPadProbeInfo* info, gpointer data) {
     auto* l = static_cast<Latency*>(data);
     std::lock_guard<std::mutex> lock(l->m);
@@ -746,9 +748,26 @@ struct Latency {
     auto* l = static_cast<Latency*>(data);
     const gint64 now = g_get_monotonic_time();
     std::lock_guard<std::mutex> lock(l->m);
+    l->out.push_back(now);
     auto it = l->sent.find(GST_BUFFER_OFFSET(GST_PAD_PROBE_INFO_BUFFER(info)));
-    if (it != l->sent.end()) l->ms.push_back((now - it->second) / 1000.0);
+    if (it != l->sent.end()) {
+      l->ms.push_back((now - it->second) / 1000.0);
+      l->matched.emplace_back(it->second, now);
+    }
     return GST_PAD_PROBE_OK;
+  }
+  // For each matched frame from the `first`th on, how many other frames
+  // came out between its request and itself: the work it waited behind,
+  // in frames, which a busy machine's stretched periods do not change.
+  std::vector<int> frames_behind(size_t first) const {
+    std::vector<int> n;
+    for (size_t i = first; i < matched.size(); ++i) {
+      const auto [sent, done] = matched[i];
+      n.push_back(static_cast<int>(
+          std::count_if(out.begin(), out.end(), [&](gint64 t) { return t > sent && t < done; })));
+    }
+    std::sort(n.begin(), n.end());
+    return n;
   }
 };
 
@@ -762,13 +781,21 @@ struct Latency {
 // lfarray's own deadline (adaptive-deadline), as a user gets it: with a
 // fixed latency=100 ms, as this test once set, the compositor's live pads
 // (GstAggregator queues up to its latency) keep 100 ms of requests, 1.5
-// periods at 15 fps, and p95 reached 3.8-4.1 periods. Measured on a 2-core AMD EPYC (15 fps alone):
-// median 0.9-1.9 periods, p95 1.5-2.8 in 14 runs; beside one or two more busy loops (11-14 fps)
-// median 1.9-2.0, p95 2.6-2.9 in 10 runs. Sanitizer build (720p): median 1.9, p95 2.1-2.8 alone and
-// beside three busy loops. Before (every request composited in turn) median 4.5 periods, p95 5.6,
-// growing with the run. The bounds (3 and 4 periods) leave a busy machine a period of room and
-// still fail the queueing compositor. 480 requests: with 240, at 15 fps the run ended within
-// 3 s and measured mostly the pipeline filling.
+// periods at 15 fps, and p95 reached 3.8-4.1 periods.
+//
+// The bound is in frames: how many other frames came out while a request
+// waited for its own (the work it waited behind). A period of the average
+// rate was the unit before, and a p95 in time failed once in a CI run with
+// a neighbour's bursts (4.4 periods, bound 4; 2.0-2.95 alone): a busy
+// machine stretches single frames, not the number a request waits behind.
+// Measured on a 2-core Intel Xeon VM: 10.4-10.6 fps alone, median 1 frame,
+// p95 2, at most 2 (in time: median 1.9-2.0 periods, p95 2.9); beside two
+// more busy loops 6.5-6.9 fps, median 1, p95 1, at most 2 (3 runs each).
+// Queueing (shed_stale() a no-op, request-max-age=2 s): median 4, p95 5
+// frames, in time 4.7 and 5.8 periods; it fails both frame bounds (2 and
+// 3), the median in time (3 periods) and `stale`. 480 requests: with 240,
+// at 15 fps the run ended within 3 s and measured mostly the pipeline
+// filling.
 TEST_F(Runtime, ALiveCompositorBehindTheRequestsShedsStaleOnes) {
 #ifdef LF_TEST_ASAN
   // The sanitizer build composites several times slower: 4K gave 9 frames
@@ -833,12 +860,18 @@ TEST_F(Runtime, ALiveCompositorBehindTheRequestsShedsStaleOnes) {
   std::sort(ms.begin(), ms.end());
   const double median = ms[ms.size() / 2], p95 = ms[ms.size() * 95 / 100];
   const double period = 1000.0 / fps;
+  const std::vector<int> behind = lat.frames_behind(std::min(q, lat.matched.size()));
+  const int behind_median = behind[behind.size() / 2],
+            behind_p95 = behind[behind.size() * 95 / 100];
   std::printf(
       "%zu frames, %.1f fps: latency median %.1f ms, p95 %.1f ms "
-      "(period %.1f ms); %" G_GUINT64_FORMAT " stale requests dropped\n",
-      arrivals.size(), fps, median, p95, period, stale);
+      "(period %.1f ms; %.1f and %.1f periods); frames out while a request waited: median %d, "
+      "p95 %d, most %d; %" G_GUINT64_FORMAT " stale requests dropped\n",
+      arrivals.size(), fps, median, p95, period, median / period, p95 / period, behind_median,
+      behind_p95, behind.back(), stale);
   EXPECT_LT(fps, 110) << "the machine kept the rate: nothing was shed, nothing is tested";
   EXPECT_GT(stale, 0u);
   EXPECT_LE(median, 3 * period);
-  EXPECT_LE(p95, 4 * period);
+  EXPECT_LE(behind_median, 2);
+  EXPECT_LE(behind_p95, 3);
 }
