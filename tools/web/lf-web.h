@@ -110,8 +110,11 @@ struct Control {
   RateLimit limit;
   std::atomic<guint64> messages{0}, refused{0};
   std::atomic<bool> stereo{false};
-  std::atomic<bool> connected{false};  // ICE connected (the handshake deadline's test)
-  std::atomic<gint64> offered_us{0};   // when our offer went out (monotonic µs; 0: not yet)
+  std::atomic<bool> connected{false};    // ICE connected (the handshake deadline's test)
+  std::atomic<gint64> offered_us{0};     // when our offer went out (monotonic µs; 0: not yet)
+  std::atomic<bool> offer_taken{false};  // an offer was made and is going out
+  std::atomic<bool> negotiation_needed{false};  // webrtcbin emitted on-negotiation-needed
+  int offers_asked = 0;  // offers asked for by the deadline, not webrtcbin (main loop only)
   ~Control() {
     if (channel) g_object_unref(channel);
     if (request) gst_object_unref(request);
@@ -188,14 +191,9 @@ gboolean on_deadline(gpointer data);
 // over the WebSocket).
 void on_offer(GstPromise* promise, gpointer data);
 void on_negotiation_needed(GstElement* webrtc, gpointer data);
-void on_ice_candidate(GstElement*, guint mline, gchar* candidate, gpointer data);
-void on_ice_state(GstElement* webrtc, GParamSpec*, gpointer data);
-void on_ws_message(SoupWebsocketConnection*, gint type, GBytes* message, gpointer data);
-
-// tools/web/signalling.cpp: WebRTC signalling with a browser (SDP and ICE
-// over the WebSocket).
-void on_offer(GstPromise* promise, gpointer data);
-void on_negotiation_needed(GstElement* webrtc, gpointer data);
+// Asks webrtcbin for an offer (create-offer); the first offer made goes
+// out, any later one is dropped (Control::offer_taken).
+void ask_offer(const ControlRef& ctl);
 void on_ice_candidate(GstElement*, guint mline, gchar* candidate, gpointer data);
 void on_ice_state(GstElement* webrtc, GParamSpec*, gpointer data);
 void on_ws_message(SoupWebsocketConnection*, gint type, GBytes* message, gpointer data);

@@ -21,6 +21,10 @@ void on_offer(GstPromise* promise, gpointer data) {
     gst_structure_get(gst_promise_get_reply(promise), "offer", GST_TYPE_WEBRTC_SESSION_DESCRIPTION,
                       &offer, nullptr);
   gst_promise_unref(promise);
+  if (offer && ctl->offer_taken.exchange(true)) {  // another offer went out first
+    gst_webrtc_session_description_free(offer);
+    return;
+  }
   if (!offer) {
     std::fprintf(stderr, "lf-web: viewer %u: webrtcbin made no offer\n", ctl->viewer_id);
     post(*ctl, "");
@@ -34,11 +38,16 @@ void on_offer(GstPromise* promise, gpointer data) {
   gst_webrtc_session_description_free(offer);
 }
 
-void on_negotiation_needed(GstElement* webrtc, gpointer data) {
+void ask_offer(const ControlRef& ctl) {
   GstPromise* p = gst_promise_new_with_change_func(
-      on_offer, new std::weak_ptr<Control>(ref_of(data)),
+      on_offer, new std::weak_ptr<Control>(ctl),
       [](gpointer d) { delete static_cast<std::weak_ptr<Control>*>(d); });
-  g_signal_emit_by_name(webrtc, "create-offer", nullptr, p);
+  g_signal_emit_by_name(ctl->webrtc, "create-offer", nullptr, p);
+}
+
+void on_negotiation_needed(GstElement*, gpointer data) {
+  ref_of(data)->negotiation_needed = true;
+  ask_offer(ref_of(data));
 }
 
 void on_ice_candidate(GstElement*, guint mline, gchar* candidate, gpointer data) {
