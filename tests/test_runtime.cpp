@@ -762,7 +762,7 @@ struct Latency {
   std::vector<int> frames_behind(size_t first) const {
     std::vector<int> n;
     for (size_t i = first; i < matched.size(); ++i) {
-      const auto [sent, done] = matched[i];
+      const gint64 sent = matched[i].first, done = matched[i].second;
       n.push_back(static_cast<int>(
           std::count_if(out.begin(), out.end(), [&](gint64 t) { return t > sent && t < done; })));
     }
