@@ -234,7 +234,9 @@ TEST(ProbeScoring, CompleteAtOnceIncompleteAtTheDeadlineAndSatOutProbes) {
     for (size_t k = 0; k < all[i].size(); ++k) {
       scoring.absorb(all[i][k].data(), all[i][k].size(), 320, 240, opt, 0);
       const bool last = i + 1 == all.size() && k + 1 == all[i].size();
-      if (!last) EXPECT_EQ(scoring.take().size(), 0u) << "scored before its last fragment";
+      if (!last) {
+        EXPECT_EQ(scoring.take().size(), 0u) << "scored before its last fragment";
+      }
     }
   std::vector<lf::ProbeOutcome> out = scoring.take();
   ASSERT_EQ(out.size(), 1u);
@@ -297,7 +299,9 @@ TEST(ProbeScoring, CompleteAtOnceIncompleteAtTheDeadlineAndSatOutProbes) {
     EXPECT_EQ(out[0].kind, lf::ProbeOutcome::Kind::kSurface);
     EXPECT_EQ(out[0].result,
               id == 20 ? lf::ProbeOutcome::Result::kSatOut : lf::ProbeOutcome::Result::kFailed);
-    if (id == 21) EXPECT_FALSE(out[0].why.empty());
+    if (id == 21) {
+      EXPECT_FALSE(out[0].why.empty());
+    }
   }
 
   // Surface probes that only one camera answered, with pixels, for one step

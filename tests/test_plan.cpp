@@ -640,8 +640,9 @@ TEST(Plan, FourCameraWeightsAreBilinearOverTheCell) {
     // four cameras at 0.25 round their colour to 4 levels, two at 0.5 to 2.
     EXPECT_LE(cv::norm(four, mean, cv::NORM_INF), 4) << "the mean of the two diagonals' tents";
     EXPECT_GT(lf::psnr(four, mean), 45);
-    if (eye[0] == 0)  // on a cell edge: the same two cameras as the tent
+    if (eye[0] == 0) {  // on a cell edge: the same two cameras as the tent
       EXPECT_EQ(cv::norm(four, lf::render_view(rig, images, tent), cv::NORM_INF), 0);
+    }
   }
   // No scale; a rig without a grid keeps the tent's weights.
   lf::ViewRequest bad;

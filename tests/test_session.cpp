@@ -1041,8 +1041,9 @@ TEST(FrameCompositor, FragmentsDrawingsStereoAndTheLastFrame) {
   const cv::Rect only = pieces[0].f.rect;
   for (int y = 0; y < 120; y += 7)
     for (int x = 0; x < 160; x += 7)
-      if (!only.contains({x, y}))
+      if (!only.contains({x, y})) {
         EXPECT_EQ(r.frame->at<cv::Vec4b>(y, x), complete.at<cv::Vec4b>(y, x)) << x << "," << y;
+      }
 
   // Straight into a caller's frame (an output buffer): the same picture
   // from fragments and drawings, the last frame given by the caller, a
@@ -1061,8 +1062,9 @@ TEST(FrameCompositor, FragmentsDrawingsStereoAndTheLastFrame) {
   ASSERT_EQ(r.refused.size(), 1u);
   for (int y = 0; y < 120; y += 7)
     for (int x = 0; x < 160; x += 7)
-      if (!only.contains({x, y}))
+      if (!only.contains({x, y})) {
         EXPECT_EQ(into.at<cv::Vec4b>(y, x), sent.at<cv::Vec4b>(y, x)) << x << "," << y;
+      }
   r = frames.composite_into({pieces[0]}, 160, 120, false, into, none);
   EXPECT_EQ(r.filled, 0u) << "no last frame: nothing to fill from";
   cv::Mat wide(120, 320, CV_8UC4);

@@ -892,7 +892,9 @@ TEST(SurfaceProbe, ATileThatKeptItsDepthGetsNoSecondPlaneOfItsOwn) {
   const lf::FocalSurface& fs = next.surface;
   ASSERT_EQ(fs.second_of.size(), fs.plane_of.size());
   for (size_t t = 0; t < fs.plane_of.size(); ++t)
-    if (fs.second_of[t] != lf::FocalSurface::kNone) EXPECT_NE(fs.second_of[t], fs.plane_of[t]) << t;
+    if (fs.second_of[t] != lf::FocalSurface::kNone) {
+      EXPECT_NE(fs.second_of[t], fs.plane_of[t]) << t;
+    }
   lf::ViewRequest r = h.req;
   lf::apply(next, r);
   EXPECT_NO_THROW(lf::validate(r));
