@@ -25,7 +25,8 @@ void on_offer(GstPromise* promise, gpointer data) {
     gst_webrtc_session_description_free(offer);
     return;
   }
-  if (!offer) {
+  if (!offer) {  // the viewer goes, unless an offer it asked for again went out
+    if (ctl->offer_taken) return;
     std::fprintf(stderr, "lf-web: viewer %u: webrtcbin made no offer\n", ctl->viewer_id);
     post(*ctl, "");
     return;

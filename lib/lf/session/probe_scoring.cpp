@@ -121,28 +121,28 @@ ProbeScoring::Estimated ProbeScoring::estimate_surface(const SurfaceProbes::Prob
 
 void ProbeScoring::finish_surface(SurfaceProbes::Iter it) {
   auto probe = std::make_shared<SurfaceProbes::Probe>(surface_.take(it));
-  const auto prior = priors_.find(probe->viewer);
-  if (!background_) {
-    conclude_surface(*probe,
-                     estimate_surface(*probe, prior == priors_.end() ? nullptr : &prior->second));
-    return;
+  auto prior_of = [&]() -> const SurfacePrior* {
+    const auto prior = priors_.find(probe->viewer);
+    return prior == priors_.end() ? nullptr : &prior->second;
+  };
+  if (background_) {
+    // On a thread of its own, with a copy of the viewer's prior; concluded
+    // by take() once it is done.
+    std::optional<SurfacePrior> copy;
+    if (const SurfacePrior* prior = prior_of()) copy = *prior;
+    try {
+      Running r;
+      r.probe = probe;
+      r.estimated = std::async(std::launch::async, [this, probe, copy] {
+        return estimate_surface(*probe, copy ? &*copy : nullptr);
+      });
+      running_.push_back(std::move(r));
+      return;
+    } catch (const std::system_error&) {  // no thread to be had: at once, after those running
+      collect(true);
+    }
   }
-  // On a thread of its own, with a copy of the viewer's prior; concluded
-  // by take() once it is done.
-  std::optional<SurfacePrior> copy;
-  if (prior != priors_.end()) copy = prior->second;
-  Running r;
-  r.probe = probe;
-  try {
-    r.estimated = std::async(std::launch::async, [this, probe, copy] {
-      return estimate_surface(*probe, copy ? &*copy : nullptr);
-    });
-  } catch (const std::system_error&) {  // no thread to be had: at once, after those running
-    collect(true);
-    conclude_surface(*probe, estimate_surface(*probe, copy ? &*copy : nullptr));
-    return;
-  }
-  running_.push_back(std::move(r));
+  conclude_surface(*probe, estimate_surface(*probe, prior_of()));
 }
 
 void ProbeScoring::collect(bool block) {
