@@ -13,7 +13,7 @@ build="$(cd "$1" && pwd)"
 root="$(cd "$(dirname "$0")/.." && pwd)"
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
-meson install -C "$build" --destdir "$work/root" --quiet > "$work/install.log"
+meson install -C "$build" --no-rebuild --destdir "$work/root" --quiet > "$work/install.log"
 pc="$(find "$work/root" -name lightfield-1.0.pc | head -1)"
 plugin="$(find "$work/root" -name libgstlightfield.so | head -1)"
 core_lib="$(find "$work/root" -name 'liblightfield-1.0.so' | head -1)"

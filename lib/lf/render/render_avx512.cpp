@@ -14,8 +14,6 @@
 #ifdef LF_X86_SIMD
 #include <immintrin.h>
 
-#include <cstring>
-
 #define LF_AVX512 __attribute__((target("avx512f,avx512dq,avx512bw,avx512vl,avx2")))
 
 namespace lf::kernels {
@@ -102,30 +100,19 @@ LF_AVX512 void coords16(const Consts& k, int x0, int n, int32_t* iu, int32_t* iv
                 off ? off + i : nullptr);
 }
 
-// The two horizontally adjacent taps at p (8 bytes: RGBA RGBA).
-LF_AVX512 inline long long taps(const uint8_t* p) {
-  long long t;
-  std::memcpy(&t, p, 8);
-  return t;
-}
-
-// Four pixels' bilinear sums: each pixel's two taps of a row (after the
-// byte shuffle, left and right tap of each channel side by side) widened to
-// 16 bits fill one 128-bit lane, and one madd with the pixel's packed
-// weights gives its four channel sums; top and bottom rows added, rounded,
-// and saturated to bytes in pixel order.
-LF_AVX512 inline __m128i four(const uint8_t* const* p, int stride, const int32_t* wtop,
-                              const int32_t* wbot) {
+// Four pixels' bilinear sums: each pixel's two taps of a row (8 bytes:
+// RGBA RGBA, `t` and `b` the top and bottom rows' of the four pixels; after
+// the byte shuffle, left and right tap of each channel side by side)
+// widened to 16 bits fill one 128-bit lane, and one madd with the pixel's
+// packed weights gives its four channel sums; top and bottom rows added,
+// rounded, and saturated to bytes in pixel order.
+LF_AVX512 inline __m128i four(__m256i t8, __m256i b8, const int32_t* wtop, const int32_t* wbot) {
   const __m256i pair = _mm256_setr_epi8(0, 4, 1, 5, 2, 6, 3, 7, 8, 12, 9, 13, 10, 14, 11, 15, 0, 4,
                                         1, 5, 2, 6, 3, 7, 8, 12, 9, 13, 10, 14, 11, 15);
   const __m512i spread = _mm512_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3);
   const __m512i round = _mm512_set1_epi32(1 << (kWeightBits - 1));
-  const __m512i t = _mm512_cvtepu8_epi16(_mm256_shuffle_epi8(
-      _mm256_setr_epi64x(taps(p[0]), taps(p[1]), taps(p[2]), taps(p[3])), pair));
-  const __m512i b = _mm512_cvtepu8_epi16(
-      _mm256_shuffle_epi8(_mm256_setr_epi64x(taps(p[0] + stride), taps(p[1] + stride),
-                                             taps(p[2] + stride), taps(p[3] + stride)),
-                          pair));
+  const __m512i t = _mm512_cvtepu8_epi16(_mm256_shuffle_epi8(t8, pair));
+  const __m512i b = _mm512_cvtepu8_epi16(_mm256_shuffle_epi8(b8, pair));
   const __m512i wt = _mm512_permutexvar_epi32(
       spread, _mm512_castsi128_si512(_mm_loadu_si128(reinterpret_cast<const __m128i*>(wtop))));
   const __m512i wb = _mm512_permutexvar_epi32(
@@ -146,11 +133,17 @@ LF_AVX512 void gather_avx512(const uint8_t* src, int stride, int n, const int32_
                              const int32_t* wbot, uint8_t* dst) {
   int i = 0;
   for (; i + 8 <= n; i += 8) {
-    const uint8_t* p[8];
-    for (int j = 0; j < 8; ++j) p[j] = src + off[i + j];
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(dst + 4 * i), four(p, stride, wtop + i, wbot + i));
+    // Each pixel's two taps of its top row, then of its bottom row: 8 bytes
+    // each, gathered at the pixels' offsets.
+    const __m256i o = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(off + i));
+    const __m512i top = _mm512_i32gather_epi64(o, src, 1);
+    const __m512i bot = _mm512_i32gather_epi64(o, src + stride, 1);
+    _mm_storeu_si128(
+        reinterpret_cast<__m128i*>(dst + 4 * i),
+        four(_mm512_castsi512_si256(top), _mm512_castsi512_si256(bot), wtop + i, wbot + i));
     _mm_storeu_si128(reinterpret_cast<__m128i*>(dst + 4 * i + 16),
-                     four(p + 4, stride, wtop + i + 4, wbot + i + 4));
+                     four(_mm512_extracti64x4_epi64(top, 1), _mm512_extracti64x4_epi64(bot, 1),
+                          wtop + i + 4, wbot + i + 4));
   }
   if (i < n)
     gather_avx2(src, stride, n - i, off + i, iu + i, iv + i, wtop + i, wbot + i, dst + 4 * i);
