@@ -370,10 +370,13 @@ TEST_F(Runtime, EveryViewPropertyChangedWhilePlayingReachesTheNextOutput) {
   const uint64_t before = r.seen.newest();
   g_object_set(req, "stereo-baseline", 0.5 * sp, nullptr);
   // Up to 10 s, draining the sink meanwhile (frames queued there return at
-  // once, so a count of pulls is no time bound).
+  // once, so a count of pulls is no time bound), until both eyes' requests
+  // of the third tick were seen: the right eye's leaves after the left's
+  // (on a busy machine the left alone was once seen at the check).
   const gint64 end = g_get_monotonic_time() + 10 * G_USEC_PER_SEC;
-  while (r.seen.newest() < before + 3 && g_get_monotonic_time() < end) pull(r.sinks[0], &f, 0.1);
   lf::ViewRequest left, right;
+  auto both = [&] { return r.seen.get(0, before + 3, &left) && r.seen.get(1, before + 3, &right); };
+  while (!both() && g_get_monotonic_time() < end) pull(r.sinks[0], &f, 0.1);
   ASSERT_TRUE(r.seen.get(0, before + 3, &left));
   ASSERT_TRUE(r.seen.get(1, before + 3, &right));
   EXPECT_NEAR(cv::norm(right.view.position - left.view.position), 0.5 * sp, 1e-9);
