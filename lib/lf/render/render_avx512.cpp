@@ -101,7 +101,7 @@ LF_AVX512 void coords16(const Consts& k, int x0, int n, int32_t* iu, int32_t* iv
 }
 
 // Four pixels' bilinear sums: each pixel's two taps of a row (8 bytes:
-// RGBA RGBA, `t` and `b` the top and bottom rows' of the four pixels; after
+// RGBA RGBA; `t8` the four pixels' of the top row, `b8` of the bottom; after
 // the byte shuffle, left and right tap of each channel side by side)
 // widened to 16 bits fill one 128-bit lane, and one madd with the pixel's
 // packed weights gives its four channel sums; top and bottom rows added,
