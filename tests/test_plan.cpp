@@ -271,6 +271,20 @@ TEST(Plan, TwoPlaneTilesSendTheNearerPlaneInLayerOne) {
       const auto layers = lf::plan_fragment_layers(g, i);
       EXPECT_EQ(layers[0].layer, 0);
       EXPECT_EQ(layers[1].layer, 1);
+      // A camera's own geometry given the tiling of the whole rig's (as
+      // cameras in one process share it, lf::shared_geometry) plans the
+      // same runs through the same homographies.
+      const lf::ViewGeometry own(rig, req, i, nullptr, g.surface_layout());
+      EXPECT_EQ(own.surface_layout(), g.surface_layout());
+      const auto own_layers = lf::plan_fragment_layers(own, i);
+      for (int l = 0; l < 2; ++l) {
+        ASSERT_EQ(own_layers[l].runs.size(), layers[l].runs.size());
+        for (size_t r = 0; r < layers[l].runs.size(); ++r) {
+          const lf::Run &a = layers[l].runs[r], &b = own_layers[l].runs[r];
+          EXPECT_TRUE(a.y == b.y && a.x0 == b.x0 && a.x1 == b.x1);
+          EXPECT_EQ(layers[l].pieces[a.piece].H, own_layers[l].pieces[b.piece].H);
+        }
+      }
       for (int l = 0; l < 2; ++l) {
         const auto got = pixel_map(layers[l], false);
         const auto alone = pixel_map(lf::plan_fragment(g, i, l), false);
@@ -289,6 +303,23 @@ TEST(Plan, TwoPlaneTilesSendTheNearerPlaneInLayerOne) {
   EXPECT_GT(pixels, 10000u);
   EXPECT_GT(nearer_second, 20);  // both orders occur
   EXPECT_GT(nearer_first, 20);
+  // A tiling of another size, or of another output size, is not taken.
+  {
+    lf::ViewRequest req = with_random_surface(random_request(rig, rng, 100, 75, false), rng, 3);
+    for (const uint8_t p : req.surface.plane_of)
+      req.surface.second_of.push_back(static_cast<uint8_t>((p + 1) % 3));
+    const lf::ViewGeometry g(rig, req);
+    for (int odd = 0; odd < 3; ++odd) {
+      auto layout = std::make_shared<lf::SurfaceLayout>(*g.surface_layout());
+      (odd == 0 ? layout->cols : odd == 1 ? layout->width : layout->height) += 1;
+      layout->regions = {};
+      const lf::ViewGeometry own(rig, req, 2, nullptr, layout);
+      EXPECT_NE(own.surface_layout(), layout);
+      EXPECT_EQ(own.regions(0).size(), g.regions(0).size());
+      EXPECT_EQ(own.regions(1).size(), g.regions(1).size());
+      EXPECT_GT(g.regions(1).size(), 0u);
+    }
+  }
   // Without second planes, layer 1 is empty.
   const lf::ViewRequest plain =
       with_random_surface(random_request(rig, rng, 64, 48, false), rng, 2);

@@ -1076,8 +1076,8 @@ TEST(FrameCompositor, FragmentsDrawingsStereoAndTheLastFrame) {
 }
 
 // lf::shared_geometry: the cameras answering one plane request share one
-// geometry (the first to ask makes it); a surface request or no key: each
-// its own.
+// geometry (the first to ask makes it); a surface request: each its own,
+// sharing the tiling; no key: each its own.
 TEST(CameraAnswer, CamerasShareTheGeometryOfARequest) {
   const auto rig = std::make_shared<const lf::Rig>(lf::synthetic_grid_rig(3, 3, 0.5, 160, 120, 50));
   const lf::ViewRequest req = view_request(0, 0, {0.1, 0.1, -1});
@@ -1089,4 +1089,31 @@ TEST(CameraAnswer, CamerasShareTheGeometryOfARequest) {
   EXPECT_NE(lf::shared_geometry(rig, req, 5, "").get(), a.get());
   EXPECT_NE(lf::shared_geometry(rig, req, 5, std::string(lf::kMaxSharedKeyBytes + 1, 'x')).get(),
             lf::shared_geometry(rig, req, 5, std::string(lf::kMaxSharedKeyBytes + 1, 'x')).get());
+  // A focal surface with second planes (16-pixel tiles of the 160x120 view,
+  // two planes, every third tile with both).
+  lf::ViewRequest sreq = req;
+  lf::FocalSurface& fs = sreq.surface;
+  fs.tile = 16, fs.cols = 10, fs.rows = 8;
+  fs.planes = {lf::FocalPlane::through({0, 0, 6}, {0, 0, 1}),
+               lf::FocalPlane::through({0, 0, 12}, {0, 0, 1})};
+  for (int t = 0; t < fs.cols * fs.rows; ++t) {
+    fs.plane_of.push_back(static_cast<uint8_t>((t / 7) % 2));
+    fs.second_of.push_back(t % 3 ? lf::FocalSurface::kNone : static_cast<uint8_t>(1 - (t / 7) % 2));
+  }
+  const auto s0 = lf::shared_geometry(rig, sreq, 0, "surface-bytes");
+  const auto s5 = lf::shared_geometry(rig, sreq, 5, "surface-bytes");
+  EXPECT_NE(s0.get(), s5.get());
+  EXPECT_EQ(s0->surface_layout(), s5->surface_layout());
+  EXPECT_GT(s5->regions(1).size(), 0u);
+  const lf::ViewGeometry alone(*rig, sreq, 5);
+  EXPECT_NE(alone.surface_layout(), s5->surface_layout());
+  for (int l = 0; l < 2; ++l) {
+    const lf::FragmentPlan a = lf::plan_fragment(alone, 5, l), b = lf::plan_fragment(*s5, 5, l);
+    EXPECT_FALSE(a.empty());
+    ASSERT_EQ(a.runs.size(), b.runs.size());
+    for (size_t r = 0; r < a.runs.size(); ++r)
+      EXPECT_TRUE(a.runs[r].y == b.runs[r].y && a.runs[r].x0 == b.runs[r].x0 &&
+                  a.runs[r].x1 == b.runs[r].x1 &&
+                  a.pieces[a.runs[r].piece].H == b.pieces[b.runs[r].piece].H);
+  }
 }

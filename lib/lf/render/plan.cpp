@@ -159,37 +159,6 @@ bool weighted(const ViewGeometry& g, const Part& part, int x, int y) {
   return g.weight_positive(part.s, part.slot, x, y);
 }
 
-// Output pixels [x0, x1) x [y0, y1) focused through plane `plane`.
-struct Region {
-  int x0, y0, x1, y1, plane;
-};
-
-// Regions of one plane each: the whole frame, or per tile row the maximal
-// horizontal stretches of tiles that share a plane (ViewGeometry::
-// layer_plane: layer 1 just the two-plane tiles).
-std::vector<Region> focal_regions(const ViewGeometry& g, int layer) {
-  const int W = g.width(), H = g.height();
-  const FocalSurface& fs = g.request().surface;
-  const bool two = fs.two_planes();
-  if (layer == 1 && !two) return {};
-  if (fs.empty()) return {{0, 0, W, H, 0}};
-  std::vector<Region> out;
-  std::vector<int> row(fs.cols);
-  for (int r = 0; r < fs.rows; ++r) {
-    const int y0 = r * fs.tile, y1 = std::min(H, y0 + fs.tile);
-    for (int c = 0; c < fs.cols; ++c)
-      row[c] = two ? g.layer_plane(layer, r * fs.cols + c) : fs.plane_of[r * fs.cols + c];
-    for (int c = 0; c < fs.cols;) {
-      const int p = row[c];
-      int e = c + 1;
-      while (e < fs.cols && row[e] == p) ++e;
-      if (p >= 0) out.push_back({c * fs.tile, y0, std::min(W, e * fs.tile), y1, p});
-      c = e;
-    }
-  }
-  return out;
-}
-
 // The parts of the camera plane's simplices that hold camera `index`, as
 // polygons of output pixels: they do not depend on the focal plane.
 std::vector<Part> camera_parts(const ViewGeometry& g, int index) {
@@ -300,7 +269,7 @@ std::vector<Part> camera_parts(const ViewGeometry& g, int index) {
 
 // Camera `index`'s plan over `regions` from its parts.
 FragmentPlan plan_regions(const ViewGeometry& g, int index, const std::vector<Part>& parts,
-                          const std::vector<Region>& regions, int layer) {
+                          const std::vector<FocalRegion>& regions, int layer) {
   FragmentPlan plan;
   plan.layer = layer;
   plan.camera_index = index;
@@ -312,7 +281,7 @@ FragmentPlan plan_regions(const ViewGeometry& g, int index, const std::vector<Pa
   const int W = g.width(), H = g.height();
   std::map<std::array<int, 4>, int> piece_keys;  // -> index in plan.pieces
 
-  for (const Region& reg : regions) {
+  for (const FocalRegion& reg : regions) {
     const bool whole = reg.x0 == 0 && reg.y0 == 0 && reg.x1 == W && reg.y1 == H;
     const int fp = reg.plane;
     const cv::Matx33d& Hc = g.homography(index, fp);
@@ -444,7 +413,7 @@ FragmentPlan plan_regions(const ViewGeometry& g, int index, const std::vector<Pa
 }  // namespace
 
 FragmentPlan plan_fragment(const ViewGeometry& g, int index, int layer) {
-  const std::vector<Region> regions = focal_regions(g, layer);
+  const std::vector<FocalRegion>& regions = g.regions(layer);
   return plan_regions(g, index, regions.empty() ? std::vector<Part>{} : camera_parts(g, index),
                       regions, layer);
 }
@@ -464,8 +433,8 @@ void aim_plan(const ViewGeometry& g, FragmentPlan& plan) {
 
 std::array<FragmentPlan, 2> plan_fragment_layers(const ViewGeometry& g, int index) {
   const std::vector<Part> parts = camera_parts(g, index);
-  return {plan_regions(g, index, parts, focal_regions(g, 0), 0),
-          plan_regions(g, index, parts, focal_regions(g, 1), 1)};
+  return {plan_regions(g, index, parts, g.regions(0), 0),
+          plan_regions(g, index, parts, g.regions(1), 1)};
 }
 
 }  // namespace lf

@@ -79,6 +79,25 @@ struct UlrField {
   std::vector<double> w;                // per vertex (row-major), per camera
 };
 
+// Output pixels [x0, x1) x [y0, y1) focused through focal plane `plane`
+// (ViewGeometry::plane).
+struct FocalRegion {
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0, plane = 0;
+};
+// What a request's focal surface tiling is for every camera alike (it
+// depends on the request only, so cameras in one process can share it:
+// ViewGeometry's `layout` argument, lf::shared_geometry): per tile whether
+// its second plane is the nearer (ViewGeometry::layer_plane), and each
+// fragment layer's regions of one plane (ViewGeometry::regions). A request
+// of 1920x1080 with 16-pixel tiles has 120 x 68 tiles; 64 cameras each
+// making their own cost 63 times the shared part.
+struct SurfaceLayout {
+  int width = 0, height = 0;                        // the request's output size, pixels
+  int cols = 0, rows = 0;                           // the surface's tiles; 0 without one
+  std::vector<uint8_t> second_nearer;               // per tile, with second planes (else empty)
+  std::array<std::vector<FocalRegion>, 2> regions;  // per layer
+};
+
 // Everything about one request that all cameras share.
 class ViewGeometry {
  public:
@@ -88,9 +107,12 @@ class ViewGeometry {
   // camera is then the zero matrix.
   // With `ulr` (a kUlr request's field, computed for the same rig and
   // request, e.g. by another camera's ViewGeometry: ulr_field()), the field
-  // is taken instead of computed; one of another size is ignored.
+  // is taken instead of computed; one of another size is ignored. With
+  // `layout` (computed for the same rig and request, e.g. by another
+  // camera's ViewGeometry: surface_layout()) likewise.
   ViewGeometry(const Rig& rig, const ViewRequest& request, int only_camera = -1,
-               std::shared_ptr<const UlrField> ulr = nullptr);
+               std::shared_ptr<const UlrField> ulr = nullptr,
+               std::shared_ptr<const SurfaceLayout> layout = nullptr);
 
   const Rig& rig() const { return *rig_; }
   const ViewRequest& request() const { return req_; }
@@ -131,6 +153,16 @@ class ViewGeometry {
   // other tiles layer 0 is the tile's plane and layer 1 none. Without a
   // surface: plane 0 in layer 0.
   int layer_plane(int layer, int tile) const;
+  // Fragment layer `layer`'s regions of one plane (layer_plane): per tile
+  // row the maximal horizontal stretches of tiles that share a plane, row
+  // by row (layer 1: just the two-plane tiles; empty without second
+  // planes); without a surface the whole frame through plane 0 in layer 0.
+  // Other layers: none.
+  const std::vector<FocalRegion>& regions(int layer) const {
+    return layer == 0 || layer == 1 ? layout_->regions[layer] : kNoRegions;
+  }
+  // The tiling (never null), to share.
+  const std::shared_ptr<const SurfaceLayout>& surface_layout() const { return layout_; }
 
   // Exact membership of a pixel's line in simplex `s`; fills barycentric
   // weights (per simplex vertex) when inside.
@@ -204,7 +236,9 @@ class ViewGeometry {
   int only_ = -1;               // only_camera
   std::vector<cv::Matx33d> H_;  // H_[p * ncam_ + camera]; H_[p] with only_camera
   inline static const cv::Matx33d kZero = cv::Matx33d::zeros();
-  std::vector<uint8_t> second_nearer_;  // per tile, with second planes
+  inline static const std::vector<FocalRegion> kNoRegions;
+  std::shared_ptr<const SurfaceLayout> layout_;
+  std::shared_ptr<const SurfaceLayout> compute_layout() const;
   std::shared_ptr<const UlrField> compute_ulr() const;
   std::shared_ptr<const UlrField> ulr_;
 };

@@ -172,7 +172,8 @@ void four_camera_weights(const Rig& rig, const std::vector<int>& partner, const 
 }  // namespace
 
 ViewGeometry::ViewGeometry(const Rig& rig, const ViewRequest& request, int only_camera,
-                           std::shared_ptr<const UlrField> ulr)
+                           std::shared_ptr<const UlrField> ulr,
+                           std::shared_ptr<const SurfaceLayout> layout)
     : rig_(&rig), req_(request) {
   validate(req_);
   const VirtualView& v = req_.view;
@@ -230,27 +231,73 @@ ViewGeometry::ViewGeometry(const Rig& rig, const ViewRequest& request, int only_
     else
       ulr_ = compute_ulr();
   }
+  const FocalSurface& fs = req_.surface;
+  if (layout && layout->width == v.width && layout->height == v.height && layout->cols == fs.cols &&
+      layout->rows == fs.rows &&
+      layout->second_nearer.size() == (fs.two_planes() ? fs.plane_of.size() : 0))
+    layout_ = std::move(layout);
+  else
+    layout_ = compute_layout();
+}
+
+std::shared_ptr<const SurfaceLayout> ViewGeometry::compute_layout() const {
+  auto out = std::make_shared<SurfaceLayout>();
+  const FocalSurface& fs = req_.surface;
+  const VirtualView& v = req_.view;
+  const int W = v.width, H = v.height;
+  out->width = W;
+  out->height = H;
+  if (fs.empty()) {
+    out->regions[0] = {{0, 0, W, H, 0}};
+    return out;
+  }
+  out->cols = fs.cols;
+  out->rows = fs.rows;
   // Two-plane tiles: whether the second plane is the nearer, along the ray
   // of the tile's centre pixel (a plane behind the eye, parallel to the ray
   // or at infinity is infinitely far).
-  const FocalSurface& fs = req_.surface;
-  if (fs.two_planes()) {
+  const bool two = fs.two_planes();
+  if (two) {
+    const cv::Vec3d E = v.position;
     auto along = [&](const FocalPlane& p, const cv::Vec3d& D) {
       const double t = -(p.n.dot(E) + p.d) / p.n.dot(D);
       return p.at_infinity() || !(t > 0) || !std::isfinite(t) ? INFINITY : t;
     };
-    second_nearer_.assign(fs.plane_of.size(), 0);
+    out->second_nearer.assign(fs.plane_of.size(), 0);
     for (int r = 0; r < fs.rows; ++r)
       for (int c = 0; c < fs.cols; ++c) {
         const int t = r * fs.cols + c;
         if (fs.second_of[t] == FocalSurface::kNone) continue;
-        const double x = (std::min(v.width, (c + 1) * fs.tile) + c * fs.tile - 1) * 0.5;
-        const double y = (std::min(v.height, (r + 1) * fs.tile) + r * fs.tile - 1) * 0.5;
+        const double x = (std::min(W, (c + 1) * fs.tile) + c * fs.tile - 1) * 0.5;
+        const double y = (std::min(H, (r + 1) * fs.tile) + r * fs.tile - 1) * 0.5;
         const cv::Vec3d D = ray(x, y);
-        second_nearer_[t] =
+        out->second_nearer[t] =
             along(fs.planes[fs.second_of[t]], D) < along(fs.planes[fs.plane_of[t]], D) ? 1 : 0;
       }
   }
+  // Each layer's regions: per tile row the maximal stretches of tiles that
+  // share a plane.
+  std::vector<int> row(fs.cols);
+  for (int layer = 0; layer < (two ? 2 : 1); ++layer)
+    for (int r = 0; r < fs.rows; ++r) {
+      const int y0 = r * fs.tile, y1 = std::min(H, y0 + fs.tile);
+      for (int c = 0; c < fs.cols; ++c) {
+        const int t = r * fs.cols + c;
+        const int b = two ? fs.second_of[t] : FocalSurface::kNone;
+        row[c] = b == FocalSurface::kNone                       ? (layer == 0 ? fs.plane_of[t] : -1)
+                 : (layer == 1) == (out->second_nearer[t] != 0) ? b
+                                                                : fs.plane_of[t];
+      }
+      for (int c = 0; c < fs.cols;) {
+        const int p = row[c];
+        int e = c + 1;
+        while (e < fs.cols && row[e] == p) ++e;
+        if (p >= 0)
+          out->regions[layer].push_back({c * fs.tile, y0, std::min(W, e * fs.tile), y1, p});
+        c = e;
+      }
+    }
+  return out;
 }
 
 int ViewGeometry::layer_plane(int layer, int tile) const {
@@ -259,7 +306,7 @@ int ViewGeometry::layer_plane(int layer, int tile) const {
   const int a = fs.plane_of[tile];
   const int b = fs.second_of.empty() ? FocalSurface::kNone : fs.second_of[tile];
   if (b == FocalSurface::kNone) return layer == 0 ? a : -1;
-  return (layer == 1) == (second_nearer_[tile] != 0) ? b : a;
+  return (layer == 1) == (layout_->second_nearer[tile] != 0) ? b : a;
 }
 
 // The blending field of a kUlr request (lf/geometry/view.h Aperture).

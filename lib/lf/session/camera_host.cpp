@@ -70,8 +70,17 @@ std::shared_ptr<const ViewGeometry> shared_geometry(const std::shared_ptr<const 
                                                     const ViewRequest& req, int index,
                                                     const std::string& key) {
   const bool ulr = req.aperture == Aperture::kUlr || req.aperture == Aperture::kFourCamera;
-  if (key.empty() || key.size() > kMaxSharedKeyBytes || (!ulr && !req.surface.empty()))
+  if (key.empty() || key.size() > kMaxSharedKeyBytes)
     return std::make_shared<const ViewGeometry>(*rig, req, index);
+  if (!ulr && !req.surface.empty()) {
+    static SharedPerRequest<SurfaceLayout> layouts;
+    std::shared_ptr<const ViewGeometry> own;
+    const auto layout = layouts.get(rig, key, [&] {
+      own = std::make_shared<const ViewGeometry>(*rig, req, index);
+      return own->surface_layout();
+    });
+    return own ? own : std::make_shared<const ViewGeometry>(*rig, req, index, nullptr, layout);
+  }
   if (ulr) {
     static SharedPerRequest<UlrField> fields;
     std::shared_ptr<const ViewGeometry> own;

@@ -29,11 +29,13 @@ namespace lf {
 // rig's geometry (every camera's homographies) is made once, by the first
 // camera to ask, and the others wait for it (64 cameras each making their
 // own cost 63 times the shared part); with the ULR aperture the camera's
-// own, with the blending field shared (it depends on the whole rig); a
-// focal surface's geometry (per-tile planes) per camera. The last 16
-// requests are kept; keys over kMaxSharedKeyBytes are not shared.
-// Thread-safe.
-constexpr size_t kMaxSharedKeyBytes = 16384;
+// own, with the blending field shared (it depends on the whole rig); with
+// a focal surface (per-tile planes) the camera's own too, with the tiling
+// shared (lf::SurfaceLayout: each layer's regions of one plane). The last
+// 16 requests are kept; keys over kMaxSharedKeyBytes (a 1920x1080
+// request with second planes in every 16-pixel tile: 16.5 KB; 3840x2160:
+// 65 KB) are not shared. Thread-safe.
+constexpr size_t kMaxSharedKeyBytes = 32768;
 std::shared_ptr<const ViewGeometry> shared_geometry(const std::shared_ptr<const Rig>& rig,
                                                     const ViewRequest& req, int index,
                                                     const std::string& key);
