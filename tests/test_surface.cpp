@@ -258,6 +258,47 @@ TEST(Surface, ThinBarsArePickedPerPixelFromTwoPlanes) {
     if (f.layer < 2) px.push_back({&f, f.pixels.data()});
   EXPECT_TRUE(lc.composite(320, 240, px, a, &choice).empty());
   EXPECT_TRUE(cv::checkRange(lc.variance(0)) && cv::checkRange(lc.variance(1)));
+  // The variances against sums of squares taken here, one pixel at a time
+  // (the compositor's formula and order, in float): bit for bit wherever
+  // layer 1 has weight (the compositor adds four pixels at a time).
+  {
+    std::vector<lf::FragmentPixels> only[2];
+    for (const lf::FragmentPixels& p : px) only[p.fragment->layer].push_back(p);
+    lf::Compositor sums[2];
+    cv::Mat unused;
+    for (int l = 0; l < 2; ++l) sums[l].composite(320, 240, only[l], unused);
+    int compared = 0;
+    for (int l = 0; l < 2; ++l) {
+      cv::Mat sq(240, 320, CV_32FC1, cv::Scalar(0));
+      for (const lf::FragmentPixels& fp : only[l]) {
+        const lf::Fragment& f = *fp.fragment;
+        const uint8_t* q = fp.pixels;
+        for (int r = 0; r < f.rect.height; ++r)
+          for (int x = f.spans[r][0]; x < f.spans[r][1]; ++x, q += 4) {
+            if (q[3] == 0) continue;
+            const float p0 = q[0], p1 = q[1], p2 = q[2];
+            sq.at<float>(f.rect.y + r, x) += 255.0f * (p0 * p0 + p1 * p1 + p2 * p2) / q[3];
+          }
+      }
+      const cv::Mat v = lc.variance(l);
+      int differ = 0;
+      for (int y = 0; y < 240; ++y)
+        for (int x = 0; x < 320; ++x) {
+          if (sums[1].weight_at(x, y) == 0) continue;
+          const uint32_t* s = sums[l].sums_at(x, y);
+          float want = 0;
+          if (s[3] > 0) {
+            const float W = s[3] / 255.0f;
+            const float m0 = s[0] / W, m1 = s[1] / W, m2 = s[2] / W;
+            want = std::max(0.0f, sq.at<float>(y, x) / W - (m0 * m0 + m1 * m1 + m2 * m2));
+          }
+          differ += v.at<float>(y, x) != want;
+          ++compared;
+        }
+      EXPECT_EQ(differ, 0) << "layer " << l;
+    }
+    EXPECT_GT(compared, 2000);
+  }
   // Layer 0 drawn band by band into the sums and squares instead (the CPU
   // renderer's way, no layer-0 fragment in memory): the same frame, choice
   // and variances, bit for bit; a drawing of layer 1 is refused there.

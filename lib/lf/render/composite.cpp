@@ -424,7 +424,35 @@ void add_squares(const Fragment& f, const uint8_t* pixels, int r0, int r1, const
     float* row = sq.ptr<float>(y);
     for (const auto& [x0, x1] : blocks.runs[y / kBlock]) {
       if (x0 >= e) break;
-      for (int k = std::max(b, x0); k < std::min(e, x1); ++k) {
+      int k = std::max(b, x0);
+      const int end = std::min(e, x1);
+#ifdef LF_COMPOSITE_SSE2
+      // Four pixels at a time, the same float operations in the same order
+      // as below (so the same sums); a pixel left out adds +0.
+      const uint32_t* sums = where.sums_at(0, y);
+      const __m128i zero = _mm_setzero_si128();
+      for (; k + 4 <= end; k += 4) {
+        const __m128i q = _mm_loadu_si128(reinterpret_cast<const __m128i*>(px + 4 * (k - b)));
+        const __m128i lo = _mm_unpacklo_epi8(q, zero), hi = _mm_unpackhi_epi8(q, zero);
+        __m128 c0 = _mm_cvtepi32_ps(_mm_unpacklo_epi16(lo, zero));
+        __m128 c1 = _mm_cvtepi32_ps(_mm_unpackhi_epi16(lo, zero));
+        __m128 c2 = _mm_cvtepi32_ps(_mm_unpacklo_epi16(hi, zero));
+        __m128 c3 = _mm_cvtepi32_ps(_mm_unpackhi_epi16(hi, zero));
+        _MM_TRANSPOSE4_PS(c0, c1, c2, c3);  // c0..c3: the four pixels' p0, p1, p2, alpha
+        const __m128 sq =
+            _mm_add_ps(_mm_add_ps(_mm_mul_ps(c0, c0), _mm_mul_ps(c1, c1)), _mm_mul_ps(c2, c2));
+        const __m128 add = _mm_div_ps(_mm_mul_ps(_mm_set1_ps(255.0f), sq), c3);
+        // The weights in `where`: lane 3 of each pixel's sums.
+        const __m128i* w = reinterpret_cast<const __m128i*>(sums + 4 * static_cast<size_t>(k));
+        const __m128i w01 = _mm_unpackhi_epi32(_mm_loadu_si128(w), _mm_loadu_si128(w + 1));
+        const __m128i w23 = _mm_unpackhi_epi32(_mm_loadu_si128(w + 2), _mm_loadu_si128(w + 3));
+        const __m128i weight = _mm_unpackhi_epi64(w01, w23);
+        const __m128 skip = _mm_or_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(weight, zero)),
+                                      _mm_cmpeq_ps(c3, _mm_setzero_ps()));
+        _mm_storeu_ps(row + k, _mm_add_ps(_mm_loadu_ps(row + k), _mm_andnot_ps(skip, add)));
+      }
+#endif
+      for (; k < end; ++k) {
         const uint8_t* q = px + 4 * (k - b);
         if (q[3] == 0 || where.weight_at(k, y) == 0) continue;
         const float p0 = q[0], p1 = q[1], p2 = q[2];
@@ -456,6 +484,43 @@ void add_squares(const std::vector<FragmentPixels>& fragments, const std::vector
                         }
                       }
                     });
+}
+
+// The colour variance of pixels [0, n) of a row from their sums
+// (Compositor::sums_at: premultiplied colour, weight) and sums of squares
+// (add_squares): (sum w |c|^2 - |sum w c|^2 / W) / W with W = sum a / 255,
+// 0 where the weight is 0 (LayerCompositor::variance).
+void row_variances(const uint32_t* sums, const float* sq, int n, float* out) {
+  int x = 0;
+#ifdef LF_COMPOSITE_SSE2
+  // Four pixels at a time, the same float operations in the same order as
+  // below (so the same variances).
+  for (; x + 4 <= n; x += 4) {
+    const __m128i* a = reinterpret_cast<const __m128i*>(sums + 4 * static_cast<size_t>(x));
+    __m128 s0 = _mm_cvtepi32_ps(_mm_loadu_si128(a)), s1 = _mm_cvtepi32_ps(_mm_loadu_si128(a + 1));
+    __m128 s2 = _mm_cvtepi32_ps(_mm_loadu_si128(a + 2)),
+           s3 = _mm_cvtepi32_ps(_mm_loadu_si128(a + 3));
+    _MM_TRANSPOSE4_PS(s0, s1, s2, s3);  // s0..s2: the four pixels' colour sums, s3 their weights
+    const __m128 W = _mm_div_ps(s3, _mm_set1_ps(255.0f));
+    const __m128 m0 = _mm_div_ps(s0, W), m1 = _mm_div_ps(s1, W), m2 = _mm_div_ps(s2, W);
+    const __m128 mean2 =
+        _mm_add_ps(_mm_add_ps(_mm_mul_ps(m0, m0), _mm_mul_ps(m1, m1)), _mm_mul_ps(m2, m2));
+    // max(x, 0): 0 for a NaN (an empty pixel's 0 / 0) as std::max(0, x).
+    const __m128 v =
+        _mm_max_ps(_mm_sub_ps(_mm_div_ps(_mm_loadu_ps(sq + x), W), mean2), _mm_setzero_ps());
+    _mm_storeu_ps(out + x, _mm_andnot_ps(_mm_cmpeq_ps(s3, _mm_setzero_ps()), v));
+  }
+#endif
+  for (; x < n; ++x) {
+    const uint32_t* a = sums + 4 * static_cast<size_t>(x);
+    if (a[3] == 0) {
+      out[x] = 0;
+      continue;
+    }
+    const float W = a[3] / 255.0f;
+    const float m0 = a[0] / W, m1 = a[1] / W, m2 = a[2] / W;  // the mean colour
+    out[x] = std::max(0.0f, sq[x] / W - (m0 * m0 + m1 * m1 + m2 * m2));
+  }
 }
 }  // namespace
 
@@ -709,12 +774,17 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
       for (int bx = 0; bx < bcols; ++bx) {
         if (!near[by * bcols + bx]) continue;
         const bool in = blocks.on[by * bcols + bx] != 0;
+        const int x0 = bx * kBlock, n = std::min(width, x0 + kBlock) - x0;
         for (int y = by * kBlock; y < std::min(height, (by + 1) * kBlock); ++y) {
-          float* p = win_.ptr<float>(y) + 3 * bx * kBlock;
-          for (int x = bx * kBlock; x < std::min(width, (bx + 1) * kBlock); ++x, p += 3) {
-            const bool on = in && comp_[1].weight_at(x, y) > 0;
-            p[0] = on ? variance_at(0, x, y) : 0.0f;
-            p[1] = on ? variance_at(1, x, y) : 0.0f;
+          float v[2][kBlock];
+          if (in)
+            for (int l = 0; l < 2; ++l)
+              row_variances(comp_[l].sums_at(x0, y), sq_[l].ptr<float>(y) + x0, n, v[l]);
+          float* p = win_.ptr<float>(y) + 3 * x0;
+          for (int i = 0; i < n; ++i, p += 3) {
+            const bool on = in && comp_[1].weight_at(x0 + i, y) > 0;
+            p[0] = on ? v[0][i] : 0.0f;
+            p[1] = on ? v[1][i] : 0.0f;
             p[2] = on ? 1.0f : 0.0f;
           }
         }
@@ -764,22 +834,20 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
   return refused;
 }
 
-float LayerCompositor::variance_at(int layer, int x, int y) const {
-  const uint32_t* a = comp_[layer].sums_at(x, y);
-  if (a[3] == 0) return 0;
-  // (sum w |c|^2 - |sum w c|^2 / W) / W with W = sum a / 255.
-  const float W = a[3] / 255.0f;
-  const float m0 = a[0] / W, m1 = a[1] / W, m2 = a[2] / W;  // the mean colour
-  return std::max(0.0f, sq_[layer].at<float>(y, x) / W - (m0 * m0 + m1 * m1 + m2 * m2));
-}
-
 cv::Mat LayerCompositor::variance(int layer) const {
   const int w = comp_[0].width(), h = comp_[0].height();
   cv::Mat v(h, w, CV_32FC1, cv::Scalar(0));
-  for (int y = y0_; y < y1_; ++y)
+  std::vector<float> row(w);
+  for (int y = y0_; y < y1_; ++y) {
+    // As the choice computes them (row_variances, four at a time).
+    for (int x0 = 0; x0 < w; x0 += kBlock)
+      if (on_[(y / kBlock) * bcols_ + x0 / kBlock])
+        row_variances(comp_[layer].sums_at(x0, y), sq_[layer].ptr<float>(y) + x0,
+                      std::min(w, x0 + kBlock) - x0, row.data() + x0);
     for (int x = 0; x < w; ++x)
       if (on_[(y / kBlock) * bcols_ + x / kBlock] && comp_[1].weight_at(x, y) > 0)
-        v.at<float>(y, x) = variance_at(layer, x, y);
+        v.at<float>(y, x) = row[x];
+  }
   return v;
 }
 

@@ -199,7 +199,6 @@ class LayerCompositor {
   }
 
  private:
-  float variance_at(int layer, int x, int y) const;
   Compositor comp_[2];  // comp_[1] and sq_: zeroed (and valid) in the blocks on_ only
   // The last composite's blocks of 8 x 8 pixels that layer 1 reaches, row
   // by row (bcols_ a row), and the rows [y0_, y1_) they span (0, 0: none).
