@@ -249,11 +249,22 @@ std::vector<int> solve(const SweepCosts& c, int cols, int rows, double gpos, dou
       for (int k = 0; k < n; ++k) unary[static_cast<size_t>(t) * L + k] += o.leave_penalty * scale;
   auto pos = [&](int l) { return l == n ? gpos : static_cast<double>(l); };
   std::vector<double> pen(static_cast<size_t>(L) * L);
+  // Each label's labels one step away (a plane either side; the single
+  // plane and the planes within a step of it).
+  std::vector<std::vector<int>> near(L);
   for (int a = 0; a < L; ++a)
     for (int b = 0; b < L; ++b) {
       const double d = std::abs(pos(a) - pos(b));
       pen[a * L + b] = a == b ? 0.0 : (d <= 1.0 ? o.step_penalty : o.jump_penalty) * scale;
+      if (a != b && d <= 1.0) near[a].push_back(b);
     }
+  // The transition min_b prev[b] + pen(a, b) in O(L) per tile (semi-global
+  // matching's usual form): prev[a], a step from a neighbour, or a jump
+  // from the cheapest. Exactly the full minimum when a step costs no more
+  // than a jump (a jump from a label a step away or from a itself is then
+  // never the cheaper); otherwise the full minimum over every b.
+  const double step = o.step_penalty * scale, jump = o.jump_penalty * scale;
+  const bool fast = step <= jump;
   std::vector<double> total(unary.size(), 0.0), path(unary.size());
   const int dirs[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
   for (const auto& dir : dirs) {
@@ -273,7 +284,12 @@ std::vector<int> solve(const SweepCosts& c, int cols, int rows, double gpos, dou
           const double pmin = *std::min_element(prev, prev + L);
           for (int a = 0; a < L; ++a) {
             double best = std::numeric_limits<double>::infinity();
-            for (int b = 0; b < L; ++b) best = std::min(best, prev[b] + pen[a * L + b]);
+            if (fast) {
+              best = std::min(prev[a] + 0.0, pmin + jump);
+              for (const int b : near[a]) best = std::min(best, prev[b] + step);
+            } else {
+              for (int b = 0; b < L; ++b) best = std::min(best, prev[b] + pen[a * L + b]);
+            }
             cur[a] = u[a] + best - pmin;
           }
         }
