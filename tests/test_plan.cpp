@@ -326,6 +326,15 @@ TEST(Plan, TwoPlaneTilesSendTheNearerPlaneInLayerOne) {
   EXPECT_TRUE(lf::plan_fragment(lf::ViewGeometry(rig, plain), 0, 1).empty());
 }
 
+bool validity_throws(const lf::ViewRequest& r) {
+  try {
+    lf::validate(r);
+  } catch (const std::invalid_argument&) {
+    return true;
+  }
+  return false;
+}
+
 TEST(Plan, MalformedSurfacesAreRefused) {
   lf::Rig rig = lf::synthetic_grid_rig(3, 3, 0.5, 160, 120, 45, 2.0, 1);
   std::mt19937_64 rng(9);
@@ -364,6 +373,29 @@ TEST(Plan, MalformedSurfacesAreRefused) {
   ok.surface.second_of[0] = static_cast<uint8_t>(1 - ok.surface.plane_of[0]);
   EXPECT_NO_THROW(lf::validate(ok));
   EXPECT_EQ(ok.surface.two_plane_tiles(), 1);
+  // A bad entry in any tile (the tiles are checked sixteen at a time, then
+  // one by one): each refused, and a good second plane anywhere taken.
+  for (const int w : {64, 72}) {  // 48 tiles; 54
+    const lf::ViewRequest base =
+        with_random_surface(random_request(rig, rng, w, 48, false), rng, 3);
+    const size_t tiles = base.surface.plane_of.size();
+    ASSERT_GT(tiles, 16u);
+    int bad = 0;
+    for (size_t t = 0; t < tiles; ++t) {
+      lf::ViewRequest r = base;
+      r.surface.plane_of[t] = 3;
+      bad += !validity_throws(r);
+      r = base;
+      r.surface.second_of.assign(tiles, lf::FocalSurface::kNone);
+      r.surface.second_of[t] = static_cast<uint8_t>((r.surface.plane_of[t] + 1) % 3);
+      EXPECT_NO_THROW(lf::validate(r)) << "tile " << t;
+      for (const uint8_t k : {r.surface.plane_of[t], uint8_t{3}, uint8_t{0xFE}}) {
+        r.surface.second_of[t] = k;
+        bad += !validity_throws(r);
+      }
+    }
+    EXPECT_EQ(bad, 0) << tiles << " tiles, " << (tiles % 16) << " past the last sixteen";
+  }
 }
 
 }  // namespace
