@@ -285,7 +285,7 @@ std::vector<int> solve(const SweepCosts& c, int cols, int rows, double gpos, dou
           for (int a = 0; a < L; ++a) {
             double best = std::numeric_limits<double>::infinity();
             if (fast) {
-              best = std::min(prev[a] + 0.0, pmin + jump);
+              best = std::min(prev[a] + 0.0, pmin + jump);  // + 0.0: pen(a, a), as below
               for (const int b : near[a]) best = std::min(best, prev[b] + step);
             } else {
               for (int b = 0; b < L; ++b) best = std::min(best, prev[b] + pen[a * L + b]);

@@ -169,6 +169,18 @@ void four_camera_weights(const Rig& rig, const std::vector<int>& partner, const 
     return;
   }
 }
+
+// The plane of tile `tile` of a non-empty surface in fragment layer `layer`
+// (ViewGeometry::layer_plane), given which tiles' second plane is the
+// nearer (SurfaceLayout::second_nearer).
+int plane_in_layer(const FocalSurface& fs, const std::vector<uint8_t>& second_nearer, int layer,
+                   int tile) {
+  const int a = fs.plane_of[tile];
+  const int b = fs.second_of.empty() ? FocalSurface::kNone : fs.second_of[tile];
+  if (b == FocalSurface::kNone) return layer == 0 ? a : -1;
+  return (layer == 1) == (second_nearer[tile] != 0) ? b : a;
+}
+
 }  // namespace
 
 ViewGeometry::ViewGeometry(const Rig& rig, const ViewRequest& request, int only_camera,
@@ -281,13 +293,8 @@ std::shared_ptr<const SurfaceLayout> ViewGeometry::compute_layout() const {
   for (int layer = 0; layer < (two ? 2 : 1); ++layer)
     for (int r = 0; r < fs.rows; ++r) {
       const int y0 = r * fs.tile, y1 = std::min(H, y0 + fs.tile);
-      for (int c = 0; c < fs.cols; ++c) {
-        const int t = r * fs.cols + c;
-        const int b = two ? fs.second_of[t] : FocalSurface::kNone;
-        row[c] = b == FocalSurface::kNone                       ? (layer == 0 ? fs.plane_of[t] : -1)
-                 : (layer == 1) == (out->second_nearer[t] != 0) ? b
-                                                                : fs.plane_of[t];
-      }
+      for (int c = 0; c < fs.cols; ++c)
+        row[c] = plane_in_layer(fs, out->second_nearer, layer, r * fs.cols + c);
       for (int c = 0; c < fs.cols;) {
         const int p = row[c];
         int e = c + 1;
@@ -303,10 +310,7 @@ std::shared_ptr<const SurfaceLayout> ViewGeometry::compute_layout() const {
 int ViewGeometry::layer_plane(int layer, int tile) const {
   const FocalSurface& fs = req_.surface;
   if (fs.empty()) return layer == 0 ? 0 : -1;
-  const int a = fs.plane_of[tile];
-  const int b = fs.second_of.empty() ? FocalSurface::kNone : fs.second_of[tile];
-  if (b == FocalSurface::kNone) return layer == 0 ? a : -1;
-  return (layer == 1) == (layout_->second_nearer[tile] != 0) ? b : a;
+  return plane_in_layer(fs, layout_->second_nearer, layer, tile);
 }
 
 // The blending field of a kUlr request (lf/geometry/view.h Aperture).
