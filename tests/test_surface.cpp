@@ -266,7 +266,10 @@ TEST(Surface, ThinBarsArePickedPerPixelFromTwoPlanes) {
     for (const lf::FragmentPixels& p : px) only[p.fragment->layer].push_back(p);
     lf::Compositor sums[2];
     cv::Mat unused;
-    for (int l = 0; l < 2; ++l) sums[l].composite(320, 240, only[l], unused);
+    for (int l = 0; l < 2; ++l) {
+      sums[l].set_keep_sums(true);  // read below
+      sums[l].composite(320, 240, only[l], unused);
+    }
     int compared = 0;
     for (int l = 0; l < 2; ++l) {
       cv::Mat sq(240, 320, CV_32FC1, cv::Scalar(0));

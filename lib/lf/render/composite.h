@@ -49,8 +49,13 @@ class Compositor {
   // to and read (LayerCompositor: the blocks that layer 1 reaches).
   void zero(const cv::Rect& r);
   // Frees the sums (16 bytes a pixel); the next reset() allocates them again.
-  void release() { std::vector<uint32_t>().swap(acc_); }
-  // Adds a fragment. Throws std::invalid_argument if it does not fit the frame.
+  void release() {
+    std::vector<uint32_t>().swap(acc_);
+    summed_ = false;
+  }
+  // Adds a fragment. Throws std::invalid_argument if it does not fit the
+  // frame, std::logic_error without a reset() since the last composite() or
+  // release() (add(), zero(), resolve(), weight_at() and sums_at() alike).
   void add(const Fragment& f);
   // Adds a fragment whose pixels live elsewhere (f.pixels is not read; e.g.
   // lf/wire/wire.h parse_fragment_in_place): `pixels` holds 4 bytes per pixel of
@@ -61,9 +66,13 @@ class Compositor {
   void resolve(cv::Mat& out) const;
   // A whole frame at once, fused: the same as reset(width, height), add() of
   // each fragment in order, then resolve(out), bit for bit, but the frame is
-  // cut into bands of rows, and each band is zeroed, accumulated and
-  // resolved while it is in cache, the bands in parallel (cv::parallel_for_;
-  // cv::setNumThreads() sets the threads, 1: this thread only). A fragment
+  // cut into bands of 16 rows, and each band's sums are zeroed, accumulated
+  // and resolved in a buffer of its thread that stays in cache (16 bytes a
+  // pixel: 160 KiB at 640 wide, 480 KiB at 1920), the bands in parallel
+  // (cv::parallel_for_; cv::setNumThreads() sets the threads, 1: this thread
+  // only). The frame's sums are not kept (unless set_keep_sums(true)): after
+  // composite(), reset() comes before add(), zero(), resolve(), weight_at()
+  // or sums_at(). A fragment
   // that add() would refuse is left out; returned: (its index, why) for each.
   // Throws std::invalid_argument for a size out of range, as reset() does.
   std::vector<std::pair<size_t, std::string>> composite(
@@ -86,6 +95,11 @@ class Compositor {
       int width, int height, const std::vector<FragmentPixels>& fragments,
       const std::vector<FragmentDrawing>& drawings, cv::Mat& out,
       const RowsAdded* rows_added = nullptr);
+  // true: composite() accumulates in the compositor's frame of sums instead
+  // (each band still zeroed, accumulated and resolved by one thread), so
+  // that weight_at() and sums_at() read them afterwards (LayerCompositor
+  // reads layer 0's); it costs their memory traffic. Default false.
+  void set_keep_sums(bool keep) { keep_sums_ = keep; }
   // Where no weight arrived (alpha 0 in `out`), takes the pixel of
   // `previous` (the last frame shown, same size, CV_8UC4): a frame
   // composited without some of its fragments (a missed deadline) shows the
@@ -97,9 +111,10 @@ class Compositor {
   // with the GL compositor, lf/render/gl_render.h).
   static size_t check(const Fragment& f, const uint8_t* pixels, int width, int height);
   // Accumulated weight (0..255 per full contribution) at a pixel.
-  uint32_t weight_at(int x, int y) const { return acc_[(static_cast<size_t>(y) * w_ + x) * 4 + 3]; }
+  uint32_t weight_at(int x, int y) const { return sums_at(x, y)[3]; }
   // The four accumulated sums (premultiplied colour, weight) of a pixel.
   const uint32_t* sums_at(int x, int y) const {
+    require_sums();
     return acc_.data() + (static_cast<size_t>(y) * w_ + x) * 4;
   }
   int width() const { return w_; }
@@ -113,13 +128,21 @@ class Compositor {
   Kernel kernel() const;
 
  private:
+  // Throws std::logic_error unless acc_ holds the sums of reset() and add().
+  void require_sums() const;
   size_t check(const Fragment& f, const uint8_t* pixels) const {  // its pixel count
     return check(f, pixels, w_, h_);
   }
   void add_rows(const Fragment& f, const uint8_t* pixels, int r0, int r1);
   void resolve_rows(cv::Mat& out, int y0, int y1) const;
+  // The same into or from `sums`, the sums of rows from sums_y0 on (a band's).
+  void add_rows(const Fragment& f, const uint8_t* pixels, int r0, int r1, uint32_t* sums,
+                int sums_y0) const;
+  void resolve_rows(cv::Mat& out, int y0, int y1, const uint32_t* sums, int sums_y0) const;
   int w_ = 0, h_ = 0;
   std::vector<uint32_t> acc_;
+  bool summed_ = false;  // acc_ holds the w_ x h_ frame of reset() and add()
+  bool keep_sums_ = false;
   Kernel kernel_ = Kernel::kBest;
 };
 

@@ -67,7 +67,8 @@ class FrameCompositor {
                         bool complete, cv::Mat& into, const cv::Mat& last);
   Renderer& renderer() { return *renderer_; }
   // Frees the frames and the renderer's sums (its viewer went quiet, or the
-  // stream ended: a 3840x2160 view holds about 230 MB of them); the next
+  // stream ended: a 3840x2160 view's frames take about 100 MB, and the sums
+  // that a surface of two layers keeps 127 MB more); the next
   // composite() allocates them again, its missing pixels black (no last
   // frame). False when nothing was held (freed already, or never used).
   bool release();
