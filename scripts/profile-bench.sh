@@ -48,7 +48,7 @@ rules = [
      r"mixChannels"),
     ("planning (lf/render/plan.h, view geometry)", None,
      r"plan_|camera_parts|facet_|ViewGeometry|answer_request|FragmentPlan|plan\b|Plan"),
-    ("copies and fills (memcpy, memset)", None, r"memmove|memcpy|memset"),
+    ("copies and fills (memcpy, memset)", None, r"memmove|memcpy|memset|_M_fill_assign"),
     ("allocation and page faults", None,
      r"malloc|free|_int_|cfree|page_fault|mm_fault|g_slice|memalign|mmap|munmap|clear_page|"
      r"alloc_pages|rmqueue|zap_|release_pages|lru|anonymous_page|pte|memcg|mem_cgroup|folio|_page"),
