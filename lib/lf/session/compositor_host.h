@@ -68,7 +68,7 @@ class FrameCompositor {
   Renderer& renderer() { return *renderer_; }
   // Frees the frames and the renderer's sums (its viewer went quiet, or the
   // stream ended: a 3840x2160 view's frames take about 100 MB, and the sums
-  // that a surface of two layers keeps 127 MB more); the next
+  // that a surface of two layers keeps 133 MB more); the next
   // composite() allocates them again, its missing pixels black (no last
   // frame). False when nothing was held (freed already, or never used).
   bool release();
