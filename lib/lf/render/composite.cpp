@@ -56,7 +56,7 @@ void Compositor::add(const Fragment& f) {
   require_sums();
   if (f.pixels.size() != 4 * check(f, f.pixels.data()))
     check_fragment(f);  // throws, naming the mismatch
-  add_rows(f, f.pixels.data(), 0, f.rect.height);
+  add_rows(f, f.pixels.data(), 0, f.rect.height, acc_.data(), 0);
 }
 
 size_t Compositor::check(const Fragment& f, const uint8_t* pixels, int width, int height) {
@@ -75,7 +75,7 @@ size_t Compositor::check(const Fragment& f, const uint8_t* pixels, int width, in
 void Compositor::add(const Fragment& f, const uint8_t* pixels) {
   require_sums();
   check(f, pixels);
-  add_rows(f, pixels, 0, f.rect.height);
+  add_rows(f, pixels, 0, f.rect.height, acc_.data(), 0);
 }
 
 // Rows [r0, r1) of the fragment (relative to its rect); `pixels` points at
@@ -199,10 +199,6 @@ Kernel Compositor::kernel() const {
   return kernel_ == Kernel::kBest ? best_kernel() : kernel_;
 }
 
-void Compositor::add_rows(const Fragment& f, const uint8_t* pixels, int r0, int r1) {
-  add_rows(f, pixels, r0, r1, acc_.data(), 0);
-}
-
 void Compositor::add_rows(const Fragment& f, const uint8_t* pixels, int r0, int r1, uint32_t* sums,
                           int sums_y0) const {
   void (*add)(uint32_t*, const uint8_t*, int, int) = accumulate;
@@ -236,11 +232,7 @@ static inline void resolve1(const uint32_t* a, uint8_t* o) {
 void Compositor::resolve(cv::Mat& out) const {
   require_sums();
   out.create(h_, w_, CV_8UC4);
-  resolve_rows(out, 0, h_);
-}
-
-void Compositor::resolve_rows(cv::Mat& out, int y0, int y1) const {
-  resolve_rows(out, y0, y1, acc_.data(), 0);
+  resolve_rows(out, 0, h_, acc_.data(), 0);
 }
 
 void Compositor::resolve_rows(cv::Mat& out, int y0, int y1, const uint32_t* sums,
@@ -359,11 +351,13 @@ std::vector<std::pair<size_t, std::string>> Compositor::composite(
   // thread, in fragment order, so every sum is the serial one. The band's
   // sums are a buffer of its thread, reused band after band, so they stay
   // in cache: the frame's sums (4.9 MB at 640x480, 33 MB at 1080p) never
-  // go to memory and back (lf-gst-bench's kernel bound at 1920x1080, one
-  // core: 18.1-20.7 -> 15.5-16.9 ms a view, four runs against the frame's
-  // sums; no change at 640x480, whose sums are 4.9 MB). (16 rows
-  // against 32: 2-5 % more frames a second at 640x480 in lfarray, the
-  // threads' shares more even; the single-core time is no slower.)
+  // go to memory and back: lf-gst-bench's kernel bound (`lf-gst-bench
+  // --sizes 1920x1080 --encodings raw`, one core) 0.80-0.86x that of the
+  // frame's sums, four alternating pairs (15.5-16.9 against 18.1-20.7 ms a
+  // view); at 640x480 no change. (16 rows against 32: 2-5 % more frames a
+  // second at 640x480 in lfarray, the threads' shares more even; at 1080p
+  // the bound 0.87-0.91x of 32 rows' and 0.97-0.98x of 8 rows', two runs
+  // each.)
   constexpr int kBandRows = 16;
   const int bands = (h_ + kBandRows - 1) / kBandRows;
   cv::parallel_for_(cv::Range(0, bands), [&](const cv::Range& range) {

@@ -133,9 +133,9 @@ class Compositor {
   size_t check(const Fragment& f, const uint8_t* pixels) const {  // its pixel count
     return check(f, pixels, w_, h_);
   }
-  void add_rows(const Fragment& f, const uint8_t* pixels, int r0, int r1);
-  void resolve_rows(cv::Mat& out, int y0, int y1) const;
-  // The same into or from `sums`, the sums of rows from sums_y0 on (a band's).
+  // Rows [r0, r1) of a fragment added into, and rows [y0, y1) of the frame
+  // resolved from, `sums`: the sums of the frame's rows from sums_y0 on
+  // (acc_ and 0, or a band's buffer and its first row).
   void add_rows(const Fragment& f, const uint8_t* pixels, int r0, int r1, uint32_t* sums,
                 int sums_y0) const;
   void resolve_rows(cv::Mat& out, int y0, int y1, const uint32_t* sums, int sums_y0) const;

@@ -67,8 +67,8 @@ class FrameCompositor {
                         bool complete, cv::Mat& into, const cv::Mat& last);
   Renderer& renderer() { return *renderer_; }
   // Frees the frames and the renderer's sums (its viewer went quiet, or the
-  // stream ended: a 3840x2160 view's frames take about 100 MB, and the sums
-  // that a surface of two layers keeps 133 MB more); the next
+  // stream ended: at 3840x2160 its frames are 33 MB each, and the sums that
+  // a surface of two layers keeps 133 MB more); the next
   // composite() allocates them again, its missing pixels black (no last
   // frame). False when nothing was held (freed already, or never used).
   bool release();
