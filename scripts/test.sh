@@ -27,6 +27,15 @@ if [ "${LF_SANITIZERS:-1}" != 0 ]; then
   rm -rf "$LF_SAN_BUILD_DIR/gtest-xml" "$LF_SAN_BUILD_DIR/fuzz-report.md"
   ./scripts/test-san.sh "${LF_FUZZ_SECONDS:-60}" || status=$?
 fi
+# The fragment kernels against OpenCV's warpPerspective on this machine,
+# with its CPU (lf-bench's speed table, about 20 s): a timing on a shared
+# machine, so printed for the record, not asserted (docs/results.md,
+# Kernels, has the full table).
+if [ "$have_data" = 1 ]; then
+  echo "kernels on this machine (lf-bench --sizes 640x480 --skip-quality --skip-bandwidth):"
+  "$build/tools/lf-bench" --input ../shared/data/stanford-chess --sizes 640x480 --skip-quality \
+    --skip-bandwidth 2>/dev/null | grep -E '^CPU:|^ours|taps: by' || echo "  (lf-bench failed)"
+fi
 # One closing line with GoogleTest's counts over all test programs (both
 # builds) and the fuzz harnesses.
 passed=0; failed=0; skipped=()

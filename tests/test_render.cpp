@@ -383,7 +383,18 @@ TEST(Render, VectorKernelsAreBitIdenticalToScalar) {
   }
 #endif
   EXPECT_TRUE(lf::kernel_available(lf::best_kernel()));
-  for (lf::Kernel kernel : kernels)
+  // AVX-512's bilinear gather reads its taps either way (lf::TapLoads): both.
+  struct Way {
+    lf::Kernel kernel;
+    lf::TapLoads taps;
+  };
+  std::vector<Way> ways;
+  for (lf::Kernel k : kernels)
+    if (k == lf::Kernel::kAvx512)
+      ways.push_back({k, lf::TapLoads::kGather}), ways.push_back({k, lf::TapLoads::kLoads});
+    else
+      ways.push_back({k, lf::TapLoads::kAuto});
+  for (const auto& [kernel, taps] : ways)
     for (bool distort : {false, true})
       for (const lf::Sampling sampling : {lf::Sampling::kBilinear, lf::Sampling::kBicubic}) {
         lf::Rig rig = lf::synthetic_grid_rig(3, 3, 0.5, 240, 180, 50, 2.0, 6);
@@ -409,16 +420,38 @@ TEST(Render, VectorKernelsAreBitIdenticalToScalar) {
           for (size_t i = 0; i < rig.cameras.size(); ++i) {
             const auto plan = lf::plan_fragment(g, static_cast<int>(i));
             lf::Fragment a, b;
+            lf::set_tap_loads(taps);
             lf::render_fragment(plan, rig.cameras[i], images[i], a, kernel);
+            lf::set_tap_loads(lf::TapLoads::kAuto);
             lf::render_fragment(plan, rig.cameras[i], images[i], b, lf::Kernel::kScalar);
             EXPECT_EQ(a.pixels, b.pixels)
-                << lf::kernel_name(kernel) << ", camera " << i << (distort ? " (distorted)" : "")
+                << lf::kernel_name(kernel) << " (taps by " << lf::tap_loads_name(taps)
+                << "), camera " << i << (distort ? " (distorted)" : "")
                 << (sampling == lf::Sampling::kBicubic ? " bicubic" : " bilinear");
             compared += a.pixel_count();
           }
         }
         EXPECT_GT(compared, 40000u) << lf::kernel_name(kernel);
       }
+}
+
+// The AVX-512 gather's way of reading taps: timed once (never kAuto after),
+// the same choice every time it is asked, overridden and given back by
+// set_tap_loads().
+TEST(Render, TapLoadsAreTimedOnceAndCanBeChosen) {
+  const lf::TapLoads timed = lf::tap_loads();
+  EXPECT_NE(timed, lf::TapLoads::kAuto);
+  if (!lf::kernel_available(lf::Kernel::kAvx512)) EXPECT_EQ(timed, lf::TapLoads::kLoads);
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(lf::tap_loads(), timed);
+  for (lf::TapLoads t : {lf::TapLoads::kGather, lf::TapLoads::kLoads}) {
+    lf::set_tap_loads(t);
+    EXPECT_EQ(lf::tap_loads(), t);
+  }
+  lf::set_tap_loads(lf::TapLoads::kAuto);
+  EXPECT_EQ(lf::tap_loads(), timed);
+  EXPECT_STREQ(lf::tap_loads_name(lf::TapLoads::kGather), "gather instruction");
+  EXPECT_STREQ(lf::tap_loads_name(lf::TapLoads::kLoads), "scalar loads");
+  std::printf("AVX-512 taps on this CPU: by %s\n", lf::tap_loads_name(timed));
 }
 
 // A kernel that this CPU or build lacks is refused, not run.

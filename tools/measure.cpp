@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <numeric>
 
 namespace measure {
@@ -33,6 +34,23 @@ MachineTicks machine_ticks() {
     std::fclose(f);
   }
   return t;
+}
+
+std::string cpu_model() {
+  std::string model = "unknown CPU";
+  if (FILE* f = std::fopen("/proc/cpuinfo", "r")) {
+    char line[512];
+    while (std::fgets(line, sizeof line, f)) {
+      if (std::strncmp(line, "model name", 10) != 0) continue;
+      const char* colon = std::strchr(line, ':');
+      if (!colon) continue;
+      model = colon + 1 + (colon[1] == ' ');
+      while (!model.empty() && (model.back() == '\n' || model.back() == ' ')) model.pop_back();
+      break;
+    }
+    std::fclose(f);
+  }
+  return model;
 }
 
 // Peak resident set size of this process since the last reset (Linux

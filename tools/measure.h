@@ -3,6 +3,7 @@
 // size (Linux /proc), and order statistics.
 #pragma once
 
+#include <string>
 #include <vector>
 
 namespace measure {
@@ -24,6 +25,9 @@ MachineTicks machine_ticks();
 // peak), MiB.
 void reset_peak_rss();
 double peak_rss_mib();
+
+// The CPU's model name (Linux /proc/cpuinfo; "unknown CPU" elsewhere).
+std::string cpu_model();
 
 // The q-quantile (nearest rank), the median and the mean; 0 when empty.
 double percentile(std::vector<double> v, double q);

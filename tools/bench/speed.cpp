@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <memory>
 #include <opencv2/imgproc.hpp>
+#include <string>
 
 #include "lf/geometry/rig_ops.h"
 #include "lf/geometry/view_builder.h"
@@ -29,11 +30,25 @@ using measure::median;
 void speed_table(const lf::Rig& rig, const std::vector<cv::Mat>& images,
                  const std::vector<lf::ViewRequest>& path, int W0, int H0) {
   // Every fragment kernel this CPU and build have, side by side with
-  // OpenCV in the same repetitions (the best one is what the elements use).
-  std::vector<lf::Kernel> kernels;
-  for (lf::Kernel k :
-       {lf::Kernel::kScalar, lf::Kernel::kSse2, lf::Kernel::kAvx2, lf::Kernel::kAvx512})
-    if (lf::kernel_available(k)) kernels.push_back(k);
+  // OpenCV in the same repetitions (the best one is what the elements use);
+  // AVX-512's with each way of reading its taps (lf::TapLoads; the
+  // elements use the self-timed one).
+  struct Way {
+    lf::Kernel kernel;
+    lf::TapLoads taps;
+  };
+  std::vector<Way> kernels;
+  for (lf::Kernel k : {lf::Kernel::kScalar, lf::Kernel::kSse2, lf::Kernel::kAvx2})
+    if (lf::kernel_available(k)) kernels.push_back({k, lf::TapLoads::kAuto});
+  if (lf::kernel_available(lf::Kernel::kAvx512))
+    for (lf::TapLoads t : {lf::TapLoads::kGather, lf::TapLoads::kLoads})
+      kernels.push_back({lf::Kernel::kAvx512, t});
+  const lf::TapLoads used_taps = lf::tap_loads();  // timed here, before the runs
+  auto name = [](const Way& w) {
+    return std::string(lf::kernel_name(w.kernel)) + " kernel" +
+           (w.taps == lf::TapLoads::kAuto ? ""
+                                          : std::string(", taps by ") + lf::tap_loads_name(w.taps));
+  };
   std::vector<std::vector<double>> ours_ms(kernels.size());
   std::vector<double> warp_ms, naive_ms, plan_ms;
   size_t frag_px = 0, warp_px = 0;
@@ -48,14 +63,16 @@ void speed_table(const lf::Rig& rig, const std::vector<cv::Mat>& images,
       std::vector<lf::FragmentPlan> plans(rig.cameras.size());
       std::vector<lf::Fragment> frags(rig.cameras.size());
       for (size_t ki = 0; ki < kernels.size(); ++ki) {
+        lf::set_tap_loads(kernels[ki].taps);
         const auto t0 = Clock::now();
         const lf::ViewGeometry g(rig, req);
         for (size_t i = 0; i < rig.cameras.size(); ++i) {
           plans[i] = lf::plan_fragment(g, static_cast<int>(i));
-          lf::render_fragment(plans[i], rig.cameras[i], images[i], frags[i], kernels[ki]);
+          lf::render_fragment(plans[i], rig.cameras[i], images[i], frags[i], kernels[ki].kernel);
         }
         ours[ki] += ms_since(t0);
       }
+      lf::set_tap_loads(lf::TapLoads::kAuto);
       // Planning alone (the share of "ours" that no kernel does).
       auto t0 = Clock::now();
       const lf::ViewGeometry g(rig, req);
@@ -113,17 +130,19 @@ void speed_table(const lf::Rig& rig, const std::vector<cv::Mat>& images,
   std::printf(
       "\n## Speed, one core, %zu cameras, %dx%d, %d views on the dolly orbit (median of 5)\n\n",
       rig.cameras.size(), W0, H0, nviews);
+  std::printf("CPU: %s, %d cores.\n\n", measure::cpu_model().c_str(), cv::getNumberOfCPUs());
   std::printf(
       "| method | ms per view | output pixels per view | / warpPerspective |\n"
       "|---|---|---|---|\n");
   double o = 0;
   for (size_t ki = 0; ki < kernels.size(); ++ki) {
     const double m = median(ours_ms[ki]);
-    const bool best = kernels[ki] == lf::best_kernel();
+    const Way& k = kernels[ki];
+    const bool best =
+        k.kernel == lf::best_kernel() && (k.taps == lf::TapLoads::kAuto || k.taps == used_taps);
     if (best) o = m;
-    std::printf("| ours: plan + render all fragments, %s kernel%s | %.2f | %zu | %.2f |\n",
-                lf::kernel_name(kernels[ki]), best ? " (used)" : "", m, frag_px / nviews,
-                m / w_same);
+    std::printf("| ours: plan + render all fragments, %s%s | %.2f | %zu | %.2f |\n",
+                name(k).c_str(), best ? " (used)" : "", m, frag_px / nviews, m / w_same);
   }
   std::printf("| OpenCV warpPerspective, same pixel count | %.2f | %zu | 1 |\n", w_same,
               frag_px / nviews);
@@ -137,6 +156,11 @@ void speed_table(const lf::Rig& rig, const std::vector<cv::Mat>& images,
       "\nours (%s) / warpPerspective = %.2f (target <= 0.6); naive / ours = %.1f (target >= "
       "15)\n",
       lf::kernel_name(lf::best_kernel()), o / w_same, nv / o);
+  if (lf::best_kernel() == lf::Kernel::kAvx512)
+    std::printf(
+        "\nThe AVX-512 kernel's taps: by %s on this CPU (lf::tap_loads(), timed at the first "
+        "render).\n",
+        lf::tap_loads_name(used_taps));
 }
 
 // Whole views from all cameras, each backend side by side in the same

@@ -59,8 +59,32 @@ void render_rows(const FragmentPlan& plan, const Camera& camera, const cv::Mat& 
                  int r1, uint8_t* pixels, Kernel kernel = Kernel::kBest, size_t row_bytes = 0);
 bool kernel_available(Kernel kernel);
 Kernel best_kernel();  // never kBest
+
 // "scalar", "sse2", "avx2", "avx512" (kBest: the one it picks).
 const char* kernel_name(Kernel kernel);
 bool simd_available();  // kernel_available(Kernel::kSse2)
+
+// How the kAvx512 kernel's bilinear gather reads each pixel's four taps
+// (two 8-byte pairs, one a row): kGather by the AVX-512 gather instruction
+// (eight pixels' pairs of a row in one), kLoads by scalar 8-byte loads, as
+// the AVX2 kernel does. Which is faster depends on the CPU: on a 2-core AMD
+// EPYC (Zen 4), whose 512-bit gathers are slow, the loads take 0.66-0.70x
+// the gathers' time per 64-camera view, plan included, and put the kernel
+// at 0.85-0.92x AVX2's, where the gathers put it at 1.20-1.38x (`lf-bench
+// --sizes 640x480 --skip-quality --skip-bandwidth`, three runs); on another
+// VM of the same CPU model the gathers made it 0.81x AVX2's, on the Intel
+// Xeon of docs/results.md's earlier reports 0.85x. So kAuto (the default)
+// times both once, at the first bilinear AVX-512 render of the process, on
+// a synthetic warp (under a millisecond: the faster of nine alternating
+// trials each), and keeps the faster. The bytes are the same either way
+// (tests/test_render.cpp); the bicubic gather is AVX2's either way.
+enum class TapLoads { kAuto, kGather, kLoads };
+// Process-wide; kAuto goes back to the timed choice. For benchmarks and
+// tests; thread-safe, but a render already running keeps the way it began with.
+void set_tap_loads(TapLoads t);
+// The way in use, never kAuto: the timed choice (timing it first if it was
+// not yet) unless set_tap_loads() chose. kLoads where AVX-512 is unavailable.
+TapLoads tap_loads();
+const char* tap_loads_name(TapLoads t);  // "gather instruction", "scalar loads", "self-timed"
 
 }  // namespace lf

@@ -8,11 +8,14 @@
 // a product and a sum, and every product is rounded as in the scalar
 // reference, so the output stays bit-identical (tests/test_render.cpp).
 // Measured on a 2-core AMD EPYC (Zen 4): plan + render of a 64-camera view
-// 0.81x AVX2's time, the coordinate pass alone 0.65x.
+// 0.85-0.92x AVX2's time with the taps read by scalar loads, 1.20-1.38x by
+// the gather instruction (lf/render/render.h TapLoads: timed at run time).
 #include "lf/render/render_kernels.h"
 
 #ifdef LF_X86_SIMD
 #include <immintrin.h>
+
+#include <cstring>
 
 #define LF_AVX512 __attribute__((target("avx512f,avx512dq,avx512bw,avx512vl,avx2")))
 
@@ -122,22 +125,35 @@ LF_AVX512 inline __m128i four(__m256i t8, __m256i b8, const int32_t* wtop, const
   return _mm512_cvtusepi32_epi8(a);
 }
 
-}  // namespace
-
 // Eight pixels per step (two of four), the rest by the AVX2 gather. The
 // sums and their rounding are gather_avx2's, so are the bytes: the sums are
 // never negative, so saturating them to bytes at once gives what its signed
-// then unsigned packs give.
-LF_AVX512 void gather_avx512(const uint8_t* src, int stride, int n, const int32_t* off,
-                             const int32_t* iu, const int32_t* iv, const int32_t* wtop,
-                             const int32_t* wbot, uint8_t* dst) {
+// then unsigned packs give. kHardware: each row's eight 8-byte tap pairs
+// by one AVX-512 gather instruction; otherwise by eight scalar loads
+// stored and loaded back as one vector (what the AVX2 gather does four at
+// a time). Which is faster depends on the CPU (lf/render/render.h
+// TapLoads), the bytes do not.
+template <bool kHardware>
+LF_AVX512 void gather8(const uint8_t* src, int stride, int n, const int32_t* off, const int32_t* iu,
+                       const int32_t* iv, const int32_t* wtop, const int32_t* wbot, uint8_t* dst) {
   int i = 0;
   for (; i + 8 <= n; i += 8) {
     // Each pixel's two taps of its top row, then of its bottom row: 8 bytes
-    // each, gathered at the pixels' offsets.
-    const __m256i o = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(off + i));
-    const __m512i top = _mm512_i32gather_epi64(o, src, 1);
-    const __m512i bot = _mm512_i32gather_epi64(o, src + stride, 1);
+    // each, read at the pixels' offsets.
+    __m512i top, bot;
+    if constexpr (kHardware) {
+      const __m256i o = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(off + i));
+      top = _mm512_i32gather_epi64(o, src, 1);
+      bot = _mm512_i32gather_epi64(o, src + stride, 1);
+    } else {
+      alignas(64) int64_t t[8], b[8];
+      for (int j = 0; j < 8; ++j) {
+        std::memcpy(&t[j], src + off[i + j], 8);
+        std::memcpy(&b[j], src + off[i + j] + stride, 8);
+      }
+      top = _mm512_load_si512(t);
+      bot = _mm512_load_si512(b);
+    }
     _mm_storeu_si128(
         reinterpret_cast<__m128i*>(dst + 4 * i),
         four(_mm512_castsi512_si256(top), _mm512_castsi512_si256(bot), wtop + i, wbot + i));
@@ -147,6 +163,14 @@ LF_AVX512 void gather_avx512(const uint8_t* src, int stride, int n, const int32_
   }
   if (i < n)
     gather_avx2(src, stride, n - i, off + i, iu + i, iv + i, wtop + i, wbot + i, dst + 4 * i);
+}
+
+}  // namespace
+
+LF_AVX512 void gather_avx512(bool hardware, const uint8_t* src, int stride, int n,
+                             const int32_t* off, const int32_t* iu, const int32_t* iv,
+                             const int32_t* wtop, const int32_t* wbot, uint8_t* dst) {
+  (hardware ? gather8<true> : gather8<false>)(src, stride, n, off, iu, iv, wtop, wbot, dst);
 }
 
 LF_AVX512 void coords_avx512(bool distort, bool cubic, const Consts& k, int x0, int n, int32_t* iu,

@@ -139,8 +139,11 @@ void gather_avx2(const uint8_t* src, int stride, int n, const int32_t* off, cons
 // the bicubic gather are AVX2's).
 void coords_avx512(bool distort, bool cubic, const Consts& k, int x0, int n, int32_t* iu,
                    int32_t* iv, int32_t* wt, int32_t* wb, int stride, int32_t* off);
-void gather_avx512(const uint8_t* src, int stride, int n, const int32_t* off, const int32_t* iu,
-                   const int32_t* iv, const int32_t* wtop, const int32_t* wbot, uint8_t* dst);
+// `hardware`: the taps read by the AVX-512 gather instruction, else by
+// scalar loads (lf/render/render.h TapLoads); the same bytes either way.
+void gather_avx512(bool hardware, const uint8_t* src, int stride, int n, const int32_t* off,
+                   const int32_t* iu, const int32_t* iv, const int32_t* wtop, const int32_t* wbot,
+                   uint8_t* dst);
 #endif
 
 }  // namespace lf::kernels
