@@ -28,7 +28,7 @@ if [ "${LF_SANITIZERS:-1}" != 0 ]; then
   ./scripts/test-san.sh "${LF_FUZZ_SECONDS:-60}" || status=$?
 fi
 # The fragment kernels against OpenCV's warpPerspective on this machine,
-# with its CPU (lf-bench's speed table, about 20 s): a timing on a shared
+# with its CPU (lf-bench's speed table, about 10 s): a timing on a shared
 # machine, so printed for the record, not asserted (docs/results.md,
 # Kernels, has the full table).
 if [ "$have_data" = 1 ]; then

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "lf/geometry/projection.h"
 #include "lf/render/render_kernels.h"
