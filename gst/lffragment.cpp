@@ -343,8 +343,14 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
         // defer (lfarray's whole-view mode): the plan (a layer pair's two) and the image go on
         // an empty fragment to the compositor (probes, scored from pixels, are drawn here).
         const size_t n = answer.count();
-        if (st->s.defer && st->s.encoding == Encoding::kRaw && !probe && (n == 1 || n == 2) &&
-            !answer.quilt() && !answer.plan(0).empty()) {
+        const bool deferred = st->s.defer && st->s.encoding == Encoding::kRaw && !probe &&
+                              !answer.quilt() && (n == 1 || n == 2);
+        if (deferred && n == 1 && answer.plan(0).empty()) {
+          // Most cameras hold none of a view: an empty fragment, nothing to draw.
+          out = empty_fragment(req, cam, f.capture_time_ns);
+          return;
+        }
+        if (deferred && !answer.plan(0).empty()) {
           out = empty_fragment(req, cam, f.capture_time_ns);
           lfgst::add_deferred_meta(
               out, lfgst::deferred_draw(frame, info, rgba.data == image.data ? cv::Mat() : rgba,
@@ -403,12 +409,12 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
   LfFragment* self = LF_FRAGMENT(parent);
   State* st = self->priv->state.get();
   // Each request with its bytes, to share what it needs (lf::shared_geometry).
-  std::vector<std::pair<lf::ViewRequest, std::string>> reqs;
+  std::shared_ptr<const lf::KeyedRequests> reqs;
   GError* err = nullptr;
   if (!lfgst::guard(
           [&] {
             const lfgst::MappedBuffer map(buf, GST_MAP_READ);
-            reqs = lf::parse_keyed_requests(map.data(), map.size());
+            reqs = lf::shared_keyed_requests(map.data(), map.size());
           },
           &err)) {
     LF_ELEMENT_WARNING_LIMITED(self, st->bad_request, STREAM, DECODE,
@@ -418,7 +424,7 @@ static GstFlowReturn lf_fragment_request_chain(GstPad*, GstObject* parent, GstBu
     return GST_FLOW_OK;
   }
   GstBuffer* bundle = nullptr;
-  for (const auto& [req, key] : reqs) {
+  for (const auto& [req, key] : *reqs) {
     GstBuffer* out = nullptr;
     const GstFlowReturn ret = answer_request(self, req, key, buf, &out);
     if (ret != GST_FLOW_OK) {

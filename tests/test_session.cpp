@@ -1117,3 +1117,38 @@ TEST(CameraAnswer, CamerasShareTheGeometryOfARequest) {
                   a.pieces[a.runs[r].piece].H == b.pieces[b.runs[r].piece].H);
   }
 }
+
+// lf::shared_keyed_requests: the cameras sent one request buffer share its
+// parse (the first parses); other bytes parse anew; a malformed buffer
+// throws every time (it is not kept); the last 16 buffers are kept.
+TEST(CameraAnswer, CamerasShareTheParseOfARequestBuffer) {
+  lf::ViewRequest req = view_request(0, 0, {0.1, 0.1, -1});
+  req.sequence = 41;
+  const std::vector<uint8_t> bytes = lf::serialize_request(req);
+  const auto a = lf::shared_keyed_requests(bytes.data(), bytes.size());
+  const std::vector<uint8_t> copy = bytes;  // the same bytes at another address
+  const auto b = lf::shared_keyed_requests(copy.data(), copy.size());
+  EXPECT_EQ(a.get(), b.get());
+  ASSERT_EQ(a->size(), 1u);
+  EXPECT_EQ((*a)[0].first.sequence, 41u);
+  EXPECT_EQ((*a)[0].second, std::string(bytes.begin(), bytes.end()));
+  req.sequence = 42;
+  const std::vector<uint8_t> other = lf::serialize_request(req);
+  const auto c = lf::shared_keyed_requests(other.data(), other.size());
+  EXPECT_NE(c.get(), a.get());
+  EXPECT_EQ((*c)[0].first.sequence, 42u);
+  std::vector<uint8_t> bad = bytes;
+  bad.resize(bad.size() / 2);
+  EXPECT_THROW(lf::shared_keyed_requests(bad.data(), bad.size()), lf::WireError);
+  EXPECT_THROW(lf::shared_keyed_requests(bad.data(), bad.size()), lf::WireError)
+      << "a buffer that failed is not kept";
+  // Seventeen other buffers later the first is parsed again (the last 16 kept).
+  for (uint64_t s = 100; s < 117; ++s) {
+    req.sequence = s;
+    const std::vector<uint8_t> b2 = lf::serialize_request(req);
+    lf::shared_keyed_requests(b2.data(), b2.size());
+  }
+  const auto again = lf::shared_keyed_requests(bytes.data(), bytes.size());
+  EXPECT_NE(again.get(), a.get());
+  EXPECT_EQ((*again)[0].first.sequence, 41u);
+}

@@ -18,10 +18,17 @@ namespace {
 
 using Polygon = std::vector<cv::Vec2d>;
 
-// Sutherland-Hodgman against h(p) >= 0.
-Polygon clip(const Polygon& poly, const PixelForm& h) {
-  if (h.a == 0 && h.b == 0) return h.c >= 0 ? poly : Polygon{};
-  Polygon out;
+// Sutherland-Hodgman against h(p) >= 0, in place. Planning clips a few
+// polygons per camera, request after request: the clipped one is built in
+// this thread's buffer and swapped in, so that callers whose polygons are
+// thread_local too make no allocation once the buffers have grown.
+void clip(Polygon& poly, const PixelForm& h) {
+  if (h.a == 0 && h.b == 0) {
+    if (h.c < 0) poly.clear();
+    return;
+  }
+  thread_local Polygon out;
+  out.clear();
   const size_t n = poly.size();
   for (size_t i = 0; i < n; ++i) {
     const cv::Vec2d& p = poly[i];
@@ -33,7 +40,7 @@ Polygon clip(const Polygon& poly, const PixelForm& h) {
       out.push_back(p + (q - p) * t);
     }
   }
-  return out;
+  poly.swap(out);
 }
 
 // x-extent of a convex polygon on the horizontal line y (clamped to its y range).
@@ -165,7 +172,7 @@ std::vector<Part> camera_parts(const ViewGeometry& g, int index) {
   const Rig& rig = g.rig();
   const int W = g.width(), H = g.height();
   std::vector<Part> parts;
-  const Polygon frame = {{-0.5, -0.5}, {W - 0.5, -0.5}, {W - 0.5, H - 0.5}, {-0.5, H - 0.5}};
+  const cv::Vec2d frame[4] = {{-0.5, -0.5}, {W - 0.5, -0.5}, {W - 0.5, H - 0.5}, {-0.5, H - 0.5}};
   const auto& simplices = rig.simplices();
   // ULR: the halves of the blending field's cells where the camera has
   // weight at a vertex (linear over the half: positive somewhere in it).
@@ -236,11 +243,12 @@ std::vector<Part> camera_parts(const ViewGeometry& g, int index) {
     const bool single = sx.size == 1 || g.eye_on_camera_plane();
     for (int sd : {1, -1}) {
       if (single && sd < 0) break;
-      Polygon base = frame;
+      thread_local Polygon base;  // (clip)
+      base.assign(std::begin(frame), std::end(frame));
       if (!single) {
-        base = clip(base, g.camera_plane_denominator() * sd);
+        clip(base, g.camera_plane_denominator() * sd);
         for (int j = 0; j < sx.size && !base.empty(); ++j)
-          base = clip(base, (j == slot ? slot_facet : g.facet_form(sx.facet[j], sx.sign[j])) * sd);
+          clip(base, (j == slot ? slot_facet : g.facet_form(sx.facet[j], sx.sign[j])) * sd);
       } else if (sx.size > 1) {
         const Part probe{static_cast<int>(s), slot, sd, single, num, den};
         if (!weighted(g, probe, 0, 0)) break;
@@ -339,20 +347,21 @@ FragmentPlan plan_regions(const ViewGeometry& g, int index, const std::vector<Pa
         }
         continue;
       }
-      Polygon base = part.base;
+      thread_local Polygon base, poly;  // (clip)
+      base = part.base;
       if (!whole) {
-        base = clip(base, {1, 0, 0.5 - reg.x0});
-        if (base.size() >= 3) base = clip(base, {-1, 0, reg.x1 - 0.5});
-        if (base.size() >= 3) base = clip(base, {0, 1, 0.5 - reg.y0});
-        if (base.size() >= 3) base = clip(base, {0, -1, reg.y1 - 0.5});
+        clip(base, {1, 0, 0.5 - reg.x0});
+        if (base.size() >= 3) clip(base, {-1, 0, reg.x1 - 0.5});
+        if (base.size() >= 3) clip(base, {0, 1, 0.5 - reg.y0});
+        if (base.size() >= 3) clip(base, {0, -1, reg.y1 - 0.5});
         if (base.size() < 3) continue;
       }
       // ... times pieces of the focal plane's orientation.
       for (int sf : {1, -1}) {
         if (g.focal_at_infinity(fp) && sf < 0) break;
-        Polygon poly = base;
-        if (!g.focal_at_infinity(fp)) poly = clip(poly, g.focal_denominator(fp) * sf);
-        if (poly.size() >= 3) poly = clip(poly, zc * sf);
+        poly = base;
+        if (!g.focal_at_infinity(fp)) clip(poly, g.focal_denominator(fp) * sf);
+        if (poly.size() >= 3) clip(poly, zc * sf);
         if (poly.size() < 3) continue;
         const int id = piece_id(part, sf);
         auto pred = [&](int x, int y) {
@@ -363,21 +372,28 @@ FragmentPlan plan_regions(const ViewGeometry& g, int index, const std::vector<Pa
       }
     }
   }
-  // Sort by (y, x0): rows by counting, each row's few runs by insertion.
+  // Most cameras of a rig hold none of a view (its rays cross the camera
+  // plane in a few simplices): they return here, before any sorting.
+  if (plan.runs.empty()) return plan;
+  // Sort by (y, x0): rows by counting, each row's few runs by insertion, in
+  // this thread's buffers (reused plan after plan: a plan is made per
+  // camera and request, and the heap's lock is shared with the compositor
+  // thread that frees the plans).
   {
-    std::vector<int> start(H + 1, 0);
+    thread_local std::vector<int> start, fill;
+    thread_local std::vector<Run> sorted;
+    start.assign(H + 1, 0);
     for (const Run& r : plan.runs) ++start[r.y + 1];
     for (int y = 0; y < H; ++y) start[y + 1] += start[y];
-    std::vector<Run> sorted(plan.runs.size());
-    std::vector<int> fill(start.begin(), start.end() - 1);
+    sorted.resize(plan.runs.size());
+    fill.assign(start.begin(), start.end() - 1);
     for (const Run& r : plan.runs) sorted[fill[r.y]++] = r;
     for (int y = 0; y < H; ++y)
       for (int k = start[y] + 1; k < start[y + 1]; ++k)
         for (int j = k; j > start[y] && sorted[j].x0 < sorted[j - 1].x0; --j)
           std::swap(sorted[j], sorted[j - 1]);
-    plan.runs = std::move(sorted);
+    std::copy(sorted.begin(), sorted.end(), plan.runs.begin());
   }
-  if (plan.runs.empty()) return plan;
   // Runs of one piece that touch across a region edge become one.
   size_t kept = 0;
   for (size_t k = 1; k < plan.runs.size(); ++k) {
@@ -393,20 +409,16 @@ FragmentPlan plan_regions(const ViewGeometry& g, int index, const std::vector<Pa
   for (const Run& r : plan.runs) x0 = std::min(x0, r.x0), x1 = std::max(x1, r.x1);
   const int ry0 = plan.runs.front().y, ry1 = plan.runs.back().y;
   plan.rect = cv::Rect(x0, ry0, x1 - x0, ry1 - ry0 + 1);
-  plan.row_spans.assign(plan.rect.height, {0, 0});
-  std::vector<bool> seen(plan.rect.height, false);
+  // Each row's hull; a row without runs is empty at rect.x (x1 < x0 marks
+  // a row not seen yet).
+  plan.row_spans.assign(plan.rect.height, {W, -1});
   for (const Run& r : plan.runs) {
     auto& span = plan.row_spans[r.y - ry0];
-    if (!seen[r.y - ry0]) {
-      span = {r.x0, r.x1};
-      seen[r.y - ry0] = true;
-    } else {
-      span[0] = std::min(span[0], r.x0);
-      span[1] = std::max(span[1], r.x1);
-    }
+    span[0] = std::min(span[0], r.x0);
+    span[1] = std::max(span[1], r.x1);
   }
-  for (int k = 0; k < plan.rect.height; ++k)
-    if (!seen[k]) plan.row_spans[k] = {plan.rect.x, plan.rect.x};
+  for (auto& span : plan.row_spans)
+    if (span[1] < span[0]) span = {plan.rect.x, plan.rect.x};
   return plan;
 }
 

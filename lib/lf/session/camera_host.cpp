@@ -1,8 +1,11 @@
 #include "lf/session/camera_host.h"
 
+#include <algorithm>
+#include <cstring>
 #include <deque>
 #include <future>
 #include <mutex>
+#include <optional>
 #include <utility>
 
 #include "lf/render/quilt.h"
@@ -30,26 +33,26 @@ class SharedPerRequest {
   std::shared_ptr<const T> get(const std::shared_ptr<const Rig>& rig, const std::string& key,
                                Make make) {
     std::shared_future<std::shared_ptr<const T>> value;
-    std::promise<std::shared_ptr<const T>> mine;
-    bool making = false;
+    // Only the maker's (a promise made and dropped unset costs two
+    // allocations and an exception object, camera after camera).
+    std::optional<std::promise<std::shared_ptr<const T>>> mine;
     {
       std::lock_guard<std::mutex> lock(m_);
       for (const Entry& e : entries_)
         if (e.rig == rig && e.key == key) value = e.value;
       if (!value.valid()) {
-        value = mine.get_future().share();
+        value = mine.emplace().get_future().share();
         entries_.push_back({rig, key, value});
         if (entries_.size() > kShared) entries_.pop_front();
-        making = true;
       }
     }
-    if (!making) return value.get();
+    if (!mine) return value.get();
     try {
       std::shared_ptr<const T> v = make();
-      mine.set_value(v);
+      mine->set_value(v);
       return v;
     } catch (...) {
-      mine.set_value(nullptr);
+      mine->set_value(nullptr);
       throw;
     }
   }
@@ -182,6 +185,34 @@ std::vector<uint8_t> CameraAnswer::encode_jpeg(const Fragment& base, const Camer
     bytes.insert(bytes.end(), one.begin(), one.end());
   }
   return bytes;
+}
+
+std::shared_ptr<const KeyedRequests> shared_keyed_requests(const uint8_t* data, size_t size) {
+  if (size > kMaxSharedKeyBytes)
+    return std::make_shared<const KeyedRequests>(parse_keyed_requests(data, size));
+  struct Entry {
+    std::string bytes;
+    std::shared_ptr<const KeyedRequests> requests;
+  };
+  static std::mutex m;
+  static std::deque<Entry> entries;  // the last kShared buffers'
+  const auto same = [&](const Entry& e) {
+    return e.bytes.size() == size && std::memcmp(e.bytes.data(), data, size) == 0;
+  };
+  {
+    std::lock_guard<std::mutex> lock(m);
+    for (const Entry& e : entries)
+      if (same(e)) return e.requests;
+  }
+  // Parsed outside the lock (two cameras may both parse a buffer: the same
+  // requests); a buffer that does not parse throws and is not kept.
+  auto requests = std::make_shared<const KeyedRequests>(parse_keyed_requests(data, size));
+  std::lock_guard<std::mutex> lock(m);
+  if (std::none_of(entries.begin(), entries.end(), same)) {
+    entries.push_back({std::string(reinterpret_cast<const char*>(data), size), requests});
+    if (entries.size() > kShared) entries.pop_front();
+  }
+  return requests;
 }
 
 std::vector<std::pair<ViewRequest, std::string>> parse_keyed_requests(const uint8_t* data,

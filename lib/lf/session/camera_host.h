@@ -42,8 +42,14 @@ std::shared_ptr<const ViewGeometry> shared_geometry(const std::shared_ptr<const 
 // The requests of a request buffer (lf::parse_requests: one, or a probe
 // bundle's steps), each with its bytes as its shared_geometry key (empty
 // over kMaxSharedKeyBytes). Throws WireError as parse_requests does.
-std::vector<std::pair<ViewRequest, std::string>> parse_keyed_requests(const uint8_t* data,
-                                                                      size_t size);
+using KeyedRequests = std::vector<std::pair<ViewRequest, std::string>>;
+KeyedRequests parse_keyed_requests(const uint8_t* data, size_t size);
+// parse_keyed_requests shared by the process's cameras, which are sent the
+// same request buffer (lfarray's tee): the first parses, the others take
+// its requests. Keyed by the buffer's bytes; the last 16 buffers up to
+// kMaxSharedKeyBytes are kept (larger ones are parsed alone). Thread-safe;
+// throws as parse_keyed_requests does (a buffer that fails is not kept).
+std::shared_ptr<const KeyedRequests> shared_keyed_requests(const uint8_t* data, size_t size);
 // Camera `camera_id`'s explicitly empty fragment for `req` (wire kEmpty):
 // an answer without pixels (capture_time_ns -1: none), so that the
 // compositor knows the camera answered.
