@@ -364,37 +364,52 @@ std::vector<std::pair<size_t, std::string>> Compositor::composite(
     for (int band = range.start; band < range.end; ++band) {
       const int y0 = band * kBandRows, y1 = std::min(h_, y0 + kBandRows);
       const size_t band_size = static_cast<size_t>(y1 - y0) * w_ * 4;
+      // Zero between bands: each band clears the rows it resolved while
+      // they are still in L1 (no pass over the band's 160 KiB first).
       thread_local std::vector<uint32_t> band_sums;
       uint32_t* bs;
       if (keep_sums_) {
         bs = acc_.data() + static_cast<size_t>(y0) * w_ * 4;
         std::fill(bs, bs + band_size, 0u);
       } else {
-        band_sums.assign(band_size, 0u);
+        if (band_sums.size() < band_size) band_sums.resize(band_size, 0u);
         bs = band_sums.data();
       }
-      for (size_t k = 0; k < ok.size(); ++k) {
-        const Fragment& f = *ok[k]->fragment;
-        const int r0 = std::max(y0, f.rect.y) - f.rect.y;
-        const int r1 = std::min(y1, f.rect.y + f.rect.height) - f.rect.y;
-        if (r0 >= r1) continue;
-        add_rows(f, ok[k]->pixels + row_start[k][r0], r0, r1, bs, y0);
-        if (rows_added) (*rows_added)(f, ok[k]->pixels + row_start[k][r0], r0, r1);
+      try {
+        for (size_t k = 0; k < ok.size(); ++k) {
+          const Fragment& f = *ok[k]->fragment;
+          const int r0 = std::max(y0, f.rect.y) - f.rect.y;
+          const int r1 = std::min(y1, f.rect.y + f.rect.height) - f.rect.y;
+          if (r0 >= r1) continue;
+          add_rows(f, ok[k]->pixels + row_start[k][r0], r0, r1, bs, y0);
+          if (rows_added) (*rows_added)(f, ok[k]->pixels + row_start[k][r0], r0, r1);
+        }
+        for (size_t k = 0; k < drawn.size(); ++k) {
+          const Fragment& f = drawn[k];
+          const int r0 = std::max(y0, f.rect.y) - f.rect.y;
+          const int r1 = std::min(y1, f.rect.y + f.rect.height) - f.rect.y;
+          if (r0 >= r1) continue;
+          // This thread's buffer for a band's rows of one drawing (reused).
+          thread_local std::vector<uint8_t> rows;
+          rows.resize(drawn_start[k][r1] - drawn_start[k][r0]);
+          const FragmentDrawing& d = *to_draw[k];
+          render_rows(*d.plan, *d.camera, *d.image, r0, r1, rows.data());
+          add_rows(f, rows.data(), r0, r1, bs, y0);
+          if (rows_added) (*rows_added)(f, rows.data(), r0, r1);
+        }
+      } catch (...) {
+        if (!keep_sums_) std::fill(bs, bs + band_size, 0u);
+        throw;
       }
-      for (size_t k = 0; k < drawn.size(); ++k) {
-        const Fragment& f = drawn[k];
-        const int r0 = std::max(y0, f.rect.y) - f.rect.y;
-        const int r1 = std::min(y1, f.rect.y + f.rect.height) - f.rect.y;
-        if (r0 >= r1) continue;
-        // This thread's buffer for a band's rows of one drawing (reused).
-        thread_local std::vector<uint8_t> rows;
-        rows.resize(drawn_start[k][r1] - drawn_start[k][r0]);
-        const FragmentDrawing& d = *to_draw[k];
-        render_rows(*d.plan, *d.camera, *d.image, r0, r1, rows.data());
-        add_rows(f, rows.data(), r0, r1, bs, y0);
-        if (rows_added) (*rows_added)(f, rows.data(), r0, r1);
+      if (keep_sums_) {
+        resolve_rows(out, y0, y1, bs, y0);
+        continue;
       }
-      resolve_rows(out, y0, y1, bs, y0);
+      const size_t row_size = static_cast<size_t>(w_) * 4;
+      for (int y = y0; y < y1; ++y) {
+        resolve_rows(out, y, y + 1, bs, y0);
+        std::memset(bs + (y - y0) * row_size, 0, row_size * sizeof(uint32_t));
+      }
     }
   });
   return refused;
