@@ -22,7 +22,9 @@
 //    decoded into the raw wire format (lf::decode_jpeg_to_raw, as
 //    lfcompositor does on arrival), then all composited; the ratio of the
 //    two bounds is the most of the raw pipeline's throughput that a JPEG
-//    pipeline could reach.
+//    pipeline could reach. The same loop on every core at once (a thread
+//    each, tools/bench/bound.h) says how much of the bound, which takes
+//    the cores as independent, a pipeline can reach on this machine.
 //  * the process's peak resident set size during each row's pipelines.
 //  * latency: a live request source at a fixed rate; for each request, the
 //    time from the request leaving lfviewrequest to its frame reaching the
@@ -42,6 +44,7 @@
 #include <sstream>
 #include <thread>
 
+#include "bench/bound.h"
 #include "bench/viewers.h"
 #include "cli.h"
 #include "lf/geometry/rig_ops.h"
@@ -58,6 +61,7 @@
 namespace {
 
 using namespace measure;  // tools/measure.h: CPU time, peak RSS, quantiles
+using lfbench::KernelTime;
 
 const char* kSummary =
     "Throughput (non-live) and request -> frame latency (live) of the single-machine\n"
@@ -256,110 +260,6 @@ std::vector<Mark> run(const std::string& desc, Probe* probe, cv::Mat* first = nu
   return times;
 }
 
-// The views that pipeline() requests, planned, rendered and composited by
-// the library on this thread with its buffers kept from view to view, as
-// the elements keep theirs: the median per view over the first `n`, wall
-// clock and this thread's CPU time.
-struct KernelTime {
-  double wall_ms = 0, cpu_ms = 0;  // the faster way's
-  double separate_ms = 0, fused_ms = 0;
-  std::map<int, std::pair<double, double>> jpeg;  // quality -> wall ms, CPU ms
-  // Each the smaller of this and `o`.
-  void keep_faster(const KernelTime& o) {
-    wall_ms = std::min(wall_ms, o.wall_ms), cpu_ms = std::min(cpu_ms, o.cpu_ms);
-    separate_ms = std::min(separate_ms, o.separate_ms), fused_ms = std::min(fused_ms, o.fused_ms);
-    for (auto& [q, t] : jpeg) {
-      const auto it = o.jpeg.find(q);
-      if (it != o.jpeg.end())
-        t = {std::min(t.first, it->second.first), std::min(t.second, it->second.second)};
-    }
-  }
-};
-// Single-core time per view of the library's ways; `jpeg_qualities`: also
-// with JPEG fragments at these qualities.
-KernelTime kernel_ms(const lf::Rig& rig, const std::vector<cv::Mat>& images, int W, int H, int n,
-                     const std::vector<int>& jpeg_qualities) {
-  lf::ViewSettings vs;
-  vs.width = W;
-  vs.height = H;
-  vs.orbit = kOrbit;
-  vs.path_frames = kPathFrames;
-  const lf::ViewSequence seq = lf::build_views(rig, vs);
-  lf::ViewRequest req;
-  req.focal_plane = lf::parse_focal_plane(g_focal_plane, rig);
-  std::vector<lf::Fragment> frags(rig.cameras.size());
-  std::vector<lf::FragmentPixels> pixels(frags.size());
-  std::vector<lf::FragmentPlan> plans(frags.size());
-  std::vector<lf::FragmentDrawing> drawings(frags.size());
-  std::vector<std::vector<uint8_t>> wire(frags.size());  // JPEG: decoded, raw wire format
-  std::vector<uint8_t> rect;                             // JPEG: the rectangle to encode
-  std::vector<lf::Fragment> heads(frags.size());
-  lf::Compositor comp;
-  cv::Mat out;
-  // The library's ways, view by view: each fragment rendered, then all
-  // composited (way 0); or planned, then drawn band by band into the sums
-  // (1: fused, as lfcompositor draws deferred fragments); or rendered, JPEG
-  // coded and decoded, then composited (2 + k: jpeg_qualities[k]).
-  const int ways = 2 + static_cast<int>(jpeg_qualities.size());
-  std::vector<std::vector<double>> ms(ways), cpu(ways);
-  for (int k = 0; k < n; ++k) {
-    req.view = seq.at(static_cast<uint64_t>(k), rig);
-    for (int way = 0; way < ways; ++way) {
-      const bool fused = way == 1;
-      const gint64 t0 = g_get_monotonic_time();
-      const double c0 = thread_cpu_s();
-      const lf::ViewGeometry g(rig, req);
-      for (size_t i = 0; i < frags.size(); ++i) {
-        plans[i] = lf::plan_fragment(g, static_cast<int>(i));
-        if (fused) {
-          drawings[i] = {&plans[i], &rig.cameras[i], &images[i]};
-          continue;
-        }
-        if (way < 2) {
-          lf::render_fragment(plans[i], rig.cameras[i], images[i], frags[i]);
-          pixels[i] = {&frags[i], frags[i].pixels.data()};
-          continue;
-        }
-        // As lffragment does on the CPU: drawn straight into the rectangle
-        // the encoder takes.
-        const lf::FragmentPlan& p = plans[i];
-        lf::describe_fragment(p, frags[i]);
-        rect.resize(std::max(rect.size(), 4 * static_cast<size_t>(p.rect.area())));
-        lf::render_rows(p, rig.cameras[i], images[i], 0, p.rect.height, rect.data(),
-                        lf::Kernel::kBest, 4 * static_cast<size_t>(p.rect.width));
-        const std::vector<uint8_t> jpeg =
-            lf::serialize_jpeg_fragment(frags[i], rect.data(), jpeg_qualities[way - 2]);
-        pixels[i] = {&frags[i], nullptr};
-        if (frags[i].empty()) continue;
-        lf::decode_jpeg_to_raw(jpeg.data(), jpeg.size(), lf::kMaxFragmentPixels, [&](size_t size) {
-          wire[i].resize(size);
-          return wire[i].data();
-        });
-        const uint8_t* px = nullptr;
-        heads[i] = lf::parse_fragment_in_place(wire[i].data(), wire[i].size(), &px, nullptr,
-                                               lf::kMaxFragmentPixels, false);
-        pixels[i] = {&heads[i], px};
-      }
-      // One thread: cv::setNumThreads(1) by the caller.
-      if (fused)
-        comp.composite(W, H, {}, drawings, out);
-      else
-        comp.composite(W, H, pixels, out);
-      ms[way].push_back((g_get_monotonic_time() - t0) / 1000.0);
-      cpu[way].push_back((thread_cpu_s() - c0) * 1000.0);
-    }
-  }
-  KernelTime t;
-  t.separate_ms = median(ms[0]);
-  t.fused_ms = median(ms[1]);
-  const int best = t.fused_ms < t.separate_ms;
-  t.wall_ms = best ? t.fused_ms : t.separate_ms;
-  t.cpu_ms = median(cpu[best]);
-  for (size_t q = 0; q < jpeg_qualities.size(); ++q)
-    t.jpeg[jpeg_qualities[q]] = {median(ms[2 + q]), median(cpu[2 + q])};
-  return t;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -514,6 +414,7 @@ int main(int argc, char** argv) {
     // on the machine only ever slows a pass down. Wall clock (the bound as
     // defined) and CPU time (for the CPU efficiency).
     std::map<std::pair<int, int>, KernelTime> bound;
+    std::map<std::pair<int, int>, double> together;  // ms a view, on every core at once
     const bool any_raw = std::find(encodings.begin(), encodings.end(), "raw") != encodings.end();
     std::vector<int> jpeg_qualities;  // of the JPEG rows, for their bounds
     for (const std::string& e : encodings)
@@ -528,13 +429,18 @@ int main(int argc, char** argv) {
       const std::vector<cv::Mat> images = lf::load_images(rig);
       const int threads = cv::getNumThreads();
       cv::setNumThreads(1);
+      lf::ViewSettings vs;
+      vs.width = sz.first, vs.height = sz.second;
+      vs.orbit = kOrbit, vs.path_frames = kPathFrames;
       for (int pass = 0; pass < 2; ++pass) {
-        const KernelTime k = kernel_ms(rig, images, sz.first, sz.second, 40,
-                                       viewers_run ? std::vector<int>{} : jpeg_qualities);
+        const KernelTime k = lfbench::kernel_ms(rig, images, vs, g_focal_plane, 40,
+                                                viewers_run ? std::vector<int>{} : jpeg_qualities);
         if (pass)
           bound[sz].keep_faster(k);
         else
           bound[sz] = k;
+        const double t = lfbench::kernel_ms_together(rig, images, vs, g_focal_plane, 40, cores);
+        together[sz] = pass && together[sz] > 0 ? std::min(together[sz], t) : t;
       }
       cv::setNumThreads(threads);
       const KernelTime& b = bound[sz];
@@ -678,6 +584,13 @@ int main(int argc, char** argv) {
           }
       }
     }
+    for (const auto& [sz, ms] : together)
+      if (ms > 0 && bound[sz].wall_ms > 0)
+        std::printf(
+            "\nAll %d cores at once, %dx%d: the library's loop on %d threads together "
+            "takes %.2f ms a view each, against %.2f on one core alone: %.2f of the "
+            "kernel bound is the most a pipeline can reach on this machine.\n",
+            cores, sz.first, sz.second, cores, ms, bound[sz].wall_ms, bound[sz].wall_ms / ms);
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "lf-gst-bench: error: %s\n", e.what());
