@@ -336,22 +336,16 @@ static GstFlowReturn answer_request(LfFragment* self, const lf::ViewRequest& req
         lf::CameraAnswer answer(
             rig, req, st->index,
             req.quilt.empty() ? lf::shared_geometry(st->rig, req, st->index, key) : nullptr);
-        if (answer.quilt() && answer.sees_nothing()) {  // sees none of the eyes
-          out = empty_fragment(req, cam, f.capture_time_ns);
-          return;
-        }
         // defer (lfarray's whole-view mode): the plan (a layer pair's two) and the image go on
         // an empty fragment to the compositor (probes, scored from pixels, are drawn here).
         const size_t n = answer.count();
         const bool deferred = st->s.defer && st->s.encoding == Encoding::kRaw && !probe &&
                               !answer.quilt() && (n == 1 || n == 2);
-        if (deferred && n == 1 && answer.plan(0).empty()) {
-          // Most cameras hold none of a view: an empty fragment, nothing to draw.
+        // Sees none of a quilt's eyes, or (deferred) of the view, as most cameras: nothing to draw.
+        const bool nothing = (answer.quilt() || deferred) && answer.sees_nothing();
+        if (nothing || (deferred && !answer.plan(0).empty())) {
           out = empty_fragment(req, cam, f.capture_time_ns);
-          return;
-        }
-        if (deferred && !answer.plan(0).empty()) {
-          out = empty_fragment(req, cam, f.capture_time_ns);
+          if (nothing) return;
           lfgst::add_deferred_meta(
               out, lfgst::deferred_draw(frame, info, rgba.data == image.data ? cv::Mat() : rgba,
                                         cam, st->index, answer.take_plan(0),

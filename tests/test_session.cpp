@@ -1120,7 +1120,7 @@ TEST(CameraAnswer, CamerasShareTheGeometryOfARequest) {
 
 // lf::shared_keyed_requests: the cameras sent one request buffer share its
 // parse (the first parses); other bytes parse anew; a malformed buffer
-// throws every time (it is not kept); the last 16 buffers are kept.
+// throws every time (each camera parses it again); the last 16 buffers are kept.
 TEST(CameraAnswer, CamerasShareTheParseOfARequestBuffer) {
   lf::ViewRequest req = view_request(0, 0, {0.1, 0.1, -1});
   req.sequence = 41;
@@ -1141,7 +1141,7 @@ TEST(CameraAnswer, CamerasShareTheParseOfARequestBuffer) {
   bad.resize(bad.size() / 2);
   EXPECT_THROW(lf::shared_keyed_requests(bad.data(), bad.size()), lf::WireError);
   EXPECT_THROW(lf::shared_keyed_requests(bad.data(), bad.size()), lf::WireError)
-      << "a buffer that failed is not kept";
+      << "a buffer that failed fails again";
   // Seventeen other buffers later the first is parsed again (the last 16 kept).
   for (uint64_t s = 100; s < 117; ++s) {
     req.sequence = s;

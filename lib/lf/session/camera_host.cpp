@@ -1,11 +1,10 @@
 #include "lf/session/camera_host.h"
 
-#include <algorithm>
-#include <cstring>
 #include <deque>
 #include <future>
 #include <mutex>
 #include <optional>
+#include <string_view>
 #include <utility>
 
 #include "lf/render/quilt.h"
@@ -18,10 +17,10 @@ namespace lf {
 namespace {
 
 // What the cameras of one process share per request: the first camera to
-// plan a request makes it and the others wait for it and take it. Keyed by
-// the rig and the request's bytes (requests up to kMaxSharedKeyBytes bytes;
-// larger ones, with big focal surfaces, are planned alone); the last
-// kShared requests are kept.
+// plan (or parse) a request makes it and the others wait for it and take
+// it. Keyed by the rig and the request's bytes (requests up to
+// kMaxSharedKeyBytes bytes; larger ones, with big focal surfaces, are
+// planned alone); the last kShared requests are kept.
 constexpr size_t kShared = 16;
 template <typename T>
 class SharedPerRequest {
@@ -30,7 +29,7 @@ class SharedPerRequest {
   // where that failed (it rethrows; a waiting caller then makes its own,
   // and fails alike with the reason).
   template <typename Make>
-  std::shared_ptr<const T> get(const std::shared_ptr<const Rig>& rig, const std::string& key,
+  std::shared_ptr<const T> get(const std::shared_ptr<const Rig>& rig, std::string_view key,
                                Make make) {
     std::shared_future<std::shared_ptr<const T>> value;
     // Only the maker's (a promise made and dropped unset costs two
@@ -42,7 +41,7 @@ class SharedPerRequest {
         if (e.rig == rig && e.key == key) value = e.value;
       if (!value.valid()) {
         value = mine.emplace().get_future().share();
-        entries_.push_back({rig, key, value});
+        entries_.push_back({rig, std::string(key), value});
         if (entries_.size() > kShared) entries_.pop_front();
       }
     }
@@ -188,31 +187,16 @@ std::vector<uint8_t> CameraAnswer::encode_jpeg(const Fragment& base, const Camer
 }
 
 std::shared_ptr<const KeyedRequests> shared_keyed_requests(const uint8_t* data, size_t size) {
-  if (size > kMaxSharedKeyBytes)
+  auto parse = [&] {
     return std::make_shared<const KeyedRequests>(parse_keyed_requests(data, size));
-  struct Entry {
-    std::string bytes;
-    std::shared_ptr<const KeyedRequests> requests;
   };
-  static std::mutex m;
-  static std::deque<Entry> entries;  // the last kShared buffers'
-  const auto same = [&](const Entry& e) {
-    return e.bytes.size() == size && std::memcmp(e.bytes.data(), data, size) == 0;
-  };
-  {
-    std::lock_guard<std::mutex> lock(m);
-    for (const Entry& e : entries)
-      if (same(e)) return e.requests;
-  }
-  // Parsed outside the lock (two cameras may both parse a buffer: the same
-  // requests); a buffer that does not parse throws and is not kept.
-  auto requests = std::make_shared<const KeyedRequests>(parse_keyed_requests(data, size));
-  std::lock_guard<std::mutex> lock(m);
-  if (std::none_of(entries.begin(), entries.end(), same)) {
-    entries.push_back({std::string(reinterpret_cast<const char*>(data), size), requests});
-    if (entries.size() > kShared) entries.pop_front();
-  }
-  return requests;
+  if (size > kMaxSharedKeyBytes) return parse();
+  static SharedPerRequest<KeyedRequests> parsed;
+  // A buffer that does not parse is kept as null: each camera parses it
+  // again, and throws with the reason.
+  const auto r =
+      parsed.get(nullptr, std::string_view(reinterpret_cast<const char*>(data), size), parse);
+  return r ? r : parse();
 }
 
 std::vector<std::pair<ViewRequest, std::string>> parse_keyed_requests(const uint8_t* data,

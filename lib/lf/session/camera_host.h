@@ -48,7 +48,7 @@ KeyedRequests parse_keyed_requests(const uint8_t* data, size_t size);
 // same request buffer (lfarray's tee): the first parses, the others take
 // its requests. Keyed by the buffer's bytes; the last 16 buffers up to
 // kMaxSharedKeyBytes are kept (larger ones are parsed alone). Thread-safe;
-// throws as parse_keyed_requests does (a buffer that fails is not kept).
+// throws as parse_keyed_requests does, every time for the same bytes.
 std::shared_ptr<const KeyedRequests> shared_keyed_requests(const uint8_t* data, size_t size);
 // Camera `camera_id`'s explicitly empty fragment for `req` (wire kEmpty):
 // an answer without pixels (capture_time_ns -1: none), so that the
