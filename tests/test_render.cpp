@@ -702,6 +702,34 @@ TEST(Composite, FusedCompositeEqualsAddAndResolve) {
     EXPECT_EQ(cv::norm(got, want, cv::NORM_INF), 0) << threads << " threads";
     for (int y = 0; y < 150; y += 7)
       for (int x = 0; x < 200; x += 3) ASSERT_EQ(comp.weight_at(x, y), ref.weight_at(x, y));
+    // Or only some runs of pixels (LayerCompositor keeps layer 0's where
+    // layer 1 reaches): those are add()'s sums, bit for bit, and nothing
+    // else is written (a mark set everywhere stays); the frame is the same.
+    const lf::Compositor::Runs runs = {{{0, 8}, {40, 72}}, {}, {{192, 200}}, {{0, 200}}};
+    for (int y = 0; y < 150; ++y)  // a mark where no run is
+      for (int x = 0; x < 200; ++x) const_cast<uint32_t*>(comp.sums_at(x, y))[3] = 7777;
+    comp.set_kept_runs(&runs, 40);  // rows of 40: 4 entries cover 150 rows
+    comp.composite(200, 150, in, got);
+    EXPECT_EQ(cv::norm(got, want, cv::NORM_INF), 0) << threads << " threads";
+    int kept = 0;
+    for (int y = 0; y < 150; ++y)
+      for (int x = 0; x < 200; ++x) {
+        bool in_run = false;
+        for (const auto& [x0, x1] : runs[y / 40]) in_run |= x >= x0 && x < x1;
+        if (!in_run) {
+          ASSERT_EQ(comp.weight_at(x, y), 7777u) << x << "," << y;
+          continue;
+        }
+        ++kept;
+        ASSERT_EQ(std::memcmp(comp.sums_at(x, y), ref.sums_at(x, y), 16), 0) << x << "," << y;
+      }
+    EXPECT_EQ(kept, 40 * 40 + 40 * 8 + 30 * 200);
+    // Runs that do not cover the rows, or leave the frame: refused.
+    const lf::Compositor::Runs short_runs(3), wide = {{{190, 201}}, {}, {}, {}};
+    comp.set_kept_runs(&short_runs, 40);
+    EXPECT_THROW(comp.composite(200, 150, in, got), std::invalid_argument);
+    comp.set_kept_runs(&wide, 40);
+    EXPECT_THROW(comp.composite(200, 150, in, got), std::invalid_argument);
     comp.set_keep_sums(false);
     // Again into the same compositor and frame: nothing left from the last one.
     const std::vector<lf::FragmentPixels> two(in.begin(), in.begin() + 2);

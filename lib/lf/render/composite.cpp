@@ -35,11 +35,10 @@ void Compositor::reset(int width, int height, int y0, int y1) {
             acc_.begin() + static_cast<size_t>(y1) * width * 4, 0u);
 }
 
-void Compositor::require_sums() const {
-  if (!summed_)
-    throw std::logic_error(
-        "compositor: no sums to read or add to: reset() first (composite() "
-        "keeps none)");
+void Compositor::no_sums() {
+  throw std::logic_error(
+      "compositor: no sums to read or add to: reset() first (composite() "
+      "keeps none)");
 }
 
 void Compositor::zero(const cv::Rect& r) {
@@ -296,9 +295,19 @@ std::vector<std::pair<size_t, std::string>> Compositor::composite(
     throw std::invalid_argument("compositor: output size out of range");
   w_ = width;
   h_ = height;
-  // The sums live band by band in the threads' buffers below, or in acc_.
-  if (keep_sums_) acc_.resize(static_cast<size_t>(width) * height * 4);
-  summed_ = keep_sums_;
+  // The sums live band by band in the threads' buffers below, or in acc_
+  // (all of them, or the kept runs' copied there).
+  if (kept_runs_) {
+    if (kept_run_rows_ < 1 ||
+        kept_runs_->size() < static_cast<size_t>((height + kept_run_rows_ - 1) / kept_run_rows_))
+      throw std::invalid_argument("compositor: kept runs do not cover the frame's rows");
+    for (const auto& row : *kept_runs_)
+      for (const auto& [x0, x1] : row)
+        if (x0 < 0 || x0 > x1 || x1 > width)
+          throw std::invalid_argument("compositor: a kept run out of the frame");
+  }
+  if (keep_sums_ || kept_runs_) acc_.resize(static_cast<size_t>(width) * height * 4);
+  summed_ = keep_sums_ || kept_runs_;
   out.create(h_, w_, CV_8UC4);
   // The fragments add() would take, and where each of their rows' pixels
   // start (prefix sums of the span lengths, bytes).
@@ -407,8 +416,13 @@ std::vector<std::pair<size_t, std::string>> Compositor::composite(
       }
       const size_t row_size = static_cast<size_t>(w_) * 4;
       for (int y = y0; y < y1; ++y) {
+        uint32_t* row = bs + (y - y0) * row_size;
+        if (kept_runs_)
+          for (const auto& [x0, x1] : (*kept_runs_)[y / kept_run_rows_])
+            std::memcpy(acc_.data() + (static_cast<size_t>(y) * w_ + x0) * 4, row + x0 * 4,
+                        static_cast<size_t>(x1 - x0) * 4 * sizeof(uint32_t));
         resolve_rows(out, y, y + 1, bs, y0);
-        std::memset(bs + (y - y0) * row_size, 0, row_size * sizeof(uint32_t));
+        std::memset(row, 0, row_size * sizeof(uint32_t));
       }
     }
   });
@@ -756,14 +770,31 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
     comp_[1].reset(width, height, 0, 0);
     for (int l = 0; l < 2; ++l)
       sq_[l].create(height, width, CV_32FC1);  // the last frame's memory when the size is the same
-    for (size_t by = 0; by < blocks.runs.size(); ++by)
-      for (const auto& [x0, x1] : blocks.runs[by]) {
-        const cv::Rect run = cv::Rect(x0, static_cast<int>(by) * kBlock, x1 - x0, kBlock) &
-                             cv::Rect(0, 0, width, height);
-        comp_[1].zero(run);
-        for (int l = 0; l < 2; ++l) sq_[l](run).setTo(0);
+    // Each row of blocks by one thread, rows of blocks on every core: its
+    // runs zeroed, then layer 1's rows within it added, fragment by
+    // fragment (layer 1's pixels lie in its blocks: a thread writes its
+    // own rows only).
+    std::vector<std::vector<size_t>> start1;
+    for (size_t i : layer_of[1]) start1.push_back(row_starts(*fragments[i].fragment));
+    cv::parallel_for_(cv::Range(0, static_cast<int>(blocks.runs.size())), [&](const cv::Range& r) {
+      for (int by = r.start; by < r.end; ++by) {
+        const int y0 = by * kBlock, y1 = std::min(height, y0 + kBlock);
+        for (const auto& [x0, x1] : blocks.runs[by]) {
+          const cv::Rect run(x0, y0, x1 - x0, y1 - y0);
+          comp_[1].zero(run);
+          for (int l = 0; l < 2; ++l) sq_[l](run).setTo(0);
+        }
+        if (blocks.runs[by].empty()) continue;
+        for (size_t k = 0; k < layer_of[1].size(); ++k) {
+          const FragmentPixels& fp = fragments[layer_of[1][k]];
+          const Fragment& f = *fp.fragment;
+          const int r0 = std::max(y0, f.rect.y) - f.rect.y;
+          const int r1 = std::min(y1, f.rect.y + f.rect.height) - f.rect.y;
+          if (r0 < r1)
+            comp_[1].add_rows(f, fp.pixels + start1[k][r0], r0, r1, comp_[1].acc_.data(), 0);
+        }
       }
-    for (size_t i : layer_of[1]) comp_[1].add(*fragments[i].fragment, fragments[i].pixels);
+    });
     add_squares(fragments, layer_of[1], comp_[1], blocks, sq_[1]);
   }
   on_ = blocks.on, bcols_ = blocks.cols;
@@ -794,7 +825,8 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
     for (int r = r0; r < from; ++r) pixels += 4 * (f.spans[r][1] - f.spans[r][0]);
     add_squares(f, pixels, from, to, comp_[1], blocks, sq_[0]);
   };
-  comp_[0].set_keep_sums(two);  // the choice reads layer 0's sums
+  // The choice reads layer 0's sums where layer 1 reaches only.
+  comp_[0].set_kept_runs(two ? &blocks.runs : nullptr, kBlock);
   for (const auto& [k, why] :
        comp_[0].composite(width, height, zero, draw0, out, two ? &squares : nullptr))
     refused.emplace_back(

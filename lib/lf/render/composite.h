@@ -97,9 +97,23 @@ class Compositor {
       const RowsAdded* rows_added = nullptr);
   // true: composite() accumulates in the compositor's frame of sums instead
   // (each band still zeroed, accumulated and resolved by one thread), so
-  // that weight_at() and sums_at() read them afterwards (LayerCompositor
-  // reads layer 0's); it costs their memory traffic. Default false.
-  void set_keep_sums(bool keep) { keep_sums_ = keep; }
+  // that weight_at() and sums_at() read them afterwards; it costs their
+  // memory traffic. Default false. Clears set_kept_runs().
+  void set_keep_sums(bool keep) { keep_sums_ = keep, kept_runs_ = nullptr; }
+  // Keeps only some of the sums: composite() accumulates band by band in
+  // its threads' buffers as when it keeps none, and copies into the frame
+  // of sums the pixels of (*runs)[i]'s column ranges [x0, x1) in rows
+  // [i * run_rows, (i + 1) * run_rows), the only pixels whose weight_at()
+  // and sums_at() are then the frame's (the others hold what they held).
+  // LayerCompositor keeps layer 0's where layer 1 reaches: the memory
+  // traffic of those pixels only. `runs` (at least one entry per run_rows
+  // rows, ranges within the frame, else composite() throws
+  // std::invalid_argument) is read by composite() and must outlive it;
+  // null: none kept. Clears set_keep_sums().
+  using Runs = std::vector<std::vector<std::pair<int, int>>>;
+  void set_kept_runs(const Runs* runs, int run_rows) {
+    kept_runs_ = runs, kept_run_rows_ = run_rows, keep_sums_ = false;
+  }
   // Where no weight arrived (alpha 0 in `out`), takes the pixel of
   // `previous` (the last frame shown, same size, CV_8UC4): a frame
   // composited without some of its fragments (a missed deadline) shows the
@@ -128,8 +142,13 @@ class Compositor {
   Kernel kernel() const;
 
  private:
-  // Throws std::logic_error unless acc_ holds the sums of reset() and add().
-  void require_sums() const;
+  friend class LayerCompositor;  // adds layer 1's rows of blocks on every core (add_rows)
+  // Throws std::logic_error unless acc_ holds the sums of reset() and add()
+  // (inline: weight_at() and sums_at() are read per pixel).
+  void require_sums() const {
+    if (!summed_) no_sums();
+  }
+  [[noreturn]] static void no_sums();
   size_t check(const Fragment& f, const uint8_t* pixels) const {  // its pixel count
     return check(f, pixels, w_, h_);
   }
@@ -143,6 +162,8 @@ class Compositor {
   std::vector<uint32_t> acc_;
   bool summed_ = false;  // acc_ holds the w_ x h_ frame of reset() and add()
   bool keep_sums_ = false;
+  const Runs* kept_runs_ = nullptr;  // set_kept_runs()
+  int kept_run_rows_ = 1;
   Kernel kernel_ = Kernel::kBest;
 };
 
