@@ -85,8 +85,8 @@ struct FocalRegion {
   int x0 = 0, y0 = 0, x1 = 0, y1 = 0, plane = 0;
 };
 // What a request's focal surface tiling is for every camera alike (it
-// depends on the request only, so cameras in one process can share it:
-// ViewGeometry's `layout` argument, lf::shared_geometry): per tile whether
+// depends on the request only, so cameras can share it: ViewGeometry's
+// `layout` argument; lf::shared_geometry shares the whole geometry): per tile whether
 // its second plane is the nearer (ViewGeometry::layer_plane), and each
 // fragment layer's regions of one plane (ViewGeometry::regions). A request
 // of 1920x1080 with 16-pixel tiles has 120 x 68 tiles; 64 cameras each

@@ -74,15 +74,6 @@ std::shared_ptr<const ViewGeometry> shared_geometry(const std::shared_ptr<const 
   const bool ulr = req.aperture == Aperture::kUlr || req.aperture == Aperture::kFourCamera;
   if (key.empty() || key.size() > kMaxSharedKeyBytes)
     return std::make_shared<const ViewGeometry>(*rig, req, index);
-  if (!ulr && !req.surface.empty()) {
-    static SharedPerRequest<SurfaceLayout> layouts;
-    std::shared_ptr<const ViewGeometry> own;
-    const auto layout = layouts.get(rig, key, [&] {
-      own = std::make_shared<const ViewGeometry>(*rig, req, index);
-      return own->surface_layout();
-    });
-    return own ? own : std::make_shared<const ViewGeometry>(*rig, req, index, nullptr, layout);
-  }
   if (ulr) {
     static SharedPerRequest<UlrField> fields;
     std::shared_ptr<const ViewGeometry> own;

@@ -25,13 +25,13 @@ namespace lf {
 
 // The request's geometry for camera `index` of `rig`, shared between the
 // cameras of one process that answer the same request (`key`: the
-// request's bytes; empty: not shared). Through one focal plane the whole
-// rig's geometry (every camera's homographies) is made once, by the first
-// camera to ask, and the others wait for it (64 cameras each making their
-// own cost 63 times the shared part); with the ULR aperture the camera's
-// own, with the blending field shared (it depends on the whole rig); with
-// a focal surface (per-tile planes) the camera's own too, with the tiling
-// shared (lf::SurfaceLayout: each layer's regions of one plane). The last
+// request's bytes; empty: not shared). Through one focal plane or a focal
+// surface (per-tile planes) the whole rig's geometry (every camera's
+// homographies, the surface's tiling) is made once, by the first camera to
+// ask, and the others wait for it (64 cameras each making their own cost
+// 63 times the shared part: the request's checks, the facets at the eye,
+// the tiling); with the ULR aperture the camera's own, with the blending
+// field shared (it depends on the whole rig). The last
 // 16 requests are kept; keys over kMaxSharedKeyBytes (a 1920x1080
 // request with second planes in every 16-pixel tile: 16.5 KB; 3840x2160:
 // 65 KB) are not shared. Thread-safe.
