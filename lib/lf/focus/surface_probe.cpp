@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <opencv2/core/utility.hpp>
 
 #include "lf/focus/focus.h"
 
@@ -87,47 +88,52 @@ SurfaceEstimate SurfaceProbeAnswers::estimate(const Rig& rig, bool* ok,
                          cy = analysis_bins(C ? ah_ : 0, height_, C);
   // Per probe pixel: sum w, sum w g, sum w g^2 (g: grey level of the
   // un-premultiplied colour, (c0 + 2 c1 + c2) / 4, the same for RGBA and
-  // BGRA), one step at a time.
+  // BGRA), one step at a time. The steps on every core: each writes only
+  // its own costs, and adds its fragments in the same order as one thread
+  // would, so the estimate does not depend on the threads.
   const size_t npx = static_cast<size_t>(aw_) * ah_;
-  std::vector<float> s0(npx), s1(npx), s2(npx);
   const float cap = static_cast<float>(opt_.truncate * opt_.truncate);
-  for (size_t i = 0; i < n; ++i) {
-    std::fill(s0.begin(), s0.end(), 0.0f);
-    std::fill(s1.begin(), s1.end(), 0.0f);
-    std::fill(s2.begin(), s2.end(), 0.0f);
-    for_each_complete([&](int step, const Fragment& f) {
-      if (step != steps[i] || f.empty()) return;
-      const uint8_t* px = f.pixels.data();
-      for (int row = 0; row < f.rect.height; ++row) {
-        const size_t base = static_cast<size_t>(f.rect.y + row) * aw_;
-        for (int x = f.spans[row][0]; x < f.spans[row][1]; ++x, px += 4) {
-          if (px[3] == 0) continue;
-          const float w = px[3] / 255.0f;
-          const float g = (px[0] + 2.0f * px[1] + px[2]) / 4.0f;  // w times the grey level
-          s0[base + x] += w;
-          s1[base + x] += g;
-          s2[base + x] += g * g / w;
+  cv::parallel_for_(cv::Range(0, static_cast<int>(n)), [&](const cv::Range& range) {
+    std::vector<float> s0(npx), s1(npx), s2(npx);
+    for (int i = range.start; i < range.end; ++i) {
+      std::fill(s0.begin(), s0.end(), 0.0f);
+      std::fill(s1.begin(), s1.end(), 0.0f);
+      std::fill(s2.begin(), s2.end(), 0.0f);
+      for_each_complete([&](int step, const Fragment& f) {
+        if (step != steps[i] || f.empty()) return;
+        const uint8_t* px = f.pixels.data();
+        for (int row = 0; row < f.rect.height; ++row) {
+          const size_t base = static_cast<size_t>(f.rect.y + row) * aw_;
+          for (int x = f.spans[row][0]; x < f.spans[row][1]; ++x, px += 4) {
+            if (px[3] == 0) continue;
+            const float w = px[3] / 255.0f;
+            const float g = (px[0] + 2.0f * px[1] + px[2]) / 4.0f;  // w times the grey level
+            s0[base + x] += w;
+            s1[base + x] += g;
+            s2[base + x] += g * g / w;
+          }
         }
-      }
-    });
-    double* sum = &c.sum[i * tiles];
-    double* cnt = &c.count[i * tiles];
-    for (int y = 0; y < ah_; ++y)
-      for (int x = 0; x < aw_; ++x) {
-        const size_t k = static_cast<size_t>(y) * aw_ + x;
-        if (s0[k] < 0.9f) continue;  // most of the aperture must see the point
-        const float m = s1[k] / s0[k];
-        const int t = ty[y] * cols + tx[x];
-        const float v = std::min(std::max(0.0f, s2[k] / s0[k] - m * m), cap);
-        sum[t] += v;
-        cnt[t] += 1.0;
-        if (C) {
-          const size_t cell = (i * c.cell_rows + cy[y]) * c.cell_cols + cx[x];
-          c.cell_sum[cell] += v;
-          c.cell_count[cell] += 1.0;
+      });
+      double* sum = &c.sum[static_cast<size_t>(i) * tiles];
+      double* cnt = &c.count[static_cast<size_t>(i) * tiles];
+      for (int y = 0; y < ah_; ++y)
+        for (int x = 0; x < aw_; ++x) {
+          const size_t k = static_cast<size_t>(y) * aw_ + x;
+          if (s0[k] < 0.9f) continue;  // most of the aperture must see the point
+          const float m = s1[k] / s0[k];
+          const int t = ty[y] * cols + tx[x];
+          const float v = std::min(std::max(0.0f, s2[k] / s0[k] - m * m), cap);
+          sum[t] += v;
+          cnt[t] += 1.0;
+          if (C) {
+            const size_t cell =
+                (static_cast<size_t>(i) * c.cell_rows + cy[y]) * c.cell_cols + cx[x];
+            c.cell_sum[cell] += v;
+            c.cell_count[cell] += 1.0;
+          }
         }
-      }
-  }
+    }
+  });
   // No pixel seen by most of the aperture at any plane (every camera sat
   // the probe out, or sees none of the view): nothing to estimate from.
   if (std::all_of(c.count.begin(), c.count.end(), [](double v) { return v == 0; })) return none();
