@@ -46,8 +46,8 @@ bool SurfaceProbeAnswers::add(int step, Fragment f) {
   return true;
 }
 
-SurfaceEstimate SurfaceProbeAnswers::estimate(const Rig& rig, bool* ok,
-                                              const SurfacePrior* prior) const {
+SurfaceEstimate SurfaceProbeAnswers::estimate(const Rig& rig, bool* ok, const SurfacePrior* prior,
+                                              bool every_core) const {
   // The steps that every complete camera answered (the same set for all of
   // them, so every plane compares the same cameras).
   std::vector<int> answered(opt_.planes, 0);
@@ -88,12 +88,13 @@ SurfaceEstimate SurfaceProbeAnswers::estimate(const Rig& rig, bool* ok,
                          cy = analysis_bins(C ? ah_ : 0, height_, C);
   // Per probe pixel: sum w, sum w g, sum w g^2 (g: grey level of the
   // un-premultiplied colour, (c0 + 2 c1 + c2) / 4, the same for RGBA and
-  // BGRA), one step at a time. The steps on every core: each writes only
-  // its own costs, and adds its fragments in the same order as one thread
-  // would, so the estimate does not depend on the threads.
+  // BGRA), one step at a time. The steps on every core (`every_core`):
+  // each writes only its own costs, and adds its fragments in the same
+  // order as one thread would, so the estimate does not depend on the
+  // threads.
   const size_t npx = static_cast<size_t>(aw_) * ah_;
   const float cap = static_cast<float>(opt_.truncate * opt_.truncate);
-  cv::parallel_for_(cv::Range(0, static_cast<int>(n)), [&](const cv::Range& range) {
+  auto gather = [&](const cv::Range& range) {
     std::vector<float> s0(npx), s1(npx), s2(npx);
     for (int i = range.start; i < range.end; ++i) {
       std::fill(s0.begin(), s0.end(), 0.0f);
@@ -133,7 +134,12 @@ SurfaceEstimate SurfaceProbeAnswers::estimate(const Rig& rig, bool* ok,
           }
         }
     }
-  });
+  };
+  const cv::Range all(0, static_cast<int>(n));
+  if (every_core)
+    cv::parallel_for_(all, gather);
+  else
+    gather(all);
   // No pixel seen by most of the aperture at any plane (every camera sat
   // the probe out, or sees none of the view): nothing to estimate from.
   if (std::all_of(c.count.begin(), c.count.end(), [](double v) { return v == 0; })) return none();

@@ -95,9 +95,14 @@ class SurfaceProbeAnswers : public ProbeFragments {
   // planes were answered by them or no pixel was seen by most of the
   // aperture (every camera sat the probe out with an empty fragment). With
   // `prior` (the last estimate of this viewer's view), hysteresis
-  // (SurfaceOptions::change_penalty).
-  SurfaceEstimate estimate(const Rig& rig, bool* ok = nullptr,
-                           const SurfacePrior* prior = nullptr) const;
+  // (SurfaceOptions::change_penalty). The probe's steps are gathered on
+  // every core (cv::parallel_for_), or with `every_core` false on the
+  // calling thread only: OpenCV runs one parallel loop at a time in a
+  // process, so an estimate beside a compositor (lf::ProbeScoring's
+  // background thread) would leave the compositor's loops one thread. The
+  // estimate is the same either way, value for value.
+  SurfaceEstimate estimate(const Rig& rig, bool* ok = nullptr, const SurfacePrior* prior = nullptr,
+                           bool every_core = true) const;
   // The fragment pixels kept: 0 when every answer was an empty fragment
   // (every camera sat the probe out: its instant was not among its frames).
   size_t pixels() const { return pixels_; }

@@ -107,11 +107,12 @@ ProbeScoring::~ProbeScoring() {
 }
 
 ProbeScoring::Estimated ProbeScoring::estimate_surface(const SurfaceProbes::Probe& probe,
-                                                       const SurfacePrior* prior) const {
+                                                       const SurfacePrior* prior,
+                                                       bool every_core) const {
   Estimated r;
   const auto t0 = std::chrono::steady_clock::now();
   try {
-    if (rig_) r.e = probe.answers.estimate(*rig_, &r.ok, prior);
+    if (rig_) r.e = probe.answers.estimate(*rig_, &r.ok, prior, every_core);
   } catch (const std::exception& ex) {
     r.why = ex.what(), r.threw = true, r.ok = false;
   }
@@ -127,14 +128,16 @@ void ProbeScoring::finish_surface(SurfaceProbes::Iter it) {
   };
   if (background_) {
     // On a thread of its own, with a copy of the viewer's prior; concluded
-    // by take() once it is done.
+    // by take() once it is done. That thread alone: beside the compositor's
+    // loops, which would otherwise run on one thread while it lasts
+    // (SurfaceProbeAnswers::estimate).
     std::optional<SurfacePrior> copy;
     if (const SurfacePrior* prior = prior_of()) copy = *prior;
     try {
       Running r;
       r.probe = probe;
       r.estimated = std::async(std::launch::async, [this, probe, copy] {
-        return estimate_surface(*probe, copy ? &*copy : nullptr);
+        return estimate_surface(*probe, copy ? &*copy : nullptr, false);
       });
       running_.push_back(std::move(r));
       return;

@@ -124,7 +124,10 @@ class ProbeScoring {
     std::string why;  // threw: the exception's message
     double ms = 0;
   };
-  Estimated estimate_surface(const SurfaceProbes::Probe& probe, const SurfacePrior* prior) const;
+  // `every_core`: SurfaceProbeAnswers::estimate's (false on the background
+  // thread).
+  Estimated estimate_surface(const SurfaceProbes::Probe& probe, const SurfacePrior* prior,
+                             bool every_core = true) const;
   void conclude_surface(const SurfaceProbes::Probe& probe, Estimated est);
   // Concludes the estimates done, in order (block: all of them, waiting).
   void collect(bool block);
