@@ -177,6 +177,9 @@ void say(const Server* s, const char* fmt, ...) G_GNUC_PRINTF(2, 3);
 void refuse(Control& c, const std::string& why);
 void post(Control& c, std::string text);
 void remove_viewer(Server* s, guint64 serial, const char* why);
+// Handles the pipeline bus's queued messages now, up to kBusDrain of them
+// (on_bus): see there.
+void drain_bus(Server* s);
 std::unique_ptr<Viewer> build_viewer(Server* s, const std::string& address, bool own_channel);
 bool add_viewer(Server* s, SoupWebsocketConnection* ws, const std::string& address);
 void on_ws_closed(SoupWebsocketConnection*, gpointer data);
