@@ -81,7 +81,8 @@ async function cpuOver(pid, ms) {
 // A 429 means the server has not yet freed this address's last viewer
 // (the close is still on its way): try again shortly, as a browser would.
 let retries = 0;
-async function cycle(port, k) {
+// `kind`: 0-3 as above (default: k % 4).
+async function cycle(port, k, kind = k % 4) {
   let conn = await wsOpen({ port });
   for (let r = 0; conn.status === 429 && r < 100; ++r) {
     retries++;
@@ -89,7 +90,6 @@ async function cycle(port, k) {
     conn = await wsOpen({ port });
   }
   if (conn.status !== 101) throw new Error(`cycle ${k}: upgrade answered ${conn.status}: ${conn.body}`);
-  const kind = k % 4;
   if (kind >= 2) await wsWaitFor(conn, (m) => m.includes('"offer"'), 20000);
   if (kind === 3) wsSend(conn, JSON.stringify({ type: 'answer', sdp: 'v=0\r\no=- 0 0 IN IP4 127.0.0.1\r\ns=-\r\nt=0 0\r\nm=video 9 UDP/TLS/RTP/SAVPF 96\r\nc=IN IP4 0.0.0.0\r\na=mid:video0\r\na=recvonly\r\n' }));
   wsClose(conn, { abrupt: kind === 1 });
@@ -189,11 +189,7 @@ try {
     const quick = async () => {
       while (next < 1000) {
         const k = next++;
-        let conn = await wsOpen({ port });
-        for (let r = 0; conn.status === 429 && r < 100; ++r) { await sleep(20); conn = await wsOpen({ port }); }
-        if (conn.status !== 101) throw new Error(`quick cycle ${k}: upgrade answered ${conn.status}`);
-        wsClose(conn, { abrupt: k % 2 === 1 });
-        await new Promise((r) => (conn.closed ? r() : conn.socket.on('close', r)));
+        await cycle(port, k, k % 2);  // closed before the offer, cleanly or dropped
       }
     };
     await Promise.all([quick(), quick(), quick(), quick()]);
