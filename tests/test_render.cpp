@@ -2,6 +2,7 @@
 // a textured plane (exact ground truth when the focal plane is that plane).
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <opencv2/imgproc.hpp>
 #include <random>
 
@@ -702,6 +703,21 @@ TEST(Composite, FusedCompositeEqualsAddAndResolve) {
     EXPECT_EQ(cv::norm(got, want, cv::NORM_INF), 0) << threads << " threads";
     for (int y = 0; y < 150; y += 7)
       for (int x = 0; x < 200; x += 3) ASSERT_EQ(comp.weight_at(x, y), ref.weight_at(x, y));
+    // Each row's sums handed to `row_summed` once, complete (add()'s, bit
+    // for bit), kept or not (LayerCompositor takes layer 0's variance there).
+    for (bool keep : {false, true}) {
+      comp.set_keep_sums(keep);
+      std::vector<std::atomic<int>> calls(150);
+      std::atomic<int> wrong{0};
+      const lf::Compositor::RowSummed seen = [&](int y, const uint32_t* sums) {
+        ++calls[y];
+        if (std::memcmp(sums, ref.sums_at(0, y), 200 * 16) != 0) ++wrong;
+      };
+      comp.composite(200, 150, in, {}, got, nullptr, &seen);
+      EXPECT_EQ(cv::norm(got, want, cv::NORM_INF), 0) << threads << " threads, kept " << keep;
+      EXPECT_EQ(wrong.load(), 0) << threads << " threads, kept " << keep;
+      for (int y = 0; y < 150; ++y) ASSERT_EQ(calls[y].load(), 1) << y;
+    }
     // Or only some runs of pixels (LayerCompositor keeps layer 0's where
     // layer 1 reaches): those are add()'s sums, bit for bit, and nothing
     // else is written (a mark set everywhere stays); the frame is the same.

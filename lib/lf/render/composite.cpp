@@ -290,7 +290,8 @@ std::vector<std::pair<size_t, std::string>> Compositor::composite(
 
 std::vector<std::pair<size_t, std::string>> Compositor::composite(
     int width, int height, const std::vector<FragmentPixels>& fragments,
-    const std::vector<FragmentDrawing>& drawings, cv::Mat& out, const RowsAdded* rows_added) {
+    const std::vector<FragmentDrawing>& drawings, cv::Mat& out, const RowsAdded* rows_added,
+    const RowSummed* row_summed) {
   if (width < 1 || height < 1 || width > 16384 || height > 16384)
     throw std::invalid_argument("compositor: output size out of range");
   w_ = width;
@@ -411,6 +412,8 @@ std::vector<std::pair<size_t, std::string>> Compositor::composite(
         throw;
       }
       if (keep_sums_) {
+        if (row_summed)
+          for (int y = y0; y < y1; ++y) (*row_summed)(y, bs + static_cast<size_t>(y - y0) * w_ * 4);
         resolve_rows(out, y0, y1, bs, y0);
         continue;
       }
@@ -421,6 +424,7 @@ std::vector<std::pair<size_t, std::string>> Compositor::composite(
           for (const auto& [x0, x1] : (*kept_runs_)[y / kept_run_rows_])
             std::memcpy(acc_.data() + (static_cast<size_t>(y) * w_ + x0) * 4, row + x0 * 4,
                         static_cast<size_t>(x1 - x0) * 4 * sizeof(uint32_t));
+        if (row_summed) (*row_summed)(y, row);
         resolve_rows(out, y, y + 1, bs, y0);
         std::memset(row, 0, row_size * sizeof(uint32_t));
       }
@@ -521,29 +525,6 @@ void add_squares(const Fragment& f, const uint8_t* pixels, int r0, int r1, const
     }
     px += 4 * (e - b);
   }
-}
-
-// add_squares of fragments[i] for each i of `which`, in that order, in
-// bands of rows on every core: each pixel's sum is the serial one.
-void add_squares(const std::vector<FragmentPixels>& fragments, const std::vector<size_t>& which,
-                 const Compositor& where, const Blocks& blocks, cv::Mat& sq) {
-  std::vector<std::vector<size_t>> row_start;
-  for (size_t i : which) row_start.push_back(row_starts(*fragments[i].fragment));
-  constexpr int kBandRows = 32;
-  cv::parallel_for_(cv::Range(0, (sq.rows + kBandRows - 1) / kBandRows),
-                    [&](const cv::Range& bands) {
-                      for (int band = bands.start; band < bands.end; ++band) {
-                        const int y0 = band * kBandRows, y1 = std::min(sq.rows, y0 + kBandRows);
-                        for (size_t k = 0; k < which.size(); ++k) {
-                          const FragmentPixels& fp = fragments[which[k]];
-                          const Fragment& f = *fp.fragment;
-                          const int r0 = std::max(y0, f.rect.y) - f.rect.y;
-                          const int r1 = std::min(y1, f.rect.y + f.rect.height) - f.rect.y;
-                          if (r0 < r1)
-                            add_squares(f, fp.pixels + row_start[k][r0], r0, r1, where, blocks, sq);
-                        }
-                      }
-                    });
 }
 
 // The colour variance of pixels [0, n) of a row from their sums
@@ -768,12 +749,17 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
     // at once), read and written: a few where the scene needs few.
     blocks.find_runs(width);
     comp_[1].reset(width, height, 0, 0);
-    for (int l = 0; l < 2; ++l)
-      sq_[l].create(height, width, CV_32FC1);  // the last frame's memory when the size is the same
+    for (int l = 0; l < 2; ++l) {  // the last frame's memory when the size is the same
+      sq_[l].create(height, width, CV_32FC1);
+      var_[l].create(height, width, CV_32FC1);
+    }
     // Each row of blocks by one thread, rows of blocks on every core: its
     // runs zeroed, then layer 1's rows within it added, fragment by
-    // fragment (layer 1's pixels lie in its blocks: a thread writes its
-    // own rows only).
+    // fragment, and their squares (layer 1's pixels lie in its blocks: a
+    // thread writes its own rows only), then its variances, while the
+    // row of blocks is in cache. A pixel's squares are added in the
+    // fragments' order; where a fragment has weight, its own rows just
+    // added give layer 1 weight (add_squares' test of `where`).
     std::vector<std::vector<size_t>> start1;
     for (size_t i : layer_of[1]) start1.push_back(row_starts(*fragments[i].fragment));
     cv::parallel_for_(cv::Range(0, static_cast<int>(blocks.runs.size())), [&](const cv::Range& r) {
@@ -790,12 +776,17 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
           const Fragment& f = *fp.fragment;
           const int r0 = std::max(y0, f.rect.y) - f.rect.y;
           const int r1 = std::min(y1, f.rect.y + f.rect.height) - f.rect.y;
-          if (r0 < r1)
-            comp_[1].add_rows(f, fp.pixels + start1[k][r0], r0, r1, comp_[1].acc_.data(), 0);
+          if (r0 >= r1) continue;
+          const uint8_t* px = fp.pixels + start1[k][r0];
+          comp_[1].add_rows(f, px, r0, r1, comp_[1].acc_.data(), 0);
+          add_squares(f, px, r0, r1, comp_[1], blocks, sq_[1]);
         }
+        for (int y = y0; y < y1; ++y)
+          for (const auto& [x0, x1] : blocks.runs[by])
+            row_variances(comp_[1].sums_at(x0, y), sq_[1].ptr<float>(y) + x0, x1 - x0,
+                          var_[1].ptr<float>(y) + x0);
       }
     });
-    add_squares(fragments, layer_of[1], comp_[1], blocks, sq_[1]);
   }
   on_ = blocks.on, bcols_ = blocks.cols;
   // Layer 0, the whole frame: Compositor's fused, banded composite on every
@@ -825,10 +816,19 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
     for (int r = r0; r < from; ++r) pixels += 4 * (f.spans[r][1] - f.spans[r][0]);
     add_squares(f, pixels, from, to, comp_[1], blocks, sq_[0]);
   };
+  // Layer 0's variance in layer 1's blocks, from each row's sums and
+  // squares as soon as they are complete (in cache: read again from memory
+  // in the window's pass below, they took most of its time).
+  const Compositor::RowSummed variance0 = [&](int y, const uint32_t* sums) {
+    if (y < y0_ || y >= y1_) return;
+    for (const auto& [x0, x1] : blocks.runs[y / kBlock])
+      row_variances(sums + 4 * static_cast<size_t>(x0), sq_[0].ptr<float>(y) + x0, x1 - x0,
+                    var_[0].ptr<float>(y) + x0);
+  };
   // The choice reads layer 0's sums where layer 1 reaches only.
   comp_[0].set_kept_runs(two ? &blocks.runs : nullptr, kBlock);
-  for (const auto& [k, why] :
-       comp_[0].composite(width, height, zero, draw0, out, two ? &squares : nullptr))
+  for (const auto& [k, why] : comp_[0].composite(
+           width, height, zero, draw0, out, two ? &squares : nullptr, two ? &variance0 : nullptr))
     refused.emplace_back(
         k < zero.size() ? layer_of[0][k] : fragments.size() + draw0_index[k - zero.size()], why);
   if (!two) return refused;
@@ -855,15 +855,14 @@ std::vector<std::pair<size_t, std::string>> LayerCompositor::composite(
         const bool in = blocks.on[by * bcols + bx] != 0;
         const int x0 = bx * kBlock, n = std::min(width, x0 + kBlock) - x0;
         for (int y = by * kBlock; y < std::min(height, (by + 1) * kBlock); ++y) {
-          float v[2][kBlock];
-          if (in)
-            for (int l = 0; l < 2; ++l)
-              row_variances(comp_[l].sums_at(x0, y), sq_[l].ptr<float>(y) + x0, n, v[l]);
+          // The variances, read where `in` only.
+          const float* v0 = var_[0].ptr<float>(y) + x0;
+          const float* v1 = var_[1].ptr<float>(y) + x0;
           float* p = win_.ptr<float>(y) + 3 * x0;
           for (int i = 0; i < n; ++i, p += 3) {
             const bool on = in && comp_[1].weight_at(x0 + i, y) > 0;
-            p[0] = on ? v[0][i] : 0.0f;
-            p[1] = on ? v[1][i] : 0.0f;
+            p[0] = on ? v0[i] : 0.0f;
+            p[1] = on ? v1[i] : 0.0f;
             p[2] = on ? 1.0f : 0.0f;
           }
         }

@@ -90,11 +90,18 @@ class Compositor {
   // after they were added (`pixels`: row r0's, in the spans' layout), in
   // the order they are added, by the band's thread (bands on other threads
   // at the same time: it may write only within the band's rows).
+  // `row_summed`, when given, is called with each row y of the frame and
+  // its sums (`sums[4 x + c]`: pixel x's premultiplied colour c, c = 3 its
+  // weight) once every fragment and drawing was added to it and
+  // `rows_added` called, before the row is resolved, by the band's thread
+  // (it may write only within the band's rows): what is read of the sums
+  // there comes from cache, not memory.
   using RowsAdded = std::function<void(const Fragment& f, const uint8_t* pixels, int r0, int r1)>;
+  using RowSummed = std::function<void(int y, const uint32_t* sums)>;
   std::vector<std::pair<size_t, std::string>> composite(
       int width, int height, const std::vector<FragmentPixels>& fragments,
       const std::vector<FragmentDrawing>& drawings, cv::Mat& out,
-      const RowsAdded* rows_added = nullptr);
+      const RowsAdded* rows_added = nullptr, const RowSummed* row_summed = nullptr);
   // true: composite() accumulates in the compositor's frame of sums instead
   // (each band still zeroed, accumulated and resolved by one thread), so
   // that weight_at() and sums_at() read them afterwards; it costs their
@@ -239,7 +246,7 @@ class LayerCompositor {
   // Frees the sums; the next composite() allocates them again.
   void release() {
     for (int l = 0; l < 2; ++l) comp_[l].release(), sq_[l].release();
-    win_.release();
+    var_[0].release(), var_[1].release(), win_.release();
   }
 
  private:
@@ -249,6 +256,10 @@ class LayerCompositor {
   std::vector<uint8_t> on_;
   int bcols_ = 0, y0_ = 0, y1_ = 0;
   cv::Mat sq_[2];  // CV_32FC1: sum over cameras of w * |c|^2, where layer 1 has weight
+  // CV_32FC1, in the blocks on_ only: each layer's variance, computed
+  // while its sums and squares are in cache (layer 0's in its composite:
+  // Compositor::RowSummed); the choice reads these.
+  cv::Mat var_[2];
   // The frame's size (memory kept from frame to frame), CV_32FC3, written
   // and read only in the blocks that the window reaches from layer 1's: the
   // layers' variances where layer 1 has weight (else 0) and a 1 there (else
