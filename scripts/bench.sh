@@ -316,7 +316,8 @@ live() {  # row of the focus table, output size (640x480 unless given): its live
   echo "## Pipeline"
   echo
   echo "64 Chess cameras in one process (lfviewrequest ! lfarray ! appsink): throughput against"
-  echo "the kernel bound measured in the same run, CPU efficiency, latency."
+  echo "the kernel bound measured in the same run (before and after each row; the row takes the mean),"
+  echo "CPU efficiency, latency."
   echo
   for r in $(seq 1 "$pruns"); do
     [ "$pruns" -gt 1 ] && { echo "Run $r of $pruns."; echo; }

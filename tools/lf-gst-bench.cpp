@@ -7,7 +7,8 @@
 //    compositor lets the cameras run up to 16 requests ahead; counted to the
 //    last frame, the frames drained at the end, whose fragments were drawn
 //    before, would add throughput that no work paid for).
-//  * kernel bound, in the same run: the library's plan + render + composite
+//  * kernel bound, in the same run (before and after each throughput run,
+//    the mean of the two): the library's plan + render + composite
 //    of the same views on one thread, times the number of cores (raw
 //    fragments; the faster of the library's two ways: fragments rendered
 //    then composited, or drawn band by band into the sums, fused, as
@@ -409,11 +410,17 @@ int main(int argc, char** argv) {
     // The kernel bound of a size, measured right before that size's
     // pipelines run (a shared machine's speed drifts: measured minutes
     // apart, the ratio would carry the drift; the camera images it needs
-    // are freed before them, so each row's peak RSS is the pipeline's own):
-    // the faster of two passes over 40 views, since a busy spell elsewhere
-    // on the machine only ever slows a pass down. Wall clock (the bound as
-    // defined) and CPU time (for the CPU efficiency).
-    std::map<std::pair<int, int>, KernelTime> bound;
+    // are freed before them, so each row's peak RSS is the pipeline's own),
+    // and again right after each throughput run it divides: the row's
+    // bound is the mean of the two, so a steady drift of the machine's
+    // speed over the seconds of a run cancels (on the shared 2-core VM the
+    // two differed by up to 13 %: 2.55 against 2.92 ms a view around one
+    // 640x480 run). The pipeline's own run-to-run spread stays.
+    // Each measurement: the faster of two passes over 40 views, since a
+    // busy spell elsewhere on the machine only ever slows a pass down. Wall
+    // clock (the bound as defined) and CPU time (for the CPU efficiency).
+    std::map<std::pair<int, int>, KernelTime> bound;                  // the latest measurement
+    std::map<std::pair<int, int>, std::vector<KernelTime>> measured;  // all, in order
     std::map<std::pair<int, int>, double> together;  // ms a view, on every core at once
     const bool any_raw = std::find(encodings.begin(), encodings.end(), "raw") != encodings.end();
     std::vector<int> jpeg_qualities;  // of the JPEG rows, for their bounds
@@ -424,6 +431,7 @@ int main(int argc, char** argv) {
       if (skip_bound ||
           !(viewers_run ? encodings.front() == "raw" : any_raw || !jpeg_qualities.empty()))
         return;
+      const bool first = !measured.count(sz);  // (every core at once: measured once a size)
       // One core (images load in parallel first); OpenCV's default comes
       // back for the pipelines (lfcompositor composites in parallel).
       const std::vector<cv::Mat> images = lf::load_images(rig);
@@ -439,11 +447,13 @@ int main(int argc, char** argv) {
           bound[sz].keep_faster(k);
         else
           bound[sz] = k;
+        if (!first) continue;
         const double t = lfbench::kernel_ms_together(rig, images, vs, g_focal_plane, 40, cores);
         together[sz] = pass && together[sz] > 0 ? std::min(together[sz], t) : t;
       }
       cv::setNumThreads(threads);
       const KernelTime& b = bound[sz];
+      measured[sz].push_back(b);
       std::fprintf(stderr,
                    "Kernel bound at %dx%d, single-core ms per view (the library, the same "
                    "views): rendered then composited %.2f, fused %.2f; the bound takes the "
@@ -515,6 +525,19 @@ int main(int argc, char** argv) {
             const auto t = run(
                 pipeline(rig_path, W, H, enc, false, frames, 1000, surface, focus.props, backend),
                 nullptr, &frame, frames);
+            // The bound again right after the run it divides (see `bound`).
+            const int q = jpeg_quality(enc);
+            const bool has_bound = !skip_bound && baseline && bound.count({W, H}) &&
+                                   (!q || bound[{W, H}].jpeg.count(q));
+            KernelTime k;
+            double rss = peak_rss_mib();  // the pipelines' own, not the bound's images
+            if (has_bound) {
+              const KernelTime before = bound[{W, H}];
+              measure_bound({W, H});
+              k = before.mean_with(bound[{W, H}]);
+              if (q) std::tie(k.wall_ms, k.cpu_ms) = k.jpeg.at(q);
+              reset_peak_rss();
+            }
             // From frame `warm` to kTail frames before the last (both with
             // the pipeline full), where there are enough; else to the last.
             const int warm = std::min<int>(20, static_cast<int>(t.size()) / 4);
@@ -547,11 +570,6 @@ int main(int argc, char** argv) {
                 probe.latency_ms.end());
             // The bound is plan + render + composite of one plane; a JPEG
             // row's also encodes and decodes each fragment.
-            const int q = jpeg_quality(enc);
-            const bool has_bound = !skip_bound && baseline && bound.count({W, H}) &&
-                                   (!q || bound[{W, H}].jpeg.count(q));
-            KernelTime k = has_bound ? bound[{W, H}] : KernelTime{};
-            if (has_bound && q) std::tie(k.wall_ms, k.cpu_ms) = k.jpeg.at(q);
             const double kb = has_bound ? cores * 1000.0 / k.wall_ms : 0;
             auto num = [&](double v, const char* f) {
               return has_bound ? cv::format(f, v) : std::string("-");
@@ -578,19 +596,35 @@ int main(int argc, char** argv) {
                 W, H, (backend == "cpu" ? enc : enc + ", " + backend).c_str(), focus.label.c_str(),
                 fps, num(kb, "%.1f").c_str(), num(fps / kb, "%.2f").c_str(), cpu_ms,
                 num(k.cpu_ms, "%.2f").c_str(), num(k.cpu_ms / cpu_ms, "%.2f").c_str(), cores_used,
-                steal, live_fps, percentile(lat, 0.5), percentile(lat, 0.95), peak_rss_mib(),
-                vs.c_str());
+                steal, live_fps, percentile(lat, 0.5), percentile(lat, 0.95),
+                std::max(rss, peak_rss_mib()), vs.c_str());
             std::fflush(stdout);
           }
       }
     }
-    for (const auto& [sz, ms] : together)
-      if (ms > 0 && bound[sz].wall_ms > 0)
+    for (const auto& [sz, ks] : measured) {
+      std::string raw, jpeg;
+      for (const KernelTime& k : ks)
+        raw += cv::format("%s%.2f", raw.empty() ? "" : ", ", k.wall_ms);
+      for (const auto& [q, unused] : ks.front().jpeg) {
+        jpeg += cv::format("; JPEG q%d", q);
+        for (size_t i = 0; i < ks.size(); ++i)
+          jpeg += cv::format("%s%.2f", i ? ", " : " ", ks[i].jpeg.at(q).first);
+      }
+      std::printf(
+          "\nKernel bound at %dx%d, single-core ms per view, in the order measured (before the "
+          "first row, then after each row with a bound; each row's bound is the mean of the "
+          "measurements before and after it): raw %s%s.\n",
+          sz.first, sz.second, raw.c_str(), jpeg.c_str());
+    }
+    for (const auto& [sz, ms] : together)  // against the size's first measurement
+      if (ms > 0 && measured.count(sz))
         std::printf(
             "\nAll %d cores at once, %dx%d: the library's loop on %d threads together "
             "takes %.2f ms a view each, against %.2f on one core alone: %.2f of the "
             "kernel bound is the most a pipeline can reach on this machine.\n",
-            cores, sz.first, sz.second, cores, ms, bound[sz].wall_ms, bound[sz].wall_ms / ms);
+            cores, sz.first, sz.second, cores, ms, measured[sz].front().wall_ms,
+            measured[sz].front().wall_ms / ms);
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "lf-gst-bench: error: %s\n", e.what());

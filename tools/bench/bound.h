@@ -29,6 +29,19 @@ struct KernelTime {
         t = {std::min(t.first, it->second.first), std::min(t.second, it->second.second)};
     }
   }
+  // Each the mean of this and `o` (two measurements bracketing a run, so
+  // that the machine's drift between them cancels to first order).
+  KernelTime mean_with(const KernelTime& o) const {
+    KernelTime m = *this;
+    m.wall_ms = (wall_ms + o.wall_ms) / 2, m.cpu_ms = (cpu_ms + o.cpu_ms) / 2;
+    m.separate_ms = (separate_ms + o.separate_ms) / 2, m.fused_ms = (fused_ms + o.fused_ms) / 2;
+    for (auto& [q, t] : m.jpeg) {
+      const auto it = o.jpeg.find(q);
+      if (it != o.jpeg.end())
+        t = {(t.first + it->second.first) / 2, (t.second + it->second.second) / 2};
+    }
+    return m;
+  }
 };
 
 // The views `vs` through `focal_plane` (lf::parse_focal_plane), planned,
