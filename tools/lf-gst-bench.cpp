@@ -33,6 +33,7 @@
 //    percentile.
 #include <gst/app/gstappsink.h>
 #include <gst/gst.h>
+#include <malloc.h>
 
 #include <algorithm>
 #include <cmath>
@@ -434,7 +435,7 @@ int main(int argc, char** argv) {
       const bool first = !measured.count(sz);  // (every core at once: measured once a size)
       // One core (images load in parallel first); OpenCV's default comes
       // back for the pipelines (lfcompositor composites in parallel).
-      const std::vector<cv::Mat> images = lf::load_images(rig);
+      std::vector<cv::Mat> images = lf::load_images(rig);
       const int threads = cv::getNumThreads();
       cv::setNumThreads(1);
       lf::ViewSettings vs;
@@ -452,6 +453,11 @@ int main(int argc, char** argv) {
         together[sz] = pass && together[sz] > 0 ? std::min(together[sz], t) : t;
       }
       cv::setNumThreads(threads);
+      // The images freed and the heap trimmed: glibc keeps what the
+      // threads that decoded them freed, and the peak RSS of the pipelines
+      // that follow would count it (a row's peak is reset to the RSS now).
+      images.clear();
+      malloc_trim(0);
       const KernelTime& b = bound[sz];
       measured[sz].push_back(b);
       std::fprintf(stderr,
