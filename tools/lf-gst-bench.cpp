@@ -420,8 +420,7 @@ int main(int argc, char** argv) {
     // Each measurement: the faster of two passes over 40 views, since a
     // busy spell elsewhere on the machine only ever slows a pass down. Wall
     // clock (the bound as defined) and CPU time (for the CPU efficiency).
-    std::map<std::pair<int, int>, KernelTime> bound;                  // the latest measurement
-    std::map<std::pair<int, int>, std::vector<KernelTime>> measured;  // all, in order
+    std::map<std::pair<int, int>, std::vector<KernelTime>> measured;  // in order; back(): latest
     std::map<std::pair<int, int>, double> together;  // ms a view, on every core at once
     const bool any_raw = std::find(encodings.begin(), encodings.end(), "raw") != encodings.end();
     std::vector<int> jpeg_qualities;  // of the JPEG rows, for their bounds
@@ -433,6 +432,7 @@ int main(int argc, char** argv) {
           !(viewers_run ? encodings.front() == "raw" : any_raw || !jpeg_qualities.empty()))
         return;
       const bool first = !measured.count(sz);  // (every core at once: measured once a size)
+      KernelTime b;
       // One core (images load in parallel first); OpenCV's default comes
       // back for the pipelines (lfcompositor composites in parallel).
       std::vector<cv::Mat> images = lf::load_images(rig);
@@ -445,9 +445,9 @@ int main(int argc, char** argv) {
         const KernelTime k = lfbench::kernel_ms(rig, images, vs, g_focal_plane, 40,
                                                 viewers_run ? std::vector<int>{} : jpeg_qualities);
         if (pass)
-          bound[sz].keep_faster(k);
+          b.keep_faster(k);
         else
-          bound[sz] = k;
+          b = k;
         if (!first) continue;
         const double t = lfbench::kernel_ms_together(rig, images, vs, g_focal_plane, 40, cores);
         together[sz] = pass && together[sz] > 0 ? std::min(together[sz], t) : t;
@@ -458,7 +458,6 @@ int main(int argc, char** argv) {
       // that follow would count it (a row's peak is reset to the RSS now).
       images.clear();
       malloc_trim(0);
-      const KernelTime& b = bound[sz];
       measured[sz].push_back(b);
       std::fprintf(stderr,
                    "Kernel bound at %dx%d, single-core ms per view (the library, the same "
@@ -477,8 +476,8 @@ int main(int argc, char** argv) {
       const auto [W, H] = sizes.front();
       const std::string& enc = encodings.front();
       const std::string fr = encoding_properties(enc);
-      const bool has_bound = bound.count({W, H}) > 0;
-      const double kb = has_bound ? cores * 1000.0 / bound[{W, H}].wall_ms : 0;
+      const bool has_bound = measured.count({W, H}) > 0;
+      const double kb = has_bound ? cores * 1000.0 / measured[{W, H}].back().wall_ms : 0;
       std::printf(
           "## Viewers sharing %zu cameras, %dx%d, %s fragments, non-live, %d requests each "
           "(%d cores); fragments routed to each viewer's compositor by lffragmentdemux, "
@@ -531,16 +530,16 @@ int main(int argc, char** argv) {
             const auto t = run(
                 pipeline(rig_path, W, H, enc, false, frames, 1000, surface, focus.props, backend),
                 nullptr, &frame, frames);
-            // The bound again right after the run it divides (see `bound`).
+            // The bound again right after the run it divides (see `measured`).
             const int q = jpeg_quality(enc);
-            const bool has_bound = !skip_bound && baseline && bound.count({W, H}) &&
-                                   (!q || bound[{W, H}].jpeg.count(q));
+            const bool has_bound = !skip_bound && baseline && measured.count({W, H}) &&
+                                   (!q || measured[{W, H}].back().jpeg.count(q));
             KernelTime k;
             double rss = peak_rss_mib();  // the pipelines' own, not the bound's images
             if (has_bound) {
-              const KernelTime before = bound[{W, H}];
               measure_bound({W, H});
-              k = before.mean_with(bound[{W, H}]);
+              const std::vector<KernelTime>& m = measured[{W, H}];
+              k = m[m.size() - 2].mean_with(m.back());  // before and after
               if (q) std::tie(k.wall_ms, k.cpu_ms) = k.jpeg.at(q);
               reset_peak_rss();
             }
