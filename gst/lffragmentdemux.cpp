@@ -129,7 +129,13 @@ static GstFlowReturn lf_fragment_demux_chain(GstPad*, GstObject* parent, GstBuff
     gst_pad_push_event(pad, gst_event_new_caps(caps));
   for (GstCaps* c : {caps, had})
     if (c) gst_caps_unref(c);
-  const GstFlowReturn ret = gst_pad_push(pad, buf);
+  GstFlowReturn ret = gst_pad_push(pad, buf);
+  // A viewer's pad that is flushing is that viewer's branch stopping (or not
+  // yet playing): its fragments go nowhere, as if unlinked. FLUSHING from
+  // one pad, combined as GStreamer's demuxers do, stopped the cameras' stream
+  // for every viewer for good (a flush of the whole stream reaches this
+  // element's sink pad, which then refuses the push itself).
+  if (ret == GST_FLOW_FLUSHING) ret = GST_FLOW_NOT_LINKED;
   // Stream lock held (chain): the combiner is this thread's.
   const GstFlowReturn combined = gst_flow_combiner_update_pad_flow(p->combiner, pad, ret);
   gst_object_unref(pad);
@@ -143,44 +149,53 @@ static gboolean copy_sticky(GstPad*, GstEvent** event, gpointer srcpad) {
   return TRUE;
 }
 
+// A new viewer pad is made whole (active, the stream's sticky events in
+// place, in the flow combiner, on the element) before it is routed to, all
+// under the sink pad's stream lock: no fragment, caps or segment reaches
+// it half made. Before, the streaming thread could push to it while it was
+// still inactive (FLUSHING) or before its stream-start.
 static GstPad* lf_fragment_demux_request_new_pad(GstElement* element, GstPadTemplate* templ,
                                                  const gchar* name, const GstCaps*) {
   LfFragmentDemux* self = LF_FRAGMENT_DEMUX(element);
   Priv* p = self->priv;
   guint id = 0;
-  GST_OBJECT_LOCK(self);
   if (name) {
     gchar* end = nullptr;
     const guint64 v = g_ascii_strtoull(name + 4, &end, 10);
     if (!g_str_has_prefix(name, "src_") || end == name + 4 || *end != '\0' || v > G_MAXUINT32) {
-      GST_OBJECT_UNLOCK(self);
       GST_WARNING_OBJECT(self, "pad name '%s' is not src_<viewer id>", name);
       return nullptr;
     }
     id = static_cast<guint>(v);
-  } else {
-    while (p->pads.count(id)) ++id;
   }
-  if (p->pads.count(id)) {
-    GST_OBJECT_UNLOCK(self);
+  GST_PAD_STREAM_LOCK(self->sinkpad);
+  GST_OBJECT_LOCK(self);
+  if (!name)
+    while (p->pads.count(id)) ++id;
+  const bool taken = p->pads.count(id) > 0;
+  GST_OBJECT_UNLOCK(self);
+  if (taken) {
+    GST_PAD_STREAM_UNLOCK(self->sinkpad);
     GST_WARNING_OBJECT(self, "viewer %u has a pad already", id);
     return nullptr;
   }
   gchar* pad_name = g_strdup_printf("src_%u", id);
   GstPad* pad = gst_pad_new_from_template(templ, pad_name);
   g_free(pad_name);
-  p->pads[id] = GST_PAD(gst_object_ref(pad));
-  GST_OBJECT_UNLOCK(self);
   gst_pad_use_fixed_caps(pad);
   gst_pad_set_active(pad, TRUE);  // an inactive pad refuses sticky events
   gst_pad_sticky_events_foreach(self->sinkpad, copy_sticky, pad);
-  GST_PAD_STREAM_LOCK(self->sinkpad);
   gst_flow_combiner_add_pad(p->combiner, pad);
-  GST_PAD_STREAM_UNLOCK(self->sinkpad);
   gst_element_add_pad(element, pad);
+  GST_OBJECT_LOCK(self);
+  p->pads[id] = GST_PAD(gst_object_ref(pad));
+  GST_OBJECT_UNLOCK(self);
+  GST_PAD_STREAM_UNLOCK(self->sinkpad);
   return pad;
 }
 
+// Out of the routing first, then (under the stream lock) after the push in
+// flight, if any, out of the combiner; only then deactivated.
 static void lf_fragment_demux_release_pad(GstElement* element, GstPad* pad) {
   LfFragmentDemux* self = LF_FRAGMENT_DEMUX(element);
   Priv* p = self->priv;

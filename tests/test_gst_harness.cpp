@@ -5,11 +5,15 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <atomic>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "gst_init.h"
 #include "lf/focus/focus.h"
@@ -887,6 +891,97 @@ TEST_F(Harness, FragmentDemuxRoutesByViewer) {
   EXPECT_EQ(gst_element_request_pad_simple(h->element, "src_x"), nullptr);
   gst_harness_teardown(v5);
   gst_harness_teardown(v2);
+  gst_harness_teardown(h);
+}
+
+// GStreamer's own warnings (a push before stream-start, sticky events out
+// of order), counted while a test runs.
+std::atomic<int> gst_warnings{0};
+void count_gst_warning(const gchar*, GLogLevelFlags, const gchar* message, gpointer) {
+  ++gst_warnings;
+  std::fprintf(stderr, "GStreamer warning: %s\n", message);
+}
+
+// lffragmentdemux while viewers come and go (lf-web: a browser connecting
+// and closing as fast as it can): fragments stream in on one thread while
+// another requests, links and releases viewer pads. A pad is routed to only
+// once it is whole (active, its sticky events in place, in the flow
+// combiner), and a viewer pad that is flushing (its branch stopping) is that
+// viewer's, not the stream's: every push returns OK, and each viewer gets
+// stream-start and segment before its first fragment. Before, a push could
+// reach a pad still being made: it returned FLUSHING, which stopped the
+// cameras' stream for every viewer for good (lf-web's viewers then got no
+// frame and no offer until its 2-s retry), or came before stream-start.
+TEST_F(Harness, FragmentDemuxPadsComeAndGoWhileStreaming) {
+  GstHarness* h = gst_harness_new_with_padnames("lffragmentdemux", "sink", nullptr);
+  gst_harness_set_src_caps_str(h, "application/x-lf-fragment,encoding=raw,width=80,height=60");
+  gst_harness_play(h);
+  const guint handler =
+      g_log_set_handler("GStreamer", GLogLevelFlags(G_LOG_LEVEL_WARNING | G_LOG_LEVEL_CRITICAL),
+                        count_gst_warning, nullptr);
+  gst_warnings = 0;
+  std::vector<GstBuffer*> frags;
+  for (uint32_t viewer = 0; viewer < 4; ++viewer) {
+    lf::Fragment f;
+    f.viewer_id = viewer;
+    f.camera_id = 1;
+    f.out_width = 80;
+    f.out_height = 60;
+    frags.push_back(bytes(lf::serialize_fragment(f, lf::Encoding::kRaw), 0));
+  }
+  std::atomic<bool> stop{false};
+  std::atomic<int> pushes{0}, not_ok{0};
+  std::atomic<int> last_bad{GST_FLOW_OK};
+  std::thread stream([&] {
+    for (int k = 0; !stop; ++k) {
+      const GstFlowReturn r = gst_harness_push(h, gst_buffer_ref(frags[k % 4]));
+      ++pushes;
+      if (r != GST_FLOW_OK) ++not_ok, last_bad = r;
+    }
+  });
+  // A viewer's input: counts fragments that came without stream-start or
+  // segment before them.
+  static std::atomic<int> received{0}, unprepared{0};
+  received = unprepared = 0;
+  auto chain = [](GstPad* pad, GstObject*, GstBuffer* b) -> GstFlowReturn {
+    ++received;
+    for (GstEventType t : {GST_EVENT_STREAM_START, GST_EVENT_SEGMENT}) {
+      GstEvent* e = gst_pad_get_sticky_event(pad, t, 0);
+      if (!e) ++unprepared;
+      if (e) gst_event_unref(e);
+    }
+    gst_buffer_unref(b);
+    return GST_FLOW_OK;
+  };
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(3);
+  int cycles = 0;
+  while (std::chrono::steady_clock::now() < until || cycles < 200) {
+    const std::string name = "src_" + std::to_string(cycles % 4);
+    GstPad* src = gst_element_request_pad_simple(h->element, name.c_str());
+    ASSERT_NE(src, nullptr) << name;
+    GstPad* sink = gst_pad_new("sink", GST_PAD_SINK);
+    gst_pad_set_chain_function(sink, chain);
+    gst_pad_set_active(sink, TRUE);
+    ASSERT_EQ(gst_pad_link(src, sink), GST_PAD_LINK_OK);
+    if (cycles % 2) g_usleep(100);  // a while with fragments coming in
+    // Half of them stop first (a viewer's branch going to NULL: flushing).
+    if (cycles % 3 == 0) gst_pad_set_active(sink, FALSE);
+    gst_element_release_request_pad(h->element, src);
+    gst_object_unref(src);
+    gst_pad_set_active(sink, FALSE);
+    gst_object_unref(sink);
+    ++cycles;
+  }
+  stop = true;
+  stream.join();
+  g_log_remove_handler("GStreamer", handler);
+  std::printf("%d pad cycles, %d pushes, %d fragments received\n", cycles, pushes.load(),
+              received.load());
+  EXPECT_EQ(not_ok.load(), 0) << "last flow: " << gst_flow_get_name(GstFlowReturn(last_bad.load()));
+  EXPECT_EQ(unprepared.load(), 0) << "fragments before stream-start or segment";
+  EXPECT_EQ(gst_warnings.load(), 0);
+  EXPECT_GT(received.load(), 0);
+  for (GstBuffer* b : frags) gst_buffer_unref(b);
   gst_harness_teardown(h);
 }
 
