@@ -18,6 +18,12 @@
  * warning. Events from downstream (navigation, `lf-view`, `lf-focus`) go
  * upstream unchanged, towards the viewers' lfviewrequest.
  *
+ * Viewers may come and go while the stream plays (lf-web adds and removes
+ * one per browser): a pad is routed to only once it is whole, and a viewer
+ * whose pad is unlinked or flushing (its branch stopping) loses its own
+ * fragments, never the stream: the element returns FLUSHING upstream only
+ * when its own sink pad flushes.
+ *
  * With a `tee` instead, every compositor receives and inspects every
  * viewer's fragments: the work per frame grows with the square of the
  * number of viewers.
