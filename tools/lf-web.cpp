@@ -120,10 +120,12 @@ GstPad* ghost(GstElement* bin, const char* child, const char* pad, const char* n
 // closed before its offer). Our own part is bounded too: no offer within
 // kOfferBoundS of the connection drops the viewer.
 //
-// The offer is asked for when webrtcbin emits on-negotiation-needed; about
-// one connection in several thousand never had one (a lifetime test waited
-// 20 s, in CI, on a loaded machine; not reproduced). So the deadline asks
-// again itself, every kOfferRetryS while none has gone out, at most
+// The offer is asked for when webrtcbin emits on-negotiation-needed, which
+// it does once caps reach its sink pads, i.e. with the viewer's first
+// frame. A viewer without frames never had one: every viewer, once
+// lffragmentdemux let a viewer's arrival stop the cameras' stream (fixed;
+// a lifetime test once waited 20 s for an offer in CI). So the deadline
+// asks again itself, every kOfferRetryS while none has gone out, at most
 // kOfferAsks times; the first offer made goes out, a later one is dropped.
 
 constexpr gint64 kOfferBoundS = 30;
