@@ -124,7 +124,8 @@ GstPad* ghost(GstElement* bin, const char* child, const char* pad, const char* n
 // it does once caps reach its sink pads, i.e. with the viewer's first
 // frame. A viewer without frames never had one: every viewer, once
 // lffragmentdemux let a viewer's arrival stop the cameras' stream (fixed;
-// a lifetime test once waited 20 s for an offer in CI). So the deadline
+// the likeliest cause of a lifetime test that once waited 20 s for an
+// offer in CI, not proven). So the deadline
 // asks again itself, every kOfferRetryS while none has gone out, at most
 // kOfferAsks times; the first offer made goes out, a later one is dropped.
 
