@@ -31,12 +31,14 @@ if [ "${1:-}" = --record ]; then
     grep -E "^GL:|differ|PASSED|FAILED" "$d/test_gl.txt"
     echo '```'
     echo
-    echo "\`lf-gst-bench --input data/chess64.json --sizes 1920x1080,3840x2160 --encodings raw --backends cpu,gl --frames 100\` (64 cameras; the CPU rows use the machine's cores, the GL rows one thread and the GPU):"
+    frames=$(sed -n 's/.*(non-live, \([0-9]*\) requests).*/\1/p' "$d/bench.txt" | head -1)
+    echo "\`lf-gst-bench --input data/chess64.json --sizes 1920x1080,3840x2160 --encodings raw --backends cpu,gl --frames ${frames:-100}\` (64 cameras; the CPU rows use the machine's cores, the GL rows one thread and the GPU):"
     echo
     grep -v "^Kernel bound" "$d/bench.txt" | sed -n '/^| output/,$p'
     if [ -f "$d/split.txt" ]; then
       echo
-      echo "Whole views from the 64 cameras, GL against the CPU renderer on every core, and where GL's time goes (\`lf-bench --input data/chess64.json --sizes 1920x1080,3840x2160 --skip-quality --skip-bandwidth --skip-speed --backend cpu,gl\`; 8 views, median of 4 passes):"
+      how=$(sed -n 's/^## Backends: whole views from 64 cameras, //p' "$d/split.txt")
+      echo "Whole views from the 64 cameras, GL against the CPU renderer on every core, and where GL's time goes (\`lf-bench --input data/chess64.json --sizes 1920x1080,3840x2160 --skip-quality --skip-bandwidth --skip-speed --backend cpu,gl\`; ${how:-8 views}):"
       echo
       sed -n '/^CPU: /p' "$d/split.txt"
       echo
