@@ -12,6 +12,8 @@ build="$LF_BUILD_DIR"
 # The format check (tests/format-check.sh).
 command -v clang-format > /dev/null || ./scripts/install-packages.sh clang-format
 command -v node >/dev/null && command -v npm >/dev/null || ./scripts/install-packages.sh nodejs npm
+# A hung command's thread backtraces (tests/backtraces.sh, used by tests/docs-check.sh).
+command -v gdb > /dev/null || ./scripts/install-packages.sh gdb
 [ -d tests/web/node_modules/playwright-core ] || (cd tests/web && npm ci --no-audit --no-fund --loglevel=error)
 # The real data is read in place from ../shared/data; without it (a fresh
 # clone) the tests that need it are skipped and named at the end.

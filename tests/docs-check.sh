@@ -20,7 +20,7 @@ build="$(cd "$1" && pwd)"; data="$2"
 root="$(cd "$(dirname "$0")/.." && pwd)"
 limit="${LIMIT:-300}"
 export GST_PLUGIN_PATH="$build/gst"
-fail=0
+fail=0 hangs=0
 work="$(mktemp -d)"; trap 'rm -rf "$work"' EXIT
 
 # 1. The generated element reference.
@@ -56,9 +56,32 @@ run() {
   local cmd="$1" want_quiet="${2:-}" log="$work/run.log"
   cmd="${cmd//autovideosink/fakesink}"; cmd="${cmd//xvimagesink/fakesink}"
   cmd="${cmd//..\/shared\/data/$data}"
-  local t0=$SECONDS
-  (cd "$root" && timeout "$limit" bash -c "$cmd") > "$log" 2>&1
-  local rc=$?
+  local t0=$SECONDS rc
+  # In a process group of its own: on a hang, every thread's backtrace of
+  # each of its processes is printed (and kept in hang-N.txt) before the
+  # group is killed, so a rare hang says where it waits.
+  (cd "$root" && exec setsid bash -c "$cmd") > "$log" 2>&1 &
+  local pid=$!
+  while kill -0 "$pid" 2> /dev/null && ((SECONDS - t0 < limit)); do sleep 0.1; done
+  if kill -0 "$pid" 2> /dev/null; then
+    hangs=$((hangs + 1))
+    echo "HUNG after $limit s: $1"
+    "$root/tests/backtraces.sh" $(pgrep -g "$pid") > "$build/meson-logs/hang-$hangs.txt" 2>&1
+    # A line a thread: its name and innermost eight functions.
+    awk '/^== / { if (t) print t; t = ""; print; next }
+         /^Thread / { if (t) print t; match($0, /"[^"]*"/); t = substr($0, RSTART, RLENGTH) ":"; n = 0; next }
+         /^#/ && n < 8 { f = $0; sub(/^#[0-9]+ +(0x[0-9a-f]+ in )?/, "", f); sub(/ \(.*/, "", f)
+                         if (f == "" && match($0, /[^\/]*$/)) f = "(" substr($0, RSTART) ")"
+                         t = t " " f; n++ }
+         END { if (t) print t }' "$build/meson-logs/hang-$hangs.txt" | sed 's/^/    /' | cut -c1-400
+    echo "    (all of it: $build/meson-logs/hang-$hangs.txt)"
+    kill -KILL -- "-$pid" 2> /dev/null
+    wait "$pid" 2> /dev/null
+    rc=124
+  else
+    wait "$pid"
+    rc=$?
+  fi
   if [ "$rc" != 0 ]; then
     echo "FAIL (exit $rc after $((SECONDS - t0)) s): $1"; tail -8 "$log" | sed 's/^/    /'; return 1
   fi
