@@ -9,13 +9,14 @@
  *
  * Not live: one request of every viewer each round (a GstAggregator without
  * latency waits for every pad), so no viewer runs ahead of another.
- * Live: at each round every viewer's newest three requests (older ones
- * queued behind them are dropped and counted in `dropped`), the viewers in
- * turn, so one viewer's flood takes no other's turn; the camera host's
- * request queue (`lfcamerahost`) then serves the viewers fairly by the
- * pixels they ask for and sheds what it cannot serve. (Only the newest
- * went on before: a 640x480 viewer beside a 3840x2160 flood lost one
- * request in five here while the flood held the cameras.)
+ * Live: as soon as any viewer has a request (a viewer that sends none, a
+ * browser connected and silent, holds no other's), every viewer's newest
+ * three requests (older ones queued behind them are dropped and counted in
+ * `dropped`), the viewers in turn, so one viewer's flood takes no other's
+ * turn; the camera host's request queue (`lfcamerahost`) then serves the
+ * viewers fairly by the pixels they ask for and sheds what it cannot serve.
+ * (Only the newest went on before: a 640x480 viewer beside a 3840x2160
+ * flood lost one request in five here while the flood held the cameras.)
  *
  * Known limit, not live: where the viewers' fragments come back through one
  * stream (`lffragmentdemux` into one compositor per viewer), a compositor
@@ -25,11 +26,8 @@
  * example below without is-live, 64 cameras on 2 cores). A live pipeline
  * does not preroll and is not affected; the example is live.
  *
- * Tested with every viewer's pad requested before the pipeline plays (not
- * live and live). A pad requested while playing forwarded its viewer's
- * requests in a small live pipeline, but lf-web, which adds its viewers
- * while playing, keeps a `funnel`: with this element there, a browser added
- * beside silent connections got no frame (not yet understood).
+ * Viewers may come and go while playing (lf-web adds and removes one per
+ * browser): request and release pads as the viewers do.
  *
  * Caps (width, height and frame rate of the viewer's view) go downstream
  * with each viewer's requests when they differ from the last viewer's, as
@@ -53,6 +51,7 @@
 #include <deque>
 #include <new>
 
+#include "lfaggregate.h"
 #include "lfcaps.h"
 #include "lfprops.h"
 
@@ -143,6 +142,29 @@ static GstFlowReturn lf_request_mux_aggregate(GstAggregator* agg, gboolean) {
   return ret;
 }
 
+// When to aggregate without a request from every viewer. Live: at once
+// (the time 0, passed) as soon as any viewer has a request queued: a viewer
+// that sends none (a browser connected and silent, or gone quiet) must not
+// hold the others' requests. GstAggregator without this waits, live or not,
+// until every pad has a buffer (or is at its end): one silent viewer froze
+// every other viewer's video. Not live the base class still waits for every
+// pad (no latency: no timeout), so each round has one request of each viewer.
+// (Called under the aggregator's source lock: any_pad_queued takes only the
+// object and pad locks.)
+static GstClockTime lf_request_mux_get_next_time(GstAggregator* agg) {
+  return lfgst::any_pad_queued(GST_ELEMENT(agg)) ? 0 : GST_CLOCK_TIME_NONE;
+}
+
+// The source caps are each viewer's own, set by forward() with its
+// requests. GstAggregator's own negotiation (at a reconfigure, as when a
+// viewer's pad is linked while playing) would fixate the pad template and
+// send caps without the view's size and rate: every compositor downstream
+// then lacked its view size and refused the fragments (a viewer added to a
+// playing pipeline got no frame).
+static gboolean lf_request_mux_negotiate(GstAggregator*) {
+  return TRUE;
+}
+
 static gboolean lf_request_mux_stop(GstAggregator* agg) {
   LfRequestMux* self = LF_REQUEST_MUX(agg);
   gst_caps_replace(&self->caps, nullptr);
@@ -194,6 +216,8 @@ static void lf_request_mux_class_init(LfRequestMuxClass* klass) {
       "stale (live) are counted in dropped.");
   ac->aggregate = lf_request_mux_aggregate;
   ac->stop = lf_request_mux_stop;
+  ac->get_next_time = lf_request_mux_get_next_time;
+  ac->negotiate = lf_request_mux_negotiate;
   GST_DEBUG_CATEGORY_INIT(lf_request_mux_debug, "lfrequestmux", 0, "light field view request mux");
 }
 

@@ -1505,6 +1505,123 @@ TEST_F(Gst, ACameraHostDropsARequestOverItsBudgetInEveryCamera) {
   EXPECT_LT(fragments.size(), static_cast<size_t>(kRequests));
 }
 
+// A live lfrequestmux forwards a viewer's requests while another viewer
+// sends none (lf-web: a browser connected and silent). Before, the mux (a
+// GstAggregator without get_next_time) waited for a request on every pad,
+// live or not: one silent viewer held every other viewer's requests, and
+// their video, for ever (0 of 10 forwarded here).
+TEST_F(Gst, ALiveRequestMuxDoesNotWaitForASilentViewer) {
+  constexpr int kRequests = 10;
+  GstElement* p = gst_parse_launch(
+      ("appsrc name=silent is-live=true format=time caps=application/x-lf-view-request ! m. "
+       "lfviewrequest rig=" +
+       rig_path_ +
+       " viewer-id=1 is-live=true focal-surface=false width=160 height=120 num-buffers=" +
+       std::to_string(kRequests) + " ! m. lfrequestmux name=m ! fakesink name=out sync=false")
+          .c_str(),
+      nullptr);
+  ASSERT_NE(p, nullptr);
+  std::atomic<int> forwarded{0};
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(p), "out");
+  GstPad* pad = gst_element_get_static_pad(sink, "sink");
+  gst_pad_add_probe(
+      pad, GST_PAD_PROBE_TYPE_BUFFER,
+      +[](GstPad*, GstPadProbeInfo*, gpointer c) {
+        ++*static_cast<std::atomic<int>*>(c);
+        return GST_PAD_PROBE_OK;
+      },
+      &forwarded, nullptr);
+  gst_object_unref(pad);
+  gst_object_unref(sink);
+  gst_element_set_state(p, GST_STATE_PLAYING);
+  // The requests come at 30 a second: all of them within 0.33 s; 20 s is
+  // for a busy machine.
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (forwarded.load() < kRequests && std::chrono::steady_clock::now() < until)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  // Every one (a request is dropped only behind three newer ones of its
+  // viewer in one round: a mux thread starved for 0.1 s); at least half.
+  EXPECT_GE(forwarded.load(), kRequests / 2) << "the silent viewer held the other's requests";
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(p);
+}
+
+// A viewer added to a playing live pipeline through lfrequestmux (as
+// lf-web adds one per browser) gets its frames, and the first viewer keeps
+// its own. Before, linking the new pad made GstAggregator renegotiate: the
+// mux sent caps fixated from its template (no view size), every compositor
+// downstream lost its size, and the new viewer got 0 frames in 3 s.
+TEST_F(Gst, AViewerAddedWhilePlayingThroughTheRequestMuxGetsFrames) {
+  GstElement* p = gst_pipeline_new("p");
+  GstElement* mux = gst_element_factory_make("lfrequestmux", "m");
+  GstElement* cams = gst_parse_bin_from_description(
+      ("lfcamerahost is-live=true rig=" + rig_path_).c_str(), TRUE, nullptr);
+  GstElement* demux = gst_element_factory_make("lffragmentdemux", "d");
+  ASSERT_TRUE(mux && cams && demux);
+  gst_bin_add_many(GST_BIN(p), mux, cams, demux, nullptr);
+  ASSERT_TRUE(gst_element_link_many(mux, cams, demux, nullptr));
+  std::atomic<int> frames[2] = {{0}, {0}};
+  auto add_viewer = [&](int id) {
+    GstElement* bin = gst_parse_bin_from_description(
+        ("lfviewrequest name=req is-live=true focal-surface=false width=160 height=120 rig=" +
+         rig_path_ + " viewer-id=" + std::to_string(id) +
+         " ! queue name=qr queue name=ql ! lfcompositor rig=" + rig_path_ +
+         " viewer-id=" + std::to_string(id) + " ! fakesink name=out sync=false async=false")
+            .c_str(),
+        FALSE, nullptr);
+    ASSERT_NE(bin, nullptr);
+    auto ghost = [&](const char* el, const char* pad, const char* name) {
+      GstElement* e = gst_bin_get_by_name(GST_BIN(bin), el);
+      GstPad* target = gst_element_get_static_pad(e, pad);
+      GstPad* g = gst_ghost_pad_new(name, target);
+      gst_element_add_pad(bin, g);
+      gst_object_unref(target);
+      gst_object_unref(e);
+      return g;
+    };
+    GstPad* src = ghost("qr", "src", "src");
+    GstPad* sink = ghost("ql", "sink", "sink");
+    GstElement* out = gst_bin_get_by_name(GST_BIN(bin), "out");
+    GstPad* out_pad = gst_element_get_static_pad(out, "sink");
+    gst_pad_add_probe(
+        out_pad, GST_PAD_PROBE_TYPE_BUFFER,
+        +[](GstPad*, GstPadProbeInfo*, gpointer c) {
+          ++*static_cast<std::atomic<int>*>(c);
+          return GST_PAD_PROBE_OK;
+        },
+        &frames[id], nullptr);
+    gst_object_unref(out_pad);
+    gst_object_unref(out);
+    gst_bin_add(GST_BIN(p), bin);
+    GstPad* mux_pad = gst_element_request_pad_simple(mux, "sink_%u");
+    GstPad* demux_pad =
+        gst_element_request_pad_simple(demux, ("src_" + std::to_string(id)).c_str());
+    EXPECT_EQ(gst_pad_link(src, mux_pad), GST_PAD_LINK_OK);
+    EXPECT_EQ(gst_pad_link(demux_pad, sink), GST_PAD_LINK_OK);
+    gst_object_unref(mux_pad);
+    gst_object_unref(demux_pad);
+    gst_element_sync_state_with_parent(bin);
+  };
+  add_viewer(0);
+  gst_element_set_state(p, GST_STATE_PLAYING);
+  // Frames at 30 a second: waits of up to 20 s are for a busy machine.
+  auto wait_for = [&](int id, int n) {
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (frames[id].load() < n && std::chrono::steady_clock::now() < until)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  };
+  wait_for(0, 10);
+  ASSERT_GE(frames[0].load(), 10) << "the first viewer";
+  add_viewer(1);
+  wait_for(1, 10);
+  const int first_then = frames[0].load();
+  wait_for(0, first_then + 10);
+  EXPECT_GE(frames[1].load(), 10) << "the viewer added while playing";
+  EXPECT_GE(frames[0].load(), first_then + 10) << "the first viewer after the second came";
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(p);
+}
+
 // Several non-live viewers through lfrequestmux (the line of docs/steering.md made non-live, with
 // fakesink and num-buffers): every viewer gets all its frames, in seconds
 // and without a warning. Through a funnel one viewer could run ahead and the
