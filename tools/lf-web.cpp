@@ -2,7 +2,8 @@
 // browser is a viewer with its own virtual camera (paper, Section 1:
 // "multiple viewers navigate virtual cameras"): its own lfviewrequest,
 // lfcompositor, VP8 encoder and webrtcbin, while the cameras are shared
-// (funnel -> camera source -> lffragmentdemux, one demux pad per viewer).
+// (lfrequestmux -> camera source -> lffragmentdemux, one mux and one demux
+// pad per viewer).
 //
 // One HTTP port (libsoup 3): GET / is the viewer page (tools/web/, compiled
 // into the binary as a GResource), /ws the signalling WebSocket (SDP offer
@@ -181,7 +182,7 @@ gboolean on_deadline(gpointer data) {
 }
 
 // A viewer's branch, in the pipeline and playing: its requests into the
-// funnel, its fragments from the demux; with `own_channel`, the control
+// request mux, its fragments from the demux; with `own_channel`, the control
 // data channel made here (the WebSocket page, where the server offers),
 // else the peer's (WHEP: the player offers and opens it).
 std::unique_ptr<Viewer> build_viewer(Server* s, const std::string& address, bool own_channel) {
@@ -222,8 +223,8 @@ std::unique_ptr<Viewer> build_viewer(Server* s, const std::string& address, bool
   GstPad* sink_r = ghost(bin, "qr", "sink", "sink_r");
   gst_bin_add(GST_BIN(s->pipeline), bin);
   v->bin = bin;
-  v->funnel_pad = gst_element_request_pad_simple(s->funnel, "sink_%u");
-  gst_pad_link(src, v->funnel_pad);
+  v->mux_pad = gst_element_request_pad_simple(s->mux, "sink_%u");
+  gst_pad_link(src, v->mux_pad);
   // The server offers (the page; WHEP's player offers): its handlers are
   // connected before READY, when webrtcbin's own thread starts and may emit
   // on-negotiation-needed for the data channel, once; connected after, a
@@ -343,8 +344,8 @@ void remove_viewer(Server* s, guint64 serial, const char* why) {
   }
   if (v->channel) release_channel(v->channel);
   if (v->ws) g_signal_handlers_disconnect_by_data(v->ws, reinterpret_cast<gpointer>(serial));
-  gst_element_release_request_pad(s->funnel, v->funnel_pad);
-  gst_object_unref(v->funnel_pad);
+  gst_element_release_request_pad(s->mux, v->mux_pad);
+  gst_object_unref(v->mux_pad);
   gst_bin_remove(GST_BIN(s->pipeline), v->bin);
   // The branch's messages still queued on the bus (each holds its element:
   // a state change of webrtcbin holds webrtcbin, its ICE thread and its
@@ -613,12 +614,12 @@ int main(int argc, char** argv) {
 
   // The shared part: requests of every viewer -> cameras -> fragments by viewer.
   s.pipeline = gst_pipeline_new("lf-web");
-  s.funnel = gst_element_factory_make("funnel", "requests");
+  s.mux = gst_element_factory_make("lfrequestmux", "requests");
   s.demux = gst_element_factory_make("lffragmentdemux", "fragments");
   GstElement* cams = gst_parse_bin_from_description(o.source.c_str(), TRUE, &err);
-  if (!s.funnel || !s.demux || !cams) {
+  if (!s.mux || !s.demux || !cams) {
     std::fprintf(stderr, "lf-web: error: %s\n",
-                 err ? err->message : "funnel or lffragmentdemux missing (GST_PLUGIN_PATH?)");
+                 err ? err->message : "lfrequestmux or lffragmentdemux missing (GST_PLUGIN_PATH?)");
     return 1;
   }
   GstElementFactory* webrtc_factory = gst_element_factory_find("webrtcbin");
@@ -632,8 +633,8 @@ int main(int argc, char** argv) {
                  "gstreamer1.0-plugins-bad, gstreamer1.0-nice)\n");
     return 1;
   }
-  gst_bin_add_many(GST_BIN(s.pipeline), s.funnel, cams, s.demux, nullptr);
-  if (!gst_element_link_many(s.funnel, cams, s.demux, nullptr)) {
+  gst_bin_add_many(GST_BIN(s.pipeline), s.mux, cams, s.demux, nullptr);
+  if (!gst_element_link_many(s.mux, cams, s.demux, nullptr)) {
     std::fprintf(stderr,
                  "lf-web: error: --source needs one view-request sink and one fragment source\n");
     return 1;

@@ -131,7 +131,7 @@ struct Viewer {
   std::shared_ptr<Control> ctl;
   SoupWebsocketConnection* ws = nullptr;  // (ref)
   GstElement* bin = nullptr;              // in the pipeline
-  GstPad* funnel_pad = nullptr;           // requests in (ref)
+  GstPad* mux_pad = nullptr;              // requests in (ref)
   GstPad* demux_pads[2] = {nullptr, nullptr};
   GstWebRTCDataChannel* channel = nullptr;  // (ref) the control channel we made, for its handlers
   std::string address;                      // the browser's IP address
@@ -149,7 +149,7 @@ struct Server {
   Options opt;
   GMainLoop* loop = nullptr;
   GstElement* pipeline = nullptr;
-  GstElement* funnel = nullptr;
+  GstElement* mux = nullptr;
   GstElement* demux = nullptr;
   SoupServer* soup = nullptr;
   GSocketService* service = nullptr;  // accepts for soup (tools/web/http.cpp listen_on)
