@@ -24,17 +24,25 @@
  * fragments, never the stream: the element returns FLUSHING upstream only
  * when its own sink pad flushes.
  *
+ * The element pushes to one viewer's pad at a time: a viewer's branch that
+ * blocks (its sink holding its first frame until the pipeline plays) stops
+ * every viewer's fragments once its queue is full. Live, give each branch
+ * a leaky queue, as in the example (lfrequestmux's docs say why).
+ *
  * With a `tee` instead, every compositor receives and inspects every
  * viewer's fragments: the work per frame grows with the square of the
  * number of viewers.
  *
  * ## Example launch line
  * |[
- * gst-launch-1.0 lfrequestmux name=reqs ! lfcamerahost rig=rig.json ! lffragmentdemux name=d \
- *   lfviewrequest viewer-id=0 rig=rig.json ! reqs. \
- *   lfviewrequest viewer-id=1 rig=rig.json orbit=0.5 ! reqs. \
- *   d.src_0 ! queue ! lfcompositor viewer-id=0 rig=rig.json ! videoconvert ! autovideosink \
- *   d.src_1 ! queue ! lfcompositor viewer-id=1 rig=rig.json ! videoconvert ! autovideosink
+ * gst-launch-1.0 lfrequestmux name=reqs ! lfcamerahost rig=rig.json is-live=true ! \
+ *   lffragmentdemux name=d \
+ *   lfviewrequest viewer-id=0 rig=rig.json is-live=true ! reqs. \
+ *   lfviewrequest viewer-id=1 rig=rig.json orbit=0.5 is-live=true ! reqs. \
+ *   d.src_0 ! queue leaky=downstream ! lfcompositor viewer-id=0 rig=rig.json ! videoconvert ! \
+ *   autovideosink \
+ *   d.src_1 ! queue leaky=downstream ! lfcompositor viewer-id=1 rig=rig.json ! videoconvert ! \
+ *   autovideosink
  * ]|
  */
 #include <gst/base/gstflowcombiner.h>

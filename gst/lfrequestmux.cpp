@@ -18,13 +18,16 @@
  * (Only the newest went on before: a 640x480 viewer beside a 3840x2160
  * flood lost one request in five here while the flood held the cameras.)
  *
- * Known limit, not live: where the viewers' fragments come back through one
- * stream (`lffragmentdemux` into one compositor per viewer), a compositor
- * that has prerolled blocks its branch, and when a slow camera has not yet
- * answered the other viewer's first request, the shared stream stops behind
- * the full branch: the pipeline never prerolls (1 run in about 20 of the
- * example below without is-live, 64 cameras on 2 cores). A live pipeline
- * does not preroll and is not affected; the example is live.
+ * Where the viewers' fragments come back through one stream
+ * (`lffragmentdemux` into one compositor per viewer), give each viewer's
+ * branch a leaky queue (`queue leaky=downstream`), as below: at start a
+ * viewer's sink holds its first frame until the pipeline plays, which waits
+ * for every sink's first frame, and a plain queue behind it fills and stops
+ * the shared stream before the other viewer's first frame (the pipeline
+ * never started in 4 of about 430 runs of the example with plain queues,
+ * live, 64 cameras on 2 cores; docs/steering.md). Not live, every fragment
+ * counts and the queues cannot leak: the viewers keep in step, and the
+ * stall remains possible (about 1 run in 20 of the example without is-live).
  *
  * Viewers may come and go while playing (lf-web adds and removes one per
  * browser): request and release pads as the viewers do.
@@ -40,8 +43,10 @@
  *   lffragmentdemux name=d \
  *   lfviewrequest viewer-id=0 rig=rig.json is-live=true ! reqs. \
  *   lfviewrequest viewer-id=1 rig=rig.json orbit=0.5 is-live=true ! reqs. \
- *   d.src_0 ! queue ! lfcompositor viewer-id=0 rig=rig.json ! videoconvert ! autovideosink \
- *   d.src_1 ! queue ! lfcompositor viewer-id=1 rig=rig.json ! videoconvert ! autovideosink
+ *   d.src_0 ! queue leaky=downstream ! lfcompositor viewer-id=0 rig=rig.json ! videoconvert ! \
+ *   autovideosink \
+ *   d.src_1 ! queue leaky=downstream ! lfcompositor viewer-id=1 rig=rig.json ! videoconvert ! \
+ *   autovideosink
  * ]|
  */
 #include <gst/base/gstaggregator.h>
@@ -207,8 +212,10 @@ static void lf_request_mux_class_init(LfRequestMuxClass* klass) {
       "is-live=true ! lffragmentdemux name=d lfviewrequest rig=../shared/data/stanford-chess "
       "viewer-id=0 is-live=true num-buffers=30 ! m. lfviewrequest "
       "rig=../shared/data/stanford-chess viewer-id=1 orbit=0.5 is-live=true num-buffers=30 ! m. "
-      "d.src_0 ! queue ! lfcompositor rig=../shared/data/stanford-chess viewer-id=0 ! videoconvert "
-      "! autovideosink d.src_1 ! queue ! lfcompositor rig=../shared/data/stanford-chess "
+      "d.src_0 ! queue leaky=downstream ! lfcompositor rig=../shared/data/stanford-chess "
+      "viewer-id=0 ! videoconvert "
+      "! autovideosink d.src_1 ! queue leaky=downstream ! lfcompositor "
+      "rig=../shared/data/stanford-chess "
       "viewer-id=1 ! videoconvert ! autovideosink");
   gst_element_class_add_static_metadata(
       ec, "Events",

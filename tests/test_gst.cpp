@@ -1409,12 +1409,15 @@ TEST_F(Gst, ViewersOfDifferentSizesEachGetTheirOwnCaps) {
   for (const bool live : {false, true}) {
     const std::string common = " num-buffers=" + std::to_string(kFrames) +
                                " focal-surface=false is-live=" + (live ? "true " : "false ");
+    // Live, each branch leaks (docs/steering.md: a plain queue behind a sink
+    // that prerolled first can stop the shared stream for good).
+    const std::string branch_queue = live ? "queue leaky=downstream " : "queue ";
     GstElement* p = gst_parse_launch(
         ("lfrequestmux name=reqs ! lfcamerahost" + rig + "is-live=" + (live ? "true" : "false") +
          " ! lffragmentdemux name=d lfviewrequest viewer-id=0 width=160 height=120" + rig + common +
          "! reqs. lfviewrequest viewer-id=1 width=320 height=240 orbit=0.5" + rig + common +
-         "! reqs. d.src_0 ! queue ! lfcompositor viewer-id=0" + rig +
-         "! fakesink name=s0 d.src_1 ! queue ! lfcompositor viewer-id=1" + rig +
+         "! reqs. d.src_0 ! " + branch_queue + "! lfcompositor viewer-id=0" + rig +
+         "! fakesink name=s0 d.src_1 ! " + branch_queue + "! lfcompositor viewer-id=1" + rig +
          "! fakesink name=s1")
             .c_str(),
         nullptr);
