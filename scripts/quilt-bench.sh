@@ -69,8 +69,9 @@ quilt_line() {
 # The sinks do not preroll (async=false), as no live sink needs to: with
 # 48 live viewers, each compositor's fakesink prerolling, the pipeline
 # stalled in 4 runs of 4 on a 2-core AMD EPYC (about 34 of the 48 sinks
-# waiting in preroll while the pipeline is PLAYING; not understood yet,
-# docs/displays.md), and ran to its end in 4 of 4 with async=false.
+# waiting in preroll: a live pipeline plays once every sink has a frame,
+# and the demux stopped behind the first full queue; docs/reliability.md),
+# and ran to its end in 4 of 4 with async=false.
 viewers_line() {
   local line="funnel name=reqs ! lfcamerahost rig=$rig is-live=true ! tee name=t"
   line+=" t. ! queue ! filesink async=false location=$tmp/fragments.bin t. ! queue ! lffragmentdemux name=d"
