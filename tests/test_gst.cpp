@@ -51,6 +51,23 @@ void expect_eos(GstBus* bus) {
   gst_message_unref(m);
 }
 
+// Counts the buffers reaching the sink pad of `bin`'s element `name` in
+// *count (a pad probe, for as long as the element lives).
+void count_buffers(GstBin* bin, const char* name, std::atomic<int>* count) {
+  GstElement* e = gst_bin_get_by_name(bin, name);
+  ASSERT_NE(e, nullptr) << name;
+  GstPad* pad = gst_element_get_static_pad(e, "sink");
+  gst_pad_add_probe(
+      pad, GST_PAD_PROBE_TYPE_BUFFER,
+      +[](GstPad*, GstPadProbeInfo*, gpointer c) {
+        ++*static_cast<std::atomic<int>*>(c);
+        return GST_PAD_PROBE_OK;
+      },
+      count, nullptr);
+  gst_object_unref(pad);
+  gst_object_unref(e);
+}
+
 using testing_lf::data_path;
 
 class Gst : public ::testing::Test {
@@ -1425,15 +1442,9 @@ TEST_F(Gst, ViewersOfDifferentSizesEachGetTheirOwnCaps) {
     std::atomic<int> frames[2] = {{0}, {0}};
     GstPad* pads[2];
     for (int v = 0; v < 2; ++v) {
+      count_buffers(GST_BIN(p), v ? "s1" : "s0", &frames[v]);
       GstElement* sink = gst_bin_get_by_name(GST_BIN(p), v ? "s1" : "s0");
       pads[v] = gst_element_get_static_pad(sink, "sink");
-      gst_pad_add_probe(
-          pads[v], GST_PAD_PROBE_TYPE_BUFFER,
-          +[](GstPad*, GstPadProbeInfo*, gpointer c) {
-            ++*static_cast<std::atomic<int>*>(c);
-            return GST_PAD_PROBE_OK;
-          },
-          &frames[v], nullptr);
       gst_object_unref(sink);
     }
     gst_element_set_state(p, GST_STATE_PLAYING);
@@ -1525,17 +1536,7 @@ TEST_F(Gst, ALiveRequestMuxDoesNotWaitForASilentViewer) {
       nullptr);
   ASSERT_NE(p, nullptr);
   std::atomic<int> forwarded{0};
-  GstElement* sink = gst_bin_get_by_name(GST_BIN(p), "out");
-  GstPad* pad = gst_element_get_static_pad(sink, "sink");
-  gst_pad_add_probe(
-      pad, GST_PAD_PROBE_TYPE_BUFFER,
-      +[](GstPad*, GstPadProbeInfo*, gpointer c) {
-        ++*static_cast<std::atomic<int>*>(c);
-        return GST_PAD_PROBE_OK;
-      },
-      &forwarded, nullptr);
-  gst_object_unref(pad);
-  gst_object_unref(sink);
+  count_buffers(GST_BIN(p), "out", &forwarded);
   gst_element_set_state(p, GST_STATE_PLAYING);
   // The requests come at 30 a second: all of them within 0.33 s; 20 s is
   // for a busy machine.
@@ -1584,17 +1585,7 @@ TEST_F(Gst, AViewerAddedWhilePlayingThroughTheRequestMuxGetsFrames) {
     };
     GstPad* src = ghost("qr", "src", "src");
     GstPad* sink = ghost("ql", "sink", "sink");
-    GstElement* out = gst_bin_get_by_name(GST_BIN(bin), "out");
-    GstPad* out_pad = gst_element_get_static_pad(out, "sink");
-    gst_pad_add_probe(
-        out_pad, GST_PAD_PROBE_TYPE_BUFFER,
-        +[](GstPad*, GstPadProbeInfo*, gpointer c) {
-          ++*static_cast<std::atomic<int>*>(c);
-          return GST_PAD_PROBE_OK;
-        },
-        &frames[id], nullptr);
-    gst_object_unref(out_pad);
-    gst_object_unref(out);
+    count_buffers(GST_BIN(bin), "out", &frames[id]);
     gst_bin_add(GST_BIN(p), bin);
     GstPad* mux_pad = gst_element_request_pad_simple(mux, "sink_%u");
     GstPad* demux_pad =
@@ -1652,19 +1643,7 @@ TEST_F(Gst, SeveralNonLiveViewersThroughTheRequestMux) {
                                      nullptr);
     ASSERT_NE(p, nullptr);
     std::atomic<int> frames[2] = {{0}, {0}};
-    for (int v = 0; v < 2; ++v) {
-      GstElement* sink = gst_bin_get_by_name(GST_BIN(p), v ? "s1" : "s0");
-      GstPad* pad = gst_element_get_static_pad(sink, "sink");
-      gst_pad_add_probe(
-          pad, GST_PAD_PROBE_TYPE_BUFFER,
-          +[](GstPad*, GstPadProbeInfo*, gpointer c) {
-            ++*static_cast<std::atomic<int>*>(c);
-            return GST_PAD_PROBE_OK;
-          },
-          &frames[v], nullptr);
-      gst_object_unref(pad);
-      gst_object_unref(sink);
-    }
+    for (int v = 0; v < 2; ++v) count_buffers(GST_BIN(p), v ? "s1" : "s0", &frames[v]);
     gst_element_set_state(p, GST_STATE_PLAYING);
     GstBus* bus = gst_element_get_bus(p);
     GstMessage* m = gst_bus_timed_pop_filtered(
