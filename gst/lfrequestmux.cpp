@@ -213,10 +213,8 @@ static void lf_request_mux_class_init(LfRequestMuxClass* klass) {
       "viewer-id=0 is-live=true num-buffers=30 ! m. lfviewrequest "
       "rig=../shared/data/stanford-chess viewer-id=1 orbit=0.5 is-live=true num-buffers=30 ! m. "
       "d.src_0 ! queue leaky=downstream ! lfcompositor rig=../shared/data/stanford-chess "
-      "viewer-id=0 ! videoconvert "
-      "! autovideosink d.src_1 ! queue leaky=downstream ! lfcompositor "
-      "rig=../shared/data/stanford-chess "
-      "viewer-id=1 ! videoconvert ! autovideosink");
+      "viewer-id=0 ! videoconvert ! autovideosink d.src_1 ! queue leaky=downstream ! "
+      "lfcompositor rig=../shared/data/stanford-chess viewer-id=1 ! videoconvert ! autovideosink");
   gst_element_class_add_static_metadata(
       ec, "Events",
       "Events from downstream go upstream to every viewer's branch unchanged; requests dropped as "
