@@ -26,8 +26,9 @@
  * the shared stream before the other viewer's first frame (the pipeline
  * never started in 4 of about 430 runs of the example with plain queues,
  * live, 64 cameras on 2 cores; docs/steering.md). Not live, every fragment
- * counts and the queues cannot leak: the viewers keep in step, and the
- * stall remains possible (about 1 run in 20 of the example without is-live).
+ * counts and the queues cannot leak; the viewers keep in step (one request
+ * of each a round), and 220 runs of the example without is-live and with
+ * plain queues all ended, 50 of them beside two busy loops (2026-11-30).
  *
  * Viewers may come and go while playing (lf-web adds and removes one per
  * browser): request and release pads as the viewers do.
