@@ -179,6 +179,15 @@ effs() {  # size, encoding: each pipeline run's efficiency, then "(median M)"
   printf '%s (median %s)' "$(echo "$v" | paste -sd, | sed 's/,/, /g')" \
     "$(echo "$v" | sort -n | awk '{a[NR] = $1} END {print a[int((NR + 1) / 2)]}')"
 }
+splits() {  # size: each pipeline run's one-view-on-all-cores ceiling, then "(median M)"
+  local v
+  v=$(for r in $(seq 1 "$pruns"); do
+    sed -n "s/^One view at a time on all [0-9]* cores, $1 .*: \([0-9.]*\) of the kernel bound.*/\1/p" "$tmp/pipe$r.md"
+  done)
+  [ -n "$v" ] || { echo "-"; return; }
+  printf '%s (median %s)' "$(echo "$v" | paste -sd, | sed 's/,/, /g')" \
+    "$(echo "$v" | sort -n | awk '{a[NR] = $1} END {print a[int((NR + 1) / 2)]}')"
+}
 auto_db=$(col "$tmp/chess.md" "| 640x480 | none | auto |" 4)
 surf_db=$(col "$tmp/chess.md" "| 640x480 | none | surface2 |" 4)
 surfc_db=$(col "$tmp/chess.md" "| 640x480 | none | surface2, bicubic |" 4)
@@ -220,6 +229,7 @@ live() {  # row of the focus table, output size (640x480 unless given): its live
   echo "| pipeline throughput / kernel bound, 640x480 raw (pipeline efficiency) | $(effs 640x480 raw) | [Pipeline](#pipeline) |"
   [ "$quick" = 1 ] ||
     echo "| pipeline throughput / kernel bound, 1920x1080 raw | $(effs 1920x1080 raw) | [Pipeline](#pipeline) |"
+  echo "| the library alone, each view drawn band by band on all cores (as lfcompositor draws) / kernel bound: the most such a pipeline reaches, 640x480$([ "$quick" = 1 ] || echo "; 1920x1080") | $(splits 640x480)$([ "$quick" = 1 ] || echo "; $(splits 1920x1080)") | [Pipeline](#pipeline) |"
   echo "| JPEG pipeline throughput / JPEG bound (q90, encode + decode alone), 640x480 | $(effs 640x480 jpeg90) | [Pipeline](#pipeline) |"
   echo "| Chess, leave-one-out PSNR: the default focal surface (bilinear; bicubic) against the paper's auto-focused plane | ${surf_db:-?} dB; ${surfc_db:-?} dB against ${auto_db:-?} dB | [Quality](#quality-per-method) |"
   echo "| HCI cotton, leave-one-out PSNR: the default focal surface against auto-focus and the best single plane of an exhaustive sweep | ${cot_surf:-?} dB against ${cot_auto:-?} and ${cot_best:-?} dB | [Quality](#quality-per-method) |"
@@ -340,7 +350,10 @@ live() {  # row of the focus table, output size (640x480 unless given): its live
     echo "perf samples of the in-process pipeline, grouped (\`scripts/profile-bench.sh\`; a full run"
     echo "of this script runs it again where perf is installed; quick runs keep the last). The warp"
     echo "kernels and the adding (and, with JPEG fragments, the coding) are the work the kernel bound"
-    echo "counts; the rest is why the pipeline efficiency (the tables above) stays under 1. With JPEG"
+    echo "counts; the rest, and the cost of splitting each view across the cores (the library alone,"
+    echo "drawing each view band by band on all cores, reaches only the share of the bound in the Ratios"
+    echo "table: the threads start and join every view), is why the pipeline efficiency (the tables"
+    echo "above) stays under 1. With JPEG"
     echo "fragments the cameras' request threads (\`request-threads\`, one per core and one more) each answer every"
     echo "n-th camera and hand the compositor their fragments of a request in one buffer for up to"
     echo "16 cameras (gst/lfbundle.h: GstAggregator wakes its thread for every buffer that comes), and"

@@ -25,7 +25,11 @@
 //    two bounds is the most of the raw pipeline's throughput that a JPEG
 //    pipeline could reach. The same loop on every core at once (a thread
 //    each, tools/bench/bound.h) says how much of the bound, which takes
-//    the cores as independent, a pipeline can reach on this machine.
+//    the cores as independent, a pipeline can reach on this machine; one
+//    view at a time with its bands drawn on every core (OpenCV's threads,
+//    as lfcompositor draws) says how much of it a pipeline that splits
+//    each view across the cores can reach (the split's own cost: the
+//    threads' start and join each view, and their uneven shares).
 //  * the process's peak resident set size during each row's pipelines.
 //  * latency: a live request source at a fixed rate; for each request, the
 //    time from the request leaving lfviewrequest to its frame reaching the
@@ -422,6 +426,11 @@ int main(int argc, char** argv) {
     // clock (the bound as defined) and CPU time (for the CPU efficiency).
     std::map<std::pair<int, int>, std::vector<KernelTime>> measured;  // in order; back(): latest
     std::map<std::pair<int, int>, double> together;  // ms a view, on every core at once
+    // ms a view, each view composited on every core (the compositor's bands,
+    // cv::parallel_for_), as lfcompositor does: the split's own cost.
+    // (with the single-core ms of the same pass, measured just before)
+    std::map<std::pair<int, int>, std::pair<double, double>> split;
+    int split_threads = 0;
     const bool any_raw = std::find(encodings.begin(), encodings.end(), "raw") != encodings.end();
     std::vector<int> jpeg_qualities;  // of the JPEG rows, for their bounds
     for (const std::string& e : encodings)
@@ -451,6 +460,11 @@ int main(int argc, char** argv) {
         if (!first) continue;
         const double t = lfbench::kernel_ms_together(rig, images, vs, g_focal_plane, 40, cores);
         together[sz] = pass && together[sz] > 0 ? std::min(together[sz], t) : t;
+        cv::setNumThreads(threads);
+        split_threads = cv::getNumThreads();
+        const double v = lfbench::kernel_ms(rig, images, vs, g_focal_plane, 40, {}).fused_ms;
+        cv::setNumThreads(1);
+        if (!pass || v < split[sz].first) split[sz] = {v, k.fused_ms};
       }
       cv::setNumThreads(threads);
       // The images freed and the heap trimmed: glibc keeps what the
@@ -630,6 +644,16 @@ int main(int argc, char** argv) {
             "kernel bound is the most a pipeline can reach on this machine.\n",
             cores, sz.first, sz.second, cores, ms, measured[sz].front().wall_ms,
             measured[sz].front().wall_ms / ms);
+    for (const auto& [sz, m] : split)
+      if (m.first > 0)
+        std::printf(
+            "\nOne view at a time on all %d cores, %dx%d (planned on one thread, then drawn "
+            "band by band on all, as lfcompositor draws): %.2f ms a view, against %.2f on one "
+            "core alone just before (fused): %.2f of the kernel bound, the most a pipeline that "
+            "splits "
+            "each view across the cores reaches on this machine.\n",
+            split_threads, sz.first, sz.second, m.first, m.second,
+            m.second / split_threads / m.first);
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "lf-gst-bench: error: %s\n", e.what());
