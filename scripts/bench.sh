@@ -169,24 +169,21 @@ ratios=$(for r in $(seq 1 "$runs"); do
 done | paste -sd, | sed 's/,/, /g')
 kernel_used=$(sed -n 's/^ours (\([a-z0-9]*\)) \/ warpPerspective.*/\1/p' "$tmp/speed1.md")
 naive=$(for r in $(seq 1 "$runs"); do sed -n 's/.*naive \/ ours = \([0-9.]*\).*/\1/p' "$tmp/speed$r.md"; done | paste -sd, | sed 's/,/, /g')
+with_median() {  # values, a line each: "v1, v2, ... (median M)", or "-" for none
+  [ -n "$1" ] || { echo "-"; return; }
+  printf '%s (median %s)' "$(echo "$1" | paste -sd, | sed 's/,/, /g')" \
+    "$(echo "$1" | sort -n | awk '{a[NR] = $1} END {print a[int((NR + 1) / 2)]}')"
+}
 effs() {  # size, encoding: each pipeline run's efficiency, then "(median M)"
-  local v
-  v=$(for r in $(seq 1 "$pruns"); do
+  with_median "$(for r in $(seq 1 "$pruns"); do
     awk -F'|' -v s="$1" -v e="$2" '/efficiency/ && !h {for (i = 1; i <= NF; i++) if ($i ~ /pipeline efficiency/) c = i; h = 1; next}
                h && c && index($2, s) && $3 ~ ("^ *" e " *$") {gsub(/ /, "", $c); print $c; exit}' "$tmp/pipe$r.md"
-  done)
-  [ -n "$v" ] || { echo "-"; return; }
-  printf '%s (median %s)' "$(echo "$v" | paste -sd, | sed 's/,/, /g')" \
-    "$(echo "$v" | sort -n | awk '{a[NR] = $1} END {print a[int((NR + 1) / 2)]}')"
+  done)"
 }
 splits() {  # size: each pipeline run's one-view-on-all-cores ceiling, then "(median M)"
-  local v
-  v=$(for r in $(seq 1 "$pruns"); do
+  with_median "$(for r in $(seq 1 "$pruns"); do
     sed -n "s/^One view at a time on all [0-9]* cores, $1 .*: \([0-9.]*\) of the kernel bound.*/\1/p" "$tmp/pipe$r.md"
-  done)
-  [ -n "$v" ] || { echo "-"; return; }
-  printf '%s (median %s)' "$(echo "$v" | paste -sd, | sed 's/,/, /g')" \
-    "$(echo "$v" | sort -n | awk '{a[NR] = $1} END {print a[int((NR + 1) / 2)]}')"
+  done)"
 }
 auto_db=$(col "$tmp/chess.md" "| 640x480 | none | auto |" 4)
 surf_db=$(col "$tmp/chess.md" "| 640x480 | none | surface2 |" 4)

@@ -426,9 +426,9 @@ int main(int argc, char** argv) {
     // clock (the bound as defined) and CPU time (for the CPU efficiency).
     std::map<std::pair<int, int>, std::vector<KernelTime>> measured;  // in order; back(): latest
     std::map<std::pair<int, int>, double> together;  // ms a view, on every core at once
-    // ms a view, each view composited on every core (the compositor's bands,
-    // cv::parallel_for_), as lfcompositor does: the split's own cost.
-    // (with the single-core ms of the same pass, measured just before)
+    // ms a view with each view drawn band by band on every core
+    // (cv::parallel_for_, as lfcompositor draws), and the fused single-core
+    // ms of the same pass, measured just before: the split's own cost.
     std::map<std::pair<int, int>, std::pair<double, double>> split;
     int split_threads = 0;
     const bool any_raw = std::find(encodings.begin(), encodings.end(), "raw") != encodings.end();
@@ -650,8 +650,7 @@ int main(int argc, char** argv) {
             "\nOne view at a time on all %d cores, %dx%d (planned on one thread, then drawn "
             "band by band on all, as lfcompositor draws): %.2f ms a view, against %.2f on one "
             "core alone just before (fused): %.2f of the kernel bound, the most a pipeline that "
-            "splits "
-            "each view across the cores reaches on this machine.\n",
+            "splits each view across the cores reaches on this machine.\n",
             split_threads, sz.first, sz.second, m.first, m.second,
             m.second / split_threads / m.first);
     return 0;
